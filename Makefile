@@ -1,0 +1,43 @@
+# One-stop set-up on a fresh Debian machine: virtual environment, POV-Ray (apt, when root),
+# the package with its C++ extension, then the job. `make test` and `make demo` are the two
+# commands README.md promises.
+PYTHON   ?= python3
+VENV     ?= .venv
+PY       := $(VENV)/bin/python
+PIP      := $(PY) -m pip --disable-pip-version-check -q
+BUILDDEPS := $(VENV)/.builddeps
+
+.PHONY: test demo install povray venv clean
+
+venv: $(PY)
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+
+# Build requirements go into the venv once, so the editable build can run without isolation
+# (faster rebuilds, and CMake reuses build/ between runs).
+$(BUILDDEPS): pyproject.toml | $(PY)
+	$(PIP) install "scikit-build-core>=0.10" "nanobind>=2.0" "pytest>=8"
+	touch $@
+
+# Always re-run: scikit-build-core's incremental CMake build makes this a few seconds when
+# nothing changed, and it is what picks up C++ edits.
+install: $(BUILDDEPS)
+	$(PIP) install --no-build-isolation -e '.[test]'
+
+povray:
+	@if command -v povray >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" = 0 ]; then \
+	  echo "POV-Ray missing: installing the Debian package 'povray'"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq povray; \
+	else \
+	  echo "POV-Ray missing and not root: run 'sudo apt-get install povray' (POV-Ray tests will skip)"; \
+	fi
+
+test: install povray
+	$(PY) -m pytest
+
+demo: install povray
+	$(VENV)/bin/phongscene demo
+
+clean:
+	rm -rf build $(VENV) out

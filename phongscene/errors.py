@@ -1,0 +1,50 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Exceptions. Every scene problem names the file, the USD prim path and the attribute."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True, slots=True)
+class Problem:
+    """One thing wrong with a scene."""
+
+    message: str  # what was expected and what was found
+    prim: str = ""  # USD prim path ("" for scenes built in Python)
+    attribute: str = ""  # attribute name on that prim, or a model field name
+    file: str = ""  # the USD file
+
+    def __str__(self) -> str:
+        where = self.prim + (f".{self.attribute}" if self.attribute else "") if self.prim else self.attribute
+        parts = [p for p in (self.file, where) if p]
+        return (": ".join(parts) + ": " if parts else "") + self.message
+
+
+class PhongSceneError(Exception):
+    """Base class of every error phongscene raises on purpose."""
+
+
+class SceneError(PhongSceneError):
+    """A scene could not be read or is invalid; ``problems`` lists every problem found."""
+
+    def __init__(self, problems: list[Problem] | Problem | str):
+        if isinstance(problems, (Problem, str)):
+            problems = [problems if isinstance(problems, Problem) else Problem(problems)]
+        self.problems = list(problems)
+        super().__init__("\n".join(str(p) for p in self.problems))
+
+
+class BackendError(PhongSceneError):
+    """A renderer failed. ``detail`` holds the tail of its output, ``kept`` a path kept for
+    inspection (e.g. the .pov file)."""
+
+    def __init__(self, message: str, detail: str = "", kept: str = ""):
+        self.detail = detail
+        self.kept = kept
+        text = message
+        if kept:
+            text += f"\n  kept: {kept}"
+        if detail:
+            text += "\n  " + "\n  ".join(detail.rstrip().splitlines())
+        super().__init__(text)

@@ -1,0 +1,76 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Images through OpenImageIO. The image convention everywhere: linear float32 (H, W, 3),
+row 0 at the top. EXR keeps the data (float, or half as POV-Ray writes it); PNG is sRGB for eyes.
+Writes are atomic: a temporary file in the target folder, then a rename."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import OpenImageIO as oiio
+from OpenImageIO import ImageBuf, ImageBufAlgo
+
+from .errors import PhongSceneError
+
+# Extensions we write, and how: EXR stays linear float; PNG is sRGB-encoded 8-bit.
+WRITABLE = (".exr", ".png")
+
+
+def as_image(pixels) -> np.ndarray:
+    """Check and convert to the image convention: float32, (H, W, 3), C-contiguous."""
+    a = np.ascontiguousarray(pixels, dtype=np.float32)
+    if a.ndim != 3 or a.shape[2] != 3:
+        raise ValueError(f"expected an image of shape (H, W, 3), got {a.shape}")
+    return a
+
+
+def read_image(path: str | os.PathLike) -> np.ndarray:
+    """Read any image OpenImageIO decodes as linear float32 (H, W, 3). 8-bit sRGB files
+    (PNG, JPEG) are decoded to linear; alpha is dropped; grey is repeated to RGB."""
+    path = str(path)
+    buf = ImageBuf(path)
+    if buf.has_error:
+        raise PhongSceneError(f"{path}: cannot read image: {buf.geterror()}")
+    spec = buf.spec()
+    space = spec.get_string_attribute("oiio:ColorSpace").lower()
+    if "srgb" in space:
+        buf = ImageBufAlgo.colorconvert(buf, "sRGB", "linear")
+    pixels = buf.get_pixels(oiio.TypeFloat)
+    if pixels is None or buf.has_error:
+        raise PhongSceneError(f"{path}: cannot decode image: {buf.geterror()}")
+    pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    if spec.nchannels == 1:
+        pixels = np.repeat(pixels, 3, axis=2)
+    elif spec.nchannels < 3:
+        raise PhongSceneError(f"{path}: expected RGB, got {spec.nchannels} channels")
+    return np.ascontiguousarray(pixels[:, :, :3])
+
+
+def write_image(path: str | os.PathLike, pixels, *, half: bool = False) -> Path:
+    """Write ``pixels`` (linear float32 H×W×3) atomically. ``.exr``: float (or half) linear;
+    ``.png``: sRGB 8-bit, values clipped to [0, 1]."""
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext not in WRITABLE:
+        raise PhongSceneError(f"{path}: cannot write '{ext}' images; use one of {', '.join(WRITABLE)}")
+    img = as_image(pixels)
+    buf = ImageBuf(img)
+    if ext == ".png":
+        buf = ImageBufAlgo.colorconvert(buf, "linear", "sRGB")
+        fmt = "uint8"
+    else:
+        fmt = "half" if half else "float"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=ext, dir=path.parent)
+    os.close(fd)
+    try:
+        if not buf.write(tmp, fmt) or buf.has_error:
+            raise PhongSceneError(f"{path}: cannot write image: {buf.geterror()}")
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path

@@ -1,0 +1,338 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The scene model: the one in-memory representation between USD and both backends.
+
+Plain, typed, immutable dataclasses. Every node keeps ``source``, the USD prim path it came
+from ("" when built in Python), so every later error can name it. Numpy arrays are copied,
+made C-contiguous with a fixed dtype, and set read-only.
+
+Conventions (DESIGN §1–§3):
+
+* World space is right-handed, +Y up (a Z-up stage is rotated to Y-up by the reader).
+* Colours are linear RGB. A light's ``color`` is its strength ``ls·cl`` (USD:
+  ``intensity · 2^exposure · color``): no area or ``normalize`` factor in this model.
+* Matrices use the column-vector convention: ``p_world = world_from_object @ [p, 1]``.
+* Shading (Suffern's Phong, the ``seed`` convention), for a visible point with normal n
+  (flipped to face the viewer), viewer direction wo, and each light j with n·l_j > 0 and
+  not in shadow::
+
+      L = ka·cd·La + Σ_j [ kd·cd/π + ks·cs·max(0, r_j·wo)^e ] · Lj · (n·l_j)
+      r_j = −l_j + 2(n·l_j) n
+
+  The ``povray-classic`` convention is what a plain POV-Ray ``finish { phong ks phong_size e }``
+  computes: the specular term has no n·l factor and is coloured by the light, not by cs::
+
+      L = ka·cd·La + Σ_j [ kd·cd/π·(n·l_j) + ks·(r_j·wo)^e ] · Lj      (r_j·wo > 0)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal, Union
+
+import numpy as np
+
+Vec3 = tuple[float, float, float]
+RGB = tuple[float, float, float]
+
+SpecularConvention = Literal["seed", "povray-classic"]
+SamplePattern = Literal["grid", "povray-am1"]
+Projection = Literal["perspective", "orthographic"]
+
+
+def _readonly(array, dtype, shape_tail: tuple[int, ...]) -> np.ndarray:
+    """Copy ``array`` into a read-only C-contiguous array of ``dtype`` shaped (N, *shape_tail)."""
+    out = np.array(array, dtype=dtype, order="C", copy=True)
+    if out.ndim != 1 + len(shape_tail) or out.shape[1:] != shape_tail:
+        raise ValueError(f"expected an array of shape (N, {', '.join(map(str, shape_tail))}), got {out.shape}")
+    out.setflags(write=False)
+    return out
+
+
+def _matrix(m) -> np.ndarray:
+    out = np.array(m, dtype=np.float64, order="C", copy=True)
+    if out.shape != (4, 4):
+        raise ValueError(f"expected a 4x4 matrix, got shape {out.shape}")
+    out.setflags(write=False)
+    return out
+
+
+def _arrays_equal(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    if a is None or b is None:
+        return a is b
+    return a.shape == b.shape and bool(np.array_equal(a, b))
+
+
+# --------------------------------------------------------------------------------------------
+# Materials
+
+
+@dataclass(frozen=True, slots=True)
+class PhongMaterial:
+    """Suffern's Phong material: ambient + Lambert diffuse + glossy specular ``ks·cs·(r·wo)^e``."""
+
+    ka: float = 0.1  # ambient coefficient, [0, 1]
+    kd: float = 0.6  # diffuse coefficient, [0, 1] (the BRDF is kd·cd/π)
+    ks: float = 0.3  # specular coefficient, [0, 1]
+    exponent: float = 32.0  # specular exponent e, >= 0
+    diffuse_color: RGB = (0.8, 0.8, 0.8)  # cd, linear RGB, >= 0
+    specular_color: RGB = (1.0, 1.0, 1.0)  # cs, linear RGB, >= 0
+    source: str = ""  # USD prim path of the shader (or material) it came from
+
+
+DEFAULT_MATERIAL = PhongMaterial()
+
+
+# --------------------------------------------------------------------------------------------
+# Camera
+
+
+@dataclass(frozen=True, slots=True)
+class Camera:
+    """A pinhole (perspective) or orthographic camera looking along ``forward``.
+
+    The image's horizontal extent is given (``horizontal_fov_deg`` or ``ortho_width``); the
+    vertical extent follows from the image aspect ratio (square pixels), as in POV-Ray with
+    ``right -x*W/H up y``. ``right = forward × up`` (right-handed).
+    """
+
+    position: Vec3 = (0.0, 0.0, 0.0)  # eye point, world units
+    forward: Vec3 = (0.0, 0.0, -1.0)  # unit view direction (USD cameras look down local −Z)
+    up: Vec3 = (0.0, 1.0, 0.0)  # unit, orthogonal to forward
+    projection: Projection = "perspective"
+    horizontal_fov_deg: float = 60.0  # perspective only: full horizontal FOV, degrees, (0, 180)
+    ortho_width: float = 2.0  # orthographic only: width of the view window, world units, > 0
+    source: str = ""
+
+    @property
+    def right(self) -> Vec3:
+        f, u = self.forward, self.up
+        return (f[1] * u[2] - f[2] * u[1], f[2] * u[0] - f[0] * u[2], f[0] * u[1] - f[1] * u[0])
+
+
+# --------------------------------------------------------------------------------------------
+# Lights
+
+
+@dataclass(frozen=True, slots=True)
+class AmbientLight:
+    """Ambient light La (USD: an untextured DomeLight). Not occluded."""
+
+    color: RGB = (0.0, 0.0, 0.0)  # ls_a·cl_a, linear RGB
+    source: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class PointLight:
+    """A point light. No distance falloff unless ``fade_power > 0`` (POV-Ray's fade rule:
+    ``color · 2 / (1 + (d / fade_distance)^fade_power)``)."""
+
+    position: Vec3
+    color: RGB  # ls·cl, linear RGB
+    fade_distance: float = 0.0  # > 0 when fade_power > 0, world units
+    fade_power: float = 0.0  # 0 = no fade (the default, as in Suffern and POV-Ray)
+    source: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class DirectionalLight:
+    """A light at infinity (USD DistantLight, POV-Ray ``parallel``)."""
+
+    direction: Vec3  # unit direction the light travels (USD: the light's −Z axis)
+    color: RGB
+    source: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class RectAreaLight:
+    """A rectangular area light with POV-Ray's semantics (reference §5): shading is computed
+    once from ``center`` like a point light; only the shadow fraction comes from a
+    ``samples × samples`` grid spanning ``center ± axis_u/2 ± axis_v/2`` (edges included),
+    weighted by full 4-corner subdivision (trapezoid weights for samples = 2^k + 1)."""
+
+    center: Vec3
+    axis_u: Vec3  # full edge vector (USD: width along local X)
+    axis_v: Vec3  # full edge vector (USD: height along local Y)
+    color: RGB
+    samples: int = 9  # grid points per axis, 2^k + 1 (k >= 1)
+    source: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class SphereAreaLight:
+    """A spherical area light (USD SphereLight with radius > 0): POV-Ray's
+    ``area_light <2r,0,0>, <0,2r,0>, n, n circular orient`` — a disc of radius r facing each
+    shaded point; shading from the centre, shadow fraction from the disc grid."""
+
+    center: Vec3
+    radius: float  # > 0
+    color: RGB
+    samples: int = 9  # grid points per axis, 2^k + 1 (k >= 1)
+    source: str = ""
+
+
+Light = Union[PointLight, DirectionalLight, RectAreaLight, SphereAreaLight]
+
+
+# --------------------------------------------------------------------------------------------
+# Geometry
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Sphere:
+    """A unit sphere at the origin mapped to the world by an affine ``world_from_object``
+    (so any radius, translation, rotation and non-uniform scale)."""
+
+    world_from_object: np.ndarray  # (4, 4) float64, column vectors, invertible affine
+    material: PhongMaterial = DEFAULT_MATERIAL
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "world_from_object", _matrix(self.world_from_object))
+
+    @staticmethod
+    def at(center: Vec3, radius: float, material: PhongMaterial = DEFAULT_MATERIAL, source: str = "") -> Sphere:
+        m = np.diag([radius, radius, radius, 1.0])
+        m[:3, 3] = center
+        return Sphere(m, material, source)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Sphere):
+            return NotImplemented
+        return (
+            _arrays_equal(self.world_from_object, other.world_from_object)
+            and self.material == other.material
+            and self.source == other.source
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class TriangleMesh:
+    """A triangle mesh in world space.
+
+    ``triangles`` index ``points``; winding is counter-clockwise seen from the front (USD
+    ``rightHanded``), although shading is two-sided. Optional smooth normals: ``normals``
+    holds unit vectors and ``normal_indices`` gives, per triangle corner, the row of
+    ``normals`` to use (for USD ``vertex`` interpolation it equals ``triangles``). Without
+    normals the mesh is flat-shaded with the geometric normal.
+    """
+
+    points: np.ndarray  # (N, 3) float64, world units
+    triangles: np.ndarray  # (M, 3) int32, indices into points
+    normals: np.ndarray | None = None  # (K, 3) float64, unit length
+    normal_indices: np.ndarray | None = None  # (M, 3) int32, indices into normals
+    material: PhongMaterial = DEFAULT_MATERIAL
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "points", _readonly(self.points, np.float64, (3,)))
+        object.__setattr__(self, "triangles", _readonly(self.triangles, np.int32, (3,)))
+        if (self.normals is None) != (self.normal_indices is None):
+            raise ValueError("normals and normal_indices go together")
+        if self.normals is not None:
+            object.__setattr__(self, "normals", _readonly(self.normals, np.float64, (3,)))
+            object.__setattr__(self, "normal_indices", _readonly(self.normal_indices, np.int32, (3,)))
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, TriangleMesh):
+            return NotImplemented
+        return (
+            _arrays_equal(self.points, other.points)
+            and _arrays_equal(self.triangles, other.triangles)
+            and _arrays_equal(self.normals, other.normals)
+            and _arrays_equal(self.normal_indices, other.normal_indices)
+            and self.material == other.material
+            and self.source == other.source
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+# --------------------------------------------------------------------------------------------
+# Render settings and the scene
+
+
+@dataclass(frozen=True, slots=True)
+class RenderSettings:
+    """How to render, independent of the backend."""
+
+    width: int = 320  # pixels, >= 1
+    height: int = 240  # pixels, >= 1
+    samples: int = 1  # anti-aliasing: n per axis (1 = the pixel centre only), 1..9
+    # "grid": an n×n cell-centred grid, box filtered (POV-Ray: render n× larger with -A and
+    # average n×n blocks). "povray-am1": POV-Ray's +AM1 +A0.0 +R n -J, i.e. the pixel centre
+    # plus the n×n grid, divided by n²+1 (reference §8).
+    sample_pattern: SamplePattern = "grid"
+    threads: int = 0  # native backend: worker threads, 0 = all cores
+    background: RGB = (0.0, 0.0, 0.0)  # colour of rays that hit nothing, linear RGB
+    specular: SpecularConvention = "seed"
+    source: str = ""  # the UsdRender.Settings prim, if any
+
+
+@dataclass(frozen=True, slots=True)
+class Scene:
+    """Everything a backend needs. Build it in Python or with ``phongscene.load_usd``."""
+
+    camera: Camera = field(default_factory=Camera)
+    ambient: AmbientLight = field(default_factory=AmbientLight)
+    lights: tuple[Light, ...] = ()
+    spheres: tuple[Sphere, ...] = ()
+    meshes: tuple[TriangleMesh, ...] = ()
+    settings: RenderSettings = field(default_factory=RenderSettings)
+    source_file: str = ""  # the file the scene was read from ("" when built in Python)
+
+    @property
+    def triangle_count(self) -> int:
+        return sum(len(m.triangles) for m in self.meshes)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """World-space axis-aligned bounds of all geometry, or None for an empty scene."""
+        lows, highs = [], []
+        for m in self.meshes:
+            if len(m.points):
+                lows.append(m.points.min(axis=0))
+                highs.append(m.points.max(axis=0))
+        for s in self.spheres:
+            # Exact AABB of an affinely transformed unit sphere: centre ± row norms of the 3×3 part.
+            c = s.world_from_object[:3, 3]
+            r = np.sqrt((s.world_from_object[:3, :3] ** 2).sum(axis=1))
+            lows.append(c - r)
+            highs.append(c + r)
+        if not lows:
+            return None
+        return np.min(lows, axis=0), np.max(highs, axis=0)
+
+
+def framing_camera(scene: Scene, horizontal_fov_deg: float = 60.0) -> Camera:
+    """The default camera for a scene without one: looking down −Z (slightly from above) at the
+    centre of the bounds, far enough back that the bounding sphere fits the narrower FOV."""
+    b = scene.bounds()
+    if b is None:
+        return Camera(horizontal_fov_deg=horizontal_fov_deg)
+    lo, hi = b
+    centre = (lo + hi) / 2
+    radius = max(float(np.linalg.norm(hi - lo)) / 2, 1e-12)
+    aspect = scene.settings.width / scene.settings.height
+    half_h = math.radians(horizontal_fov_deg) / 2
+    half_v = math.atan(math.tan(half_h) / aspect)
+    distance = radius / math.sin(min(half_h, half_v))
+    forward = np.array([0.0, -0.25, -1.0])
+    forward /= np.linalg.norm(forward)
+    up = np.array([0.0, 1.0, 0.0]) - forward * forward[1]
+    up /= np.linalg.norm(up)
+    position = centre - forward * distance
+    return Camera(
+        position=tuple(map(float, position)),
+        forward=tuple(map(float, forward)),
+        up=tuple(map(float, up)),
+        horizontal_fov_deg=horizontal_fov_deg,
+        source="(default framing camera)",
+    )
+
+
+def head_light(camera: Camera, color: RGB = (math.pi, math.pi, math.pi)) -> PointLight:
+    """The default light for a scene without lights: a point light at the eye. Its strength π
+    makes a head-on Lambert surface with kd = 1 reflect exactly cd."""
+    return PointLight(position=camera.position, color=color, source="(default head light)")

@@ -1,0 +1,1 @@
+"""USD schema files shipped with phongscene (data only; registration lives in phongscene.usd)."""

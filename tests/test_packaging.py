@@ -1,0 +1,51 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The backends install inside the package (DESIGN §1), from an editable install and a wheel."""
+
+from __future__ import annotations
+
+import importlib.resources
+import subprocess
+import sys
+import zipfile
+
+import pytest
+
+from conftest import REPO
+
+
+def test_backends_import_from_the_installed_package():
+    import phongscene.backends.native as native
+    import phongscene.backends.povray as povray
+
+    assert native._native.hardware_threads() >= 1
+    assert povray.__name__ == "phongscene.backends.povray"
+    assert importlib.resources.files("phongscene.schemas").is_dir()
+
+
+@pytest.mark.slow
+def test_wheel_contains_the_backends_the_extension_and_no_cpp(tmp_path):
+    # --no-build-isolation: the build requirements are already in the test environment.
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-build-isolation", "--no-deps", "-q", "-w", str(tmp_path), str(REPO)],
+        check=True,
+        capture_output=True,
+    )
+    (wheel,) = tmp_path.glob("phongscene-*.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    assert "phongscene/backends/povray/__init__.py" in names
+    assert "phongscene/backends/native/__init__.py" in names
+    assert any(n.startswith("phongscene/backends/native/_native") and n.endswith(".so") for n in names)
+    assert "phongscene/schemas/__init__.py" in names
+    assert not [n for n in names if n.endswith((".cpp", ".hpp", "CMakeLists.txt"))]
+
+    # Import from the unpacked wheel, not from the editable install: -S skips site-packages'
+    # .pth files (where the editable redirect lives); the dependencies come from purelib.
+    target = tmp_path / "site"
+    zipfile.ZipFile(wheel).extractall(target)
+    probe = (
+        "import sys, sysconfig; sys.path[:0] = [sys.argv[1], sysconfig.get_paths()['purelib']];"
+        "import phongscene.backends.native as n, phongscene.backends.povray as p, phongscene;"
+        "assert n.__file__.startswith(sys.argv[1]) and p.__file__.startswith(sys.argv[1]), (n.__file__, p.__file__);"
+        "assert n._native.hardware_threads() >= 1"
+    )
+    subprocess.run([sys.executable, "-S", "-c", probe, str(target)], check=True, cwd=tmp_path)
