@@ -37,7 +37,7 @@ test: install povray
 	$(PY) -m pytest
 
 demo: install povray
-	$(VENV)/bin/phongscene demo
+	$(PY) examples/demo.py
 
 clean:
 	rm -rf build $(VENV) out
