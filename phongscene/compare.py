@@ -1,0 +1,329 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Comparing two linear float images: the thresholds (the only place they live) and the
+verdict, computed by OpenImageIO's ``ImageBufAlgo.compare`` in idiff's vocabulary.
+
+Why these thresholds: POV-Ray 3.7 writes half-float EXR (reference §2), so the best agreement
+the two backends can reach is half precision. Half floats have an 11-bit significand: rounding
+to nearest moves a normal value v by at most 2⁻¹¹·|v|; below 2⁻¹⁴ (subnormal halves) the step is
+a fixed 2⁻²⁴. A pixel therefore *agrees* when, in every channel,
+
+    |a − b| ≤ fail   or   |a − b| ≤ fail_relative · (|a| + |b|) / 2
+
+which is exactly OpenImageIO's rule (``compare(A, B, fail, warn, failrelative, ...)`` counts a
+failure only when the absolute error exceeds ``fail`` *and* the error relative to the mean of
+|a| and |b| exceeds ``failrelative``; verified on OIIO 3.2.2, see tests/test_compare.py).
+PSNR is not used: its peak is the image maximum, meaningless for HDR (notes §4).
+
+The comparison fails (``ok`` False) when more than ``fail_percent`` % of the pixels fail, when
+any channel error exceeds ``hard_fail``, or when non-finite values differ: a NaN never agrees
+(it is a renderer bug, never a tolerance matter) and an infinity agrees only with the same
+infinity. OpenImageIO ignores NaN and infinity silently (neither fails), so those pixels are
+judged here and left out of the mean/RMS statistics. Images of different sizes cannot be
+compared: ``ImageMismatchError``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+from OpenImageIO import ImageBuf, ImageBufAlgo
+
+from .errors import PhongSceneError
+from .images import as_image, read_image
+
+# Half-float rounding: round-to-nearest with an 11-bit significand moves a normal value by at
+# most half a unit in the last place, 2⁻¹¹ relative to the value.
+HALF_ROUNDING_RELATIVE = 2.0**-11
+# One step of the subnormal half range (values below 2⁻¹⁴): the finest absolute resolution a
+# half-float EXR has, so the smallest absolute difference that can mean anything.
+HALF_SUBNORMAL_STEP = 2.0**-24
+
+CHANNEL_NAMES = ("R", "G", "B")
+# How many of the worst pixels a Report lists (for the HTML page and test messages).
+WORST_PIXELS_LISTED = 10
+
+
+class ImageMismatchError(PhongSceneError):
+    """The two images cannot be compared pixel by pixel (different sizes)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Thresholds:
+    """When two images agree, in idiff's vocabulary. The one place thresholds live.
+
+    A channel value fails when ``|a − b| > fail`` and ``|a − b| > fail_relative·mean(|a|, |b|)``.
+    The comparison fails when more than ``fail_percent`` % of the pixels fail, or when any
+    channel error exceeds ``hard_fail``.
+    """
+
+    fail: float = HALF_SUBNORMAL_STEP  # absolute floor: differences at or below it always agree
+    # k·2⁻¹¹ with k = 2: one half-float rounding (2⁻¹¹) on POV-Ray's side, doubled to cover what
+    # else separates the backends, all far smaller: OIIO divides by the mean of |a| and |b|, not
+    # the exact value (≤ 2⁻¹² relative); float32 colour arithmetic in both renderers (~1e-6);
+    # the exact mapping's slope colour_map (≤ 2e-5 relative, reference §12) and its per-light
+    # passes, each rounded to half before they are summed.
+    fail_relative: float = 2 * HALF_ROUNDING_RELATIVE
+    fail_percent: float = 0.0  # % of pixels allowed to fail; 0: every pixel must agree
+    hard_fail: float = math.inf  # any channel error above it fails the comparison
+
+    def __post_init__(self) -> None:
+        for name in ("fail", "fail_relative", "fail_percent", "hard_fail"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and value >= 0 and not math.isnan(value)):
+                raise ValueError(f"Thresholds.{name} must be a number >= 0, got {value!r}")
+        if self.fail_percent > 100:
+            raise ValueError(f"Thresholds.fail_percent must be <= 100, got {self.fail_percent!r}")
+
+    def to_dict(self) -> dict:
+        """JSON-ready: an infinite ``hard_fail`` becomes None (no hard limit)."""
+        return {k: (None if isinstance(v, float) and math.isinf(v) else v) for k, v in asdict(self).items()}
+
+
+# The backends must agree at half-float precision at every pixel (POV-Ray's EXR output).
+HALF_FLOAT = Thresholds()
+
+# Area lights: POV-Ray's per-thread shadow cache (reference §6) retests the last occluder with
+# a looser window (1e-4 instead of 1e-3), so a shadow sample just below a sphere's horizon can
+# depend on the previously rendered pixel. The reference measured 1–7 of 6912 pixels (≤ 0.10 %)
+# differing by ≤ 0.027 on the self-shadow terminator. Allowed: twice that share of pixels
+# (small test images put a larger share of their pixels on the terminator), each off by at
+# most 0.1 (a few grid samples of one light flipping together).
+AREA_LIGHT_SHADOW_CACHE = replace(HALF_FLOAT, fail_percent=0.2, hard_fail=0.1)
+
+
+@dataclass(frozen=True, slots=True)
+class PixelError:
+    """One pixel's error: where, which channel is worst, and both pixels' values."""
+
+    x: int  # column, 0 = left
+    y: int  # row, 0 = top
+    channel: int  # 0, 1, 2 = R, G, B
+    error: float  # |a − b| in that channel (inf or nan for non-finite values)
+    a: tuple[float, float, float]  # pixel of image a (RGB)
+    b: tuple[float, float, float]  # pixel of image b (RGB)
+
+    def __str__(self) -> str:
+        fa = ", ".join(f"{v:.8g}" for v in self.a)
+        fb = ", ".join(f"{v:.8g}" for v in self.b)
+        return f"{self.error:.6g} @ ({self.x}, {self.y}, {CHANNEL_NAMES[self.channel]})  values are {fa} vs {fb}"
+
+
+@dataclass(frozen=True, slots=True)
+class Report:
+    """The outcome of ``compare``. Errors are absolute, in linear image units; ``mean_error``
+    and ``rms_error`` average over pixels × channels (OIIO's convention)."""
+
+    width: int
+    height: int
+    mean_error: float
+    rms_error: float
+    max_error: float
+    max_relative_error: float  # worst |a − b| / mean(|a|, |b|) among channel values above ``fail``
+    worst: PixelError | None  # the pixel with the largest error (None for identical images)
+    failing_pixels: int  # pixels with at least one failing channel (NaN pixels included)
+    failing_percent: float
+    nonfinite_pixels_a: int  # pixels of a with a NaN or infinite channel
+    nonfinite_pixels_b: int
+    hard_fail: bool  # some channel error exceeds thresholds.hard_fail, or non-finite values differ
+    ok: bool  # the verdict
+    thresholds: Thresholds
+    worst_pixels: tuple[PixelError, ...] = field(default=())  # up to WORST_PIXELS_LISTED, worst first
+
+    @property
+    def pixels(self) -> int:
+        return self.width * self.height
+
+    def summary(self) -> str:
+        """idiff-style text block, one fact per line."""
+        t = self.thresholds
+        lines = [
+            f"  size        {self.width} x {self.height}",
+            f"  mean error  {self.mean_error:.6g}",
+            f"  RMS error   {self.rms_error:.6g}",
+            f"  max error   {self.worst if self.worst else 0}",
+            f"  max relative error (above the floor) {self.max_relative_error:.6g}"
+            f" = {self.max_relative_error / HALF_ROUNDING_RELATIVE:.3g} x 2^-11",
+            f"  {self.failing_pixels} pixels ({self.failing_percent:.4g}%) fail"
+            f" (|a-b| > {t.fail:.3g} and > {t.fail_relative:.3g} relative; allowed {t.fail_percent:g}%)",
+        ]
+        if self.nonfinite_pixels_a or self.nonfinite_pixels_b:
+            lines.append(f"  non-finite pixels {self.nonfinite_pixels_a} in a, {self.nonfinite_pixels_b} in b")
+        if self.hard_fail:
+            lines.append(f"  hard fail   (an error above {t.hard_fail:.6g}, or non-finite values that differ)")
+        lines.append("  PASS" if self.ok else "  FAILURE")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """JSON-ready dictionary of every number (non-finite floats become strings)."""
+        d = {
+            "width": self.width,
+            "height": self.height,
+            "pixels": self.pixels,
+            "mean_error": self.mean_error,
+            "rms_error": self.rms_error,
+            "max_error": self.max_error,
+            "max_relative_error": self.max_relative_error,
+            "worst": _pixel_dict(self.worst),
+            "failing_pixels": self.failing_pixels,
+            "failing_percent": self.failing_percent,
+            "nonfinite_pixels_a": self.nonfinite_pixels_a,
+            "nonfinite_pixels_b": self.nonfinite_pixels_b,
+            "hard_fail": self.hard_fail,
+            "ok": self.ok,
+            "thresholds": self.thresholds.to_dict(),
+            "worst_pixels": [_pixel_dict(p) for p in self.worst_pixels],
+        }
+        return _json_safe(d)
+
+
+def _pixel_dict(p: PixelError | None) -> dict | None:
+    if p is None:
+        return None
+    return {"x": p.x, "y": p.y, "channel": CHANNEL_NAMES[p.channel], "error": p.error, "a": list(p.a), "b": list(p.b)}
+
+
+def _json_safe(value):
+    """Strict JSON has no NaN/Infinity: write them as the strings "nan", "inf", "-inf"."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    return value
+
+
+def load(image) -> np.ndarray:
+    """An image argument as linear float32 (H, W, 3): an array, or a path read by OpenImageIO."""
+    if isinstance(image, (str, os.PathLike)):
+        return read_image(image)
+    return as_image(image)
+
+
+def compare(a, b, thresholds: Thresholds = HALF_FLOAT) -> Report:
+    """Compare two linear images pixel by pixel.
+
+    Args:
+        a: the reference image: a float array (H, W, 3) or a path OpenImageIO can read.
+        b: the image under test, same kind.
+        thresholds: when the images agree (default: half-float precision everywhere).
+
+    Returns:
+        A ``Report`` with the error statistics, the worst pixels and the verdict ``ok``.
+
+    Raises:
+        ImageMismatchError: the images differ in size.
+    """
+    a_img, b_img = load(a), load(b)
+    if a_img.shape != b_img.shape:
+        raise ImageMismatchError(
+            f"cannot compare images of different sizes: {_size(a_img)} ({_name(a)}) vs {_size(b_img)} ({_name(b)})"
+        )
+    height, width = a_img.shape[:2]
+    nonfinite_a = ~np.isfinite(a_img).all(axis=2)
+    nonfinite_b = ~np.isfinite(b_img).all(axis=2)
+    special = nonfinite_a | nonfinite_b
+    # OIIO mishandles non-finite values (a NaN, or inf against a finite value, neither fails
+    # nor enters the statistics), so they are judged here: a pixel with a non-finite value
+    # agrees only if both images hold bit-equal values there (the same infinity); NaN never
+    # agrees. OIIO then compares copies with those pixels zeroed in both.
+    with np.errstate(invalid="ignore"):
+        special_fail = special & ~(a_img == b_img).all(axis=2)
+    if special.any():
+        a_clean = np.where(special[..., None], np.float32(0), a_img)
+        b_clean = np.where(special[..., None], np.float32(0), b_img)
+    else:
+        a_clean, b_clean = a_img, b_img
+    result = ImageBufAlgo.compare(
+        ImageBuf(a_clean), ImageBuf(b_clean), thresholds.fail, thresholds.fail, thresholds.fail_relative,
+        thresholds.fail_relative,
+    )
+    failing = int(result.nfail) + int(special_fail.sum())
+    npixels = width * height
+    failing_percent = 100.0 * failing / npixels if npixels else 0.0
+
+    worst = _worst_pixels(a_img, b_img, WORST_PIXELS_LISTED)
+    max_error = float(result.maxerror)
+    if special_fail.any():
+        max_error = worst[0].error  # inf, or nan when a NaN is involved
+    hard = bool(special_fail.any()) or max_error > thresholds.hard_fail
+    ok = not hard and failing <= thresholds.fail_percent / 100.0 * npixels
+    return Report(
+        width=width,
+        height=height,
+        mean_error=float(result.meanerror),
+        rms_error=float(result.rms_error),
+        max_error=max_error,
+        max_relative_error=_max_relative_error(a_clean, b_clean, thresholds.fail),
+        worst=worst[0] if worst else None,
+        failing_pixels=failing,
+        failing_percent=failing_percent,
+        nonfinite_pixels_a=int(nonfinite_a.sum()),
+        nonfinite_pixels_b=int(nonfinite_b.sum()),
+        hard_fail=hard,
+        ok=bool(ok),
+        thresholds=thresholds,
+        worst_pixels=tuple(worst),
+    )
+
+
+def channel_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """|a − b| per pixel, maximum over channels: (H, W) float32, computed by OIIO
+    (``absdiff`` + ``maxchan``). NaN where either image has a NaN."""
+    diff = ImageBufAlgo.maxchan(ImageBufAlgo.absdiff(ImageBuf(as_image(a)), ImageBuf(as_image(b))))
+    out = np.asarray(diff.get_pixels(), dtype=np.float32).reshape(a.shape[0], a.shape[1])
+    nan_any = np.isnan(a).any(axis=2) | np.isnan(b).any(axis=2)
+    out[nan_any] = np.nan
+    return out
+
+
+def _worst_pixels(a: np.ndarray, b: np.ndarray, count: int) -> list[PixelError]:
+    """The ``count`` pixels with the largest channel error (NaN pixels first), zero errors omitted."""
+    with np.errstate(invalid="ignore"):
+        err = np.abs(a.astype(np.float64) - b.astype(np.float64))
+    both_inf_equal = np.isinf(a) & (a == b)  # inf − inf is NaN, but equal infinities agree
+    err[both_inf_equal] = 0.0
+    per_pixel = np.where(np.isnan(err).any(axis=2), np.inf, np.nanmax(np.nan_to_num(err, nan=0.0), axis=2))
+    flat = per_pixel.ravel()
+    n = min(count, flat.size)
+    order = np.argsort(-flat, kind="stable")[:n]
+    out = []
+    for idx in order:
+        if not flat[idx] > 0:
+            break
+        y, x = divmod(int(idx), a.shape[1])
+        chan_err = err[y, x]
+        if np.isnan(chan_err).any():
+            c = int(np.argmax(np.isnan(chan_err)))
+            e = math.nan
+        else:
+            c = int(np.argmax(chan_err))
+            e = float(chan_err[c])
+        out.append(PixelError(x, y, c, e, tuple(map(float, a[y, x])), tuple(map(float, b[y, x]))))
+    return out
+
+
+def _max_relative_error(a: np.ndarray, b: np.ndarray, floor: float) -> float:
+    """Worst |a − b| / mean(|a|, |b|) over channel values whose error exceeds ``floor``
+    (OIIO's relative measure), 0 if there are none."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        err = np.abs(a.astype(np.float64) - b.astype(np.float64))
+        err[np.isinf(a) & (a == b)] = 0.0
+        scale = (np.abs(a.astype(np.float64)) + np.abs(b.astype(np.float64))) / 2
+        mask = err > floor
+        if not mask.any():
+            return 0.0
+        rel = err[mask] / scale[mask]
+    rel = rel[~np.isnan(rel)]
+    return float(rel.max()) if rel.size else 0.0
+
+
+def _size(img: np.ndarray) -> str:
+    return f"{img.shape[1]}x{img.shape[0]}"
+
+
+def _name(image) -> str:
+    return os.fspath(image) if isinstance(image, (str, os.PathLike)) else "array"

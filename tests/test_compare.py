@@ -1,0 +1,139 @@
+# SPDX-License-Identifier: Apache-2.0
+"""phongscene.compare: thresholds at half-float precision, locations, NaN/inf, sizes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from OpenImageIO import ImageBuf, ImageBufAlgo
+
+from phongscene.compare import (
+    HALF_FLOAT,
+    HALF_ROUNDING_RELATIVE,
+    ImageMismatchError,
+    Thresholds,
+    compare,
+)
+from phongscene.images import write_image
+
+
+def _image(seed: int = 0, height: int = 12, width: int = 16, scale: float = 1.0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return (rng.random((height, width, 3)) * scale).astype(np.float32)
+
+
+def test_compare_identical_images_pass():
+    a = _image()
+    r = compare(a, a.copy())
+    assert r.ok and not r.hard_fail
+    assert (r.max_error, r.mean_error, r.rms_error, r.failing_pixels) == (0.0, 0.0, 0.0, 0)
+    assert r.worst is None and r.worst_pixels == ()
+
+
+def test_compare_one_pixel_beyond_threshold_fails_with_location_and_values():
+    a = _image()
+    b = a.copy()
+    b[7, 3, 2] += 0.01  # row 7, column 3, blue
+    r = compare(a, b)
+    assert not r.ok
+    assert r.failing_pixels == 1
+    assert r.failing_percent == pytest.approx(100 / (12 * 16))
+    assert r.max_error == pytest.approx(0.01, rel=1e-5)
+    w = r.worst
+    assert (w.x, w.y, w.channel) == (3, 7, 2)
+    assert w.a == tuple(map(float, a[7, 3])) and w.b == tuple(map(float, b[7, 3]))
+    assert "@ (3, 7, B)" in r.summary() and "FAILURE" in r.summary()
+
+
+def test_compare_half_float_rounding_passes_over_the_whole_range():
+    # Values from the subnormal half range (< 2^-14) to large HDR values, rounded to half as
+    # POV-Ray's EXR output is: every such difference is within the thresholds.
+    rng = np.random.default_rng(1)
+    exponents = rng.uniform(-26, 15, size=(24, 32, 3))
+    a = (2.0**exponents).astype(np.float32)
+    h = a.astype(np.float16).astype(np.float32)
+    assert not np.array_equal(a, h)
+    r = compare(a, h)
+    assert r.ok, r.summary()
+    assert r.max_relative_error <= HALF_ROUNDING_RELATIVE * (1 + 1e-6)
+
+
+def test_compare_error_just_above_the_relative_threshold_fails():
+    # The threshold is tight: 2 half-float roundings fail at 2.2·2^-11 relative error.
+    a = np.full((4, 4, 3), 0.75, np.float32)
+    b = a.copy()
+    b[1, 2, 0] = 0.75 * (1 + 2.2 * HALF_ROUNDING_RELATIVE)
+    b[2, 2, 0] = 0.75 * (1 + 1.8 * HALF_ROUNDING_RELATIVE)
+    r = compare(a, b)
+    assert r.failing_pixels == 1 and (r.worst.x, r.worst.y) == (2, 1)
+
+
+def test_compare_relative_rule_is_oiio_mean_of_magnitudes():
+    # The module docstring's claim about OIIO: relative error = |a-b| / mean(|a|, |b|), and a
+    # value fails only when it is above both the absolute and the relative threshold.
+    a, b = np.ones((1, 1, 3), np.float32), np.full((1, 1, 3), 1.5, np.float32)  # rel to mean 0.4
+    assert ImageBufAlgo.compare(ImageBuf(a), ImageBuf(b), 1e-6, 1e-6, 0.39, 0.39).nfail == 1
+    assert ImageBufAlgo.compare(ImageBuf(a), ImageBuf(b), 1e-6, 1e-6, 0.41, 0.41).nfail == 0  # max would be 0.33
+    assert ImageBufAlgo.compare(ImageBuf(a), ImageBuf(b), 0.6, 0.6, 0.0, 0.0).nfail == 0
+
+
+def test_compare_absolute_floor_covers_tiny_values():
+    a = np.zeros((2, 2, 3), np.float32)
+    b = a.copy()
+    b[0, 0, 0] = HALF_FLOAT.fail  # one subnormal half step: agrees
+    assert compare(a, b).ok
+    b[0, 0, 0] = 3 * HALF_FLOAT.fail
+    assert not compare(a, b).ok
+
+
+def test_compare_size_mismatch_is_an_error():
+    with pytest.raises(ImageMismatchError, match=r"16x12 \(array\) vs 16x11"):
+        compare(_image(), _image(height=11))
+
+
+def test_compare_nan_never_agrees_and_is_a_hard_fail():
+    a = _image()
+    b = a.copy()
+    b[2, 5, 1] = np.nan
+    r = compare(a, b, Thresholds(fail_percent=100.0))
+    assert not r.ok and r.hard_fail
+    assert r.failing_pixels == 1 and r.nonfinite_pixels_b == 1 and r.nonfinite_pixels_a == 0
+    assert (r.worst.x, r.worst.y, r.worst.channel) == (5, 2, 1) and math.isnan(r.max_error)
+    assert not compare(b, b.copy()).ok  # NaN != NaN, even in "identical" images
+    assert r.to_dict()["max_error"] == "nan"  # strict JSON: no bare NaN
+
+
+def test_compare_infinity_agrees_only_with_the_same_infinity():
+    a = _image()
+    a[0, 0, 0] = np.inf  # POV-Ray writes inf for values above the half range (65504)
+    b = a.copy()
+    assert compare(a, b).ok
+    b[0, 0, 0] = 65504.0
+    r = compare(a, b)
+    assert not r.ok and r.hard_fail and r.max_error == math.inf and r.failing_pixels == 1
+
+
+def test_compare_fail_percent_and_hard_fail():
+    a = _image()
+    b = a.copy()
+    b[0, 0, 0] += 0.05  # 1 of 192 pixels = 0.52 %
+    assert compare(a, b, Thresholds(fail_percent=1.0)).ok
+    assert not compare(a, b, Thresholds(fail_percent=0.5)).ok
+    r = compare(a, b, Thresholds(fail_percent=1.0, hard_fail=0.04))
+    assert not r.ok and r.hard_fail
+
+
+def test_compare_reads_image_paths(tmp_path):
+    a = _image(scale=3.0)  # HDR values survive float EXR exactly
+    pa = write_image(tmp_path / "a.exr", a)
+    pb = write_image(tmp_path / "b.exr", a, half=True)
+    r = compare(pa, str(pb))
+    assert r.ok and r.max_error > 0
+
+
+@pytest.mark.parametrize("bad", [-1.0, math.nan, "0.1"])
+def test_thresholds_reject_bad_values(bad):
+    with pytest.raises(ValueError, match="Thresholds.fail "):
+        Thresholds(fail=bad)
