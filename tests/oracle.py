@@ -1,0 +1,562 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Independent per-pixel reference renderer (test-only): numpy, float64, vectorised over rays.
+
+Written from ``DESIGN.md`` §2 and ``reference/povray-3.7-semantics.md`` (cited as "ref §n"), never
+from either backend. Both backends are tested against it. The derivation, formula by formula:
+
+Camera (ref §3). A continuous image position (sx, sy), pixel (i, j) covering [i, i+1)×[j, j+1),
+row 0 at the top, maps to u = sx/W − ½, v = ½ − sy/H. The model camera becomes POV-Ray's vectors
+(common scale k = 1)::
+
+    R = right·(W/H),  U = up,  D = forward·(W/H)/(2·tan(hfov/2)),   right = forward × up
+    perspective:   origin = position,              dir = normalise(D + u·R + v·U)
+    orthographic:  origin = position + u·R + v·U,  dir = normalise(forward),
+                   with |R| = ortho_width, |U| = ortho_width·H/W
+
+``right = forward × up`` is right-handed: a camera looking down −Z with +Y up sees +X on the
+right of the image (ref §3, recipe (b)).
+
+Anti-aliasing (ref §8). samples n = 1: the pixel centre (i+½, j+½). "grid": the n×n
+cell-centred grid (i + (a+½)/n, j + (b+½)/n), plain mean. "povray-am1" (``+AM1 +A0.0 +R n -J``):
+(centre + Σ grid)/(n²+1), so for odd n the centre counts twice.
+
+Geometry (ref §7). ``Sphere``: the unit sphere under the affine ``world_from_object`` M. The ray
+(o, d) is mapped to object space (M⁻¹o, M⁻¹d); the object-space direction is normalised for the
+quadratic (half-chord² = 1 − |oc|² + (oc·d̂)² must exceed EPSILON, as POV's sphere requires), and
+the roots are divided by |M⁻¹d| so that t is the world distance along the unit world ray. Normal:
+(M⁻¹)ᵀ·p_object, normalised. Triangles: Möller–Trumbore in float64, edges inclusive
+(u ≥ 0, v ≥ 0, u + v ≤ 1), rejected as parallel when |n̂·d| < EPSILON (ref §6). Flat normal
+normalise(e1 × e2); smooth normal = barycentric interpolation of the corner normals (through
+``normal_indices``), normalised. The shading normal is flipped to face the viewer: n·d > 0 → −n
+(ref §4, §7), so every surface is two-sided.
+
+Tolerances (ref §6), absolute as in POV-Ray: a primary hit needs MIN_ISECT_DEPTH ≤ t < MAX_DISTANCE;
+a shadow ray starts exactly at P and an occluder counts for SHADOW_TOLERANCE < t < dist −
+SHADOW_TOLERANCE (and t < MAX_DISTANCE); a light with n·l < EPSILON is skipped (no shadow ray).
+
+Lights (ref §5). Point: l = normalise(p − P), dist = |p − P|, colour Lc (no falloff), or with
+fade_power > 0: Lc·2/(1 + (dist/fade_distance)^fade_power). Directional: l = −direction, shadow
+ray up to MAX_DISTANCE (the model has no light position, so nothing lies "behind" it). Area lights:
+shading exactly like a point light at the centre (including the n·l gate on the centre direction),
+times a shadow fraction = Σ w_u·w_v·visible(sample_uv), samples at
+centre + ju·A1 + jv·A2 with ju = u/(n−1) − ½, and w the weights of POV's full recursive 4-corner
+subdivision (trapezoid (½,1,…,1,½)/(n−1) for n = 2^k + 1; see ``subdivision_weights``).
+``RectAreaLight``: A1 = axis_u, A2 = axis_v. ``SphereAreaLight`` = POV's
+``area_light <2r,0,0>, <0,2r,0>, n, n circular orient``: ``circular`` uses
+ju = u/(n−1) − ½ + 0.001 (same for jv), both scaled by max(|ju|,|jv|)/√(ju² + jv²); ``orient``
+per shaded point, with l the unit direction to the centre and t = (0,0,1), or (0,1,0) when
+||l_z| − 1| < ORIENT_VERTICAL_TOLERANCE: A1 := normalise(l × t)·|A1|, A2 := normalise(l × A1)·|A1|.
+The ambient light is never occluded. A miss returns the background colour (ref §9).
+
+Shading (DESIGN §2, ref §4 and §12), wo = −d, n the viewer-facing normal, for each light with
+n·l ≥ EPSILON, scaled by its shadow fraction (0/1 for point and directional lights):
+
+* ``seed`` (Suffern)::
+
+      L = ka·cd·La + Σ_j [kd·cd/π + ks·cs·S_j]·Lj·(n·l_j),   r_j = −l_j + 2(n·l_j)n,
+      S_j = (r_j·wo)^e where r_j·wo > 0, else 0 (also for e = 0).
+
+* ``povray-classic`` (= ``finish { ambient ka diffuse kd/π phong ks phong_size e }``, pigment cd,
+  light colour Lj)::
+
+      L = ka·cd·La + Σ_j [kd/π·cd·(n·l_j)·Lj + ks·P_j·Lj],   r = d − 2(d·n)n,  k_j = r·l_j,
+      P_j = k_j^e where k_j > 0 and ks > 0, except 0 when e ≥ 60 and k_j ≤ 0.0008 (POV's cut-off).
+
+  r·l equals Suffern's r_j·wo (ref §4); the differences are the missing n·l on the highlight and
+  the missing cs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from phongscene.scene import (
+    Camera,
+    DirectionalLight,
+    PointLight,
+    RectAreaLight,
+    RenderSettings,
+    Scene,
+    SphereAreaLight,
+)
+
+# --- POV-Ray 3.7's absolute tolerances (ref §6, configbackend.h / trace.cpp) -----------------
+MIN_ISECT_DEPTH = 1e-4  # a primary hit needs t >= this (POV's near clip for every ray)
+MAX_DISTANCE = 1e7  # every hit needs t < this
+SHADOW_TOLERANCE = 1e-3  # a shadow hit counts only for SHADOW_TOLERANCE < t < dist - SHADOW_TOLERANCE
+EPSILON = 1e-10  # n·l gate; sphere half-chord² must exceed it; |n̂·d| below it = ray parallel to a triangle
+
+# --- POV-Ray's phong cut-off (ref §4: I = 0 if phong_size >= 60 and k <= 0.0008) ---------------
+PHONG_CUTOFF_SIZE = 60.0
+PHONG_CUTOFF_K = 0.0008
+
+# --- area_light circular/orient (ref §5; the 0.01 is POV's "too close to vertical" test in trace.cpp)
+CIRCULAR_OFFSET = 0.001  # added to ju, jv before the square-to-disc scaling (avoids 0/0 at the centre)
+ORIENT_VERTICAL_TOLERANCE = 0.01  # ||l_z| − 1| below this: cross with (0,1,0) instead of (0,0,1)
+
+# --- Implementation limits of this oracle (not POV semantics) ------------------------------------
+RAY_TRIANGLE_PAIRS_PER_CHUNK = 200_000  # bounds memory of the rays × triangles Möller–Trumbore arrays
+AABB_PAD_RELATIVE = 1e-9  # mesh bounding boxes are padded by this × their scale, so culling never
+#                           rejects a hit Möller–Trumbore accepts (its rounding is ~1e-16 relative)
+
+
+# =============================================================================================
+# Camera and sample patterns
+
+
+def camera_vectors(camera: Camera, width: int, height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """POV-Ray's (R, U, D) for the model camera (ref §3), scale k = 1."""
+    aspect = width / height
+    forward = np.asarray(camera.forward, dtype=np.float64)
+    up = np.asarray(camera.up, dtype=np.float64)
+    right = np.asarray(camera.right, dtype=np.float64)
+    if camera.projection == "orthographic":
+        return right * camera.ortho_width, up * camera.ortho_width * height / width, forward
+    direction = forward * aspect / (2.0 * math.tan(math.radians(camera.horizontal_fov_deg) / 2.0))
+    return right * aspect, up, direction
+
+
+def camera_rays(camera: Camera, width: int, height: int, sx, sy) -> tuple[np.ndarray, np.ndarray]:
+    """Rays through continuous image positions (ref §3).
+
+    Args:
+        camera: the model camera.
+        width, height: image size in pixels.
+        sx, sy: arrays of the same shape; pixel (i, j) covers [i, i+1)×[j, j+1), row 0 at the top.
+
+    Returns:
+        (origins, directions), each (N, 3) float64 with N = sx.size; directions are unit.
+    """
+    sx = np.asarray(sx, dtype=np.float64).reshape(-1)
+    sy = np.asarray(sy, dtype=np.float64).reshape(-1)
+    u = (sx / width - 0.5)[:, None]
+    v = (0.5 - sy / height)[:, None]
+    r, up, d = camera_vectors(camera, width, height)
+    position = np.asarray(camera.position, dtype=np.float64)
+    if camera.projection == "orthographic":
+        origins = position + u * r + v * up
+        directions = np.broadcast_to(d / np.linalg.norm(d), origins.shape).copy()
+    else:
+        directions = d + u * r + v * up
+        directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+        origins = np.broadcast_to(position, directions.shape).copy()
+    return origins, directions
+
+
+def pixel_samples(samples: int, pattern: str) -> tuple[np.ndarray, np.ndarray]:
+    """Sample offsets inside a pixel and their weights (ref §8).
+
+    Returns:
+        (offsets (K, 2) as (dx, dy) from the pixel's top-left corner, weights (K,) summing to 1).
+    """
+    centre = np.array([[0.5, 0.5]])
+    if samples == 1:
+        return centre, np.ones(1)
+    cells = (np.arange(samples) + 0.5) / samples
+    dx, dy = np.meshgrid(cells, cells, indexing="xy")
+    grid = np.stack([dx.ravel(), dy.ravel()], axis=1)
+    if pattern == "grid":
+        return grid, np.full(len(grid), 1.0 / len(grid))
+    if pattern == "povray-am1":
+        offsets = np.concatenate([centre, grid])
+        return offsets, np.full(len(offsets), 1.0 / len(offsets))
+    raise ValueError(f"unknown sample pattern {pattern!r}")
+
+
+def subdivision_weights(n: int) -> np.ndarray:
+    """Per-axis weights of POV-Ray's full recursive 4-corner area-light subdivision (ref §5).
+
+    A region [lo, hi] of more than one step splits into [lo, ⌊mid⌋] and [⌈mid⌉, hi], each worth
+    half; a region of at most one step is the mean of its two end samples. In 2-D the split is
+    simultaneous on both axes and a one-step axis splitting again gives the same (½, ½), so the
+    2-D weights are the outer product of these. For n = 2^k + 1 this is the trapezoid rule
+    (½, 1, …, 1, ½)/(n − 1).
+    """
+    weights = np.zeros(n)
+
+    def split(lo: int, hi: int, share: float) -> None:
+        if hi - lo <= 1:
+            weights[lo] += share / 2
+            weights[hi] += share / 2
+            return
+        mid = (lo + hi) / 2
+        split(lo, math.floor(mid), share / 2)
+        split(math.ceil(mid), hi, share / 2)
+
+    split(0, n - 1, 1.0)
+    return weights
+
+
+def _area_grid(n: int, circular: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ju, jv, weight) for every sample of an n×n area-light grid (ref §5)."""
+    steps = np.arange(n, dtype=np.float64)
+    j = steps / (n - 1) - 0.5 if n > 1 else np.zeros(1)
+    ju, jv = np.meshgrid(j, j, indexing="ij")
+    ju, jv = ju.ravel(), jv.ravel()
+    if circular and n > 1:
+        ju = ju + CIRCULAR_OFFSET
+        jv = jv + CIRCULAR_OFFSET
+        scale = np.maximum(np.abs(ju), np.abs(jv)) / np.sqrt(ju * ju + jv * jv)
+        ju, jv = ju * scale, jv * scale
+    w = subdivision_weights(n)
+    return ju, jv, np.outer(w, w).ravel()
+
+
+def area_light_offsets(light, to_light: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sample offsets from the light's centre, per shaded point, and their weights (ref §5).
+
+    Args:
+        light: a RectAreaLight or SphereAreaLight.
+        to_light: (N, 3) unit directions from the shaded points to the light's centre (``orient``).
+
+    Returns:
+        (offsets (N, K, 3), weights (K,)).
+    """
+    n_points = len(to_light)
+    if isinstance(light, RectAreaLight):
+        ju, jv, w = _area_grid(light.samples, circular=False)
+        a1 = np.asarray(light.axis_u, dtype=np.float64)
+        a2 = np.asarray(light.axis_v, dtype=np.float64)
+        offsets = ju[:, None] * a1 + jv[:, None] * a2
+        return np.broadcast_to(offsets, (n_points, *offsets.shape)), w
+    # SphereAreaLight: area_light <2r,0,0>, <0,2r,0>, n, n circular orient.
+    ju, jv, w = _area_grid(light.samples, circular=True)
+    length = 2.0 * light.radius  # |A1|; orient gives both axes this length
+    near_vertical = np.abs(np.abs(to_light[:, 2]) - 1.0) < ORIENT_VERTICAL_TOLERANCE
+    helper = np.where(near_vertical[:, None], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0])
+    a1 = np.cross(to_light, helper)
+    a1 /= np.linalg.norm(a1, axis=1, keepdims=True)
+    a2 = np.cross(to_light, a1)
+    a2 /= np.linalg.norm(a2, axis=1, keepdims=True)
+    a1, a2 = a1 * length, a2 * length
+    offsets = ju[None, :, None] * a1[:, None, :] + jv[None, :, None] * a2[:, None, :]
+    return offsets, w
+
+
+# =============================================================================================
+# Geometry
+
+
+@dataclass
+class _Mesh:
+    p0: np.ndarray  # (T, 3)
+    e1: np.ndarray  # (T, 3) p1 − p0
+    e2: np.ndarray  # (T, 3) p2 − p0
+    cross_len: np.ndarray  # (T,) |e1 × e2| (twice the area)
+    flat_normal: np.ndarray  # (T, 3) unit
+    corner_normals: np.ndarray | None  # (T, 3, 3) unit, or None for flat shading
+    material: int
+    lo: np.ndarray  # padded bounds
+    hi: np.ndarray
+
+
+@dataclass
+class _Geometry:
+    sphere_object_from_world: list[np.ndarray]
+    sphere_normal_matrix: list[np.ndarray]  # (M⁻¹)ᵀ, 3×3
+    sphere_material: list[int]
+    meshes: list[_Mesh]
+    ka: np.ndarray
+    kd: np.ndarray
+    ks: np.ndarray
+    exponent: np.ndarray
+    cd: np.ndarray
+    cs: np.ndarray
+
+
+def _prepare(scene: Scene) -> _Geometry:
+    materials: list = []
+
+    def material_index(m) -> int:
+        materials.append(m)
+        return len(materials) - 1
+
+    inverses, normal_matrices, sphere_materials = [], [], []
+    for sphere in scene.spheres:
+        inverse = np.linalg.inv(sphere.world_from_object)
+        inverses.append(inverse)
+        normal_matrices.append(inverse[:3, :3].T)
+        sphere_materials.append(material_index(sphere.material))
+    meshes = []
+    for mesh in scene.meshes:
+        if len(mesh.triangles) == 0:
+            continue
+        corners = mesh.points[mesh.triangles]
+        p0 = corners[:, 0]
+        e1 = corners[:, 1] - p0
+        e2 = corners[:, 2] - p0
+        cross = np.cross(e1, e2)
+        cross_len = np.linalg.norm(cross, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):  # zero-area triangles never hit (below)
+            flat = cross / cross_len[:, None]
+        corner_normals = None if mesh.normals is None else mesh.normals[mesh.normal_indices]
+        lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
+        pad = AABB_PAD_RELATIVE * (1.0 + float(np.abs(mesh.points).max()))
+        meshes.append(_Mesh(p0, e1, e2, cross_len, flat, corner_normals, material_index(mesh.material), lo - pad, hi + pad))
+    return _Geometry(
+        inverses,
+        normal_matrices,
+        sphere_materials,
+        meshes,
+        ka=np.array([m.ka for m in materials], dtype=np.float64),
+        kd=np.array([m.kd for m in materials], dtype=np.float64),
+        ks=np.array([m.ks for m in materials], dtype=np.float64),
+        exponent=np.array([m.exponent for m in materials], dtype=np.float64),
+        cd=np.array([m.diffuse_color for m in materials], dtype=np.float64).reshape(-1, 3),
+        cs=np.array([m.specular_color for m in materials], dtype=np.float64).reshape(-1, 3),
+    )
+
+
+def _sphere_roots(inverse: np.ndarray, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World-distance roots (near, far) of unit rays against a transformed unit sphere, and a hit mask."""
+    oo = o @ inverse[:3, :3].T + inverse[:3, 3]
+    do = d @ inverse[:3, :3].T
+    length = np.linalg.norm(do, axis=1)
+    dn = do / length[:, None]
+    # Closest approach to the centre along the normalised object ray; half-chord² > EPSILON (ref §7).
+    oc = -oo
+    closest = np.einsum("ij,ij->i", oc, dn)
+    half_chord_sq = 1.0 - (np.einsum("ij,ij->i", oc, oc) - closest * closest)
+    hit = half_chord_sq > EPSILON
+    half_chord = np.sqrt(np.where(hit, half_chord_sq, 0.0))
+    return (closest - half_chord) / length, (closest + half_chord) / length, hit
+
+
+def _ray_aabb(o: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Rays whose line meets the box at some t >= 0 (a conservative cull)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+        t0 = (lo - o) * inv
+        t1 = (hi - o) * inv
+    near = np.minimum(t0, t1)
+    far = np.maximum(t0, t1)
+    # An axis the ray is parallel to: either always inside the slab or never.
+    parallel = d == 0.0
+    inside = (o >= lo) & (o <= hi)
+    near = np.where(parallel, np.where(inside, -np.inf, np.inf), near)
+    far = np.where(parallel, np.where(inside, np.inf, -np.inf), far)
+    t_near, t_far = near.max(axis=1), far.min(axis=1)
+    return (t_near <= t_far) & (t_far >= 0.0)
+
+
+def _mesh_hits(mesh: _Mesh, o: np.ndarray, d: np.ndarray, accept) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Nearest accepted triangle hit per ray: (t, triangle, u, v); t = inf where none."""
+    n = len(o)
+    best_t = np.full(n, np.inf)
+    best_tri = np.zeros(n, dtype=np.int64)
+    best_u = np.zeros(n)
+    best_v = np.zeros(n)
+    candidates = np.nonzero(_ray_aabb(o, d, mesh.lo, mesh.hi))[0]
+    tris = len(mesh.p0)
+    chunk = max(1, RAY_TRIANGLE_PAIRS_PER_CHUNK // tris)
+    for start in range(0, len(candidates), chunk):
+        rows = candidates[start : start + chunk]
+        ro, rd = o[rows][:, None, :], d[rows][:, None, :]
+        # Möller–Trumbore: P = p0 + u·e1 + v·e2.
+        pvec = np.cross(rd, mesh.e2)
+        det = np.einsum("rtk,tk->rt", pvec, mesh.e1)
+        # |det| = |d·(e1×e2)| = |n̂·d|·|e1×e2|: parallel when |n̂·d| < EPSILON (ref §6).
+        usable = np.abs(det) >= EPSILON * mesh.cross_len
+        usable &= mesh.cross_len > 0.0
+        inv_det = 1.0 / np.where(usable, det, 1.0)
+        tvec = ro - mesh.p0
+        u = np.einsum("rtk,rtk->rt", tvec, pvec) * inv_det
+        qvec = np.cross(tvec, mesh.e1)
+        v = np.einsum("rtk,rtk->rt", np.broadcast_to(rd, qvec.shape), qvec) * inv_det
+        t = np.einsum("rtk,tk->rt", qvec, mesh.e2) * inv_det
+        ok = usable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & accept(t, rows[:, None])
+        t = np.where(ok, t, np.inf)
+        nearest = np.argmin(t, axis=1)
+        pick = np.arange(len(rows))
+        best_t[rows] = t[pick, nearest]
+        best_tri[rows] = nearest
+        best_u[rows] = u[pick, nearest]
+        best_v[rows] = v[pick, nearest]
+    return best_t, best_tri, best_u, best_v
+
+
+def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
+    """Nearest hit with MIN_ISECT_DEPTH <= t < MAX_DISTANCE: (t, material, unflipped normal); t = inf on a miss."""
+    n = len(o)
+    best_t = np.full(n, np.inf)
+    material = np.full(n, -1, dtype=np.int64)
+    normal = np.zeros((n, 3))
+
+    def accept(t, _rows):
+        return (t >= MIN_ISECT_DEPTH) & (t < MAX_DISTANCE)
+
+    for inverse, normal_matrix, mat in zip(geo.sphere_object_from_world, geo.sphere_normal_matrix, geo.sphere_material):
+        near, far, hit = _sphere_roots(inverse, o, d)
+        t = np.where(hit & accept(near, None), near, np.where(hit & accept(far, None), far, np.inf))
+        closer = t < best_t
+        if not closer.any():
+            continue
+        best_t[closer] = t[closer]
+        material[closer] = mat
+        p_object = (o[closer] + t[closer, None] * d[closer]) @ inverse[:3, :3].T + inverse[:3, 3]
+        nw = p_object @ normal_matrix.T
+        normal[closer] = nw / np.linalg.norm(nw, axis=1, keepdims=True)
+    for mesh in geo.meshes:
+        t, tri, u, v = _mesh_hits(mesh, o, d, accept)
+        closer = t < best_t
+        if not closer.any():
+            continue
+        best_t[closer] = t[closer]
+        material[closer] = mesh.material
+        tri, u, v = tri[closer], u[closer], v[closer]
+        if mesh.corner_normals is None:
+            nw = mesh.flat_normal[tri]
+        else:
+            c = mesh.corner_normals[tri]
+            nw = (1.0 - u - v)[:, None] * c[:, 0] + u[:, None] * c[:, 1] + v[:, None] * c[:, 2]
+            nw = nw / np.linalg.norm(nw, axis=1, keepdims=True)
+        normal[closer] = nw
+    return best_t, material, normal
+
+
+def _occluded(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    """Shadow test from exactly P along unit l: any hit with SHADOW_TOLERANCE < t < dist − SHADOW_TOLERANCE (ref §6)."""
+    upper = np.minimum(dist - SHADOW_TOLERANCE, MAX_DISTANCE)
+    blocked = np.zeros(len(p), dtype=bool)
+
+    def accept(t, rows):
+        hi = upper if rows is None else upper[rows]
+        return (t > SHADOW_TOLERANCE) & (t < hi)
+
+    for inverse in geo.sphere_object_from_world:
+        near, far, hit = _sphere_roots(inverse, p, l)
+        blocked |= hit & (accept(near, None) | accept(far, None))
+    for mesh in geo.meshes:
+        todo = np.nonzero(~blocked)[0]
+        if len(todo) == 0:
+            break
+        upper_todo = upper[todo]
+
+        def accept_todo(t, rows, upper_todo=upper_todo):
+            return (t > SHADOW_TOLERANCE) & (t < upper_todo[rows])
+
+        t, _, _, _ = _mesh_hits(mesh, p[todo], l[todo], accept_todo)
+        blocked[todo] |= np.isfinite(t)
+    return blocked
+
+
+# =============================================================================================
+# Lights and shading
+
+
+def classic_phong_factor(k: np.ndarray, exponent: np.ndarray) -> np.ndarray:
+    """POV-Ray's phong factor k^phong_size for k > 0, with its ``phong_size >= 60 and k <= 0.0008`` cut-off (ref §4)."""
+    k = np.asarray(k, dtype=np.float64)
+    exponent = np.broadcast_to(np.asarray(exponent, dtype=np.float64), k.shape)
+    value = np.power(np.where(k > 0.0, k, 1.0), exponent)
+    cut = (exponent >= PHONG_CUTOFF_SIZE) & (k <= PHONG_CUTOFF_K)
+    return np.where((k > 0.0) & ~cut, value, 0.0)
+
+
+def _light_at_centre(light, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(unit l, distance, colour Lc per point) for shading (ref §5); area lights act from their centre."""
+    colour = np.asarray(light.color, dtype=np.float64)
+    if isinstance(light, DirectionalLight):
+        direction = np.asarray(light.direction, dtype=np.float64)
+        l = np.broadcast_to(-direction / np.linalg.norm(direction), p.shape)
+        return l, np.full(len(p), MAX_DISTANCE), np.broadcast_to(colour, p.shape)
+    position = np.asarray(light.position if isinstance(light, PointLight) else light.center, dtype=np.float64)
+    to_light = position - p
+    dist = np.linalg.norm(to_light, axis=1)
+    l = to_light / dist[:, None]
+    lc = np.broadcast_to(colour, p.shape)
+    if isinstance(light, PointLight) and light.fade_power > 0.0 and light.fade_distance != 0.0:
+        fade = 2.0 / (1.0 + (dist / light.fade_distance) ** light.fade_power)
+        lc = lc * fade[:, None]
+    return l, dist, lc
+
+
+def _visible_fraction(geo: _Geometry, light, p: np.ndarray, l: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    """Shadow factor in [0, 1]: 0/1 for point and directional lights, the weighted grid for area lights."""
+    if isinstance(light, (PointLight, DirectionalLight)):
+        return (~_occluded(geo, p, l, dist)).astype(np.float64)
+    offsets, weights = area_light_offsets(light, l)
+    centre = np.asarray(light.center, dtype=np.float64)
+    targets = centre + offsets  # (N, K, 3)
+    to_sample = targets - p[:, None, :]
+    sample_dist = np.linalg.norm(to_sample, axis=2)
+    directions = to_sample / sample_dist[..., None]
+    n, k = sample_dist.shape
+    points = np.broadcast_to(p[:, None, :], (n, k, 3)).reshape(-1, 3)
+    blocked = _occluded(geo, points, directions.reshape(-1, 3), sample_dist.reshape(-1)).reshape(n, k)
+    return (~blocked).astype(np.float64) @ weights
+
+
+def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material) -> np.ndarray:
+    n = np.where((np.einsum("ij,ij->i", normal, d) > 0.0)[:, None], -normal, normal)  # face the viewer
+    wo = -d
+    ka, kd, ks, e = geo.ka[material], geo.kd[material], geo.ks[material], geo.exponent[material]
+    cd, cs = geo.cd[material], geo.cs[material]
+    radiance = ka[:, None] * cd * np.asarray(scene.ambient.color, dtype=np.float64)
+    for light in scene.lights:
+        l, dist, lc = _light_at_centre(light, p)
+        n_dot_l = np.einsum("ij,ij->i", n, l)
+        lit = np.nonzero(n_dot_l >= EPSILON)[0]  # below the gate: no shadow ray, no contribution
+        if len(lit) == 0:
+            continue
+        fraction = _visible_fraction(geo, light, p[lit], l[lit], dist[lit])
+        nl = n_dot_l[lit]
+        light_colour = lc[lit] * fraction[:, None]
+        if settings.specular == "seed":
+            mirror = -l[lit] + 2.0 * nl[:, None] * n[lit]
+            s = np.einsum("ij,ij->i", mirror, wo[lit])
+            spec = np.where(s > 0.0, np.power(np.where(s > 0.0, s, 1.0), e[lit]), 0.0)
+            brdf = kd[lit, None] * cd[lit] / math.pi + ks[lit, None] * cs[lit] * spec[:, None]
+            radiance[lit] += brdf * light_colour * nl[:, None]
+        elif settings.specular == "povray-classic":
+            dl = d[lit]
+            reflected = dl - 2.0 * np.einsum("ij,ij->i", dl, n[lit])[:, None] * n[lit]
+            k = np.einsum("ij,ij->i", reflected, l[lit])
+            phong = np.where(ks[lit] > 0.0, ks[lit] * classic_phong_factor(k, e[lit]), 0.0)
+            radiance[lit] += (kd[lit, None] / math.pi * cd[lit] * nl[:, None] + phong[:, None]) * light_colour
+        else:
+            raise ValueError(f"unknown specular convention {settings.specular!r}")
+    return radiance
+
+
+# =============================================================================================
+# Public API
+
+
+def _trace(geo: _Geometry, scene: Scene, settings: RenderSettings, origins, directions) -> np.ndarray:
+    o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
+    d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    t, material, normal = _closest_hit(geo, o, d)
+    radiance = np.empty((len(o), 3))
+    radiance[:] = np.asarray(settings.background, dtype=np.float64)
+    hit = np.isfinite(t)
+    if hit.any():
+        p = o[hit] + t[hit, None] * d[hit]
+        radiance[hit] = _shade(geo, scene, settings, p, d[hit], normal[hit], material[hit])
+    return radiance
+
+
+def trace_rays(scene: Scene, origins, directions, settings: RenderSettings | None = None) -> np.ndarray:
+    """Radiance along each ray (directions are normalised here), (N, 3) float64.
+
+    ``settings`` (default ``scene.settings``) supplies the background and the specular convention.
+    """
+    settings = scene.settings if settings is None else settings
+    return _trace(_prepare(scene), scene, settings, origins, directions)
+
+
+def render(scene: Scene, settings: RenderSettings | None = None) -> np.ndarray:
+    """Render the scene: float64 (H, W, 3), row 0 at the top (ref §3, §8)."""
+    settings = scene.settings if settings is None else settings
+    width, height = settings.width, settings.height
+    offsets, weights = pixel_samples(settings.samples, settings.sample_pattern)
+    cols, rows = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64), indexing="xy")
+    sx = cols[..., None] + offsets[:, 0]  # (H, W, K)
+    sy = rows[..., None] + offsets[:, 1]
+    origins, directions = camera_rays(scene.camera, width, height, sx, sy)
+    radiance = _trace(_prepare(scene), scene, settings, origins, directions)
+    return np.einsum("hwkc,k->hwc", radiance.reshape(height, width, len(weights), 3), weights)
