@@ -1,0 +1,22 @@
+# SPDX-License-Identifier: Apache-2.0
+"""USD input and output: the only part of phongscene that imports ``pxr``.
+
+Importing this package registers the Phong surface's Sdr definition (any import order works).
+"""
+
+from .shader_defs import PHONG_RENDER_CONTEXT, PHONG_SHADER_ID, register_phong_shader
+
+register_phong_shader()
+
+from .materials import preview_to_phong  # noqa: E402
+from .reader import ReadResult, load_usd, read_usd  # noqa: E402
+
+__all__ = [
+    "PHONG_RENDER_CONTEXT",
+    "PHONG_SHADER_ID",
+    "ReadResult",
+    "load_usd",
+    "preview_to_phong",
+    "read_usd",
+    "register_phong_shader",
+]

@@ -1,0 +1,115 @@
+# SPDX-License-Identifier: Apache-2.0
+"""State shared while one stage is read: collected problems and warnings, world transforms
+(with the Z-up → Y-up correction) and type-checked attribute access."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+
+import numpy as np
+from pxr import Gf, Usd, UsdGeom
+
+from ..errors import Problem
+
+# A Z-up stage is rotated −90° about X into the model's Y-up frame: (x, y, z) → (x, z, −y).
+Z_UP_TO_Y_UP = np.array(
+    [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+)
+# A unit vector read in double precision is kept bit-for-bit when its length is within this of
+# 1 (a few ulps), so that reading what the writer wrote is exactly idempotent; otherwise it is
+# divided by its length.
+KEEP_UNIT = 1e-14
+
+FLOAT_TYPES = ("float", "double", "half")
+VEC3_TYPES = ("float3", "double3", "half3", "color3f", "color3d", "color3h", "vector3f", "vector3d", "point3f", "point3d", "normal3f", "normal3d")
+COLOR_TYPES = ("color3f", "color3d", "color3h", "float3", "double3", "half3")
+INT_TYPES = ("int", "uint", "int64", "uint64")
+STRING_TYPES = ("token", "string")
+
+
+def unit(v: np.ndarray) -> np.ndarray | None:
+    """``v / |v|``, or ``v`` itself when already unit to a few ulps; None for a zero vector."""
+    length = float(np.linalg.norm(v))
+    if length == 0 or not np.isfinite(length):
+        return None
+    return v if abs(length - 1.0) <= KEEP_UNIT else v / length
+
+
+def gf_to_numpy(m: Gf.Matrix4d) -> np.ndarray:
+    """A USD (row-vector) matrix as a column-vector numpy matrix."""
+    return np.array(m, dtype=np.float64).T
+
+
+class ReadContext:
+    """Problems, warnings and transforms for one stage being read."""
+
+    def __init__(self, stage: Usd.Stage, file: str):
+        self.stage = stage
+        self.file = file
+        self.problems: list[Problem] = []
+        self.warnings: list[str] = []
+        # One warning per kind of unsupported thing, listing every prim (DESIGN §3).
+        self.unsupported: dict[str, list[str]] = defaultdict(list)
+        self.nodes: list[tuple[str, str]] = []  # (prim path, model node) for `phongscene info`
+        self.time = stage.GetStartTimeCode() if stage.HasAuthoredTimeCodeRange() else Usd.TimeCode.Default()
+        self.xforms = UsdGeom.XformCache(self.time)
+        self.z_up = UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.z
+
+    def problem(self, prim, attribute: str, message: str) -> None:
+        path = str(prim.GetPath()) if hasattr(prim, "GetPath") else str(prim)
+        self.problems.append(Problem(message, prim=path, attribute=attribute, file=self.file))
+
+    def warn(self, message: str) -> None:
+        self.warnings.append(message)
+
+    def flush_unsupported(self) -> None:
+        for what, paths in self.unsupported.items():
+            shown = ", ".join(paths[:10]) + (f" and {len(paths) - 10} more" if len(paths) > 10 else "")
+            self.warn(f"{what} ({len(paths)}): {shown}")
+        self.unsupported.clear()
+
+    # -- transforms ---------------------------------------------------------------------------
+
+    def to_model(self, m: np.ndarray) -> np.ndarray:
+        """A column-vector stage-world matrix → model world (Y-up)."""
+        return Z_UP_TO_Y_UP @ m if self.z_up else m
+
+    def world(self, prim: Usd.Prim) -> np.ndarray:
+        """The prim's local-to-world matrix in model space (column vectors, Y-up)."""
+        return self.to_model(gf_to_numpy(self.xforms.GetLocalToWorldTransform(prim)))
+
+    # -- attributes -----------------------------------------------------------------------------
+
+    def get(self, prim: Usd.Prim, name: str, types: tuple[str, ...], default=None):
+        """The attribute's value (authored or schema fallback) if its type is one of ``types``.
+
+        A wrong type is a problem (and ``default`` is returned); a missing attribute or value
+        gives ``default``.
+        """
+        attr = prim.GetAttribute(name)
+        if not attr:
+            return default
+        type_name = str(attr.GetTypeName())
+        if type_name not in types:
+            self.problem(prim, name, f"has type {type_name}, expected {' or '.join(types)}")
+            return default
+        value = attr.Get(self.time)
+        return default if value is None else value
+
+    def number(self, prim, name: str, default: float, *, minimum: float | None = None, strict: bool = False) -> float:
+        """A finite float attribute, optionally >= (or > with ``strict``) ``minimum``."""
+        value = float(self.get(prim, name, FLOAT_TYPES, default))
+        if not np.isfinite(value):
+            self.problem(prim, name, f"must be finite, got {value!r}")
+            return default
+        if minimum is not None and (value <= minimum if strict else value < minimum):
+            self.problem(prim, name, f"must be {'>' if strict else '>='} {minimum:g}, got {value!r}")
+        return value
+
+    def color(self, prim, name: str, default) -> tuple[float, float, float]:
+        value = self.get(prim, name, COLOR_TYPES, default)
+        out = tuple(float(c) for c in value)
+        if not all(np.isfinite(out)):
+            self.problem(prim, name, f"must be finite, got {out}")
+            return tuple(float(c) for c in default)
+        return out

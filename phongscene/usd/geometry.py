@@ -1,0 +1,275 @@
+# SPDX-License-Identifier: Apache-2.0
+"""USD gprims → model geometry in world space (DESIGN §3).
+
+* ``Sphere`` stays analytic: ``world_from_object = world · diag(r, r, r, 1)``.
+* ``Mesh`` is fan-triangulated with numpy (no per-face Python loop; exact for convex faces),
+  honours ``holeIndices`` and ``orientation`` and keeps authored normals of every
+  interpolation, ``primvars:normals`` (indexed or not) taking precedence over ``normals``.
+  Normals of the wrong type or count, non-finite or zero-length are *problems* (errors), not
+  silently replaced: a file that says it has normals and does not is broken.
+* ``Cube`` and ``Plane`` become flat triangles; ``Cylinder``, ``Cone`` and ``Capsule`` are
+  tessellated by ``trimesh.creation`` with ``SEGMENTS`` segments around the axis (capsule:
+  ``SEGMENTS`` × ``SEGMENTS // 2`` rings) and analytic smooth normals on the curved surface
+  (flat caps keep the face normal).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+from pxr import Usd, UsdGeom
+
+from ..scene import PhongMaterial, Sphere, TriangleMesh
+from .context import KEEP_UNIT, ReadContext
+
+SEGMENTS = 64  # around the axis of Cylinder, Cone, Capsule: chord error r·(1 − cos(π/64)) ≈ 1.2e-3·r
+NORMAL_TYPES = tuple(t + "[]" for t in ("normal3f", "normal3d", "normal3h", "vector3f", "vector3d", "float3", "double3", "half3"))
+# Cyclic permutations taking the object's Z axis to the USD `axis` (proper rotations, det +1).
+AXIS_FROM_Z = {
+    "X": np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+    "Y": np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]),
+    "Z": np.eye(3),
+}
+
+
+def sphere(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial) -> Sphere:
+    radius = ctx.number(prim, "radius", 1.0, minimum=0.0, strict=True)
+    return Sphere(world @ np.diag([radius, radius, radius, 1.0]), material, str(prim.GetPath()))
+
+
+def _to_world(points: np.ndarray, world: np.ndarray) -> np.ndarray:
+    if np.array_equal(world, np.eye(4)):
+        return points
+    return points @ world[:3, :3].T + world[:3, 3]
+
+
+def _normals_to_world(normals: np.ndarray, world: np.ndarray) -> np.ndarray:
+    """Normals transform by the inverse transpose; rows are renormalized unless already unit."""
+    a = world[:3, :3]
+    if not np.array_equal(a, np.eye(3)):
+        normals = normals @ np.linalg.inv(a)
+    lengths = np.linalg.norm(normals, axis=1)
+    rescale = np.abs(lengths - 1.0) > KEEP_UNIT
+    if rescale.any():
+        normals = normals.copy()
+        normals[rescale] /= lengths[rescale, None]
+    return normals
+
+
+def _winding_flipped(world: np.ndarray) -> bool:
+    # A mirroring transform turns a counter-clockwise (front) face clockwise in world space.
+    return bool(np.linalg.det(world[:3, :3]) < 0)
+
+
+def mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial) -> TriangleMesh | None:
+    """Fan-triangulate a UsdGeom.Mesh into world space; None (after recording problems) if broken."""
+    n_problems = len(ctx.problems)
+    path = str(prim.GetPath())
+    points = ctx.get(prim, "points", ("point3f[]", "point3d[]", "float3[]", "double3[]"))
+    counts = ctx.get(prim, "faceVertexCounts", ("int[]",))
+    indices = ctx.get(prim, "faceVertexIndices", ("int[]",))
+    if len(ctx.problems) > n_problems:
+        return None
+    if points is None or counts is None or indices is None or len(points) == 0:
+        ctx.unsupported["meshes without points or faces (skipped)"].append(path)
+        return None
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    counts = np.asarray(counts, dtype=np.int64)
+    idx = np.asarray(indices, dtype=np.int64)
+    if not np.all(np.isfinite(p)):
+        ctx.problem(prim, "points", f"{int(np.count_nonzero(~np.isfinite(p).all(axis=1)))} points are not finite")
+    if (counts < 0).any() or int(counts.sum()) != len(idx):
+        ctx.problem(prim, "faceVertexCounts", f"sums to {int(counts.sum())}, but faceVertexIndices has {len(idx)} entries")
+        return None
+    out_of_range = (idx < 0) | (idx >= len(p))
+    if out_of_range.any():
+        ctx.problem(
+            prim,
+            "faceVertexIndices",
+            f"{int(out_of_range.sum())} indices out of range [0, {len(p)}), e.g. {int(idx[out_of_range][0])}",
+        )
+        return None
+
+    # Fan triangulation: face f with n vertices starting at s gives (s, s+k, s+k+1), k = 1..n−2.
+    starts = np.cumsum(counts) - counts
+    keep = counts >= 3
+    if (counts < 3).any():
+        ctx.unsupported["faces with fewer than 3 vertices (skipped)"].append(path)
+    holes = ctx.get(prim, "holeIndices", ("int[]",))
+    if holes is not None and len(holes):
+        holes = np.asarray(holes, dtype=np.int64)
+        if ((holes < 0) | (holes >= len(counts))).any():
+            ctx.problem(prim, "holeIndices", f"indices out of range [0, {len(counts)})")
+            return None
+        keep[holes] = False
+    faces = np.flatnonzero(keep)
+    per_face = counts[faces] - 2
+    face_of_tri = np.repeat(faces, per_face)
+    first_tri = np.cumsum(per_face) - per_face
+    k = np.arange(len(face_of_tri)) - np.repeat(first_tri, per_face) + 1
+    s = starts[face_of_tri]
+    fv = np.stack([s, s + k, s + k + 1], axis=1)  # face-vertex (corner) ids
+    left = ctx.get(prim, "orientation", ("token",), UsdGeom.Tokens.rightHanded) == UsdGeom.Tokens.leftHanded
+    if left != _winding_flipped(world):
+        fv = fv[:, [0, 2, 1]]
+    triangles = idx[fv]
+
+    scheme = ctx.get(prim, "subdivisionScheme", ("token",), UsdGeom.Tokens.catmullClark)
+    if scheme != UsdGeom.Tokens.none:
+        ctx.unsupported["subdivision surfaces (the control cage is rendered)"].append(path)
+
+    normals = _mesh_normals(ctx, prim, len(p), len(idx), len(counts), fv, triangles, face_of_tri)
+    if len(ctx.problems) > n_problems:
+        return None
+    world_points = _to_world(p, world)
+    if normals is None:
+        return TriangleMesh(world_points, triangles, material=material, source=path)
+    values, normal_indices = normals
+    return TriangleMesh(world_points, triangles, _normals_to_world(values, world), normal_indices, material, path)
+
+
+def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_of_tri):
+    """(normals (K,3), normal_indices (M,3)) from primvars:normals or normals; None if absent."""
+    primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("normals")
+    if primvar and primvar.HasAuthoredValue():
+        name, attr = "primvars:normals", primvar.GetAttr()
+        interpolation = primvar.GetInterpolation()
+        element_indices = primvar.GetIndices(ctx.time) if primvar.IsIndexed() else None
+    else:
+        attr = UsdGeom.Mesh(prim).GetNormalsAttr()
+        if not attr.HasAuthoredValue():
+            return None
+        name, interpolation, element_indices = "normals", UsdGeom.Mesh(prim).GetNormalsInterpolation(), None
+    type_name = str(attr.GetTypeName())
+    if type_name not in NORMAL_TYPES:
+        ctx.problem(prim, name, f"has type {type_name}, expected normal3f[]")
+        return None
+    values = np.asarray(attr.Get(ctx.time), dtype=np.float64).reshape(-1, 3)
+    expected = {
+        UsdGeom.Tokens.vertex: n_points,
+        UsdGeom.Tokens.varying: n_points,
+        UsdGeom.Tokens.faceVarying: n_corners,
+        UsdGeom.Tokens.uniform: n_faces,
+        UsdGeom.Tokens.constant: 1,
+    }.get(interpolation)
+    if expected is None:
+        ctx.problem(prim, name, f"has unknown interpolation {interpolation!r}")
+        return None
+    n_elements = len(element_indices) if element_indices is not None else len(values)
+    if n_elements != expected:
+        what = "indices" if element_indices is not None else "values"
+        ctx.problem(prim, name, f"has {n_elements} {what}, expected {expected} for {interpolation} interpolation")
+        return None
+    if element_indices is not None:
+        element_indices = np.asarray(element_indices, dtype=np.int64)
+        bad = (element_indices < 0) | (element_indices >= len(values))
+        if bad.any():
+            ctx.problem(prim, f"{name}:indices", f"{int(bad.sum())} indices out of range [0, {len(values)})")
+            return None
+    if not np.all(np.isfinite(values)):
+        ctx.problem(prim, name, "values must be finite")
+        return None
+    zero = np.flatnonzero(np.linalg.norm(values, axis=1) == 0)
+    if zero.size:
+        ctx.problem(prim, name, f"{zero.size} zero-length normals, e.g. element {int(zero[0])}")
+        return None
+    # Element (vertex / corner / face / 0) of each triangle corner.
+    if interpolation in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
+        element = triangles
+    elif interpolation == UsdGeom.Tokens.faceVarying:
+        element = fv
+    elif interpolation == UsdGeom.Tokens.uniform:
+        element = np.repeat(face_of_tri[:, None], 3, axis=1)
+    else:
+        element = np.zeros_like(fv)
+    return values, (element_indices[element] if element_indices is not None else element)
+
+
+# -- tessellated primitives -----------------------------------------------------------------
+
+
+def _smooth_corner_normals(tm: trimesh.Trimesh, surface_normal) -> tuple[np.ndarray, np.ndarray]:
+    """Per-corner normals: ``surface_normal(points, face_normals)`` on curved faces, the face
+    normal on flat caps (faces whose normal is along the Z axis)."""
+    corners = tm.vertices[tm.faces].reshape(-1, 3)
+    face_n = np.repeat(tm.face_normals, 3, axis=0)
+    normals = surface_normal(corners, face_n)
+    cap = np.abs(face_n[:, 2]) > 1 - 1e-9  # flat discs of cylinder and cone
+    normals[cap] = face_n[cap]
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    return normals, np.arange(len(corners), dtype=np.int64).reshape(-1, 3)
+
+
+def _radial(points: np.ndarray, face_n: np.ndarray) -> np.ndarray:
+    """Unit radial direction in XY; at the axis (a cone's apex) the face normal's XY is used.
+    Corners of flat caps may get any value here: the caller replaces them by the face normal."""
+    xy = points[:, :2].copy()
+    on_axis = np.linalg.norm(xy, axis=1) < 1e-12
+    xy[on_axis] = face_n[on_axis, :2]
+    length = np.linalg.norm(xy, axis=1)
+    xy[length == 0] = (1.0, 0.0)
+    length[length == 0] = 1.0
+    return xy / length[:, None]
+
+
+def primitive(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial) -> TriangleMesh | None:
+    """Cube, Plane, Cylinder, Cone or Capsule → a tessellated world-space ``TriangleMesh``."""
+    type_name = prim.GetTypeName()
+    path = str(prim.GetPath())
+    n_problems = len(ctx.problems)
+    axis = ctx.get(prim, "axis", ("token",), "Z")
+    normals = None
+    if type_name == "Cube":
+        size = ctx.number(prim, "size", 2.0, minimum=0.0, strict=True)
+        tm = trimesh.creation.box(extents=(size, size, size))
+    elif type_name == "Plane":
+        width = ctx.number(prim, "width", 2.0, minimum=0.0, strict=True)
+        length = ctx.number(prim, "length", 2.0, minimum=0.0, strict=True)
+        # In the plane's Z-axis frame width runs along X and length along Y; for axis X the
+        # table is (width z, length y), for axis Y (width x, length z) — schema doc.
+        w, h = width / 2, length / 2
+        quad = np.array([[-w, -h, 0.0], [w, -h, 0.0], [w, h, 0.0], [-w, h, 0.0]])
+        if axis == "X":
+            quad = quad[:, [2, 1, 0]] * [1, 1, -1]  # normal +X: (0, y, z) with width along z
+        elif axis == "Y":
+            quad = quad[:, [0, 2, 1]] * [1, 1, -1]  # normal +Y: width along x, length along z
+        tm = trimesh.Trimesh(quad, [[0, 1, 2], [0, 2, 3]], process=False)
+        axis = "Z"  # already placed
+    else:
+        radius = ctx.number(prim, "radius", 1.0, minimum=0.0, strict=True)
+        height = ctx.number(prim, "height", 2.0 if type_name != "Capsule" else 1.0, minimum=0.0, strict=type_name != "Capsule")
+        if len(ctx.problems) > n_problems:
+            return None
+        if type_name == "Cylinder":
+            tm = trimesh.creation.cylinder(radius=radius, height=height, sections=SEGMENTS)
+            normals = _smooth_corner_normals(tm, lambda p, fn: np.column_stack([_radial(p, fn), np.zeros(len(p))]))
+        elif type_name == "Cone":
+            tm = trimesh.creation.cone(radius=radius, height=height, sections=SEGMENTS)
+            tm.apply_translation((0.0, 0.0, -height / 2))  # trimesh: base at z = 0; USD: centred
+            slope = np.hypot(height, radius)
+            normals = _smooth_corner_normals(
+                tm, lambda p, fn: np.column_stack([_radial(p, fn) * height / slope, np.full(len(p), radius / slope)])
+            )
+        else:  # Capsule: the normal points away from the nearest point of the spine segment
+            tm = trimesh.creation.capsule(height=height, radius=radius, count=[SEGMENTS, SEGMENTS // 2])
+            half = height / 2
+            normals = _smooth_corner_normals(tm, lambda p, fn: p - np.column_stack([np.zeros((len(p), 2)), np.clip(p[:, 2], -half, half)]))
+    if len(ctx.problems) > n_problems:
+        return None
+    if axis not in AXIS_FROM_Z:
+        ctx.problem(prim, "axis", f"must be X, Y or Z, got {axis!r}")
+        return None
+    placed = np.eye(4)
+    placed[:3, :3] = AXIS_FROM_Z[axis]
+    world = world @ placed
+    triangles = np.asarray(tm.faces, dtype=np.int64)
+    if normals is not None:
+        values, normal_indices = normals
+        if _winding_flipped(world):
+            triangles, normal_indices = triangles[:, [0, 2, 1]], normal_indices[:, [0, 2, 1]]
+        return TriangleMesh(
+            _to_world(np.asarray(tm.vertices), world), triangles, _normals_to_world(values, world), normal_indices, material, path
+        )
+    if _winding_flipped(world):
+        triangles = triangles[:, [0, 2, 1]]
+    return TriangleMesh(_to_world(np.asarray(tm.vertices), world), triangles, material=material, source=path)

@@ -1,0 +1,170 @@
+# SPDX-License-Identifier: Apache-2.0
+"""USD materials → ``PhongMaterial`` (DESIGN §3): our Phong shader exactly, a
+``UsdPreviewSurface`` approximately (usd-oiio-trimesh-notes §1c), else displayColor or grey."""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Sdr, Usd, UsdGeom, UsdShade
+
+from ..scene import DEFAULT_MATERIAL, PhongMaterial
+from .context import COLOR_TYPES, ReadContext
+from .shader_defs import PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID, phong_input_defaults
+
+PREVIEW_SHADER_ID = "UsdPreviewSurface"
+# Highest Phong exponent produced from a UsdPreviewSurface: roughness → 0 maps to a mirror-like
+# lobe (e → ∞); 1e4 is already a sub-pixel highlight at our resolutions.
+PREVIEW_MAX_EXPONENT = 1e4
+# Smallest roughness used in the mapping (keeps 2/α² finite); notes §1c.
+PREVIEW_MIN_ROUGHNESS = 1e-3
+PREVIEW_INPUTS = ("diffuseColor", "roughness", "metallic", "specularColor", "useSpecularWorkflow", "ior")
+
+
+def preview_to_phong(
+    diffuse_color,
+    roughness: float,
+    metallic: float = 0.0,
+    specular_color=(0.0, 0.0, 0.0),
+    use_specular_workflow: int = 0,
+    ior: float = 1.5,
+    source: str = "",
+) -> PhongMaterial:
+    """Approximate a UsdPreviewSurface by a Phong material (usd-oiio-trimesh-notes §1c).
+
+    roughness r → α = r² (UsdPreviewSurface), Blinn exponent n = 2/α² − 2 (Walter et al. 2007),
+    Phong exponent e ≈ n/4 (R·V ≈ cos 2θ_h). Metallic tints the specular colour and darkens the
+    diffuse one; the specular workflow uses ``specular_color`` directly. kd = 1 (the Lambert
+    BRDF cd/π). ka = 1: an untextured DomeLight of radiance La lights an unoccluded Lambert
+    surface with ∫ cd/π·La·cosθ dω = cd·La, which is exactly ka·cd·La with ka = 1.
+    """
+    cd = np.clip(np.asarray(diffuse_color, dtype=np.float64), 0.0, None)
+    alpha = max(float(roughness), PREVIEW_MIN_ROUGHNESS) ** 2
+    exponent = min(max((2.0 / alpha**2 - 2.0) / 4.0, 0.0), PREVIEW_MAX_EXPONENT)
+    if use_specular_workflow:
+        cs, kd_colour = np.clip(np.asarray(specular_color, dtype=np.float64), 0.0, None), cd
+    else:
+        m = float(np.clip(metallic, 0.0, 1.0))
+        f0 = ((1.0 - ior) / (1.0 + ior)) ** 2  # 0.04 at ior 1.5 (UsdPreviewSurface spec)
+        cs, kd_colour = (1.0 - m) * f0 + m * cd, cd * (1.0 - m)
+    ks = float(np.clip(cs.max(), 0.0, 1.0))
+    cs = cs / cs.max() if cs.max() > 0 else np.ones(3)
+    return PhongMaterial(
+        ka=1.0,
+        kd=1.0,
+        ks=ks,
+        exponent=float(exponent),
+        diffuse_color=tuple(float(c) for c in kd_colour),
+        specular_color=tuple(float(c) for c in cs),
+        source=source,
+    )
+
+
+class MaterialReader:
+    """Resolves the material of each gprim, caching by material prim."""
+
+    def __init__(self, ctx: ReadContext):
+        self.ctx = ctx
+        self.cache: dict[str, PhongMaterial] = {}
+        self.phong_defaults = phong_input_defaults()
+        preview = Sdr.Registry().GetShaderNodeByIdentifier(PREVIEW_SHADER_ID)
+        self.preview_defaults = {n: preview.GetShaderInput(n).GetDefaultValue() for n in PREVIEW_INPUTS}
+
+    def for_gprim(self, prim: Usd.Prim) -> PhongMaterial:
+        material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+        if not material:
+            return self._display_color(prim)
+        key = str(material.GetPath())
+        if key not in self.cache:
+            self.cache[key] = self._material(material)
+        return self.cache[key]
+
+    def _material(self, material: UsdShade.Material) -> PhongMaterial:
+        shader, _, _ = material.ComputeSurfaceSource(PHONG_RENDER_CONTEXT)
+        if not shader:
+            self.ctx.unsupported["materials without a surface shader (rendered grey)"].append(str(material.GetPath()))
+            return DEFAULT_MATERIAL
+        shader_id = shader.GetShaderId()
+        if shader_id == PHONG_SHADER_ID:
+            return self._phong(shader)
+        if shader_id == PREVIEW_SHADER_ID:
+            return self._preview(shader)
+        self.ctx.unsupported["unknown surface shaders (rendered grey)"].append(f"{shader.GetPath()} ({shader_id})")
+        return DEFAULT_MATERIAL
+
+    def _input_value(self, shader: UsdShade.Shader, name: str, default):
+        """An input's value: authored, through an interface connection, else ``default``.
+        A connection to another shader (a texture) is not evaluated: warn, use the input's own
+        value or default."""
+        inp = shader.GetInput(name)
+        if not inp:
+            return default
+        if inp.HasConnectedSource():
+            attrs = inp.GetValueProducingAttributes()
+            if attrs and UsdShade.Utils.GetType(attrs[0].GetName()) == UsdShade.AttributeType.Input:
+                value = attrs[0].Get(self.ctx.time)
+                return default if value is None else value
+            self.ctx.unsupported["texture-connected inputs (authored value or default used)"].append(
+                f"{shader.GetPath()}.inputs:{name}"
+            )
+        attr = inp.GetAttr()
+        if attr.HasAuthoredValue():
+            value = attr.Get(self.ctx.time)
+            return default if value is None else value
+        return default
+
+    def _phong(self, shader: UsdShade.Shader) -> PhongMaterial:
+        prim = shader.GetPrim()
+        values = {}
+        for name, (field, sdf_type) in PHONG_INPUTS.items():
+            default = self.phong_defaults[name]
+            inp = shader.GetInput(name)
+            if inp and inp.GetAttr().GetTypeName().type != sdf_type.type:
+                self.ctx.problem(prim, f"inputs:{name}", f"has type {inp.GetAttr().GetTypeName()}, expected {sdf_type}")
+                values[field] = default
+                continue
+            value = self._input_value(shader, name, default)
+            values[field] = tuple(float(c) for c in value) if isinstance(default, tuple) else float(value)
+        for inp in shader.GetInputs():
+            if inp.GetBaseName() not in PHONG_INPUTS:
+                self.ctx.problem(
+                    prim, f"inputs:{inp.GetBaseName()}", f"is not an input of {PHONG_SHADER_ID} (expected one of {', '.join(PHONG_INPUTS)})"
+                )
+        return PhongMaterial(source=str(prim.GetPath()), **values)
+
+    def _preview(self, shader: UsdShade.Shader) -> PhongMaterial:
+        prim = shader.GetPrim()
+        values = {}
+        for name in PREVIEW_INPUTS:
+            value = self._input_value(shader, name, self.preview_defaults[name])
+            arr = np.asarray(value, dtype=np.float64)
+            if not np.all(np.isfinite(arr)):
+                self.ctx.problem(prim, f"inputs:{name}", f"must be finite, got {value}")
+                value = self.preview_defaults[name]
+            values[name] = value
+        return preview_to_phong(
+            tuple(values["diffuseColor"]),
+            float(values["roughness"]),
+            float(values["metallic"]),
+            tuple(values["specularColor"]),
+            int(values["useSpecularWorkflow"]),
+            float(values["ior"]),
+            source=str(prim.GetPath()),
+        )
+
+    def _display_color(self, prim: Usd.Prim) -> PhongMaterial:
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor")
+        if not primvar or not primvar.HasAuthoredValue():
+            return DEFAULT_MATERIAL
+        if str(primvar.GetTypeName()) not in tuple(t + "[]" for t in COLOR_TYPES):
+            self.ctx.problem(prim, "primvars:displayColor", f"has type {primvar.GetTypeName()}, expected color3f[]")
+            return DEFAULT_MATERIAL
+        colors = np.asarray(primvar.ComputeFlattened(self.ctx.time), dtype=np.float64).reshape(-1, 3)
+        if len(colors) == 0:
+            return DEFAULT_MATERIAL
+        if len(colors) > 1 and primvar.GetInterpolation() != UsdGeom.Tokens.constant:
+            self.ctx.unsupported["non-constant displayColor (the mean colour is used)"].append(str(prim.GetPath()))
+        colour = tuple(float(c) for c in colors.mean(axis=0))
+        if not all(np.isfinite(colour)) or min(colour) < 0:
+            self.ctx.problem(prim, "primvars:displayColor", f"must be finite and >= 0, got {colour}")
+            return DEFAULT_MATERIAL
+        return PhongMaterial(diffuse_color=colour, source=str(prim.GetPath()))

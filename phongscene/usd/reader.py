@@ -1,0 +1,391 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Read a USD stage into a validated ``Scene`` (DESIGN §3).
+
+Every problem found (unreadable file, wrong types, NaN, out-of-range values and indices,
+unknown ``phong:`` attributes) is collected and raised as ONE ``SceneError``, each naming the
+file, the prim path and the attribute; then ``validate()`` runs on the result. Things the model
+cannot represent become warnings, one per kind, listing the prims.
+
+Lights: the model's light strength is ``ls·cl = intensity · 2^exposure · color`` (× the
+blackbody colour when ``enableColorTemperature``). ``inputs:normalize`` and any area factor are
+NOT applied (a warning lists lights with ``normalize = 1``), so a RectLight or SphereLight of
+intensity π lights like a point light of strength π at its centre (POV-Ray area-light
+semantics: shading from the centre, only shadows sampled).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from pxr import Tf, Usd, UsdGeom, UsdLux, UsdRender
+
+from ..errors import Problem, SceneError
+from ..scene import (
+    AmbientLight,
+    Camera,
+    DirectionalLight,
+    PointLight,
+    RectAreaLight,
+    RenderSettings,
+    Scene,
+    SphereAreaLight,
+    framing_camera,
+    head_light,
+)
+from ..validate import validate
+from . import geometry
+from .context import COLOR_TYPES, FLOAT_TYPES, INT_TYPES, STRING_TYPES, ReadContext, gf_to_numpy, unit
+from .materials import MaterialReader
+
+DEFAULT_SHADOW_SAMPLES = 9  # phong:shadowSamples on area lights: a 9×9 grid (2^3 + 1)
+# Orthographic width = horizontalAperture · this (apertures are tenths of a scene unit).
+APERTURE_UNIT = 0.1
+# Our attributes, by the prim types that may carry them. Anything else in `phong:` is an error.
+PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
+    "SphereLight": {"phong:shadowSamples": INT_TYPES, "phong:fadeDistance": FLOAT_TYPES, "phong:fadePower": FLOAT_TYPES},
+    "RectLight": {"phong:shadowSamples": INT_TYPES},
+    "RenderSettings": {
+        "phong:samples": INT_TYPES,
+        "phong:samplePattern": STRING_TYPES,
+        "phong:specularConvention": STRING_TYPES,
+        "phong:background": COLOR_TYPES,
+    },
+}
+_GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cone", "Capsule"}
+
+
+@dataclass
+class ReadResult:
+    """What ``read_usd`` found: the scene, the warnings, and which prim became which node."""
+
+    scene: Scene
+    warnings: list[str] = field(default_factory=list)
+    nodes: list[tuple[str, str]] = field(default_factory=list)  # (prim path, model node)
+
+
+def load_usd(source) -> Scene:
+    """Read a USD file (.usda/.usdc/.usdz) or an open ``Usd.Stage`` into a validated Scene.
+
+    Raises:
+        SceneError: listing every problem found, each with file, prim path and attribute.
+    """
+    return read_usd(source).scene
+
+
+def read_usd(source) -> ReadResult:
+    """Like ``load_usd`` but also returns the warnings and the prim → node mapping."""
+    stage, file = _open(source)
+    ctx = ReadContext(stage, file)
+    for error in stage.GetCompositionErrors():
+        site = getattr(error, "rootSite", None)
+        ctx.problem(str(site.path) if site is not None else "", "", str(error))
+    _check_phong_namespace(ctx)
+    settings, camera_prim = _render_settings(ctx)
+    camera, lights, ambient, spheres, meshes = None, [], [], [], []
+    materials = MaterialReader(ctx)
+
+    it = iter(Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
+    for prim in it:
+        if not _renderable(ctx, prim):
+            it.PruneChildren()
+            continue
+        if prim.IsA(UsdGeom.Camera):
+            if camera_prim is None:
+                camera_prim = prim
+        elif prim.HasAPI(UsdLux.LightAPI):
+            _light(ctx, prim, lights, ambient)
+        elif prim.IsA(UsdGeom.PointInstancer):
+            it.PruneChildren()
+            _instances(ctx, prim, ctx.world(prim), materials, spheres, meshes)
+        elif prim.IsA(UsdGeom.Gprim):
+            _gprim(ctx, prim, ctx.world(prim), materials, spheres, meshes)
+
+    if camera_prim is not None:
+        camera = _camera(ctx, camera_prim)
+    ambient_color = tuple(float(sum(a.color[i] for a in ambient)) for i in range(3)) if ambient else (0.0, 0.0, 0.0)
+    scene = Scene(
+        camera=camera or Camera(),
+        ambient=AmbientLight(ambient_color, ambient[0].source if len(ambient) == 1 else ""),
+        lights=tuple(lights),
+        spheres=tuple(spheres),
+        meshes=tuple(meshes),
+        settings=settings,
+        source_file=file,
+    )
+    if camera is None:
+        scene = replace(scene, camera=framing_camera(scene))
+        ctx.warn("no camera: using a default framing camera (phongscene.scene.framing_camera)")
+    if not lights:
+        scene = replace(scene, lights=(head_light(scene.camera),))
+        ctx.warn("no point, distant or area light: using a head light at the camera (phongscene.scene.head_light)")
+    ctx.flush_unsupported()
+
+    # Validation of the model; a problem the reader already reported is not repeated.
+    reported = {(p.prim, p.attribute) for p in ctx.problems}
+    problems = ctx.problems + [p for p in validate(scene) if (p.prim, p.attribute) not in reported]
+    if problems:
+        raise SceneError(problems)
+    return ReadResult(scene, ctx.warnings, ctx.nodes)
+
+
+def _open(source) -> tuple[Usd.Stage, str]:
+    if isinstance(source, Usd.Stage):
+        layer = source.GetRootLayer()
+        return source, layer.realPath or layer.identifier
+    path = os.fspath(source)
+    if not os.path.isfile(path):
+        raise SceneError(Problem("file not found" if not os.path.exists(path) else "not a file", file=path))
+    try:
+        stage = Usd.Stage.Open(path)
+    except Tf.ErrorException as e:
+        detail = str(e).strip().splitlines()
+        raise SceneError(Problem(f"cannot read USD: {detail[-1] if detail else e}", file=path)) from None
+    if stage is None:
+        raise SceneError(Problem("cannot read USD", file=path))
+    return stage, path
+
+
+def _renderable(ctx: ReadContext, prim: Usd.Prim) -> bool:
+    """Visibility and purpose: only visible prims of purpose default or render."""
+    img = UsdGeom.Imageable(prim)
+    if not img:
+        return True
+    if img.ComputeVisibility(ctx.time) == UsdGeom.Tokens.invisible:
+        return False
+    return img.ComputePurpose() in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)
+
+
+def _check_phong_namespace(ctx: ReadContext) -> None:
+    """Unknown attributes in our `phong:` namespace are errors (DESIGN §3)."""
+    predicate = Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)
+    for prim in Usd.PrimRange(ctx.stage.GetPseudoRoot(), predicate):
+        props = prim.GetAuthoredPropertiesInNamespace("phong")
+        if not props:
+            continue
+        allowed = PHONG_ATTRIBUTES.get(prim.GetTypeName(), {})
+        for prop in props:
+            name = prop.GetName()
+            if name not in allowed:
+                where = f"on a {prim.GetTypeName() or 'typeless prim'}"
+                known = f" (known here: {', '.join(allowed)})" if allowed else ""
+                ctx.problem(prim, name, f"unknown attribute in the phong: namespace {where}{known}")
+
+
+# -- render settings and camera -------------------------------------------------------------
+
+
+def _render_settings(ctx: ReadContext) -> tuple[RenderSettings, Usd.Prim | None]:
+    prim = UsdRender.Settings.GetStageRenderSettings(ctx.stage).GetPrim()
+    if not prim:
+        prim = next((p for p in ctx.stage.Traverse() if p.IsA(UsdRender.Settings)), None)
+    if not prim:
+        return RenderSettings(), None
+    defaults = RenderSettings()
+    values: dict = {"source": str(prim.GetPath())}
+    attr = prim.GetAttribute("resolution")
+    if attr and attr.HasAuthoredValue():
+        res = ctx.get(prim, "resolution", ("int2",))
+        if res is not None:
+            values["width"], values["height"] = int(res[0]), int(res[1])
+    samples = ctx.get(prim, "phong:samples", INT_TYPES)
+    if samples is not None:
+        values["samples"] = int(samples)
+    pattern = ctx.get(prim, "phong:samplePattern", STRING_TYPES)
+    if pattern is not None:
+        values["sample_pattern"] = str(pattern)
+    convention = ctx.get(prim, "phong:specularConvention", STRING_TYPES)
+    if convention is not None:
+        values["specular"] = str(convention)
+    if prim.GetAttribute("phong:background"):
+        values["background"] = ctx.color(prim, "phong:background", defaults.background)
+    camera = None
+    targets = UsdRender.Settings(prim).GetCameraRel().GetForwardedTargets()
+    if targets:
+        camera = ctx.stage.GetPrimAtPath(targets[0])
+        if not camera or not camera.IsA(UsdGeom.Camera):
+            ctx.problem(prim, "camera", f"must target a Camera prim, got {targets[0]}")
+            camera = None
+    ctx.nodes.append((str(prim.GetPath()), "RenderSettings"))
+    return RenderSettings(**values), camera
+
+
+def _camera(ctx: ReadContext, prim: Usd.Prim) -> Camera | None:
+    cam = UsdGeom.Camera(prim)
+    world = ctx.world(prim)
+    forward = unit(-world[:3, 2])
+    up = world[:3, 1]
+    if forward is not None:
+        d = float(forward @ up)
+        up = up - forward * d if abs(d) > 1e-12 else up  # Gram-Schmidt only when needed (exact re-reads)
+    up = unit(up)
+    if forward is None or up is None:
+        ctx.problem(prim, "xformOpOrder", "the camera transform is degenerate (no view or up direction)")
+        return None
+    projection = ctx.get(prim, "projection", ("token",), UsdGeom.Tokens.perspective)
+    aperture = ctx.number(prim, "horizontalAperture", 20.955, minimum=0.0, strict=True)
+    values = dict(
+        position=tuple(float(c) for c in world[:3, 3]),
+        forward=tuple(float(c) for c in forward),
+        up=tuple(float(c) for c in up),
+        source=str(prim.GetPath()),
+    )
+    if projection == UsdGeom.Tokens.orthographic:
+        camera = Camera(projection="orthographic", ortho_width=aperture * APERTURE_UNIT, **values)
+    elif projection == UsdGeom.Tokens.perspective:
+        focal = ctx.number(prim, "focalLength", 50.0, minimum=0.0, strict=True)
+        fov = 2.0 * math.degrees(math.atan(0.5 * aperture / focal)) if focal > 0 else 60.0
+        camera = Camera(horizontal_fov_deg=fov, **values)
+    else:
+        ctx.problem(prim, "projection", f"must be perspective or orthographic, got {projection!r}")
+        return None
+    for offset in ("horizontalApertureOffset", "verticalApertureOffset"):
+        if float(cam.GetPrim().GetAttribute(offset).Get(ctx.time) or 0.0) != 0.0:
+            ctx.unsupported["camera aperture offsets (ignored)"].append(f"{prim.GetPath()}.{offset}")
+    ctx.nodes.append((str(prim.GetPath()), f"Camera ({camera.projection})"))
+    return camera
+
+
+# -- lights ---------------------------------------------------------------------------------
+
+
+def _light_color(ctx: ReadContext, prim: Usd.Prim) -> tuple[float, float, float]:
+    """ls·cl = intensity · 2^exposure · color (× blackbody RGB when enabled)."""
+    api = UsdLux.LightAPI(prim)
+    intensity = ctx.number(prim, "inputs:intensity", 1.0, minimum=0.0)
+    exposure = ctx.number(prim, "inputs:exposure", 0.0)
+    color = np.asarray(ctx.color(prim, "inputs:color", (1.0, 1.0, 1.0)), dtype=np.float64)
+    if min(color) < 0:
+        ctx.problem(prim, "inputs:color", f"must be >= 0 in every channel, got {tuple(color)}")
+    if api.GetEnableColorTemperatureAttr().Get(ctx.time):
+        kelvin = ctx.number(prim, "inputs:colorTemperature", 6500.0, minimum=0.0, strict=True)
+        color = color * np.asarray(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
+    if api.GetNormalizeAttr().Get(ctx.time):
+        ctx.unsupported["lights with inputs:normalize = 1 (normalize is not applied in this model)"].append(str(prim.GetPath()))
+    scale = intensity * 2.0**exposure
+    return tuple(float(c) for c in (color * scale if scale != 1.0 else color))
+
+
+def _shadow_samples(ctx: ReadContext, prim: Usd.Prim) -> int:
+    return int(ctx.get(prim, "phong:shadowSamples", INT_TYPES, DEFAULT_SHADOW_SAMPLES))
+
+
+def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> None:
+    path = str(prim.GetPath())
+    world = ctx.world(prim)
+    centre = tuple(float(c) for c in world[:3, 3])
+    type_name = prim.GetTypeName()
+    if prim.IsA(UsdLux.DomeLight) or type_name == "DomeLight_1":
+        texture = prim.GetAttribute("inputs:texture:file")
+        if texture and texture.Get(ctx.time) and texture.Get(ctx.time).path:
+            ctx.unsupported["textured DomeLights (ignored)"].append(path)
+            return
+        ambient.append(AmbientLight(_light_color(ctx, prim), path))
+        ctx.nodes.append((path, "AmbientLight"))
+    elif prim.IsA(UsdLux.SphereLight):
+        radius = ctx.number(prim, "inputs:radius", 0.5, minimum=0.0)
+        point = bool(ctx.get(prim, "treatAsPoint", ("bool",), False)) or radius == 0
+        # The world radius: the light's transform scales its radius (mean axis scale).
+        radius_world = radius * float(np.mean(np.linalg.norm(world[:3, :3], axis=0)))
+        colour = _light_color(ctx, prim)
+        if point:
+            if prim.GetAttribute("phong:shadowSamples").HasAuthoredValue():
+                ctx.problem(prim, "phong:shadowSamples", "applies to area lights only (this SphereLight is a point light)")
+            fade_distance = ctx.number(prim, "phong:fadeDistance", 0.0)
+            fade_power = ctx.number(prim, "phong:fadePower", 0.0)
+            lights.append(PointLight(centre, colour, fade_distance, fade_power, path))
+            ctx.nodes.append((path, "PointLight"))
+        else:
+            for name in ("phong:fadeDistance", "phong:fadePower"):
+                if prim.GetAttribute(name).HasAuthoredValue():
+                    ctx.problem(prim, name, "applies to point lights only (treatAsPoint or radius 0)")
+            lights.append(SphereAreaLight(centre, radius_world, colour, _shadow_samples(ctx, prim), path))
+            ctx.nodes.append((path, "SphereAreaLight"))
+    elif prim.IsA(UsdLux.DistantLight):
+        direction = unit(world[:3, :3] @ np.array([0.0, 0.0, -1.0]))
+        if direction is None:
+            ctx.problem(prim, "xformOpOrder", "the light's transform is degenerate (no −Z direction)")
+            return
+        lights.append(DirectionalLight(tuple(float(c) for c in direction), _light_color(ctx, prim), path))
+        ctx.nodes.append((path, "DirectionalLight"))
+    elif prim.IsA(UsdLux.RectLight):
+        width = ctx.number(prim, "inputs:width", 1.0, minimum=0.0, strict=True)
+        height = ctx.number(prim, "inputs:height", 1.0, minimum=0.0, strict=True)
+        axis_u = world[:3, :3] @ np.array([width, 0.0, 0.0])
+        axis_v = world[:3, :3] @ np.array([0.0, height, 0.0])
+        lights.append(
+            RectAreaLight(
+                centre,
+                tuple(float(c) for c in axis_u),
+                tuple(float(c) for c in axis_v),
+                _light_color(ctx, prim),
+                _shadow_samples(ctx, prim),
+                path,
+            )
+        )
+        ctx.nodes.append((path, "RectAreaLight"))
+    else:
+        ctx.unsupported["unsupported lights (ignored)"].append(f"{path} ({type_name})")
+
+
+# -- geometry -------------------------------------------------------------------------------
+
+
+def _gprim(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, materials: MaterialReader, spheres: list, meshes: list) -> None:
+    type_name = prim.GetTypeName()
+    path = str(prim.GetPath())
+    if type_name not in _GEOMETRY_TYPES:
+        ctx.unsupported["unsupported geometry (ignored)"].append(f"{path} ({type_name})")
+        return
+    material = materials.for_gprim(prim)
+    if type_name == "Sphere":
+        spheres.append(geometry.sphere(ctx, prim, world, material))
+        ctx.nodes.append((path, "Sphere"))
+        return
+    build = geometry.mesh if type_name == "Mesh" else geometry.primitive
+    mesh = build(ctx, prim, world, material)
+    if mesh is not None:
+        meshes.append(mesh)
+        ctx.nodes.append((path, f"TriangleMesh ({len(mesh.triangles)} triangles)"))
+
+
+def _instances(ctx: ReadContext, instancer_prim: Usd.Prim, instancer_world: np.ndarray, materials, spheres, meshes) -> None:
+    """Expand a PointInstancer: each instance's prototype subtree, placed by the instance's
+    transform (which includes the prototype root's own transform) and the instancer's."""
+    instancer = UsdGeom.PointInstancer(instancer_prim)
+    prototypes = instancer.GetPrototypesRel().GetForwardedTargets()
+    proto_indices = instancer.GetProtoIndicesAttr().Get(ctx.time)
+    if proto_indices is None or not prototypes:
+        return
+    proto_indices = np.asarray(proto_indices, dtype=np.int64)
+    bad = (proto_indices < 0) | (proto_indices >= len(prototypes))
+    if bad.any():
+        ctx.problem(instancer_prim, "protoIndices", f"{int(bad.sum())} indices out of range [0, {len(prototypes)})")
+        return
+    transforms = instancer.ComputeInstanceTransformsAtTime(
+        ctx.time, ctx.time, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
+    )
+    mask = instancer.ComputeMaskAtTime(ctx.time)
+
+    for i, (proto_index, instance) in enumerate(zip(proto_indices, transforms)):
+        if mask and not mask[i]:
+            continue
+        proto = ctx.stage.GetPrimAtPath(prototypes[proto_index])
+        # instancer-world ← instance ← prototype-root-relative
+        placed = instancer_world @ gf_to_numpy(instance)
+        it = iter(Usd.PrimRange(proto, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
+        for prim in it:
+            if not _renderable(ctx, prim):
+                it.PruneChildren()
+                continue
+            relative, _ = ctx.xforms.ComputeRelativeTransform(prim, proto)
+            local = gf_to_numpy(relative) if prim != proto else np.eye(4)
+            if prim.IsA(UsdGeom.PointInstancer):
+                it.PruneChildren()
+                _instances(ctx, prim, placed @ local, materials, spheres, meshes)
+            elif prim.IsA(UsdGeom.Gprim):
+                _gprim(ctx, prim, placed @ local, materials, spheres, meshes)
+            elif prim.HasAPI(UsdLux.LightAPI):
+                ctx.unsupported["lights inside PointInstancer prototypes (ignored)"].append(str(prim.GetPath()))

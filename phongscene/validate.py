@@ -1,0 +1,316 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Validation of a ``Scene``: every problem at once, each naming prim, attribute and file.
+
+Backends assume a validated scene (their own checks are assertions). A node that came from USD
+(its ``source`` is a prim path) is reported with the USD attribute name (``inputs:ks``); a node
+built in Python with the model's field name (``ks``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from .errors import Problem, SceneError
+from .scene import (
+    AmbientLight,
+    Camera,
+    DirectionalLight,
+    PhongMaterial,
+    PointLight,
+    RectAreaLight,
+    RenderSettings,
+    Scene,
+    Sphere,
+    SphereAreaLight,
+    TriangleMesh,
+)
+
+# Unit vectors (camera axes, light directions, mesh normals) may be off unit length or
+# orthogonality by this much: USD stores normals as float32, whose rounding leaves |n| within
+# a few 1e-8 of 1; 1e-6 admits that with margin and still catches unnormalized input (>= 1e-3).
+UNIT_TOLERANCE = 1e-6
+# A sphere transform is singular when |det| of its 3x3 part is below this fraction of the
+# product of its column norms (i.e. the axes are (nearly) linearly dependent or one is zero).
+SINGULAR_RELATIVE_DET = 1e-12
+MAX_SAMPLES = 9  # anti-aliasing grid per axis (RenderSettings.samples)
+
+# Model field -> USD attribute, per node type, for nodes read from USD.
+_USD_NAMES: dict[type, dict[str, str]] = {
+    PhongMaterial: {
+        "ka": "inputs:ka",
+        "kd": "inputs:kd",
+        "ks": "inputs:ks",
+        "exponent": "inputs:exponent",
+        "diffuse_color": "inputs:diffuseColor",
+        "specular_color": "inputs:specularColor",
+    },
+    Camera: {
+        "position": "xformOp",
+        "forward": "xformOp",
+        "up": "xformOp",
+        "projection": "projection",
+        "horizontal_fov_deg": "horizontalAperture",
+        "ortho_width": "horizontalAperture",
+    },
+    AmbientLight: {"color": "inputs:color"},
+    PointLight: {
+        "position": "xformOp",
+        "color": "inputs:color",
+        "fade_distance": "phong:fadeDistance",
+        "fade_power": "phong:fadePower",
+    },
+    DirectionalLight: {"direction": "xformOp", "color": "inputs:color"},
+    RectAreaLight: {
+        "center": "xformOp",
+        "axis_u": "inputs:width",
+        "axis_v": "inputs:height",
+        "color": "inputs:color",
+        "samples": "phong:shadowSamples",
+    },
+    SphereAreaLight: {
+        "center": "xformOp",
+        "radius": "inputs:radius",
+        "color": "inputs:color",
+        "samples": "phong:shadowSamples",
+    },
+    Sphere: {"world_from_object": "radius"},
+    TriangleMesh: {
+        "points": "points",
+        "triangles": "faceVertexIndices",
+        "normals": "normals",
+        "normal_indices": "normals",
+    },
+    RenderSettings: {
+        "width": "resolution",
+        "height": "resolution",
+        "samples": "phong:samples",
+        "sample_pattern": "phong:samplePattern",
+        "specular": "phong:specularConvention",
+        "background": "phong:background",
+        "threads": "threads",
+    },
+}
+
+
+def _from_usd(source: str) -> bool:
+    return source.startswith("/")
+
+
+class _Collector:
+    def __init__(self, file: str):
+        self.file = file
+        self.problems: list[Problem] = []
+
+    def add(self, node, field: str, message: str) -> None:
+        source = getattr(node, "source", "")
+        attribute = _USD_NAMES.get(type(node), {}).get(field, field) if _from_usd(source) else field
+        self.problems.append(Problem(message, prim=source, attribute=attribute, file=self.file))
+
+    # -- generic checks --------------------------------------------------------------------
+
+    def finite(self, node, field: str, value) -> bool:
+        arr = np.asarray(value, dtype=np.float64)
+        if arr.size and not np.all(np.isfinite(arr)):
+            self.add(node, field, f"must be finite, got {_show(value)}")
+            return False
+        return True
+
+    def colour(self, node, field: str) -> None:
+        value = getattr(node, field)
+        if len(value) != 3:
+            self.add(node, field, f"must have 3 components, got {len(value)}")
+        elif self.finite(node, field, value) and min(value) < 0:
+            self.add(node, field, f"must be >= 0 in every channel, got {_show(value)}")
+
+    def vector(self, node, field: str, unit: bool) -> np.ndarray | None:
+        value = getattr(node, field)
+        if len(value) != 3:
+            self.add(node, field, f"must have 3 components, got {len(value)}")
+            return None
+        if not self.finite(node, field, value):
+            return None
+        v = np.asarray(value, dtype=np.float64)
+        length = float(np.linalg.norm(v))
+        if length == 0:
+            self.add(node, field, "must not be the zero vector")
+            return None
+        if unit and abs(length - 1) > UNIT_TOLERANCE:
+            self.add(node, field, f"must be a unit vector, got length {length:.9g}")
+            return None
+        return v
+
+    def unit_interval(self, node, field: str) -> None:
+        value = getattr(node, field)
+        if self.finite(node, field, value) and not 0 <= value <= 1:
+            self.add(node, field, f"must be in [0, 1], got {value!r}")
+
+    def samples_2k1(self, node) -> None:
+        n = node.samples
+        if not isinstance(n, (int, np.integer)) or n < 3 or (n - 1) & (n - 2):
+            self.add(node, "samples", f"must be 2^k + 1 with k >= 1 (3, 5, 9, 17, ...), got {n!r}")
+
+
+def _show(value) -> str:
+    if isinstance(value, (tuple, list)):
+        return "(" + ", ".join(f"{float(v):.9g}" for v in value) + ")"
+    if isinstance(value, np.ndarray):
+        return f"array of shape {value.shape}"
+    return repr(value)
+
+
+def validate(scene: Scene) -> list[Problem]:
+    """Every problem in ``scene``: ranges, non-finite numbers, degenerate vectors, indices.
+
+    Args:
+        scene: the scene to check.
+
+    Returns:
+        The problems found (empty when the scene is valid), each naming the node's prim
+        (``source``), the attribute and ``scene.source_file``.
+    """
+    c = _Collector(scene.source_file)
+    _check_camera(c, scene.camera)
+    _check_settings(c, scene.settings)
+    c.colour(scene.ambient, "color")
+    for light in scene.lights:
+        _check_light(c, light)
+    materials: list[PhongMaterial] = []
+    for sphere in scene.spheres:
+        _check_sphere(c, sphere)
+        materials.append(sphere.material)
+    for mesh in scene.meshes:
+        _check_mesh(c, mesh)
+        materials.append(mesh.material)
+    for material in _unique(materials):
+        _check_material(c, material)
+    return c.problems
+
+
+def check(scene: Scene) -> Scene:
+    """Raise one ``SceneError`` listing every problem in ``scene``; return it when valid."""
+    problems = validate(scene)
+    if problems:
+        raise SceneError(problems)
+    return scene
+
+
+def _unique(materials: Iterable[PhongMaterial]) -> list[PhongMaterial]:
+    # Shared materials are reported once. Equality (not identity): frozen dataclasses.
+    seen: list[PhongMaterial] = []
+    for m in materials:
+        if not any(m is s or m == s for s in seen):
+            seen.append(m)
+    return seen
+
+
+def _check_material(c: _Collector, m: PhongMaterial) -> None:
+    for field in ("ka", "kd", "ks"):
+        c.unit_interval(m, field)
+    if c.finite(m, "exponent", m.exponent) and m.exponent < 0:
+        c.add(m, "exponent", f"must be >= 0, got {m.exponent!r}")
+    c.colour(m, "diffuse_color")
+    c.colour(m, "specular_color")
+
+
+def _check_camera(c: _Collector, cam: Camera) -> None:
+    c.finite(cam, "position", cam.position)
+    forward = c.vector(cam, "forward", unit=True)
+    up = c.vector(cam, "up", unit=True)
+    if forward is not None and up is not None and abs(float(forward @ up)) > UNIT_TOLERANCE:
+        c.add(cam, "up", f"must be orthogonal to forward, got forward·up = {float(forward @ up):.9g}")
+    if cam.projection == "perspective":
+        fov = cam.horizontal_fov_deg
+        if c.finite(cam, "horizontal_fov_deg", fov) and not 0 < fov < 180:
+            c.add(cam, "horizontal_fov_deg", f"must be in (0, 180) degrees, got {fov!r}")
+    elif cam.projection == "orthographic":
+        if c.finite(cam, "ortho_width", cam.ortho_width) and cam.ortho_width <= 0:
+            c.add(cam, "ortho_width", f"must be > 0, got {cam.ortho_width!r}")
+    else:
+        c.add(cam, "projection", f"must be 'perspective' or 'orthographic', got {cam.projection!r}")
+
+
+def _check_settings(c: _Collector, s: RenderSettings) -> None:
+    for field in ("width", "height"):
+        value = getattr(s, field)
+        if not isinstance(value, (int, np.integer)) or value < 1:
+            c.add(s, field, f"must be an integer >= 1, got {value!r}")
+    if not isinstance(s.samples, (int, np.integer)) or not 1 <= s.samples <= MAX_SAMPLES:
+        c.add(s, "samples", f"must be an integer in 1..{MAX_SAMPLES}, got {s.samples!r}")
+    if s.sample_pattern not in ("grid", "povray-am1"):
+        c.add(s, "sample_pattern", f"must be 'grid' or 'povray-am1', got {s.sample_pattern!r}")
+    if s.specular not in ("seed", "povray-classic"):
+        c.add(s, "specular", f"must be 'seed' or 'povray-classic', got {s.specular!r}")
+    if not isinstance(s.threads, (int, np.integer)) or s.threads < 0:
+        c.add(s, "threads", f"must be an integer >= 0, got {s.threads!r}")
+    c.colour(s, "background")
+
+
+def _check_light(c: _Collector, light) -> None:
+    c.colour(light, "color")
+    if isinstance(light, PointLight):
+        c.finite(light, "position", light.position)
+        fd_ok = c.finite(light, "fade_distance", light.fade_distance)
+        if c.finite(light, "fade_power", light.fade_power):
+            if light.fade_power < 0:
+                c.add(light, "fade_power", f"must be >= 0, got {light.fade_power!r}")
+            elif light.fade_power > 0 and fd_ok and light.fade_distance <= 0:
+                c.add(light, "fade_distance", f"must be > 0 when fade_power > 0, got {light.fade_distance!r}")
+    elif isinstance(light, DirectionalLight):
+        c.vector(light, "direction", unit=True)
+    elif isinstance(light, RectAreaLight):
+        c.finite(light, "center", light.center)
+        u = c.vector(light, "axis_u", unit=False)
+        v = c.vector(light, "axis_v", unit=False)
+        if u is not None and v is not None:
+            cross = float(np.linalg.norm(np.cross(u, v)))
+            if cross <= SINGULAR_RELATIVE_DET * float(np.linalg.norm(u) * np.linalg.norm(v)):
+                c.add(light, "axis_v", "must not be parallel to axis_u (the rectangle has no area)")
+        c.samples_2k1(light)
+    elif isinstance(light, SphereAreaLight):
+        c.finite(light, "center", light.center)
+        if c.finite(light, "radius", light.radius) and light.radius <= 0:
+            c.add(light, "radius", f"must be > 0, got {light.radius!r}")
+        c.samples_2k1(light)
+    else:
+        c.add(light, "lights", f"unknown light type {type(light).__name__}")
+
+
+def _check_sphere(c: _Collector, s: Sphere) -> None:
+    m = s.world_from_object
+    if not c.finite(s, "world_from_object", m):
+        return
+    if not np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0]):
+        c.add(s, "world_from_object", f"must be affine (last row 0 0 0 1), got {_show(tuple(m[3]))}")
+    a = m[:3, :3]
+    scale = float(np.prod(np.linalg.norm(a, axis=0)))
+    if scale == 0 or abs(float(np.linalg.det(a))) <= SINGULAR_RELATIVE_DET * scale:
+        c.add(s, "world_from_object", "is singular (zero radius or a zero/degenerate scale)")
+
+
+def _check_mesh(c: _Collector, mesh: TriangleMesh) -> None:
+    c.finite(mesh, "points", mesh.points)
+    n_points = len(mesh.points)
+    tri = mesh.triangles
+    if tri.size and (tri.min() < 0 or tri.max() >= n_points):
+        bad = int(np.count_nonzero((tri < 0) | (tri >= n_points)))
+        c.add(mesh, "triangles", f"{bad} indices out of range [0, {n_points}), e.g. {int(tri[(tri < 0) | (tri >= n_points)][0])}")
+    if mesh.normals is None:
+        return
+    if c.finite(mesh, "normals", mesh.normals):
+        lengths = np.linalg.norm(mesh.normals, axis=1)
+        zero = np.flatnonzero(lengths == 0)
+        if zero.size:
+            c.add(mesh, "normals", f"{zero.size} zero-length normals, e.g. row {int(zero[0])}")
+        else:
+            off = np.flatnonzero(np.abs(lengths - 1) > UNIT_TOLERANCE)
+            if off.size:
+                c.add(mesh, "normals", f"{off.size} normals are not unit length, e.g. row {int(off[0])}: {lengths[off[0]]:.9g}")
+    ni = mesh.normal_indices
+    if ni.shape != tri.shape:
+        c.add(mesh, "normal_indices", f"must have one row per triangle ({tri.shape}), got {ni.shape}")
+    k = len(mesh.normals)
+    if ni.size and (ni.min() < 0 or ni.max() >= k):
+        bad = int(np.count_nonzero((ni < 0) | (ni >= k)))
+        c.add(mesh, "normal_indices", f"{bad} indices out of range [0, {k})")
