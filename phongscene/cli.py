@@ -22,7 +22,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"phongscene {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     # Each subcommand registers itself here: add_parser(...).set_defaults(func=...).
-    del sub
+    from .diff import add_compare_command, add_diff_command
+
+    add_diff_command(sub)
+    add_compare_command(sub)
     return parser
 
 

@@ -1,0 +1,77 @@
+# SPDX-License-Identifier: Apache-2.0
+"""One entry point for both backends: ``render(scene, backend=...)`` returns the common image
+(linear float32 (H, W, 3), row 0 at the top). Backends are imported on first use, so that
+``import phongscene`` stays light and a missing backend fails only when asked for."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Callable, Literal
+
+import numpy as np
+
+from .errors import BackendError
+from .scene import RenderSettings, Scene
+
+Backend = Literal["native", "povray"]
+BACKENDS: tuple[str, ...] = ("native", "povray")
+Mapping = Literal["exact", "classic"]
+# POV-Ray mapping ↔ the native specular convention it reproduces (DESIGN §4).
+SPECULAR_OF_MAPPING: dict[str, str] = {"exact": "seed", "classic": "povray-classic"}
+MAPPING_OF_SPECULAR: dict[str, str] = {v: k for k, v in SPECULAR_OF_MAPPING.items()}
+
+
+def settings_for(scene: Scene, settings: RenderSettings | None = None, *, mapping: str | None = None) -> RenderSettings:
+    """The settings to render with: ``settings`` (default: the scene's), with the specular
+    convention set by ``mapping`` when one is given."""
+    settings = scene.settings if settings is None else settings
+    if mapping is not None:
+        if mapping not in SPECULAR_OF_MAPPING:
+            raise ValueError(f"unknown POV-Ray mapping {mapping!r}; expected one of {', '.join(SPECULAR_OF_MAPPING)}")
+        settings = replace(settings, specular=SPECULAR_OF_MAPPING[mapping])
+    return settings
+
+
+def render(
+    scene: Scene,
+    backend: Backend = "native",
+    settings: RenderSettings | None = None,
+    *,
+    mapping: Mapping | None = None,
+    progress: Callable | None = None,
+    timeout: float | None = None,
+) -> np.ndarray:
+    """Render ``scene`` with one backend.
+
+    Args:
+        scene: a validated scene (``phongscene.load_usd`` or built in Python).
+        backend: "native" (the C++ tracer) or "povray".
+        settings: render settings; default ``scene.settings``.
+        mapping: POV-Ray mapping, "exact" (native convention "seed") or "classic" (native
+            "povray-classic"); it sets ``settings.specular`` for either backend. Default: the
+            one that matches ``settings.specular``.
+        progress: called with the backend's progress reports.
+        timeout: POV-Ray only: seconds before the render is abandoned.
+
+    Returns:
+        Linear float32 image (H, W, 3), row 0 at the top.
+
+    Raises:
+        BackendError: the backend is unavailable or failed.
+    """
+    settings = settings_for(scene, settings, mapping=mapping)
+    if backend == "native":
+        try:
+            from .backends import native
+        except ImportError as e:
+            raise BackendError(f"the native backend is not available: {e}") from e
+        return native.render(scene, settings, progress=progress)
+    if backend == "povray":
+        try:
+            from .backends import povray
+        except ImportError as e:
+            raise BackendError(f"the POV-Ray backend is not available: {e}") from e
+        return povray.render(
+            scene, settings, mapping=MAPPING_OF_SPECULAR[settings.specular], progress=progress, timeout=timeout
+        )
+    raise ValueError(f"unknown backend {backend!r}; expected one of {', '.join(BACKENDS)}")
