@@ -37,6 +37,7 @@ class DiffResult:
     native: np.ndarray
     settings: RenderSettings  # what both backends rendered with
     mapping: str
+    warnings: list[str]  # the USD reader's warnings (things the model cannot represent)
 
     @property
     def ok(self) -> bool:
@@ -81,13 +82,15 @@ class ProgressBar:
         self.stream.flush()
 
 
-def load_scene(scene_or_path: Scene | str | os.PathLike) -> Scene:
-    """A Scene as given, or read from a USD file (raises SceneError for a bad file)."""
+def load_scene(scene_or_path: Scene | str | os.PathLike) -> tuple[Scene, list[str]]:
+    """A Scene as given, or read from a USD file, with the reader's warnings (raises
+    SceneError for a bad file)."""
     if isinstance(scene_or_path, Scene):
-        return scene_or_path
-    from . import load_usd  # lazily: the USD reader imports pxr
+        return scene_or_path, []
+    from .usd import read_usd  # lazily: the USD reader imports pxr
 
-    return load_usd(os.fspath(scene_or_path))
+    result = read_usd(os.fspath(scene_or_path))
+    return result.scene, list(result.warnings)
 
 
 def diff_settings(
@@ -146,7 +149,10 @@ def diff(
     """
     if mapping not in SPECULAR_OF_MAPPING:
         raise ValueError(f"unknown mapping {mapping!r}; expected one of {', '.join(SPECULAR_OF_MAPPING)}")
-    scene = load_scene(scene_or_path)
+    scene, warnings = load_scene(scene_or_path)
+    if progress is not None:
+        for w in warnings:
+            progress.write(f"warning: {w}\n")
     settings = diff_settings(scene, mapping, width=width, height=height, samples=samples, threads=threads)
 
     images, timings = {}, {}
@@ -180,10 +186,11 @@ def diff(
                 "mapping": mapping,
                 "native_specular": settings.specular,
                 "settings": _settings_dict(settings),
+                "scene_warnings": warnings,
             },
         )
         written = index.parent
-    return DiffResult(report, written, timings, images["povray"], images["native"], settings, mapping)
+    return DiffResult(report, written, timings, images["povray"], images["native"], settings, mapping, warnings)
 
 
 def _settings_dict(settings: RenderSettings) -> dict:
