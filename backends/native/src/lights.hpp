@@ -1,0 +1,129 @@
+// SPDX-License-Identifier: Apache-2.0
+// Lights with POV-Ray 3.7's semantics (reference §5; trace.cpp ComputeOneWhiteLightRay,
+// TraceAreaLightShadowRay, TraceAreaLightSubsetShadowRay): shading always uses the direction
+// to the light's centre; area lights only change the shadow fraction, computed over a
+// samples x samples grid (edges included) with the weights of POV-Ray's full 4-corner
+// subdivision, which for samples = 2^k + 1 are the trapezoid weights (1/2, 1, ..., 1, 1/2)/(n-1)
+// per axis.
+#pragma once
+
+#include <cmath>
+#include <variant>
+
+#include "math.hpp"
+
+namespace phong {
+
+struct PointLight {
+    Vec3 position;
+    RGB color;
+    double fade_distance;  // used only when fade_power > 0
+    double fade_power;     // 0: no fade
+};
+
+struct DirectionalLight {
+    Vec3 to_light;  // unit, opposite to the direction the light travels
+    RGB color;
+};
+
+struct RectAreaLight {
+    Vec3 center, axis_u, axis_v;  // full edge vectors
+    RGB color;
+    int samples;  // per axis, 2^k + 1
+};
+
+// POV-Ray's `area_light <2r,0,0>, <0,2r,0>, n, n circular orient`.
+struct SphereAreaLight {
+    Vec3 center;
+    double radius;
+    RGB color;
+    int samples;
+};
+
+using Light = std::variant<PointLight, DirectionalLight, RectAreaLight, SphereAreaLight>;
+
+// The light as seen from a point, computed from its centre: unit direction l, distance (inf
+// for a directional light) and colour (with POV-Ray's fade where asked for).
+struct LightSample {
+    Vec3 l;
+    double distance;
+    RGB color;
+};
+
+namespace detail {
+inline LightSample toward(const Vec3& target, const Vec3& p, const RGB& color) {
+    const Vec3 v = target - p;
+    const double d = length(v);
+    return {v / d, d, color};
+}
+
+// Trapezoid weight of grid index i of n (n >= 2).
+inline double trapezoid_weight(int i, int n) { return (i == 0 || i == n - 1 ? 0.5 : 1.0) / (n - 1); }
+}  // namespace detail
+
+inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
+    return std::visit(
+        [&](const auto& L) -> LightSample {
+            using T = std::decay_t<decltype(L)>;
+            if constexpr (std::is_same_v<T, PointLight>) {
+                LightSample s = detail::toward(L.position, p, L.color);
+                if (L.fade_power > 0.0)  // POV-Ray: 2 / (1 + (d / fade_distance)^fade_power)
+                    s.color = s.color * (2.0 / (1.0 + std::pow(s.distance / L.fade_distance, L.fade_power)));
+                return s;
+            } else if constexpr (std::is_same_v<T, DirectionalLight>) {
+                return {L.to_light, HUGE_VAL, L.color};
+            } else {
+                return detail::toward(L.center, p, L.color);
+            }
+        },
+        light);
+}
+
+// The unshadowed fraction of the light at p, in [0, 1]. `occluded(dir, distance)` traces one
+// shadow ray from p (unit dir; distance to the light sample, inf for directional lights).
+template <class Occluded>
+double visible_fraction(const Light& light, const Vec3& p, const LightSample& centre, Occluded&& occluded) {
+    auto grid = [&](int n, const Vec3& c, const Vec3& a1, const Vec3& a2, bool circular) {
+        double visible = 0.0;
+        for (int a = 0; a < n; ++a) {
+            for (int b = 0; b < n; ++b) {
+                double ju = double(a) / (n - 1) - 0.5, jv = double(b) / (n - 1) - 0.5;
+                if (circular) {
+                    // Map the square onto the disc (POV-Ray's shells: |(ju, jv)| -> max(|ju|, |jv|)).
+                    ju += kCircularAreaLightNudge;
+                    jv += kCircularAreaLightNudge;
+                    const double scale = std::fmax(std::fabs(ju), std::fabs(jv)) / std::sqrt(ju * ju + jv * jv);
+                    ju *= scale;
+                    jv *= scale;
+                }
+                const Vec3 target = c + a1 * ju + a2 * jv;
+                const Vec3 v = target - p;
+                const double d = length(v);
+                if (!occluded(v / d, d)) visible += detail::trapezoid_weight(a, n) * detail::trapezoid_weight(b, n);
+            }
+        }
+        return visible;
+    };
+    return std::visit(
+        [&](const auto& L) -> double {
+            using T = std::decay_t<decltype(L)>;
+            if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
+                return occluded(centre.l, centre.distance) ? 0.0 : 1.0;
+            } else if constexpr (std::is_same_v<T, RectAreaLight>) {
+                return grid(L.samples, L.center, L.axis_u, L.axis_v, false);
+            } else {
+                // `orient`: the disc faces p. Axis 1 is perpendicular to l and a helper axis
+                // (z, or y when l is nearly vertical), axis 2 to l and axis 1; both of length 2r.
+                const Vec3& l = centre.l;
+                const Vec3 helper = std::fabs(std::fabs(l.z) - 1.0) < kOrientVerticalTolerance ? Vec3{0, 1, 0}
+                                                                                                  : Vec3{0, 0, 1};
+                const Vec3 a1 = normalize(cross(l, helper));
+                const Vec3 a2 = normalize(cross(l, a1));
+                const double size = 2.0 * L.radius;
+                return grid(L.samples, L.center, a1 * size, a2 * size, true);
+            }
+        },
+        light);
+}
+
+}  // namespace phong

@@ -1,0 +1,56 @@
+// SPDX-License-Identifier: Apache-2.0
+// The Phong material and shade_phong(): the one shading equation, in the symbols of the seed
+// (Suffern, lecture 10; DESIGN §2), in both specular conventions.
+//
+//   L = ka·cd·La + Σ_j light_j                                     (ambient_term + shade_phong)
+//   seed:            light_j = [kd·cd/π + ks·cs·max(0, r_j·wo)^e] · Lj · (n·l_j)
+//   povray-classic:  light_j = kd·cd/π·(n·l_j)·Lj + ks·(r·l_j)^e·Lj   (r·l_j > 0)
+//
+// r_j = 2(n·l_j)n − l_j for the seed; POV-Ray reflects the view instead, r = d − 2(d·n)n with
+// d = −wo, and dots it with l (the same number in exact arithmetic; computed POV's way here so
+// the classic convention follows POV-Ray's rounding). Both are evaluated only where
+// n·l_j >= kMinCosineToLight and the light is not (fully) shadowed; n faces the viewer.
+#pragma once
+
+#include <cmath>
+
+#include "math.hpp"
+
+namespace phong {
+
+struct Material {
+    double ka, kd, ks, exponent;
+    RGB diffuse_color;   // cd
+    RGB specular_color;  // cs
+};
+
+enum class SpecularConvention { kSeed, kPovrayClassic };
+
+inline RGB ambient_term(const Material& m, const RGB& ambient_light) {
+    return hadamard(m.diffuse_color, ambient_light) * m.ka;
+}
+
+// The contribution of one light of (shadow-attenuated) colour `light` arriving from unit
+// direction l, at a point with viewer-facing unit normal n seen from unit direction wo.
+inline RGB shade_phong(const Material& m, SpecularConvention convention, const Vec3& n, const Vec3& wo,
+                       const Vec3& l, double n_dot_l, const RGB& light) {
+    const RGB diffuse = m.diffuse_color * (m.kd / kPi);
+    if (convention == SpecularConvention::kSeed) {
+        const Vec3 r = n * (2.0 * n_dot_l) - l;
+        const double r_dot_wo = dot(r, wo);
+        // GlossySpecular: zero when r·wo <= 0, also for e = 0.
+        const RGB specular = r_dot_wo > 0.0 ? m.specular_color * (m.ks * std::pow(r_dot_wo, m.exponent)) : RGB{};
+        return hadamard(diffuse + specular, light) * n_dot_l;
+    }
+    RGB out = hadamard(diffuse, light) * n_dot_l;
+    const Vec3 d = -wo;
+    const Vec3 r = d - n * (2.0 * dot(d, n));
+    const double r_dot_l = dot(r, l);
+    if (m.ks > 0.0 && r_dot_l > 0.0) {
+        const bool cut = m.exponent >= kClassicPhongCutoffExponent && r_dot_l <= kClassicPhongCutoffCosine;
+        if (!cut) out += light * (m.ks * std::pow(r_dot_l, m.exponent));
+    }
+    return out;
+}
+
+}  // namespace phong

@@ -1,0 +1,41 @@
+// SPDX-License-Identifier: Apache-2.0
+// Rendering: primary rays per pixel (POV-Ray's sample patterns), direct Phong lighting with
+// hard and area-light shadows, on a pool of worker threads over image tiles.
+#pragma once
+
+#include <functional>
+
+#include "camera.hpp"
+#include "materials.hpp"
+#include "scene.hpp"
+
+namespace phong {
+
+enum class SamplePattern {
+    kGrid,       // n x n cell-centred grid, plain mean
+    kPovrayAm1,  // POV-Ray +AM1 +A0.0 +R n -J: (centre + n x n grid) / (n^2 + 1)
+};
+
+struct RenderSettings {
+    int width = 1, height = 1;
+    int samples = 1;  // per axis
+    SamplePattern pattern = SamplePattern::kGrid;
+    int threads = 0;  // 0: all hardware threads
+    RGB background;
+    SpecularConvention convention = SpecularConvention::kSeed;
+};
+
+// Called on the rendering (calling) thread about every kPollInterval with (tiles done, tiles
+// total); returning false cancels the render (workers stop at their next tile).
+using PollFn = std::function<bool(int, int)>;
+
+// Renders into `pixels` (height x width x 3 floats, row 0 at the top). Returns false when
+// cancelled by `poll`. The image is identical for every thread count: each pixel depends only
+// on its own rays.
+bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,
+                  const PollFn& poll);
+
+// The colour seen along one primary ray (exposed for tests and the pixel loop).
+RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, double magnitude);
+
+}  // namespace phong

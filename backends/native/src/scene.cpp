@@ -1,0 +1,212 @@
+// SPDX-License-Identifier: Apache-2.0
+// Scene construction from flat arrays and the BVH queries.
+#include "scene.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace phong {
+
+namespace {
+
+Vec3 row3(const double* p) { return {p[0], p[1], p[2]}; }
+
+void check_index(int64_t i, size_t count, const char* what) {
+    if (i < 0 || size_t(i) >= count)
+        throw std::invalid_argument(std::string(what) + " index " + std::to_string(i) + " out of range [0, " +
+                                    std::to_string(count) + ")");
+}
+
+Light make_light(const double* r) {
+    const RGB color = row3(r + 7);
+    switch (int(r[0])) {
+        case kPointLight: return PointLight{row3(r + 1), color, r[10], r[11]};
+        case kDirectionalLight: return DirectionalLight{-normalize(row3(r + 4)), color};
+        case kRectAreaLight: return RectAreaLight{row3(r + 1), row3(r + 12), row3(r + 15), color, int(r[19])};
+        case kSphereAreaLight: return SphereAreaLight{row3(r + 1), r[18], color, int(r[19])};
+    }
+    throw std::invalid_argument("unknown light kind " + std::to_string(r[0]));
+}
+
+}  // namespace
+
+Scene::Scene(const SceneArrays& in) : ambient(in.ambient) {
+    for (size_t i = 0; i < in.material_count; ++i) {
+        const double* r = in.materials + i * kMaterialColumns;
+        materials.push_back({r[0], r[1], r[2], r[3], row3(r + 4), row3(r + 7)});
+    }
+    for (size_t i = 0; i < in.light_count; ++i) {
+        const double* r = in.lights + i * kLightColumns;
+        if (int(r[0]) >= kRectAreaLight && !(r[19] >= 2.0))
+            throw std::invalid_argument("area light samples must be >= 2");
+        lights.push_back(make_light(r));
+    }
+    for (size_t i = 0; i < in.normal_count; ++i) normals.push_back(row3(in.normals + 3 * i));
+
+    const size_t n_spheres = in.sphere_count, n_triangles = in.triangle_count;
+    std::vector<Bounds> prim_bounds(n_spheres + n_triangles);
+    spheres.resize(n_spheres);
+    for (size_t i = 0; i < n_spheres; ++i) {
+        const double* w = in.sphere_world_from_object + 16 * i;
+        const double* o = in.sphere_object_from_world + 16 * i;
+        SphereShape& s = spheres[i];
+        for (int k = 0; k < 12; ++k) s.object_from_world.m[k] = o[k];
+        check_index(in.sphere_material[i], materials.size(), "sphere material");
+        s.material = in.sphere_material[i];
+        // Exact AABB of an affine image of the unit sphere: centre ± the row norms.
+        const Vec3 c{w[3], w[7], w[11]};
+        const Vec3 r{length(row3(w)), length(row3(w + 4)), length(row3(w + 8))};
+        s.bounds_lo = c - r;
+        s.bounds_hi = c + r;
+        prim_bounds[i].lo = s.bounds_lo;
+        prim_bounds[i].hi = s.bounds_hi;
+    }
+    for (size_t i = 0; i < n_triangles; ++i) {
+        const int32_t* t = in.triangles + 3 * i;
+        Bounds& b = prim_bounds[n_spheres + i];
+        for (int k = 0; k < 3; ++k) {
+            check_index(t[k], in.point_count, "triangle vertex");
+            b.grow(row3(in.points + 3 * size_t(t[k])));
+        }
+        check_index(in.triangle_material[i], materials.size(), "triangle material");
+        if (in.normal_indices) {
+            const int32_t* n = in.normal_indices + 3 * i;
+            if (n[0] >= 0 || n[1] >= 0 || n[2] >= 0)
+                for (int k = 0; k < 3; ++k) check_index(n[k], normals.size(), "normal");
+        }
+    }
+
+    bvh_.build(prim_bounds);
+
+    // Primitive refs and triangle data in leaf order, so leaves read memory sequentially.
+    Bounds all;
+    for (const Bounds& b : prim_bounds) all.grow(b);
+    magnitude = all.empty() ? 0.0 : std::fmax(max_abs_component(all.lo), max_abs_component(all.hi));
+    refs_.reserve(bvh_.order.size());
+    triangles.reserve(n_triangles);
+    triangle_shading.reserve(n_triangles);
+    triangle_source.reserve(n_triangles);
+    for (uint32_t id : bvh_.order) {
+        if (id < n_spheres) {
+            refs_.push_back(~int32_t(id));
+            continue;
+        }
+        const size_t i = id - n_spheres;
+        const int32_t* t = in.triangles + 3 * i;
+        refs_.push_back(int32_t(triangles.size()));
+        triangles.push_back({row3(in.points + 3 * size_t(t[0])), row3(in.points + 3 * size_t(t[1])),
+                             row3(in.points + 3 * size_t(t[2]))});
+        TriangleShading sh{-1, -1, -1, in.triangle_material[i]};
+        if (in.normal_indices && in.normal_indices[3 * i] >= 0) {
+            sh.n0 = in.normal_indices[3 * i];
+            sh.n1 = in.normal_indices[3 * i + 1];
+            sh.n2 = in.normal_indices[3 * i + 2];
+        }
+        triangle_shading.push_back(sh);
+        triangle_source.push_back(uint32_t(i));
+    }
+    bvh_.order.clear();
+    bvh_.order.shrink_to_fit();
+}
+
+int64_t Scene::primitive_id(int32_t ref) const {
+    if (ref < 0) return int64_t(~ref);
+    return int64_t(spheres.size()) + triangle_source[size_t(ref)];
+}
+
+namespace {
+
+// Walks the BVH; `leaf(first, count, t_max)` tests a leaf's primitives and returns true to
+// stop the walk (any-hit). t_max shrinks as closer hits are found.
+template <class LeafFn>
+void traverse(const std::vector<BvhNode>& nodes, const Ray& ray, double t_min, double& t_max, LeafFn&& leaf) {
+    if (nodes.empty()) return;
+    const Vec3 inv{1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z};
+    const bool negative[3] = {ray.dir.x < 0.0, ray.dir.y < 0.0, ray.dir.z < 0.0};
+    int32_t stack[kMaxTraversalDepth];
+    int sp = 0;
+    int32_t index = 0;
+    while (true) {
+        const BvhNode& node = nodes[size_t(index)];
+        double t_entry;
+        if (hit_node(node, ray.origin, inv, t_min, t_max, t_entry)) {
+            if (node.count > 0) {
+                if (leaf(node.offset, node.count, t_max)) return;
+            } else {
+                // Near child first: the first child holds the lower half along the split axis.
+                int32_t first = index + 1, second = node.offset;
+                if (negative[node.axis]) std::swap(first, second);
+                stack[sp++] = second;
+                index = first;
+                continue;
+            }
+        }
+        if (sp == 0) return;
+        index = stack[--sp];
+    }
+}
+
+}  // namespace
+
+bool Scene::closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) const {
+    const WatertightRay wr(ray.dir);
+    bool found = false;
+    traverse(bvh_.nodes, ray, t_min, t_max, [&](int32_t first, int count, double& t_best) {
+        for (int k = 0; k < count; ++k) {
+            const int32_t ref = refs_[size_t(first + k)];
+            double t;
+            if (ref >= 0) {
+                Barycentric bary;
+                if (intersect_triangle(triangles[size_t(ref)], ray, wr, t_min, t_best, t, bary)) {
+                    t_best = t;
+                    hit = {t, ref, bary};
+                    found = true;
+                }
+            } else if (intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_best, t)) {
+                t_best = t;
+                hit = {t, ref, {}};
+                found = true;
+            }
+        }
+        return false;
+    });
+    return found;
+}
+
+bool Scene::occluded(const Ray& ray, double t_min, double t_max) const {
+    const WatertightRay wr(ray.dir);
+    bool blocked = false;
+    traverse(bvh_.nodes, ray, t_min, t_max, [&](int32_t first, int count, double& t_best) {
+        for (int k = 0; k < count; ++k) {
+            const int32_t ref = refs_[size_t(first + k)];
+            double t;
+            Barycentric bary;
+            if (ref >= 0 ? intersect_triangle(triangles[size_t(ref)], ray, wr, t_min, t_best, t, bary)
+                         : intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_best, t)) {
+                blocked = true;
+                return true;  // shadow rays stop at the first hit
+            }
+        }
+        return false;
+    });
+    return blocked;
+}
+
+int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const {
+    const WatertightRay wr(ray.dir);
+    int count = 0;
+    t_closest = HUGE_VAL;
+    for (const SphereShape& s : spheres) {
+        double t;
+        if (intersect_sphere(s, ray, t_min, t_max, t)) { ++count; t_closest = std::fmin(t_closest, t); }
+    }
+    for (const TriangleShape& tri : triangles) {
+        double t;
+        Barycentric bary;
+        if (intersect_triangle(tri, ray, wr, t_min, t_max, t, bary)) { ++count; t_closest = std::fmin(t_closest, t); }
+    }
+    return count;
+}
+
+}  // namespace phong

@@ -1,0 +1,155 @@
+// SPDX-License-Identifier: Apache-2.0
+// Shapes: analytic spheres under any affine transform (stable quadratic, pbrt-v4 §6.8.2 /
+// Ray Tracing Gems ch. 7) and triangles (watertight test of Woop, Benthin and Wald, JCGT 2013,
+// with a consistent tie-breaking rule for rays that pass exactly through an edge or vertex).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include "math.hpp"
+
+namespace phong {
+
+// A 3x4 affine matrix (column-vector convention: p' = M p + t), row-major.
+struct Affine {
+    double m[12];
+
+    Vec3 point(const Vec3& p) const {
+        return {m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+                m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]};
+    }
+    Vec3 vector(const Vec3& v) const {
+        return {m[0] * v.x + m[1] * v.y + m[2] * v.z, m[4] * v.x + m[5] * v.y + m[6] * v.z,
+                m[8] * v.x + m[9] * v.y + m[10] * v.z};
+    }
+    // The linear part transposed times v: maps an object-space normal to world space when
+    // this matrix is object_from_world.
+    Vec3 transposed_vector(const Vec3& v) const {
+        return {m[0] * v.x + m[4] * v.y + m[8] * v.z, m[1] * v.x + m[5] * v.y + m[9] * v.z,
+                m[2] * v.x + m[6] * v.y + m[10] * v.z};
+    }
+};
+
+// The unit sphere at the origin of object space.
+struct SphereShape {
+    Affine object_from_world;
+    Vec3 bounds_lo, bounds_hi;  // exact world AABB
+    int32_t material;
+};
+
+// Closest root of the sphere in (t_min, t_max), or false.
+inline bool intersect_sphere(const SphereShape& s, const Ray& ray, double t_min, double t_max, double& t_hit) {
+    // In object space: |o + t d|^2 = 1, i.e. a t^2 + 2 b t + c = 0.
+    const Vec3 o = s.object_from_world.point(ray.origin);
+    const Vec3 d = s.object_from_world.vector(ray.dir);
+    const double a = dot(d, d);
+    const double b = dot(o, d);
+    const double c = dot(o, o) - 1.0;
+    // Discriminant b^2 - a c = a (1 - |f|^2), f = the closest-approach vector: no cancellation
+    // between b^2 and a c for rays far from the sphere (pbrt-v4's form).
+    const Vec3 f = o - d * (b / a);
+    const double len_f = length(f);
+    const double disc = a * (1.0 - len_f) * (1.0 + len_f);
+    if (!(disc >= 0.0)) return false;
+    // Stable roots: q has no cancellation; t0 = q/a, t1 = c/q.
+    const double q = -(b + std::copysign(std::sqrt(disc), b));
+    double t0, t1;
+    if (q == 0.0) {  // origin on the sphere moving tangentially: the double root is t = 0
+        t0 = t1 = 0.0;
+    } else {
+        t0 = q / a;
+        t1 = c / q;
+        if (t0 > t1) std::swap(t0, t1);
+    }
+    if (t0 > t_min && t0 < t_max) { t_hit = t0; return true; }
+    if (t1 > t_min && t1 < t_max) { t_hit = t1; return true; }
+    return false;
+}
+
+// World-space unit normal of the sphere at world point p (outward).
+inline Vec3 sphere_normal(const SphereShape& s, const Vec3& p) {
+    return normalize(s.object_from_world.transposed_vector(s.object_from_world.point(p)));
+}
+
+// Triangle corners, stored in BVH leaf order for the hot loop.
+struct TriangleShape {
+    Vec3 v0, v1, v2;
+};
+
+// Per-triangle shading data (normal rows or -1 for flat shading, material).
+struct TriangleShading {
+    int32_t n0, n1, n2;
+    int32_t material;
+};
+
+// The per-ray set-up of the watertight test: the axis along which the ray is most dominant
+// becomes z, and a shear maps the ray onto +z.
+struct WatertightRay {
+    int kx, ky, kz;
+    double sx, sy, sz;
+
+    explicit WatertightRay(const Vec3& d) {
+        const double ax = std::fabs(d.x), ay = std::fabs(d.y), az = std::fabs(d.z);
+        kz = (ax > ay) ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
+        kx = (kz + 1) % 3;
+        ky = (kx + 1) % 3;
+        if (d[kz] < 0.0) std::swap(kx, ky);  // keep the winding
+        sx = d[kx] / d[kz];
+        sy = d[ky] / d[kz];
+        sz = 1.0 / d[kz];
+    }
+};
+
+// Barycentric weights of a triangle hit (of v0, v1, v2).
+struct Barycentric {
+    double b0, b1, b2;
+};
+
+namespace detail {
+// Tie-breaking for an edge whose edge function is exactly zero (the ray passes through the
+// edge in the sheared 2D frame). The edge P->Q belongs to the triangle that would contain the
+// ray after an infinitesimal shift by (1, δ), δ << 1, in that frame: inside means E > 0 for
+// det > 0 and E < 0 for det < 0, and E changes by (Qy-Py)·1 - (Qx-Px)·δ. The two triangles
+// sharing an edge see it with opposite (sign-normalised) directions, so exactly one of them
+// owns it; at a shared vertex exactly one triangle of a fan owns the shifted point. The
+// sheared coordinates of a vertex are the same for every triangle using it, so this holds
+// in floating point, not only in exact arithmetic.
+inline bool owns_edge(double px, double py, double qx, double qy, double det) {
+    double dx = qx - px, dy = qy - py;
+    if (det < 0.0) { dx = -dx; dy = -dy; }
+    return dy > 0.0 || (dy == 0.0 && dx < 0.0);
+}
+}  // namespace detail
+
+// Watertight ray/triangle test: no ray passes between two triangles sharing an edge, and a
+// ray through a shared edge or vertex hits exactly one of them.
+inline bool intersect_triangle(const TriangleShape& tri, const Ray& ray, const WatertightRay& wr, double t_min,
+                               double t_max, double& t_hit, Barycentric& bary) {
+    const Vec3 a = tri.v0 - ray.origin, b = tri.v1 - ray.origin, c = tri.v2 - ray.origin;
+    // Shear and scale into the ray's frame (the ray is the +z axis through the origin).
+    const double ax = a[wr.kx] - wr.sx * a[wr.kz], ay = a[wr.ky] - wr.sy * a[wr.kz];
+    const double bx = b[wr.kx] - wr.sx * b[wr.kz], by = b[wr.ky] - wr.sy * b[wr.kz];
+    const double cx = c[wr.kx] - wr.sx * c[wr.kz], cy = c[wr.ky] - wr.sy * c[wr.kz];
+    // Edge functions (2D cross products); fl(p - q) = -fl(q - p), so neighbours agree on signs.
+    const double u = cx * by - cy * bx;  // edge v1 -> v2
+    const double v = ax * cy - ay * cx;  // edge v2 -> v0
+    const double w = bx * ay - by * ax;  // edge v0 -> v1
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) return false;
+    const double det = u + v + w;
+    if (det == 0.0) return false;  // degenerate, or seen exactly edge-on
+    if (u == 0.0 && !detail::owns_edge(bx, by, cx, cy, det)) return false;
+    if (v == 0.0 && !detail::owns_edge(cx, cy, ax, ay, det)) return false;
+    if (w == 0.0 && !detail::owns_edge(ax, ay, bx, by, det)) return false;
+    // Scaled hit distance, compared before the division.
+    const double az = wr.sz * a[wr.kz], bz = wr.sz * b[wr.kz], cz = wr.sz * c[wr.kz];
+    const double t_scaled = u * az + v * bz + w * cz;
+    const double t = t_scaled / det;
+    if (!(t > t_min && t < t_max)) return false;
+    t_hit = t;
+    bary = {u / det, v / det, w / det};
+    return true;
+}
+
+}  // namespace phong
