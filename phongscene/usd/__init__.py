@@ -10,11 +10,37 @@ register_phong_shader()
 
 from .materials import preview_to_phong  # noqa: E402
 from .reader import ReadResult, load_usd, read_usd  # noqa: E402
+from .writer import (  # noqa: E402
+    bind_material,
+    define_camera,
+    define_light,
+    define_mesh,
+    define_phong_material,
+    define_render_settings,
+    define_sphere,
+    import_mesh,
+    new_stage,
+    save_stage,
+    scene_to_stage,
+    write_usd,
+)
 
 __all__ = [
     "PHONG_RENDER_CONTEXT",
     "PHONG_SHADER_ID",
     "ReadResult",
+    "bind_material",
+    "define_camera",
+    "define_light",
+    "define_mesh",
+    "define_phong_material",
+    "define_render_settings",
+    "define_sphere",
+    "import_mesh",
+    "new_stage",
+    "save_stage",
+    "scene_to_stage",
+    "write_usd",
     "load_usd",
     "preview_to_phong",
     "read_usd",

@@ -35,6 +35,13 @@ def unit(v: np.ndarray) -> np.ndarray | None:
     return v if abs(length - 1.0) <= KEEP_UNIT else v / length
 
 
+def authored_type(attr) -> str:
+    """The type the file authored (the strongest spec), which may differ from the schema's:
+    ``GetTypeName()`` reports the schema type even when a file writes ``int[] normals``."""
+    stack = attr.GetPropertyStack(Usd.TimeCode.Default())
+    return str(stack[0].typeName) if stack else str(attr.GetTypeName())
+
+
 def gf_to_numpy(m: Gf.Matrix4d) -> np.ndarray:
     """A USD (row-vector) matrix as a column-vector numpy matrix."""
     return np.array(m, dtype=np.float64).T
@@ -89,7 +96,7 @@ class ReadContext:
         attr = prim.GetAttribute(name)
         if not attr:
             return default
-        type_name = str(attr.GetTypeName())
+        type_name = authored_type(attr)
         if type_name not in types:
             self.problem(prim, name, f"has type {type_name}, expected {' or '.join(types)}")
             return default

@@ -20,7 +20,8 @@ import trimesh
 from pxr import Usd, UsdGeom
 
 from ..scene import PhongMaterial, Sphere, TriangleMesh
-from .context import KEEP_UNIT, ReadContext
+from ..validate import UNIT_TOLERANCE
+from .context import ReadContext, authored_type
 
 SEGMENTS = 64  # around the axis of Cylinder, Cone, Capsule: chord error r·(1 − cos(π/64)) ≈ 1.2e-3·r
 NORMAL_TYPES = tuple(t + "[]" for t in ("normal3f", "normal3d", "normal3h", "vector3f", "vector3d", "float3", "double3", "half3"))
@@ -44,12 +45,14 @@ def _to_world(points: np.ndarray, world: np.ndarray) -> np.ndarray:
 
 
 def _normals_to_world(normals: np.ndarray, world: np.ndarray) -> np.ndarray:
-    """Normals transform by the inverse transpose; rows are renormalized unless already unit."""
+    """Normals transform by the inverse transpose. Rows already unit within the model's
+    tolerance (float32 storage leaves ~1e-8) are kept bit-for-bit, so re-reading a written
+    mesh is exact; others are divided by their length."""
     a = world[:3, :3]
     if not np.array_equal(a, np.eye(3)):
         normals = normals @ np.linalg.inv(a)
     lengths = np.linalg.norm(normals, axis=1)
-    rescale = np.abs(lengths - 1.0) > KEEP_UNIT
+    rescale = np.abs(lengths - 1.0) > UNIT_TOLERANCE
     if rescale.any():
         normals = normals.copy()
         normals[rescale] /= lengths[rescale, None]
@@ -140,7 +143,7 @@ def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_o
         if not attr.HasAuthoredValue():
             return None
         name, interpolation, element_indices = "normals", UsdGeom.Mesh(prim).GetNormalsInterpolation(), None
-    type_name = str(attr.GetTypeName())
+    type_name = authored_type(attr)
     if type_name not in NORMAL_TYPES:
         ctx.problem(prim, name, f"has type {type_name}, expected normal3f[]")
         return None

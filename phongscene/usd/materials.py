@@ -5,10 +5,10 @@
 from __future__ import annotations
 
 import numpy as np
-from pxr import Sdr, Usd, UsdGeom, UsdShade
+from pxr import Sdf, Sdr, Usd, UsdGeom, UsdShade
 
 from ..scene import DEFAULT_MATERIAL, PhongMaterial
-from .context import COLOR_TYPES, ReadContext
+from .context import COLOR_TYPES, ReadContext, authored_type
 from .shader_defs import PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID, phong_input_defaults
 
 PREVIEW_SHADER_ID = "UsdPreviewSurface"
@@ -118,8 +118,9 @@ class MaterialReader:
         for name, (field, sdf_type) in PHONG_INPUTS.items():
             default = self.phong_defaults[name]
             inp = shader.GetInput(name)
-            if inp and inp.GetAttr().GetTypeName().type != sdf_type.type:
-                self.ctx.problem(prim, f"inputs:{name}", f"has type {inp.GetAttr().GetTypeName()}, expected {sdf_type}")
+            found = authored_type(inp.GetAttr()) if inp else ""
+            if inp and Sdf.ValueTypeNames.Find(found).type != sdf_type.type:
+                self.ctx.problem(prim, f"inputs:{name}", f"has type {found}, expected {sdf_type}")
                 values[field] = default
                 continue
             value = self._input_value(shader, name, default)
@@ -155,8 +156,9 @@ class MaterialReader:
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor")
         if not primvar or not primvar.HasAuthoredValue():
             return DEFAULT_MATERIAL
-        if str(primvar.GetTypeName()) not in tuple(t + "[]" for t in COLOR_TYPES):
-            self.ctx.problem(prim, "primvars:displayColor", f"has type {primvar.GetTypeName()}, expected color3f[]")
+        found = authored_type(primvar.GetAttr())
+        if found not in tuple(t + "[]" for t in COLOR_TYPES):
+            self.ctx.problem(prim, "primvars:displayColor", f"has type {found}, expected color3f[]")
             return DEFAULT_MATERIAL
         colors = np.asarray(primvar.ComputeFlattened(self.ctx.time), dtype=np.float64).reshape(-1, 3)
         if len(colors) == 0:

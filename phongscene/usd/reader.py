@@ -54,6 +54,8 @@ PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
         "phong:background": COLOR_TYPES,
     },
 }
+# Composition errors name their arc in the text; report it as the "attribute" (a metadata field).
+_ARC_ATTRIBUTE = {"for reference": "references", "for payload": "payload", "sublayer": "subLayers"}
 _GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cone", "Capsule"}
 
 
@@ -81,7 +83,9 @@ def read_usd(source) -> ReadResult:
     ctx = ReadContext(stage, file)
     for error in stage.GetCompositionErrors():
         site = getattr(error, "rootSite", None)
-        ctx.problem(str(site.path) if site is not None else "", "", str(error))
+        text = str(error)
+        arc = next((a for k, a in _ARC_ATTRIBUTE.items() if k in text), "")
+        ctx.problem(str(site.path) if site is not None else "", arc, text)
     _check_phong_namespace(ctx)
     settings, camera_prim = _render_settings(ctx)
     camera, lights, ambient, spheres, meshes = None, [], [], [], []

@@ -1,0 +1,352 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Author USD from the scene model: small ``define_*`` helpers and ``write_usd(scene, path)``.
+
+Materials get BOTH surface outputs (DESIGN §3): ``outputs:surface`` → a UsdPreviewSurface (what
+usdview and other tools show) and ``outputs:phong:surface`` → our Phong shader with every input
+authored. The file is written atomically (temporary file + rename).
+
+Conventions that make ``read(write(S))`` exact up to float32 storage: nodes are written in world
+space (meshes with identity transforms, spheres and lights with a double matrix), a grey light
+colour becomes ``intensity`` with ``color = (1, 1, 1)``, and rect lights are unit squares whose
+transform carries the edge vectors. A node's ``source`` is reused as its prim path when it is a
+free, valid path, so reading a written scene and writing it again gives the same file.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
+
+from ..errors import SceneError
+from ..scene import (
+    DEFAULT_MATERIAL,
+    AmbientLight,
+    Camera,
+    DirectionalLight,
+    PhongMaterial,
+    PointLight,
+    RectAreaLight,
+    RenderSettings,
+    Scene,
+    Sphere,
+    SphereAreaLight,
+    TriangleMesh,
+)
+from .shader_defs import PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
+
+# The focal length written for perspective cameras (tenths of a scene unit, as in USD); the
+# horizontal aperture is chosen to give the model's FOV. 50 is USD's fallback.
+FOCAL_LENGTH = 50.0
+APERTURE_UNIT = 0.1  # orthographic width = horizontalAperture · 0.1
+FORMATS = (".usda", ".usdc", ".usd")
+
+
+def _matrix(m: np.ndarray) -> Gf.Matrix4d:
+    """A column-vector numpy matrix as a USD (row-vector) matrix."""
+    return Gf.Matrix4d(np.asarray(m, dtype=np.float64).T.tolist())
+
+
+def _set_transform(xformable: UsdGeom.Xformable, m: np.ndarray) -> None:
+    xformable.ClearXformOpOrder()
+    xformable.AddTransformOp(UsdGeom.XformOp.PrecisionDouble).Set(_matrix(m))
+
+
+def _set_translate(xformable: UsdGeom.Xformable, position) -> None:
+    xformable.ClearXformOpOrder()
+    xformable.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble).Set(Gf.Vec3d(*map(float, position)))
+
+
+def _frame(x, y, origin) -> np.ndarray:
+    """A column-vector matrix with columns x, y, unit(x × y) and translation ``origin``."""
+    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    z = np.cross(x, y)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, y, z / np.linalg.norm(z), origin
+    return m
+
+
+# -- authoring helpers ----------------------------------------------------------------------
+
+
+def define_phong_material(stage: Usd.Stage, path: str, material: PhongMaterial = DEFAULT_MATERIAL) -> UsdShade.Material:
+    """A Material with our Phong shader (every input authored) and a UsdPreviewSurface fallback."""
+    mat = UsdShade.Material.Define(stage, path)
+    phong = UsdShade.Shader.Define(stage, f"{path}/Phong")
+    phong.SetShaderId(PHONG_SHADER_ID)
+    for name, (field, sdf_type) in PHONG_INPUTS.items():
+        value = getattr(material, field)
+        phong.CreateInput(name, sdf_type).Set(Gf.Vec3f(*map(float, value)) if isinstance(value, tuple) else float(value))
+    mat.CreateSurfaceOutput(PHONG_RENDER_CONTEXT).ConnectToSource(phong.ConnectableAPI(), "surface")
+
+    # Preview fallback: Lambert albedo kd·cd, specular ks·cs, roughness inverting the reader's
+    # mapping e = (2/α² − 2)/4 with α = r² (usd-oiio-trimesh-notes §1c).
+    preview = UsdShade.Shader.Define(stage, f"{path}/Preview")
+    preview.SetShaderId("UsdPreviewSurface")
+    albedo = np.clip(np.asarray(material.diffuse_color, dtype=np.float64) * material.kd, 0.0, 1.0)
+    specular = np.clip(np.asarray(material.specular_color, dtype=np.float64) * material.ks, 0.0, 1.0)
+    alpha = math.sqrt(2.0 / (4.0 * max(material.exponent, 0.0) + 2.0))
+    preview.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*map(float, albedo)))
+    preview.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
+    preview.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*map(float, specular)))
+    preview.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(float(math.sqrt(alpha)))
+    mat.CreateSurfaceOutput().ConnectToSource(preview.ConnectableAPI(), "surface")
+    return mat
+
+
+def bind_material(prim: Usd.Prim, material: UsdShade.Material) -> None:
+    UsdShade.MaterialBindingAPI.Apply(prim).Bind(material)
+
+
+def define_sphere(stage: Usd.Stage, path: str, sphere: Sphere) -> UsdGeom.Sphere:
+    """A Sphere prim: radius + translate when the transform is a uniform scale, else a matrix."""
+    prim = UsdGeom.Sphere.Define(stage, path)
+    m = sphere.world_from_object
+    r = float(m[0, 0])
+    if r > 0 and np.array_equal(m[:3, :3], np.diag([r, r, r])):
+        prim.CreateRadiusAttr(r)
+        _set_translate(prim, m[:3, 3])
+    else:
+        prim.CreateRadiusAttr(1.0)
+        _set_transform(prim, m)
+    return prim
+
+
+def define_mesh(stage: Usd.Stage, path: str, mesh: TriangleMesh) -> UsdGeom.Mesh:
+    """A world-space triangle Mesh (subdivisionScheme none); normals as vertex-interpolated
+    ``normals`` when they are per point, else as indexed faceVarying ``primvars:normals``."""
+    prim = UsdGeom.Mesh.Define(stage, path)
+    points = np.asarray(mesh.points, dtype=np.float32)
+    prim.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
+    prim.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(mesh.triangles), 3, dtype=np.int32)))
+    prim.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.triangles.ravel(), dtype=np.int32)))
+    prim.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    prim.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
+    if len(points):
+        prim.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(np.stack([points.min(axis=0), points.max(axis=0)])))
+    if mesh.normals is not None:
+        normals = Vt.Vec3fArray.FromNumpy(np.asarray(mesh.normals, dtype=np.float32))
+        if len(mesh.normals) == len(mesh.points) and np.array_equal(mesh.normal_indices, mesh.triangles):
+            prim.CreateNormalsAttr(normals)
+            prim.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+        else:
+            primvar = UsdGeom.PrimvarsAPI(prim).CreatePrimvar(
+                "normals", Sdf.ValueTypeNames.Normal3fArray, UsdGeom.Tokens.faceVarying
+            )
+            primvar.Set(normals)
+            primvar.SetIndices(Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.normal_indices.ravel(), dtype=np.int32)))
+    return prim
+
+
+def _set_light_color(light: UsdLux.LightAPI, color) -> None:
+    """ls·cl as intensity × color: a grey strength goes into intensity (color white), so that
+    the reader's intensity · 2^0 · color reproduces the float32 value exactly."""
+    r, g, b = map(float, color)
+    light.CreateExposureAttr(0.0)
+    if r == g == b:
+        light.CreateIntensityAttr(r)
+        light.CreateColorAttr(Gf.Vec3f(1.0, 1.0, 1.0))
+    else:
+        light.CreateIntensityAttr(1.0)
+        light.CreateColorAttr(Gf.Vec3f(r, g, b))
+
+
+def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
+    """A UsdLux light for a model light (PointLight, DirectionalLight, RectAreaLight,
+    SphereAreaLight) or an AmbientLight (an untextured DomeLight)."""
+    if isinstance(light, AmbientLight):
+        prim = UsdLux.DomeLight.Define(stage, path)
+    elif isinstance(light, PointLight):
+        prim = UsdLux.SphereLight.Define(stage, path)
+        prim.CreateTreatAsPointAttr(True)
+        prim.CreateRadiusAttr(0.0)
+        _set_translate(prim, light.position)
+        p = prim.GetPrim()
+        p.CreateAttribute("phong:fadeDistance", Sdf.ValueTypeNames.Double).Set(float(light.fade_distance))
+        p.CreateAttribute("phong:fadePower", Sdf.ValueTypeNames.Double).Set(float(light.fade_power))
+    elif isinstance(light, SphereAreaLight):
+        prim = UsdLux.SphereLight.Define(stage, path)
+        prim.CreateTreatAsPointAttr(False)
+        prim.CreateRadiusAttr(float(light.radius))
+        _set_translate(prim, light.center)
+        prim.GetPrim().CreateAttribute("phong:shadowSamples", Sdf.ValueTypeNames.Int).Set(int(light.samples))
+    elif isinstance(light, DirectionalLight):
+        prim = UsdLux.DistantLight.Define(stage, path)
+        d = np.asarray(light.direction, dtype=np.float64)
+        helper = np.array([0.0, 1.0, 0.0]) if abs(d[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+        x = np.cross(helper, -d)
+        x /= np.linalg.norm(x)
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2] = x, np.cross(-d, x), -d  # the light emits along its −Z
+        _set_transform(prim, m)
+    elif isinstance(light, RectAreaLight):
+        prim = UsdLux.RectLight.Define(stage, path)
+        prim.CreateWidthAttr(1.0)
+        prim.CreateHeightAttr(1.0)
+        _set_transform(prim, _frame(light.axis_u, light.axis_v, light.center))
+        prim.GetPrim().CreateAttribute("phong:shadowSamples", Sdf.ValueTypeNames.Int).Set(int(light.samples))
+    else:
+        raise TypeError(f"not a light: {light!r}")
+    _set_light_color(UsdLux.LightAPI(prim.GetPrim()), light.color)
+    return prim.GetPrim()
+
+
+def define_camera(stage: Usd.Stage, path: str, camera: Camera, aspect: float = 4 / 3) -> UsdGeom.Camera:
+    """A Camera prim; ``aspect`` (width/height) sets verticalAperture for other tools."""
+    prim = UsdGeom.Camera.Define(stage, path)
+    forward = np.asarray(camera.forward, dtype=np.float64)
+    up = np.asarray(camera.up, dtype=np.float64)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = camera.right, up, -forward, camera.position  # looks down −Z
+    _set_transform(prim, m)
+    if camera.projection == "orthographic":
+        prim.CreateProjectionAttr(UsdGeom.Tokens.orthographic)
+        aperture = camera.ortho_width / APERTURE_UNIT
+    else:
+        prim.CreateProjectionAttr(UsdGeom.Tokens.perspective)
+        prim.CreateFocalLengthAttr(FOCAL_LENGTH)
+        aperture = 2.0 * FOCAL_LENGTH * math.tan(math.radians(camera.horizontal_fov_deg) / 2)
+    prim.CreateHorizontalApertureAttr(float(aperture))
+    prim.CreateVerticalApertureAttr(float(aperture / aspect))
+    return prim
+
+
+def define_render_settings(stage: Usd.Stage, path: str, settings: RenderSettings, camera_path: str | None) -> UsdRender.Settings:
+    """A UsdRender.Settings prim with resolution, camera and our ``phong:`` knobs; it becomes
+    the stage's render settings."""
+    prim = UsdRender.Settings.Define(stage, path)
+    prim.CreateResolutionAttr(Gf.Vec2i(int(settings.width), int(settings.height)))
+    if camera_path:
+        prim.CreateCameraRel().SetTargets([Sdf.Path(camera_path)])
+    p = prim.GetPrim()
+    p.CreateAttribute("phong:samples", Sdf.ValueTypeNames.Int).Set(int(settings.samples))
+    p.CreateAttribute("phong:samplePattern", Sdf.ValueTypeNames.Token).Set(settings.sample_pattern)
+    p.CreateAttribute("phong:specularConvention", Sdf.ValueTypeNames.Token).Set(settings.specular)
+    p.CreateAttribute("phong:background", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*map(float, settings.background)))
+    stage.SetMetadata("renderSettingsPrimPath", path)
+    return prim
+
+
+def new_stage() -> Usd.Stage:
+    """An in-memory stage with phongscene's conventions: Y up, /World as default prim."""
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/World").GetPrim())
+    return stage
+
+
+def save_stage(stage: Usd.Stage, path) -> Path:
+    """Export ``stage`` to ``path`` atomically (a temporary file in the same folder, renamed)."""
+    path = Path(path)
+    if path.suffix not in FORMATS:
+        raise SceneError(f"{path}: can only write {', '.join(FORMATS)} files")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        if not stage.GetRootLayer().Export(tmp):
+            raise SceneError(f"{path}: USD could not write the file")
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path
+
+
+# -- whole scenes ---------------------------------------------------------------------------
+
+
+class _Paths:
+    """Prim paths for nodes: the node's source when it is a free valid path not nested with
+    another node's path (nodes are written in world space, so none may inherit a transform),
+    else ``<parent>/<Kind>_<n>``."""
+
+    def __init__(self):
+        self.used: set[str] = set()
+
+    def _free(self, path: str) -> bool:
+        if not path.startswith("/") or not Sdf.Path.IsValidPathString(path) or path in ("/", "/World", "/Render"):
+            return False
+        p = Sdf.Path(path)
+        if not p.IsPrimPath() or path in self.used:
+            return False
+        return not any(p.HasPrefix(Sdf.Path(u)) or Sdf.Path(u).HasPrefix(p) for u in self.used)
+
+    def take(self, source: str, parent: str, kind: str) -> str:
+        path = source if self._free(source) else ""
+        n = 0
+        while not path:
+            candidate = f"{parent}/{Tf.MakeValidIdentifier(kind)}_{n}"
+            path = candidate if self._free(candidate) else ""
+            n += 1
+        self.used.add(path)
+        return path
+
+
+def scene_to_stage(scene: Scene) -> Usd.Stage:
+    """Author every node of ``scene`` on a new in-memory stage."""
+    stage = new_stage()
+    paths = _Paths()
+    materials: list[tuple[PhongMaterial, UsdShade.Material]] = []
+
+    def material_for(m: PhongMaterial) -> UsdShade.Material:
+        for known, usd in materials:
+            if known == m:
+                return usd
+        source = m.source.rsplit("/", 1)[0] if m.source.endswith("/Phong") else ""
+        usd = define_phong_material(stage, paths.take(source, "/World/Looks", "Material"), m)
+        materials.append((m, usd))
+        return usd
+
+    camera_path = paths.take(scene.camera.source, "/World", "Camera")
+    define_camera(stage, camera_path, scene.camera, scene.settings.width / scene.settings.height)
+    define_render_settings(stage, paths.take(scene.settings.source, "/Render", "Settings"), scene.settings, camera_path)
+    if any(scene.ambient.color):
+        define_light(stage, paths.take(scene.ambient.source, "/World/Lights", "Ambient"), scene.ambient)
+    for light in scene.lights:
+        define_light(stage, paths.take(light.source, "/World/Lights", type(light).__name__), light)
+    for sphere in scene.spheres:
+        prim = define_sphere(stage, paths.take(sphere.source, "/World/Geometry", "Sphere"), sphere)
+        bind_material(prim.GetPrim(), material_for(sphere.material))
+    for mesh in scene.meshes:
+        prim = define_mesh(stage, paths.take(mesh.source, "/World/Geometry", "Mesh"), mesh)
+        bind_material(prim.GetPrim(), material_for(mesh.material))
+    return stage
+
+
+def write_usd(scene: Scene, path) -> Path:
+    """Write ``scene`` to a .usda/.usdc/.usd file, atomically.
+
+    Returns:
+        The path written.
+    """
+    return save_stage(scene_to_stage(scene), path)
+
+
+def import_mesh(mesh_file, output, material: PhongMaterial = DEFAULT_MATERIAL) -> Path:
+    """Convert a mesh file (anything ``trimesh.load`` reads: OBJ, PLY, STL, OFF, GLB, ...) to a
+    USD file with one Mesh (vertex normals, subdivisionScheme none) and a Phong material. No
+    camera or lights: readers then use the framing camera and head light."""
+    import trimesh
+
+    mesh_file = Path(mesh_file)
+    if not mesh_file.is_file():
+        raise SceneError(f"{mesh_file}: file not found")
+    try:
+        tm = trimesh.load(mesh_file, force="mesh")
+    except Exception as e:  # trimesh raises many types for unreadable files
+        raise SceneError(f"{mesh_file}: trimesh cannot read it: {e}") from None
+    if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
+        raise SceneError(f"{mesh_file}: no triangles found")
+    faces = np.asarray(tm.faces, dtype=np.int64)
+    model = TriangleMesh(np.asarray(tm.vertices), faces, np.asarray(tm.vertex_normals), faces, material)
+    stage = new_stage()
+    usd_material = define_phong_material(stage, "/World/Looks/Default", material)
+    prim = define_mesh(stage, f"/World/{Tf.MakeValidIdentifier(mesh_file.stem)}", model)
+    bind_material(prim.GetPrim(), usd_material)
+    return save_stage(stage, output)
