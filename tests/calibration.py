@@ -228,7 +228,7 @@ def ambient_only() -> Scene:
 def transformed_spheres() -> Scene:
     """Ellipsoids from rotation + non-uniform scale + translation (normals via (M⁻¹)ᵀ)."""
     a = translation((-1.41, 0.93, 0.12)) @ rotation((0.3, 1.0, 0.2), 37.0) @ scaling((0.47, 0.91, 0.63))
-    b = translation((0.63, 0.71, -0.37)) @ rotation((1.0, 0.1, -0.4), -52.0) @ scaling((1.13, 0.39, 0.71))
+    b = translation((0.631, 0.713, -0.37)) @ rotation((1.0, 0.1, -0.4), -52.0) @ scaling((1.13, 0.39, 0.71))
     c = translation((1.73, 1.21, 0.83)) @ rotation((0.0, 0.2, 1.0), 71.0) @ scaling((0.29, 0.83, 0.37))
     return Scene(
         camera=_studio_camera(),

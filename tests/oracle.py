@@ -25,7 +25,7 @@ Geometry (ref §7). ``Sphere``: the unit sphere under the affine ``world_from_ob
 quadratic (half-chord² = 1 − |oc|² + (oc·d̂)² must exceed EPSILON, as POV's sphere requires), and
 the roots are divided by |M⁻¹d| so that t is the world distance along the unit world ray. Normal:
 (M⁻¹)ᵀ·p_object, normalised. Triangles: Möller–Trumbore in float64, edges inclusive
-(u ≥ 0, v ≥ 0, u + v ≤ 1), rejected as parallel when |n̂·d| < EPSILON (ref §6). Flat normal
+(u ≥ 0, v ≥ 0, u + v ≤ 1, each with a 1e-12 slack so shared edges are watertight), rejected as parallel when |n̂·d| < EPSILON (ref §6). Flat normal
 normalise(e1 × e2); smooth normal = barycentric interpolation of the corner normals (through
 ``normal_indices``), normalised. The shading normal is flipped to face the viewer: n·d > 0 → −n
 (ref §4, §7), so every surface is two-sided.
@@ -99,6 +99,10 @@ ORIENT_VERTICAL_TOLERANCE = 0.01  # ||l_z| − 1| below this: cross with (0,1,0)
 
 # --- Implementation limits of this oracle (not POV semantics) ------------------------------------
 RAY_TRIANGLE_PAIRS_PER_CHUNK = 200_000  # bounds memory of the rays × triangles Möller–Trumbore arrays
+BARYCENTRIC_SLACK = 1e-12  # triangles accept u, v >= −slack and u + v <= 1 + slack: a ray exactly on a
+#                            shared edge then hits at least one side despite double rounding (watertight
+#                            enough for an oracle); it grows a triangle by 1e-12 of its size, far below
+#                            anything a pixel can see
 AABB_PAD_RELATIVE = 1e-9  # mesh bounding boxes are padded by this × their scale, so culling never
 #                           rejects a hit Möller–Trumbore accepts (its rounding is ~1e-16 relative)
 
@@ -367,7 +371,8 @@ def _mesh_hits(mesh: _Mesh, o: np.ndarray, d: np.ndarray, accept) -> tuple[np.nd
         qvec = np.cross(tvec, mesh.e1)
         v = np.einsum("rtk,rtk->rt", np.broadcast_to(rd, qvec.shape), qvec) * inv_det
         t = np.einsum("rtk,tk->rt", qvec, mesh.e2) * inv_det
-        ok = usable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & accept(t, rows[:, None])
+        inside = (u >= -BARYCENTRIC_SLACK) & (v >= -BARYCENTRIC_SLACK) & (u + v <= 1.0 + BARYCENTRIC_SLACK)
+        ok = usable & inside & accept(t, rows[:, None])
         t = np.where(ok, t, np.inf)
         nearest = np.argmin(t, axis=1)
         pick = np.arange(len(rows))
