@@ -40,6 +40,8 @@ _sys.modules[__name__].__class__ = _Package
 
 
 def __getattr__(name: str):
+    if name in ("load_usd", "read_usd", "write_usd"):  # USD I/O imports pxr: load it on first use
+        return getattr(_importlib.import_module(".usd", __name__), name)
     if name in _FUNCTION_MODULES:
         _importlib.import_module(f".{name}", __name__)  # binds the function (see _Package)
         return globals()[name]
@@ -64,5 +66,8 @@ __all__ = [
     "TriangleMesh",
     "compare",
     "diff",
+    "load_usd",
+    "read_usd",
     "render",
+    "write_usd",
 ]

@@ -26,6 +26,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_diff_command(sub)
     add_compare_command(sub)
+    from .usd_cli import add_usd_commands
+
+    add_usd_commands(sub)
     return parser
 
 
