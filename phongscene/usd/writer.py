@@ -266,7 +266,8 @@ class _Paths:
     another node's path (nodes are written in world space, so none may inherit a transform),
     else ``<parent>/<Kind>_<n>``."""
 
-    def __init__(self):
+    def __init__(self, stage: Usd.Stage):
+        self.stage = stage
         self.used: set[str] = set()
 
     def _free(self, path: str) -> bool:
@@ -285,13 +286,16 @@ class _Paths:
             path = candidate if self._free(candidate) else ""
             n += 1
         self.used.add(path)
+        for ancestor in Sdf.Path(path).GetParentPath().GetPrefixes():
+            if not self.stage.GetPrimAtPath(ancestor):
+                UsdGeom.Scope.Define(self.stage, ancestor)  # grouping only: no transform
         return path
 
 
 def scene_to_stage(scene: Scene) -> Usd.Stage:
     """Author every node of ``scene`` on a new in-memory stage."""
     stage = new_stage()
-    paths = _Paths()
+    paths = _Paths(stage)
     materials: list[tuple[PhongMaterial, UsdShade.Material]] = []
 
     def material_for(m: PhongMaterial) -> UsdShade.Material:
