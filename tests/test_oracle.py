@@ -250,10 +250,12 @@ def test_directional_shadow_reaches_far_occluders():
 
 
 def test_n_dot_l_gate():
-    # ref §4, §6: a light with n·l < 1e-10 contributes nothing; just above it, kd·cd/π·L·(n·l).
-    for height, n_dot_l in ((0.0, 0.0), (-1.0, 0.0), (5e-11, 0.0)):
+    # ref §4, §6: a light with n·l < 1e-10 contributes nothing (neither a tiny positive nor a negative
+    # amount: kd·cd/π·L·5e-11 ≈ 1.7e-11 would exceed the absolute tolerance); above it kd·cd/π·L·(n·l).
+    for height, n_dot_l in ((0.0, 0.0), (-1.0, 0.0), (-1e-4, 0.0), (5e-11, 0.0)):
         scene = _ground_scene([PointLight((1.0, height, 0.0), (2, 2, 2))])
-        np.testing.assert_allclose(_one_ray(scene, (0, 1, 1), (0, 0, 0)), _ground_value((2, 2, 2), n_dot_l), atol=EXACT)
+        got = _one_ray(scene, (0, 1, 1), (0, 0, 0))
+        np.testing.assert_allclose(got, _ground_value((2, 2, 2), n_dot_l), rtol=0.0, atol=EXACT)
     scene = _ground_scene([PointLight((1.0, 0.01, 0.0), (2, 2, 2))])
     n_dot_l = 0.01 / math.hypot(1.0, 0.01)
     np.testing.assert_allclose(_one_ray(scene, (0, 1, 1), (0, 0, 0)), _ground_value((2, 2, 2), n_dot_l), atol=1e-9)
