@@ -169,7 +169,8 @@ NB_MODULE(_native, m) {
           "Number of hardware threads the tracer uses when threads=0.");
     m.attr("MATERIAL_COLUMNS") = phong::kMaterialColumns;
     m.attr("LIGHT_COLUMNS") = phong::kLightColumns;
-    m.attr("RELATIVE_EPSILON") = phong::kRelativeEpsilon;
+    m.attr("SHADOW_WINDOW") = phong::kShadowWindow;
+    m.attr("PRIMARY_NEAR") = phong::kPrimaryNear;
 
     nb::class_<phong::Scene>(m, "Scene", "A scene built from flat arrays, with its BVH.")
         .def("__init__",

@@ -20,24 +20,23 @@ constexpr int kTileSize = 16;
 // How often the calling thread wakes to report progress and check for Ctrl-C.
 constexpr auto kPollInterval = std::chrono::milliseconds(50);
 
-RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSettings& settings, double epsilon) {
+RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSettings& settings, double window) {
     const Vec3 p = ray.at(hit.t);
-    Vec3 geometric, n;
+    Vec3 n;
     const Material* material;
     if (hit.ref < 0) {
         const SphereShape& s = scene.spheres[size_t(~hit.ref)];
-        geometric = n = sphere_normal(s, p);
+        n = sphere_normal(s, p);
         material = &scene.materials[size_t(s.material)];
     } else {
         const TriangleShape& tri = scene.triangles[size_t(hit.ref)];
         const TriangleShading& sh = scene.triangle_shading[size_t(hit.ref)];
-        geometric = normalize(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
         if (sh.n0 >= 0) {
             // Smooth: barycentric interpolation of the vertex normals, renormalised (as POV-Ray).
             n = normalize(scene.normals[size_t(sh.n0)] * hit.bary.b0 + scene.normals[size_t(sh.n1)] * hit.bary.b1 +
                           scene.normals[size_t(sh.n2)] * hit.bary.b2);
         } else {
-            n = geometric;
+            n = normalize(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
         }
         material = &scene.materials[size_t(sh.material)];
     }
@@ -50,10 +49,9 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
         const LightSample centre = sample_light_centre(light, p);
         const double n_dot_l = dot(n, centre.l);
         if (n_dot_l < kMinCosineToLight) continue;  // no contribution and no shadow ray
-        // Shadow rays start epsilon off the surface on the light's side (math.hpp).
-        const Vec3 origin = p + (dot(geometric, centre.l) >= 0.0 ? geometric : -geometric) * epsilon;
-        const double fraction = visible_fraction(light, origin, centre, [&](const Vec3& dir, double distance) {
-            return scene.occluded({origin, dir}, 0.0, distance - epsilon);
+        // Shadow rays start at p; occluders count inside the window (math.hpp).
+        const double fraction = visible_fraction(light, p, centre, [&](const Vec3& dir, double distance) {
+            return scene.occluded({p, dir}, window, distance - window);
         });
         if (fraction == 0.0) continue;
         color += shade_phong(*material, settings.convention, n, wo, centre.l, n_dot_l, centre.color * fraction);
@@ -64,10 +62,9 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
 }  // namespace
 
 RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, double magnitude) {
-    const double epsilon = kRelativeEpsilon * magnitude;
     Hit hit;
-    if (!scene.closest_hit(ray, epsilon, HUGE_VAL, hit)) return settings.background;
-    return shade_hit(scene, ray, hit, settings, epsilon);
+    if (!scene.closest_hit(ray, kPrimaryNear * magnitude, HUGE_VAL, hit)) return settings.background;
+    return shade_hit(scene, ray, hit, settings, kShadowWindow * magnitude);
 }
 
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,
