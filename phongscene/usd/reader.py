@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -127,9 +128,10 @@ def read_usd(source) -> ReadResult:
         ctx.warn("no point, distant or area light: using a head light at the camera (phongscene.scene.head_light)")
     ctx.flush_unsupported()
 
-    # Validation of the model; a problem the reader already reported is not repeated.
-    reported = {(p.prim, p.attribute) for p in ctx.problems}
-    problems = ctx.problems + [p for p in validate(scene) if (p.prim, p.attribute) not in reported]
+    # Validation of the model. A prim the reader already found wrong is not reported again
+    # (e.g. a negative intensity would reappear as a negative light colour).
+    reported = {p.prim for p in ctx.problems}
+    problems = ctx.problems + [p for p in validate(scene) if p.prim not in reported]
     if problems:
         raise SceneError(problems)
     return ReadResult(scene, ctx.warnings, ctx.nodes)
@@ -145,11 +147,18 @@ def _open(source) -> tuple[Usd.Stage, str]:
     try:
         stage = Usd.Stage.Open(path)
     except Tf.ErrorException as e:
-        detail = str(e).strip().splitlines()
-        raise SceneError(Problem(f"cannot read USD: {detail[-1] if detail else e}", file=path)) from None
+        raise SceneError(Problem(f"cannot read USD: {_usd_error_text(e)}", file=path)) from None
     if stage is None:
         raise SceneError(Problem("cannot read USD", file=path))
     return stage, path
+
+
+def _usd_error_text(error: Exception) -> str:
+    """The informative part of a Tf error: the parser's message (with line:column), without the
+    C++ source location and the generic "Failed to open layer" line."""
+    messages = [m.group(1) for m in re.finditer(r"Error in '[^']*' at line \d+ in file \S+ : '(.*)'", str(error))]
+    specific = [m for m in messages if not m.startswith("Failed to open layer")]
+    return (specific or messages or [str(error).strip()])[-1]
 
 
 def _renderable(ctx: ReadContext, prim: Usd.Prim) -> bool:

@@ -1,0 +1,372 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The USD reader: geometry, normals, materials, lights, camera, settings, up axis, instancing.
+Each expected value is derived from the USD text in the test, not from the reader."""
+
+from __future__ import annotations
+
+import math
+import textwrap
+
+import numpy as np
+import pytest
+
+from conftest import REPO
+from phongscene.errors import SceneError
+from phongscene.scene import DEFAULT_MATERIAL, PointLight
+from phongscene.usd import preview_to_phong, read_usd
+
+EXACT = 1e-12  # double-precision arithmetic on small integers and unit vectors
+FLOAT32 = 1e-6  # values stored as float in USD
+
+
+def read(tmp_path, body: str, up: str = "Y"):
+    path = tmp_path / "scene.usda"
+    # One-line prim bodies ("{ double size = 3 }") are written out on lines, as usda requires.
+    body = textwrap.dedent(body).replace("{ ", "{\n").replace(" }", "\n}")
+    path.write_text(f'#usda 1.0\n(\n    upAxis = "{up}"\n)\n\n' + body)
+    return read_usd(path)
+
+
+QUAD_AND_PENTAGON = """
+def Mesh "M"
+{{
+    int[] faceVertexCounts = [4, 5]
+    int[] faceVertexIndices = [0, 1, 2, 3, 4, 5, 6, 7, 8]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (2, 0, 0), (3, 0, 0), (3, 1, 0), (2.5, 1.5, 0), (2, 1, 0)]
+    uniform token subdivisionScheme = "none"
+    {extra}
+}}
+"""
+
+
+def test_mesh_fan_triangulation(tmp_path):
+    mesh = read(tmp_path, QUAD_AND_PENTAGON.format(extra="")).scene.meshes[0]
+    assert mesh.triangles.tolist() == [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7], [4, 7, 8]]
+    assert mesh.normals is None
+
+
+def test_left_handed_mesh_flips_winding(tmp_path):
+    mesh = read(tmp_path, QUAD_AND_PENTAGON.format(extra='uniform token orientation = "leftHanded"')).scene.meshes[0]
+    assert mesh.triangles.tolist() == [[0, 2, 1], [0, 3, 2], [4, 6, 5], [4, 7, 6], [4, 8, 7]]
+
+
+def test_hole_faces_are_skipped(tmp_path):
+    mesh = read(tmp_path, QUAD_AND_PENTAGON.format(extra="int[] holeIndices = [0]")).scene.meshes[0]
+    assert mesh.triangles.tolist() == [[4, 5, 6], [4, 6, 7], [4, 7, 8]]
+
+
+def test_subdivision_mesh_renders_cage_with_one_warning(tmp_path):
+    body = QUAD_AND_PENTAGON.replace('uniform token subdivisionScheme = "none"', "")
+    body = body + body.replace('"M"', '"N"')
+    result = read(tmp_path, body.format(extra=""))
+    assert len(result.scene.meshes) == 2 and result.scene.triangle_count == 10
+    subdiv = [w for w in result.warnings if "subdivision" in w]
+    assert len(subdiv) == 1 and "/M" in subdiv[0] and "/N" in subdiv[0]
+
+
+@pytest.mark.parametrize(
+    "normals, expected_rows",
+    [
+        # vertex: one per point; corner normal = normals[point id]
+        ('normal3f[] normals = [(0,0,1),(0,0,1),(0,0,1),(0,0,1),(1,0,0),(1,0,0),(1,0,0),(1,0,0),(0,1,0)] (interpolation = "vertex")',
+         [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7], [4, 7, 8]]),
+        # faceVarying: one per face-vertex; the pentagon's fan corners are face-vertices 4..8
+        ('normal3f[] normals = [(0,0,1),(0,0,1),(0,0,1),(0,0,1),(1,0,0),(1,0,0),(1,0,0),(1,0,0),(0,1,0)] (interpolation = "faceVarying")',
+         [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7], [4, 7, 8]]),
+        # uniform: one per face
+        ('normal3f[] normals = [(0,0,1),(1,0,0)] (interpolation = "uniform")', [[0, 0, 0], [0, 0, 0], [1, 1, 1], [1, 1, 1], [1, 1, 1]]),
+        # constant: one for all
+        ('normal3f[] normals = [(0,0,1)] (interpolation = "constant")', [[0, 0, 0]] * 5),
+        # indexed primvar (per point, two distinct values)
+        ('normal3f[] primvars:normals = [(0,0,1),(1,0,0)] (interpolation = "vertex")\n    int[] primvars:normals:indices = [0,0,0,0,1,1,1,1,1]',
+         [[0, 0, 0], [0, 0, 0], [1, 1, 1], [1, 1, 1], [1, 1, 1]]),
+    ],
+)
+def test_normals_of_every_interpolation(tmp_path, normals, expected_rows):
+    mesh = read(tmp_path, QUAD_AND_PENTAGON.format(extra=normals)).scene.meshes[0]
+    assert mesh.normal_indices.tolist() == expected_rows
+    assert np.allclose(np.linalg.norm(mesh.normals, axis=1), 1.0, atol=EXACT)
+
+
+def test_primvar_normals_take_precedence_over_normals(tmp_path):
+    extra = 'normal3f[] normals = [(1,0,0)] (interpolation = "constant")\n    normal3f[] primvars:normals = [(0,0,1)] (interpolation = "constant")'
+    mesh = read(tmp_path, QUAD_AND_PENTAGON.format(extra=extra)).scene.meshes[0]
+    assert mesh.normals.tolist() == [[0.0, 0.0, 1.0]]
+
+
+def test_unnormalized_normals_are_normalized(tmp_path):
+    mesh = read(tmp_path, QUAD_AND_PENTAGON.format(extra='normal3f[] normals = [(0,0,3)] (interpolation = "constant")')).scene.meshes[0]
+    assert mesh.normals.tolist() == [[0.0, 0.0, 1.0]]
+
+
+def test_transform_and_z_up(tmp_path):
+    body = """
+    def Xform "X"
+    {
+        double3 xformOp:translate = (1, 2, 3)
+        double3 xformOp:scale = (2, 2, 2)
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
+        def Mesh "M"
+        {
+            int[] faceVertexCounts = [3]
+            int[] faceVertexIndices = [0, 1, 2]
+            point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 0, 1)]
+            normal3f[] normals = [(0, -1, 0)] (interpolation = "constant")
+            uniform token subdivisionScheme = "none"
+        }
+        def Sphere "S"
+        {
+            double radius = 0.5
+        }
+    }
+    """
+    y_up = read(tmp_path, body).scene
+    assert np.allclose(y_up.meshes[0].points, [[1, 2, 3], [3, 2, 3], [1, 2, 5]], atol=EXACT)
+    z_up = read(tmp_path, body, up="Z").scene
+    # −90° about X: (x, y, z) → (x, z, −y)
+    assert np.allclose(z_up.meshes[0].points, [[1, 3, -2], [3, 3, -2], [1, 5, -2]], atol=EXACT)
+    assert np.allclose(z_up.meshes[0].normals, [[0, 0, 1]], atol=EXACT)
+    assert np.allclose(z_up.spheres[0].world_from_object[:3, 3], [1, 3, -2], atol=EXACT)
+    assert np.allclose(np.abs(np.linalg.det(z_up.spheres[0].world_from_object[:3, :3])), 1.0, atol=EXACT)  # (2·0.5)³
+
+
+def test_mirroring_transform_flips_winding(tmp_path):
+    body = QUAD_AND_PENTAGON.format(extra="").replace('def Mesh "M"\n{', 'def Mesh "M"\n{\n    double3 xformOp:scale = (-1, 1, 1)\n    uniform token[] xformOpOrder = ["xformOp:scale"]')
+    mesh = read(tmp_path, body).scene.meshes[0]
+    assert mesh.triangles.tolist()[0] == [0, 2, 1]
+
+
+@pytest.mark.parametrize(
+    "prim, triangles_at_least, extent",
+    [
+        ('def Cube "P" { double size = 3 }', 12, (3, 3, 3)),
+        ('def Plane "P" { double width = 4\n double length = 2\n uniform token axis = "Y" }', 2, (4, 0, 2)),
+        ('def Plane "P" { double width = 4\n double length = 2\n uniform token axis = "X" }', 2, (0, 2, 4)),
+        ('def Cylinder "P" { double radius = 1\n double height = 3\n uniform token axis = "Y" }', 64, (2, 3, 2)),
+        ('def Cone "P" { double radius = 1\n double height = 2\n uniform token axis = "Z" }', 64, (2, 2, 2)),
+        ('def Capsule "P" { double radius = 0.5\n double height = 1\n uniform token axis = "X" }', 64, (2, 1, 1)),
+    ],
+)
+def test_tessellated_primitives_match_their_schema_extent(tmp_path, prim, triangles_at_least, extent):
+    mesh = read(tmp_path, prim).scene.meshes[0]
+    assert len(mesh.triangles) >= triangles_at_least
+    size = mesh.points.max(axis=0) - mesh.points.min(axis=0)
+    assert np.allclose(size, extent, rtol=2e-3)  # polygonal circles: within the chord error
+    assert np.allclose(mesh.points.max(axis=0) + mesh.points.min(axis=0), 0.0, atol=1e-9)  # centred
+
+
+def test_curved_primitives_have_smooth_unit_normals(tmp_path):
+    mesh = read(tmp_path, 'def Capsule "P" { double radius = 1\n double height = 2 }').scene.meshes[0]
+    corners = mesh.points[mesh.triangles].reshape(-1, 3)
+    spine = np.column_stack([np.zeros((len(corners), 2)), np.clip(corners[:, 2], -1, 1)])
+    expected = (corners - spine) / np.linalg.norm(corners - spine, axis=1)[:, None]
+    assert np.allclose(mesh.normals[mesh.normal_indices].reshape(-1, 3), expected, atol=1e-9)
+
+
+LIGHTS = """
+def DomeLight "Dome" { float inputs:intensity = 0.5 }
+def DomeLight "Dome2" { color3f inputs:color = (0.1, 0.2, 0.3) }
+def SphereLight "Point" {
+    float inputs:intensity = 2
+    float inputs:exposure = 1
+    color3f inputs:color = (1, 0.5, 0.25)
+    bool treatAsPoint = 1
+    double phong:fadeDistance = 4
+    double phong:fadePower = 2
+    double3 xformOp:translate = (1, 2, 3)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def SphereLight "Ball" {
+    float inputs:radius = 0.5
+    int phong:shadowSamples = 5
+    double3 xformOp:translate = (0, 5, 0)
+    double3 xformOp:scale = (2, 2, 2)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
+}
+def DistantLight "Sun" {
+    float inputs:intensity = 3
+    float3 xformOp:rotateXYZ = (-90, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
+}
+def RectLight "Panel" {
+    float inputs:width = 2
+    float inputs:height = 4
+    double3 xformOp:translate = (0, 6, 0)
+    float3 xformOp:rotateXYZ = (90, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
+}
+def DiskLight "Disk" {}
+def CylinderLight "Tube" {}
+def Sphere "Target" {}
+"""
+
+
+def test_lights(tmp_path):
+    result = read(tmp_path, LIGHTS)
+    scene = result.scene
+    assert scene.ambient.color == pytest.approx((0.6, 0.7, 0.8), abs=FLOAT32)  # DomeLights add up
+    point, ball, sun, panel = scene.lights
+    assert point.position == (1, 2, 3) and point.color == (4.0, 2.0, 1.0)  # 2·2^1·color
+    assert (point.fade_distance, point.fade_power) == (4.0, 2.0)
+    assert ball.center == (0, 5, 0) and ball.radius == 1.0 and ball.samples == 5  # radius × scale
+    assert ball.color == (1.0, 1.0, 1.0)
+    assert np.allclose(sun.direction, (0, -1, 0), atol=1e-7)  # −Z rotated −90° about X points down
+    assert sun.color == (3.0, 3.0, 3.0)
+    assert np.allclose(panel.axis_u, (2, 0, 0), atol=1e-7) and np.allclose(panel.axis_v, (0, 0, 4), atol=1e-6)
+    assert panel.samples == 9
+    unsupported = [w for w in result.warnings if "unsupported lights" in w]
+    assert len(unsupported) == 1 and "/Disk" in unsupported[0] and "/Tube" in unsupported[0]
+
+
+def test_z_up_light_and_camera(tmp_path):
+    body = """
+    def SphereLight "L" { float inputs:radius = 0
+        double3 xformOp:translate = (0, 0, 10)
+        uniform token[] xformOpOrder = ["xformOp:translate"] }
+    def Camera "C" {
+        double3 xformOp:translate = (0, -10, 0)
+        float3 xformOp:rotateXYZ = (90, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"] }
+    """
+    scene = read(tmp_path, body, up="Z").scene
+    assert np.allclose(scene.lights[0].position, (0, 10, 0), atol=EXACT)  # Z-up "above" → +Y
+    assert np.allclose(scene.camera.position, (0, 0, 10), atol=EXACT)
+    assert np.allclose(scene.camera.forward, (0, 0, -1), atol=1e-7)
+    assert np.allclose(scene.camera.up, (0, 1, 0), atol=1e-7)
+
+
+def test_camera_and_render_settings(tmp_path):
+    body = """
+    def Camera "First" { float focalLength = 10
+        float horizontalAperture = 20 }
+    def Camera "Ortho" { token projection = "orthographic"
+        float horizontalAperture = 40 }
+    def Scope "Render" { def RenderSettings "S" {
+        int2 resolution = (64, 48)
+        rel camera = </Ortho>
+        int phong:samples = 3
+        token phong:samplePattern = "povray-am1"
+        token phong:specularConvention = "povray-classic"
+        color3f phong:background = (0.5, 0.25, 0)
+    } }
+    def Sphere "B" {}
+    """
+    scene = read(tmp_path, body).scene
+    assert scene.camera.projection == "orthographic" and scene.camera.ortho_width == pytest.approx(4.0)
+    s = scene.settings
+    assert (s.width, s.height, s.samples, s.sample_pattern, s.specular) == (64, 48, 3, "povray-am1", "povray-classic")
+    assert s.background == (0.5, 0.25, 0.0)
+    first = read(tmp_path, body.replace("rel camera = </Ortho>", "")).scene.camera
+    assert first.source == "/First"
+    assert first.horizontal_fov_deg == pytest.approx(2 * math.degrees(math.atan(0.5 * 20 / 10)))
+
+
+def test_defaults_without_camera_or_lights_warn(tmp_path):
+    result = read(tmp_path, 'def Sphere "B" {}')
+    assert result.scene.camera.source == "(default framing camera)"
+    assert result.scene.lights == (PointLight(result.scene.camera.position, (math.pi,) * 3, source="(default head light)"),)
+    assert any("no camera" in w for w in result.warnings) and any("head light" in w for w in result.warnings)
+
+
+def test_instancing_visibility_and_purpose():
+    scene = read_usd(REPO / "tests" / "scenes" / "instancing.usda").scene
+    # /World/A (instance proxy); /World/Hidden invisible; /World/Guide guide purpose;
+    # the PointInstancer: ids 0 and 1 (2 is invisible), prototype offset (0,1,0) + instancer (0,10,0).
+    centres = sorted(tuple(s.world_from_object[:3, 3]) for s in scene.spheres)
+    assert centres == [(-4.0, 0.0, 0.0), (0.0, 11.0, 0.0), (3.0, 11.0, 0.0)]
+
+
+PREVIEW = """
+def Material "M" {{
+    token outputs:surface.connect = </M/S.outputs:surface>
+    def Shader "S" {{
+        uniform token info:id = "UsdPreviewSurface"
+        {inputs}
+        token outputs:surface
+    }}
+}}
+def Sphere "B" (prepend apiSchemas = ["MaterialBindingAPI"]) {{ rel material:binding = </M> }}
+"""
+
+
+def test_preview_surface_mapping(tmp_path):
+    inputs = "color3f inputs:diffuseColor = (0.5, 0.5, 0.5)\n float inputs:roughness = 0.5\n float inputs:metallic = 0"
+    material = read(tmp_path, PREVIEW.format(inputs=inputs)).scene.spheres[0].material
+    # α = 0.25, n = 2/α² − 2 = 30, e = n/4 = 7.5; dielectric f0 = 0.04 → ks 0.04, cs white
+    assert material.exponent == pytest.approx(7.5)
+    assert material.ks == pytest.approx(0.04)
+    assert material.diffuse_color == pytest.approx((0.5, 0.5, 0.5))
+    assert material.source == "/M/S"
+
+
+def test_preview_to_phong_metallic_and_specular_workflow():
+    metal = preview_to_phong((1.0, 0.5, 0.0), 0.33, metallic=1.0)
+    assert metal.diffuse_color == (0.0, 0.0, 0.0) and metal.ks == 1.0 and metal.specular_color == (1.0, 0.5, 0.0)
+    spec = preview_to_phong((0.2, 0.2, 0.2), 1.0, specular_color=(0.5, 0.25, 0.0), use_specular_workflow=1)
+    assert spec.ks == 0.5 and spec.specular_color == (1.0, 0.5, 0.0) and spec.exponent == 0.0
+    assert preview_to_phong((0.2, 0.2, 0.2), 0.0).exponent == 1e4  # capped
+
+
+def test_texture_connected_input_uses_default_with_warning(tmp_path):
+    inputs = 'color3f inputs:diffuseColor.connect = </M/T.outputs:rgb>\n float inputs:roughness = 0.5'
+    body = PREVIEW.format(inputs=inputs).replace(
+        'def Shader "S"', 'def Shader "T" { uniform token info:id = "UsdUVTexture"\n float3 outputs:rgb }\n    def Shader "S"'
+    )
+    result = read(tmp_path, body)
+    assert result.scene.spheres[0].material.diffuse_color == pytest.approx((0.18, 0.18, 0.18))  # UsdPreviewSurface default
+    assert any("texture-connected" in w and "/M/S.inputs:diffuseColor" in w for w in result.warnings)
+
+
+def test_phong_shader_unauthored_inputs_take_sdr_defaults(tmp_path):
+    body = """
+    def Material "M" {
+        token outputs:phong:surface.connect = </M/P.outputs:surface>
+        def Shader "P" { uniform token info:id = "phongscene_PhongSurface"
+            float inputs:ks = 0.7
+            token outputs:surface }
+    }
+    def Sphere "B" (prepend apiSchemas = ["MaterialBindingAPI"]) { rel material:binding = </M> }
+    """
+    m = read(tmp_path, body).scene.spheres[0].material
+    assert m.ks == pytest.approx(0.7)
+    assert (m.ka, m.kd, m.exponent) == pytest.approx((0.1, 0.6, 32.0))  # schemas/phongShaderDefs.usda
+    assert m.diffuse_color == pytest.approx((0.8, 0.8, 0.8)) and m.specular_color == (1.0, 1.0, 1.0)
+
+
+def test_display_color_unknown_shader_and_grey(tmp_path):
+    body = """
+    def Sphere "Red" { color3f[] primvars:displayColor = [(1, 0, 0)] }
+    def Sphere "Plain" {}
+    def Material "M" { token outputs:surface.connect = </M/S.outputs:surface>
+        def Shader "S" { uniform token info:id = "ND_standard_surface_surfaceshader"
+            token outputs:surface } }
+    def Sphere "Odd" (prepend apiSchemas = ["MaterialBindingAPI"]) { rel material:binding = </M> }
+    """
+    result = read(tmp_path, body)
+    red, plain, odd = result.scene.spheres
+    assert red.material.diffuse_color == (1.0, 0.0, 0.0)
+    assert plain.material == DEFAULT_MATERIAL and odd.material == DEFAULT_MATERIAL
+    assert any("unknown surface shaders" in w and "/M/S" in w for w in result.warnings)
+
+
+def test_problems_are_collected_together(tmp_path):
+    body = """
+    def Sphere "A" { double radius = -1 }
+    def Sphere "B" { double radius = nan }
+    def SphereLight "L" { float inputs:intensity = -1
+        float phong:bogus = 1 }
+    """
+    with pytest.raises(SceneError) as info:
+        read(tmp_path, body)
+    found = {(p.prim, p.attribute) for p in info.value.problems}
+    assert found == {("/A", "radius"), ("/B", "radius"), ("/L", "inputs:intensity"), ("/L", "phong:bogus")}
+    assert all(p.file.endswith("scene.usda") for p in info.value.problems)
+
+
+def test_unreadable_and_missing_files(tmp_path):
+    bad = tmp_path / "bad.usda"
+    bad.write_text("#usda 1.0\ndef Sphere {{{ nonsense")
+    with pytest.raises(SceneError, match="cannot read USD"):
+        read_usd(bad)
+    with pytest.raises(SceneError, match="file not found"):
+        read_usd(tmp_path / "missing.usda")
