@@ -1,0 +1,402 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Compile a ``Scene`` to POV-Ray 3.7 SDL: a pure, deterministic function ``Scene -> str``.
+
+The reference is ``reference/povray-3.7-semantics.md`` (cited as "ref §n"). Two mappings:
+
+``classic`` (the ``povray-classic`` convention): one idiomatic, hand-editable texture per
+material, ``pigment { rgb cd } finish { ambient ka diffuse kd/π phong ks phong_size e }``, light
+colours ``ls·cl``, ``ambient_light La``; one render pass. Its known differences from the seed
+model (DESIGN §2), all of them POV-Ray's ``phong`` (ref §4):
+
+* the highlight has no n·l factor: POV adds ``ks·(r·wo)^e·Lj``, the seed ``ks·cs·(r·wo)^e·Lj·(n·l)``;
+* the highlight is in the light's colour, not in cs (cs is ignored);
+* e = 0: ``phong_size 0`` gives ``ks`` wherever r·wo > 0 (the seed gives ks·cs·(n·l) there), and,
+  like every highlight here, it is gated by n·l ≥ 1e-10 on the light side only;
+* POV drops the highlight when phong_size >= 60 and r·wo <= 0.0008 (a 1e-186 effect).
+
+``exact`` (the ``seed`` convention), to POV-Ray's output precision (half float), ref §12:
+
+* cs through the average-texture trick (A): ``average`` of a diffuse texture (ambient 2·ka, diffuse
+  2·kd/π) and a layered specular texture (phong 2·ks under filter layers), so each half counts once;
+* the specular n·l through a filter layer (B) whose pigment is ``slope { point_at <light> }``
+  (``slope { <direction to the light> }`` for a directional light). Its value v = ½ + asin(n·l)/π
+  (measured, both forms, with the viewer-facing normal), and ``NdotL_Map`` turns v back into
+  n·l = sin(π(v − ½)) with 128 linear segments: a relative error below (π/256)²/8 ≈ 1.9e-5;
+* this is exact for one light only, so the SDL renders ONE PASS PER LIGHT as animation frames
+  (``frame_number``); the caller sums the linear pass images. Pass 0 also carries the ambient term
+  and the background; the other passes have ``ambient_light 0`` and a black background;
+* area lights shade from their centre (ref §5), so (B) with the centre is exact for them too.
+
+Common to both: ``#version 3.7`` and ``assumed_gamma 1.0`` (linear output, ref §1), an explicit
+``ambient`` in every finish (the default is 0.1), floats printed exactly (``numbers.sdl_float``),
+the camera as an explicit right-handed basis (ref §3 recipe (b)), spheres as ``sphere`` (uniform
+scale) or a unit sphere with a ``matrix`` (POV's row-vector convention: the 3×3 part transposed,
+then the translation), meshes as ``mesh2`` (float32 data, ref §7), directional lights as
+``parallel`` lights placed outside the scene bounds (objects behind a parallel light's plane cast
+no shadow, ref §5). Names from USD never reach SDL: identifiers are generated, and prim paths only
+appear in ``//`` comments after ``sanitize_comment``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from phongscene.errors import Problem, SceneError
+from phongscene.scene import (
+    DirectionalLight,
+    PhongMaterial,
+    PointLight,
+    RectAreaLight,
+    RenderSettings,
+    Scene,
+    Sphere,
+    SphereAreaLight,
+    TriangleMesh,
+)
+
+from .numbers import NonFiniteNumber, float32_vectors, int_vectors, sdl_float, sdl_vector
+
+MAPPINGS = ("exact", "classic")
+MAPPING_OF_SPECULAR = {"seed": "exact", "povray-classic": "classic"}
+
+# NdotL_Map resolution: 2**7 linear segments over v in [1/2, 1] (at most 256 colour_map entries).
+NDOTL_SEGMENTS = 128
+# A parallel light sits this many scene radii (plus one unit) behind the scene centre, so that no
+# object lies behind its plane; shadow rays stay far below POV's MAX_DISTANCE (1e7) for scenes
+# within POV's working range (ref §6, §10).
+PARALLEL_LIGHT_DISTANCE_RADII = 2.0
+
+# Characters copied verbatim into a comment; everything else becomes \xNN / \uNNNN / \UNNNNNNNN.
+# '#', '"', '*', '\\' and all control characters are escaped, so a comment can neither end early
+# nor carry a directive.
+_COMMENT_SAFE = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789/_.:-[]<>(), =+@")
+
+
+def sanitize_comment(text: str) -> str:
+    """``text`` made safe for a ``//`` comment: printable ASCII from a fixed set, the rest escaped."""
+    out = []
+    for ch in text:
+        if ch in _COMMENT_SAFE:
+            out.append(ch)
+        elif ord(ch) < 0x100:
+            out.append(f"\\x{ord(ch):02x}")
+        elif ord(ch) < 0x10000:
+            out.append(f"\\u{ord(ch):04x}")
+        else:
+            out.append(f"\\U{ord(ch):08x}")
+    return "".join(out)
+
+
+def resolve_mapping(settings: RenderSettings, mapping: str | None) -> str:
+    """The mapping to use: ``mapping`` if given, else the one matching ``settings.specular``."""
+    if mapping is None:
+        mapping = MAPPING_OF_SPECULAR.get(settings.specular)
+        if mapping is None:
+            raise SceneError(Problem(f"unknown specular convention {settings.specular!r}", settings.source, "specular"))
+    if mapping not in MAPPINGS:
+        raise ValueError(f"unknown POV-Ray mapping {mapping!r}; expected one of {', '.join(MAPPINGS)}")
+    return mapping
+
+
+def pass_count(scene: Scene, mapping: str) -> int:
+    """Render passes (animation frames) the SDL of ``mapping`` needs: one per light for
+    ``exact`` (at least one, which carries the ambient term), one for ``classic``."""
+    return max(1, len(scene.lights)) if mapping == "exact" else 1
+
+
+def compile_pov(scene: Scene, settings: RenderSettings | None = None, mapping: str | None = None) -> str:
+    """Compile ``scene`` to POV-Ray 3.7 SDL.
+
+    Args:
+        scene: the scene (validate it with ``phongscene.validate.check``; here only
+            non-finite numbers are rejected).
+        settings: render settings (only the image aspect ratio and the background enter the
+            SDL); default ``scene.settings``.
+        mapping: "exact" (the seed model, one pass per light) or "classic" (one idiomatic
+            ``finish`` per material); default from ``settings.specular`` ("seed" → "exact",
+            "povray-classic" → "classic").
+
+    Returns:
+        The SDL text. For "exact" it renders ``pass_count(scene, "exact")`` animation frames
+        whose linear images sum to the picture (see ``run.render``).
+
+    Raises:
+        SceneError: the scene is invalid, or a derived number is not finite (naming the prim).
+    """
+    settings = scene.settings if settings is None else settings
+    mapping = resolve_mapping(settings, mapping)
+    body = compile_body(scene, settings, mapping)
+    source = sanitize_comment(scene.source_file) if scene.source_file else "(built in Python)"
+    passes = pass_count(scene, mapping)
+    header = [
+        f"// phongscene: POV-Ray 3.7 scene, {mapping} mapping, from {source}",
+        f"// Render passes (animation frames): {passes}"
+        + (", one per light: sum the linear images of all frames." if passes > 1 else "."),
+        "#version 3.7;",
+    ]
+    if mapping == "exact":
+        header.append("#declare Pass = frame_number;")
+    return "\n".join(header) + "\n" + body
+
+
+def compile_body(scene: Scene, settings: RenderSettings, mapping: str) -> str:
+    """Everything after ``#version``; the exact mapping switches on the identifier ``Pass``
+    (0-based), which the caller declares (``run`` batches several scenes in one file).
+
+    The scene is not range-checked here (that is ``phongscene.validate``'s job, and POV-Ray
+    renders out-of-range coefficients faithfully), but every number is checked for being
+    finite as it is written: a NaN or inf raises ``SceneError`` naming the prim and attribute.
+    """
+    return _Compiler(scene, settings, mapping).run()
+
+
+class _Compiler:
+    def __init__(self, scene: Scene, settings: RenderSettings, mapping: str):
+        self.scene = scene
+        self.settings = settings
+        self.exact = mapping == "exact"
+        self.lines: list[str] = []
+        self.materials: dict[PhongMaterial, str] = {}
+
+    # -- numbers, with the prim named when one is not finite ---------------------------------
+
+    def num(self, x: float, node, attribute: str) -> str:
+        try:
+            return sdl_float(x)
+        except NonFiniteNumber as e:
+            raise self._error(node, attribute, f"is not finite in the SDL ({e})") from None
+
+    def vec(self, v, node, attribute: str) -> str:
+        try:
+            return sdl_vector(v)
+        except NonFiniteNumber as e:
+            raise self._error(node, attribute, f"is not finite in the SDL ({e})") from None
+
+    def _error(self, node, attribute: str, message: str) -> SceneError:
+        return SceneError(Problem(message, getattr(node, "source", ""), attribute, self.scene.source_file))
+
+    def comment(self, node, kind: str, index: int) -> None:
+        self.lines.append(self.comment_text(node, kind, index))
+
+    # -- the file ------------------------------------------------------------------------------
+
+    def run(self) -> str:
+        self.camera()
+        if self.exact:
+            self.exact_passes()
+        else:
+            self.lines.append(
+                f"global_settings {{ assumed_gamma 1.0 ambient_light rgb {self.vec(self.scene.ambient.color, self.scene.ambient, 'color')} }}"
+            )
+            self.lines.append(f"background {{ color rgb {self.vec(self.settings.background, self.settings, 'background')} }}")
+            for i, light in enumerate(self.scene.lights):
+                self.comment(light, "light", i)
+                self.lines.append(self.light_source(light))
+        self.declare_materials()
+        for i, sphere in enumerate(self.scene.spheres):
+            self.comment(sphere, "sphere", i)
+            self.lines.append(self.sphere(sphere))
+        for i, mesh in enumerate(self.scene.meshes):
+            self.comment(mesh, "mesh", i)
+            self.mesh(mesh)
+        return "\n".join(self.lines) + "\n"
+
+    def camera(self) -> None:
+        cam = self.scene.camera
+        width, height = self.settings.width, self.settings.height
+        aspect = width / height
+        forward = np.asarray(cam.forward, dtype=np.float64)
+        up = np.asarray(cam.up, dtype=np.float64)
+        right = np.asarray(cam.right, dtype=np.float64)
+        # Ref §3 recipe (b): an explicit basis, no look_at/angle, so no handedness flip.
+        if cam.projection == "orthographic":
+            kind, direction = "orthographic", forward
+            right_v, up_v = right * cam.ortho_width, up * (cam.ortho_width * height / width)
+        else:
+            kind = "perspective"
+            direction = forward * (aspect / (2.0 * math.tan(math.radians(cam.horizontal_fov_deg) / 2.0)))
+            right_v, up_v = right * aspect, up
+        self.comment(cam, "camera", 0)
+        self.lines.append(
+            f"camera {{ {kind} location {self.vec(cam.position, cam, 'position')}"
+            f" direction {self.vec(direction, cam, 'forward')}"
+            f" right {self.vec(right_v, cam, 'forward')} up {self.vec(up_v, cam, 'up')} }}"
+        )
+
+    # -- lights --------------------------------------------------------------------------------
+
+    def light_source(self, light) -> str:
+        colour = self.vec(light.color, light, "color")
+        if isinstance(light, PointLight):
+            text = f"light_source {{ {self.vec(light.position, light, 'position')} color rgb {colour}"
+            if light.fade_power > 0:
+                text += (
+                    f" fade_distance {self.num(light.fade_distance, light, 'fade_distance')}"
+                    f" fade_power {self.num(light.fade_power, light, 'fade_power')}"
+                )
+            return text + " }"
+        if isinstance(light, DirectionalLight):
+            position = self.parallel_position(light)
+            target = position + np.asarray(light.direction, dtype=np.float64)
+            return (
+                f"light_source {{ {self.vec(position, light, 'direction')} color rgb {colour}"
+                f" parallel point_at {self.vec(target, light, 'direction')} }}"
+            )
+        if isinstance(light, RectAreaLight):
+            n = int(light.samples)
+            # No 'adaptive': POV's default level (100) subdivides fully, giving trapezoid
+            # weights for n = 2^k + 1 (ref §5). No 'jitter' (not deterministic).
+            return (
+                f"light_source {{ {self.vec(light.center, light, 'center')} color rgb {colour}"
+                f" area_light {self.vec(light.axis_u, light, 'axis_u')}, {self.vec(light.axis_v, light, 'axis_v')}, {n}, {n} }}"
+            )
+        if isinstance(light, SphereAreaLight):
+            n = int(light.samples)
+            d = self.num(2.0 * light.radius, light, "radius")
+            return (
+                f"light_source {{ {self.vec(light.center, light, 'center')} color rgb {colour}"
+                f" area_light <{d}, 0, 0>, <0, {d}, 0>, {n}, {n} circular orient }}"
+            )
+        raise self._error(light, "lights", f"unknown light type {type(light).__name__}")
+
+    def parallel_position(self, light: DirectionalLight) -> np.ndarray:
+        direction = np.asarray(light.direction, dtype=np.float64)
+        bounds = self.scene.bounds()
+        if bounds is None:
+            return -direction
+        lo, hi = bounds
+        centre = (lo + hi) / 2
+        radius = float(np.linalg.norm(hi - lo)) / 2
+        return centre - direction * (PARALLEL_LIGHT_DISTANCE_RADII * radius + 1.0)
+
+    def ndotl_pigment(self, light) -> str:
+        if isinstance(light, DirectionalLight):
+            to_light = -np.asarray(light.direction, dtype=np.float64)
+            pattern = f"slope {{ {self.vec(to_light, light, 'direction')} }}"
+        else:
+            centre = light.position if isinstance(light, PointLight) else light.center
+            pattern = f"slope {{ point_at {self.vec(centre, light, 'center')} }}"
+        return f"#declare NdotL = pigment {{ {pattern} color_map {{ NdotL_Map }} }}"
+
+    def exact_passes(self) -> None:
+        self.lines.append("global_settings { assumed_gamma 1.0 adc_bailout 0 }")
+        self.lines.append(f"// n.l = sin(pi*(v - 1/2)) of the slope value v, as a filter colour ({NDOTL_SEGMENTS} linear segments).")
+        entries = ["[0 rgbf <0, 0, 0, 1>]"]
+        for k in range(NDOTL_SEGMENTS + 1):
+            v = 0.5 + 0.5 * k / NDOTL_SEGMENTS
+            s = sdl_float(math.sin(math.pi * (v - 0.5))) if k < NDOTL_SEGMENTS else "1.0"
+            entries.append(f"[{sdl_float(v)} rgbf <{s}, {s}, {s}, 1>]")
+        self.lines.append("#declare NdotL_Map = color_map {")
+        self.lines.extend("  " + " ".join(entries[i : i + 4]) for i in range(0, len(entries), 4))
+        self.lines.append("}")
+        ambient = self.vec(self.scene.ambient.color, self.scene.ambient, "color")
+        background = self.vec(self.settings.background, self.settings, "background")
+        lights = self.scene.lights or (None,)
+        self.lines.append("// One pass per light; pass 0 also carries the ambient term and the background.")
+        self.lines.append("#switch (Pass)")
+        for i, light in enumerate(lights):
+            self.lines.append(f"#case ({i})")
+            first = i == 0
+            self.lines.append(f"  global_settings {{ ambient_light rgb {ambient if first else '<0, 0, 0>'} }}")
+            self.lines.append(f"  background {{ color rgb {background if first else '<0, 0, 0>'} }}")
+            if light is None:
+                self.lines.append("  // no lights: the ambient term only")
+                self.lines.append("  #declare NdotL = pigment { rgbf <0, 0, 0, 1> }")
+            else:
+                self.lines.append("  " + self.comment_text(light, "light", i))
+                self.lines.append("  " + self.light_source(light))
+                self.lines.append("  " + self.ndotl_pigment(light))
+            self.lines.append("#break")
+        self.lines.append("#end")
+
+    def comment_text(self, node, kind: str, index: int) -> str:
+        source = getattr(node, "source", "")
+        return f"// {sanitize_comment(source)}" if source else f"// ({kind} {index})"
+
+    # -- materials -----------------------------------------------------------------------------
+
+    def declare_materials(self) -> None:
+        for obj in (*self.scene.spheres, *self.scene.meshes):
+            m = obj.material
+            if m in self.materials:
+                continue
+            name = f"Material_{len(self.materials)}"
+            self.materials[m] = name
+            self.lines.append(self.comment_text(m, "material", len(self.materials) - 1))
+            texture = self.texture(m, name)
+            self.lines.append(f"#declare {name} = {texture}")
+
+    def texture(self, m: PhongMaterial, name: str) -> str:
+        cd = self.vec(m.diffuse_color, m, "diffuse_color")
+        e = self.num(m.exponent, m, "exponent")
+        if not self.exact:
+            phong = f" phong {self.num(m.ks, m, 'ks')} phong_size {e}" if m.ks > 0 else ""
+            return (
+                f"texture {{ pigment {{ rgb {cd} }} finish {{ ambient {self.num(m.ka, m, 'ka')}"
+                f" diffuse {self.num(m.kd / math.pi, m, 'kd')}{phong} }} }}"
+            )
+        if m.ks <= 0:
+            # No highlight: one plain texture is already exact.
+            return (
+                f"texture {{ pigment {{ rgb {cd} }} finish {{ ambient {self.num(m.ka, m, 'ka')}"
+                f" diffuse {self.num(m.kd / math.pi, m, 'kd')} }} }}"
+            )
+        # (A) the average of a diffuse texture and a layered specular texture, each doubled.
+        # (A texture_map entry cannot hold a layered texture inline: it is declared first.)
+        layers = [f"texture {{ pigment {{ rgb 0 }} finish {{ ambient 0 diffuse 0 phong {self.num(2 * m.ks, m, 'ks')} phong_size {e} }} }}"]
+        if tuple(m.specular_color) != (1.0, 1.0, 1.0):
+            cs = self.vec(m.specular_color, m, "specular_color")
+            layers.append(f"texture {{ pigment {{ rgbf <{cs[1:-1]}, 1> }} finish {{ ambient 0 diffuse 0 }} }}")
+        # (B) the specular n.l of this pass's light.
+        layers.append("texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }")
+        self.lines.append(f"#declare {name}_Specular =\n  " + "\n  ".join(layers))
+        # (A texture_map entry holds a texture body without the 'texture' keyword.)
+        diffuse = (
+            f"pigment {{ rgb {cd} }} finish {{ ambient {self.num(2 * m.ka, m, 'ka')}"
+            f" diffuse {self.num(2 * m.kd / math.pi, m, 'kd')} }}"
+        )
+        return f"texture {{ average texture_map {{\n  [1 {diffuse}]\n  [1 {name}_Specular]\n}} }}"
+
+    # -- geometry ------------------------------------------------------------------------------
+
+    def sphere(self, s: Sphere) -> str:
+        m = s.world_from_object
+        texture = self.materials[s.material]
+        a, t = m[:3, :3], m[:3, 3]
+        r = float(a[0, 0])
+        if r > 0 and np.array_equal(a, np.diag([r, r, r])):
+            return f"sphere {{ {self.vec(t, s, 'world_from_object')}, {self.num(r, s, 'world_from_object')} texture {{ {texture} }} }}"
+        # POV's matrix is row-vector: p' = p·M with M's first three rows the images of x, y, z
+        # (the columns of our column-vector 3×3) and the translation as the fourth row.
+        numbers = ", ".join(self.num(x, s, "world_from_object") for x in (*a.T.reshape(-1), *t))
+        # The texture comes after the matrix, so it is not transformed (world-space slope).
+        return f"sphere {{ <0, 0, 0>, 1 matrix <{numbers}> texture {{ {texture} }} }}"
+
+    def float32_block(self, mesh: TriangleMesh, attribute: str, values: np.ndarray) -> str:
+        try:
+            return float32_vectors(values)
+        except NonFiniteNumber as e:
+            raise self._error(mesh, attribute, f"cannot be written to mesh2: {e}") from None
+
+    def mesh(self, mesh: TriangleMesh) -> None:
+        if len(mesh.triangles) == 0:
+            self.lines.append("// (no triangles)")
+            return
+        vertices = self.float32_block(mesh, "points", mesh.points)
+        normals = self.float32_block(mesh, "normals", mesh.normals) if mesh.normals is not None else None
+        out = self.lines
+        out.append("mesh2 {")
+        out.append(f"  vertex_vectors {{ {len(mesh.points)},\n{vertices}\n  }}")
+        same_indices = normals is not None and len(mesh.normals) == len(mesh.points) and np.array_equal(
+            mesh.normal_indices, mesh.triangles
+        )
+        if normals is not None:
+            out.append(f"  normal_vectors {{ {len(mesh.normals)},\n{normals}\n  }}")
+        out.append(f"  face_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.triangles)}\n  }}")
+        if normals is not None and not same_indices:
+            # Without normal_indices POV uses the face indices (ref §7); only write them when they differ.
+            out.append(f"  normal_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.normal_indices)}\n  }}")
+        out.append(f"  texture {{ {self.materials[mesh.material]} }}")
+        out.append("}")

@@ -1,0 +1,277 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Run POV-Ray 3.7 on compiled scenes and read the images back (reference §1, §8, §11).
+
+Every render runs in a fresh temporary directory (the working directory of the process) with
+``HOME`` pointed at a ``.povray/3.7/povray.conf`` there that restricts file I/O and forbids shell
+commands; ``POVINI`` is unset so no user ini file adds options. Switches: ``+FE`` (half-float
+EXR, linear), ``-D -V -GD -GR -GS +Q9 -J``, and ``-A`` or ``+AM1 +A0.0 +R n`` for anti-aliasing.
+"grid" anti-aliasing renders at n× the resolution with ``-A`` and box-averages n×n blocks
+(exact, ref §8). POV-Ray's start-up costs ~0.7 s per process, so all render passes, and in
+``render_many`` several scenes, are animation frames of ONE process.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from phongscene.errors import BackendError, PhongSceneError
+from phongscene.images import read_image
+from phongscene.scene import RenderSettings, Scene
+
+from .compile import compile_body, compile_pov, pass_count, resolve_mapping
+
+POVRAY = "povray"
+INSTALL_HINT = "POV-Ray 3.7 is not installed ('povray' is not on PATH); install it with: apt-get install povray"
+# The user configuration POV-Ray reads from $HOME: file I/O only where the system configuration
+# allows it (its own include and /tmp paths, and the working directory), no shell-outs.
+POVRAY_CONF = "[File I/O Security]\nrestricted\n[Shellout Security]\nforbidden\n[Permitted Paths]\nread+write = .\n"
+OUTPUT_TAIL_LINES = 25  # lines of POV-Ray's output quoted in an error
+POLL_SECONDS = 0.05  # how often a running render is checked for finished frames and the timeout
+
+
+@dataclass(frozen=True, slots=True)
+class PovJob:
+    """One POV-Ray invocation: the SDL, its frames, and the switches to render it."""
+
+    sdl: str
+    frames: int  # animation frames (render passes) in the SDL
+    width: int  # POV-Ray image size: the output size times ``supersample``
+    height: int
+    supersample: int  # "grid" anti-aliasing: average supersample² blocks (1 = none)
+    switches: tuple[str, ...]  # everything except input, output and frames
+
+    def frame_switches(self) -> tuple[str, ...]:
+        return ("+KFI0", f"+KFF{self.frames - 1}") if self.frames > 1 else ()
+
+    def command(self, pov: str, output: str) -> list[str]:
+        """The ``povray`` command line for ``pov`` writing ``output`` (frames get numbered)."""
+        return [POVRAY, f"+I{pov}", f"+O{output}", *self.switches, *self.frame_switches()]
+
+    def ini(self, pov: str, output: str) -> str:
+        """An ``.ini`` file with the same options (``povray NAME.ini`` in its directory)."""
+        lines = [
+            "; phongscene: POV-Ray 3.7 options for this scene (run: povray <this file>)",
+            f"Input_File_Name={pov}",
+            f"Output_File_Name={output}",
+            *self.switches,
+            *self.frame_switches(),
+        ]
+        if self.frames > 1:
+            lines.insert(1, f"; {self.frames} frames, one per light: add the linear frame images to get the picture")
+        if self.supersample > 1:
+            lines.insert(1, f"; rendered {self.supersample}x larger: average {self.supersample}x{self.supersample} blocks")
+        return "\n".join(lines) + "\n"
+
+
+def render_switches(settings: RenderSettings) -> tuple[int, int, int, tuple[str, ...]]:
+    """(width, height, supersample, switches) POV-Ray needs for ``settings``."""
+    n = int(settings.samples)
+    k = n if n > 1 and settings.sample_pattern == "grid" else 1
+    width, height = settings.width * k, settings.height * k
+    # -GD -GR -GS silence the debug, render and statistics streams but keep the fatal and
+    # warning streams: they carry "File 'x.pov' line N: Parse Error: ..." for error reports.
+    switches = ["+FE", f"+W{width}", f"+H{height}", "-D", "-V", "-GD", "-GR", "-GS", "+Q9", "-J"]
+    if n > 1 and settings.sample_pattern == "povray-am1":
+        switches += ["+AM1", "+A0.0", f"+R{n}"]
+    else:
+        switches.append("-A")
+    if settings.threads > 0:
+        switches.append(f"+WT{int(settings.threads)}")
+    return width, height, k, tuple(switches)
+
+
+def prepare(scene: Scene, settings: RenderSettings | None = None, mapping: str | None = None) -> PovJob:
+    """Compile ``scene`` and work out how POV-Ray must render it (what the CLI prints)."""
+    settings = scene.settings if settings is None else settings
+    mapping = resolve_mapping(settings, mapping)
+    width, height, k, switches = render_switches(settings)
+    return PovJob(compile_pov(scene, settings, mapping), pass_count(scene, mapping), width, height, k, switches)
+
+
+def render(
+    scene: Scene,
+    settings: RenderSettings | None = None,
+    *,
+    mapping: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    timeout: float | None = None,
+    keep_dir: str | None = None,
+) -> np.ndarray:
+    """Render ``scene`` with POV-Ray.
+
+    Args:
+        scene: the scene (validated on compilation).
+        settings: render settings; default ``scene.settings``.
+        mapping: "exact" or "classic"; default from ``settings.specular``.
+        progress: called with (passes done, passes) as frames finish.
+        timeout: seconds before POV-Ray is stopped and a ``BackendError`` raised.
+        keep_dir: render in this directory and keep the .pov, .ini and EXR files there.
+
+    Returns:
+        Linear float32 image (H, W, 3), row 0 at the top.
+
+    Raises:
+        BackendError: POV-Ray is missing, fails or times out (the .pov is kept and named).
+        SceneError: the scene is invalid.
+    """
+    return render_many([(scene, settings, mapping)], progress=progress, timeout=timeout, keep_dir=keep_dir)[0]
+
+
+def render_many(
+    items: Sequence[tuple[Scene, RenderSettings | None, str | None]],
+    *,
+    progress: Callable[[int, int], None] | None = None,
+    timeout: float | None = None,
+    keep_dir: str | None = None,
+) -> list[np.ndarray]:
+    """Render several (scene, settings, mapping) triples, as frames of as few POV-Ray processes
+    as possible (one per distinct image size and anti-aliasing switches). Arguments as in
+    ``render``; ``timeout`` applies to each process. Returns one image per item, in order."""
+    if shutil.which(POVRAY) is None:
+        raise BackendError(INSTALL_HINT)
+    jobs = []
+    for scene, settings, mapping in items:
+        settings = scene.settings if settings is None else settings
+        mapping = resolve_mapping(settings, mapping)
+        jobs.append((scene, settings, mapping, render_switches(settings)))
+    groups: dict[tuple, list[int]] = {}
+    for i, job in enumerate(jobs):
+        groups.setdefault(job[3], []).append(i)
+    total = sum(pass_count(job[0], job[2]) for job in jobs)
+    done = 0
+    if progress:
+        progress(0, total)
+    images: list[np.ndarray | None] = [None] * len(jobs)
+    for g, ((width, height, k, switches), members) in enumerate(groups.items()):
+        if len(members) == 1:
+            scene, settings, mapping, _ = jobs[members[0]]
+            sdl = compile_pov(scene, settings, mapping)
+        else:
+            sdl = _batch_sdl([jobs[i][:3] for i in members])
+        passes = [pass_count(jobs[i][0], jobs[i][2]) for i in members]
+        job = PovJob(sdl, sum(passes), width, height, k, switches)
+
+        def frame_done(frames: int, base: int = done) -> None:
+            if progress:
+                progress(base + frames, total)
+
+        frames = _run(job, f"group{g}-" if len(groups) > 1 else "scene", timeout, keep_dir, frame_done)
+        done += job.frames
+        start = 0
+        for i, n in zip(members, passes):
+            # Direct light is linear in the lights: the passes add up (float64, then float32).
+            image = np.sum([f.astype(np.float64) for f in frames[start : start + n]], axis=0)
+            start += n
+            if k > 1:
+                h, w = image.shape[0] // k, image.shape[1] // k
+                image = image.reshape(h, k, w, k, 3).mean(axis=(1, 3))
+            images[i] = np.ascontiguousarray(image, dtype=np.float32)
+    return images  # type: ignore[return-value]
+
+
+def _batch_sdl(items: list[tuple[Scene, RenderSettings, str]]) -> str:
+    """Several scenes in one file: scene i owns a range of frames, and its own passes count
+    from 0 within it (the identifier ``Pass`` of ``compile_body``)."""
+    out = [f"// phongscene: {len(items)} scenes as frames of one POV-Ray run", "#version 3.7;", "#switch (frame_number)"]
+    first = 0
+    for scene, settings, mapping in items:
+        last = first + pass_count(scene, mapping) - 1
+        out.append(f"#range ({first}, {last})")
+        out.append(f"#declare Pass = frame_number - {first};")
+        out.append(compile_body(scene, settings, mapping))
+        out.append("#break")
+        first = last + 1
+    out.append("#end")
+    return "\n".join(out) + "\n"
+
+
+def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, frame_done) -> list[np.ndarray]:
+    """Run one POV-Ray process for ``job``; return its frames as float32 images."""
+    workdir = Path(keep_dir) if keep_dir else Path(tempfile.mkdtemp(prefix="phongscene-povray-"))
+    workdir.mkdir(parents=True, exist_ok=True)
+    pov, output, log = workdir / f"{stem}.pov", workdir / f"{stem}.exr", workdir / f"{stem}.log"
+    pov.write_text(job.sdl, encoding="ascii")
+    (workdir / f"{stem}.ini").write_text(job.ini(pov.name, output.name), encoding="ascii")
+    home = workdir / "home"
+    (home / ".povray" / "3.7").mkdir(parents=True, exist_ok=True)
+    (home / ".povray" / "3.7" / "povray.conf").write_text(POVRAY_CONF, encoding="ascii")
+    env = dict(os.environ, HOME=str(home), LC_ALL="C")
+    env.pop("POVINI", None)
+    for old in _frame_files(workdir, stem):
+        old.unlink()
+
+    def fail(message: str) -> BackendError:
+        return BackendError(message, detail=_tail(log), kept=str(pov))
+
+    with open(log, "wb") as log_file:
+        proc = subprocess.Popen(
+            job.command(pov.name, output.name),
+            cwd=workdir,
+            env=env,
+            stdin=subprocess.DEVNULL,
+            stdout=log_file,
+            stderr=subprocess.STDOUT,
+        )
+        try:
+            deadline = None if timeout is None else time.monotonic() + timeout
+            reported = 0
+            while True:
+                try:
+                    rc = proc.wait(timeout=POLL_SECONDS)
+                    break
+                except subprocess.TimeoutExpired:
+                    pass
+                # A frame's file appears when it is written; the newest one may be incomplete.
+                finished = max(0, len(_frame_files(workdir, stem)) - 1)
+                if finished > reported:
+                    reported = finished
+                    frame_done(finished)
+                if deadline is not None and time.monotonic() > deadline:
+                    proc.kill()
+                    proc.wait()
+                    raise fail(f"POV-Ray timed out after {timeout:g} s")
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+    if rc != 0:
+        raise fail(f"POV-Ray failed (exit code {rc})")
+    files = _frame_files(workdir, stem)
+    if len(files) != job.frames:
+        raise fail(f"POV-Ray wrote {len(files)} of {job.frames} frames")
+    try:
+        frames = [read_image(f) for f in files]
+    except PhongSceneError as e:
+        raise fail(f"cannot read POV-Ray's output: {e}") from None
+    for f, image in zip(files, frames):
+        if image.shape != (job.height, job.width, 3):
+            raise fail(f"{f.name}: expected {job.width}x{job.height} pixels, got {image.shape[1]}x{image.shape[0]}")
+    frame_done(job.frames)
+    if not keep_dir:
+        shutil.rmtree(workdir, ignore_errors=True)
+    return frames
+
+
+def _frame_files(workdir: Path, stem: str) -> list[Path]:
+    """Output files in frame order: ``stem.exr``, or ``stemN.exr`` (zero-padded N) for animations."""
+    pattern = re.compile(re.escape(stem) + r"(\d*)\.exr")
+    found = [(m.group(1), p) for p in workdir.iterdir() if (m := pattern.fullmatch(p.name))]
+    return [p for _, p in sorted(found, key=lambda item: int(item[0] or 0))]
+
+
+def _tail(log: Path) -> str:
+    try:
+        text = log.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return ""
+    return "\n".join(text.rstrip().splitlines()[-OUTPUT_TAIL_LINES:])
