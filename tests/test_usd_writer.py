@@ -1,0 +1,150 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The writer: round trip, Sdr compliance of what it writes, registration order, mesh import."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from dataclasses import fields, replace
+
+import numpy as np
+import pytest
+import trimesh
+from pxr import Sdf, Usd, UsdValidation
+
+from phongscene.cli import main
+from phongscene.scene import (
+    AmbientLight,
+    Camera,
+    DirectionalLight,
+    PhongMaterial,
+    PointLight,
+    RectAreaLight,
+    RenderSettings,
+    Scene,
+    Sphere,
+    SphereAreaLight,
+    TriangleMesh,
+)
+from phongscene.usd import PHONG_SHADER_ID, load_usd, read_usd, write_usd
+
+# USD stores colours, material inputs, points, normals and apertures as float32: a value comes
+# back within float32 rounding (2^-24 relative ≈ 6e-8) plus double arithmetic on top (FOV via
+# tan/atan). 1e-6 relative bounds both with margin.
+FLOAT32_ROUNDING = 1e-6
+
+
+def scene() -> Scene:
+    red = PhongMaterial(0.25, 0.6, 0.2, 20.0, (0.9, 0.2, 0.1), (1.0, 0.9, 0.8))
+    normals = np.array([[0, 0, 1], [0, 0.6, 0.8], [0.1, 0.2, 0.3]], float)
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    return Scene(
+        camera=Camera((0.1, 1.0, 5.0), (0.0, 0.0, -1.0), (0.0, 1.0, 0.0), horizontal_fov_deg=50.0),
+        ambient=AmbientLight((0.1, 0.2, 0.3)),
+        lights=(
+            PointLight((1, 2, 3), (math.pi,) * 3, 2.0, 1.0),
+            DirectionalLight((0.0, -0.6, -0.8), (1.0, 0.5, 0.2)),
+            RectAreaLight((0, 5, 0), (1, 0, 0), (0, 0.5, 2), (2, 2, 2), 5),
+            SphereAreaLight((3, 3, 3), 0.3, (1, 1, 1), 17),
+        ),
+        spheres=(
+            Sphere.at((0, 1, 0), 1.3, red),
+            Sphere(np.array([[2, 0, 0, 1], [0, 1, 0.5, 0], [0, 0, 0.5, 0], [0, 0, 0, 1.0]]), PhongMaterial()),
+        ),
+        meshes=(
+            TriangleMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.3]], [[0, 1, 2], [1, 3, 2]], normals, [[0, 1, 2], [2, 1, 0]], red),
+            TriangleMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], [[0, 0, 1]] * 3, [[0, 1, 2]], PhongMaterial(ks=0.0)),
+            TriangleMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 2, 1]]),
+        ),
+        settings=RenderSettings(96, 72, 3, "povray-am1", background=(0.1, 0.2, 0.3), specular="povray-classic"),
+    )
+
+
+def assert_close(a, b, path="scene"):
+    """Structural comparison ignoring `source`, floats within float32 rounding."""
+    if isinstance(a, (tuple, list)) and not isinstance(a, str):
+        assert len(a) == len(b), path
+        for i, (x, y) in enumerate(zip(a, b)):
+            assert_close(x, y, f"{path}[{i}]")
+    elif hasattr(a, "__dataclass_fields__"):
+        assert type(a) is type(b), path
+        for f in fields(a):
+            if f.name not in ("source", "source_file"):
+                assert_close(getattr(a, f.name), getattr(b, f.name), f"{path}.{f.name}")
+    elif isinstance(a, np.ndarray) or isinstance(a, float):
+        np.testing.assert_allclose(a, b, rtol=FLOAT32_ROUNDING, atol=FLOAT32_ROUNDING, err_msg=path)
+    else:
+        assert a == b, path
+
+
+def test_round_trip(tmp_path):
+    s = scene()
+    s1 = load_usd(write_usd(s, tmp_path / "s1.usda"))
+    s2 = load_usd(write_usd(s1, tmp_path / "s2.usda"))
+    assert replace(s2, source_file="") == replace(s1, source_file="")  # exact: a re-read is idempotent
+    assert_close(s, s1)  # the first pass rounds through float32
+
+
+def test_round_trip_orthographic_and_usdc(tmp_path):
+    s = replace(scene(), camera=Camera((0, 0, 3), (0, 0, -1), (0, 1, 0), "orthographic", ortho_width=4.5))
+    s1 = load_usd(write_usd(s, tmp_path / "s.usdc"))
+    assert s1.camera.projection == "orthographic"
+    assert_close(s, s1)
+
+
+def test_write_is_atomic_and_rejects_unknown_formats(tmp_path):
+    target = tmp_path / "out.usda"
+    write_usd(scene(), target)
+    assert [p.name for p in tmp_path.iterdir()] == ["out.usda"]  # no temporary left behind
+    with pytest.raises(Exception, match="can only write"):
+        write_usd(scene(), tmp_path / "out.obj")
+
+
+def sdr_errors(stage):
+    validator = UsdValidation.ValidationRegistry().GetOrLoadValidatorByName("usdShadeValidators:ShaderSdrCompliance")
+    return [e.GetMessage() for prim in stage.Traverse() for e in validator.Validate(prim)]
+
+
+def test_written_scene_passes_sdr_validation_and_a_wrong_type_is_reported(tmp_path):
+    path = write_usd(scene(), tmp_path / "s.usda")
+    stage = Usd.Stage.Open(str(path))
+    assert sdr_errors(stage) == []
+    shader = next(p for p in stage.Traverse() if p.GetAttribute("info:id").Get() == PHONG_SHADER_ID)
+    shader.RemoveProperty("inputs:ks")
+    shader.CreateAttribute("inputs:ks", Sdf.ValueTypeNames.Double).Set(0.5)
+    (message,) = sdr_errors(stage)
+    assert "inputs:ks" in message and "Expected 'float'; got 'double'" in message
+
+
+def test_sdr_registration_after_stages_were_opened(tmp_path):
+    path = write_usd(scene(), tmp_path / "s.usda")
+    probe = (
+        "import sys\n"
+        "from pxr import Usd, UsdGeom, UsdValidation\n"
+        "stage = Usd.Stage.Open(sys.argv[1]); UsdGeom.Xform.Define(Usd.Stage.CreateInMemory(), '/X')\n"
+        "import phongscene.usd\n"
+        "v = UsdValidation.ValidationRegistry().GetOrLoadValidatorByName('usdShadeValidators:ShaderSdrCompliance')\n"
+        "errors = [e.GetMessage() for p in stage.Traverse() for e in v.Validate(p)]\n"
+        "assert errors == [], errors\n"
+        "assert phongscene.usd.load_usd(stage).spheres[0].material.ks > 0.19\n"
+    )
+    subprocess.run([sys.executable, "-c", probe, str(path)], check=True)
+
+
+def test_import_mesh_command(tmp_path, capsys):
+    source = tmp_path / "ico.ply"
+    ico = trimesh.creation.icosphere(subdivisions=2)
+    ico.export(source)
+    out = tmp_path / "ico.usda"
+    assert main(["import", str(source), "-o", str(out)]) == 0
+    result = read_usd(out)
+    (mesh,) = result.scene.meshes
+    assert len(mesh.triangles) == len(ico.faces)
+    assert np.allclose(mesh.points, ico.vertices, atol=FLOAT32_ROUNDING)
+    # vertex normals of a unit icosphere point away from the centre
+    assert np.allclose(mesh.normals, mesh.points / np.linalg.norm(mesh.points, axis=1)[:, None], atol=1e-2)
+    assert mesh.material.source.endswith("/Phong")
+    stage = Usd.Stage.Open(str(out))
+    assert stage.GetPrimAtPath("/World/ico").GetAttribute("subdivisionScheme").Get() == "none"
+    assert main(["import", str(tmp_path / "missing.ply"), "-o", str(out)]) == 2
