@@ -289,7 +289,7 @@ class _Compiler:
             s = sdl_float(math.sin(math.pi * (v - 0.5))) if k < NDOTL_SEGMENTS else "1.0"
             entries.append(f"[{sdl_float(v)} rgbf <{s}, {s}, {s}, 1>]")
         self.lines.append("#declare NdotL_Map = color_map {")
-        self.lines.extend("  " + " ".join(entries[i : i + 4]) for i in range(0, len(entries), 4))
+        self.lines.extend("  " + entry for entry in entries)
         self.lines.append("}")
         ambient = self.vec(self.scene.ambient.color, self.scene.ambient, "color")
         background = self.vec(self.settings.background, self.settings, "background")
