@@ -30,6 +30,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_usd_commands(sub)
     _add_render_command(sub)
+    from .backends.povray.cli import add_compile_command
+
+    add_compile_command(sub)
     return parser
 
 
