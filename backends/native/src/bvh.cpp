@@ -10,9 +10,14 @@
 
 namespace phong {
 
+// Plain comparisons, not std::fmin/fmax: those are libm calls without -ffast-math (their NaN
+// rules have no single x86 instruction), and a validated scene has no NaN.
+static inline double min_of(double a, double b) { return b < a ? b : a; }
+static inline double max_of(double a, double b) { return b > a ? b : a; }
+
 void Bounds::grow(const Vec3& p) {
-    lo = {std::fmin(lo.x, p.x), std::fmin(lo.y, p.y), std::fmin(lo.z, p.z)};
-    hi = {std::fmax(hi.x, p.x), std::fmax(hi.y, p.y), std::fmax(hi.z, p.z)};
+    lo = {min_of(lo.x, p.x), min_of(lo.y, p.y), min_of(lo.z, p.z)};
+    hi = {max_of(hi.x, p.x), max_of(hi.y, p.y), max_of(hi.z, p.z)};
 }
 
 void Bounds::grow(const Bounds& b) {
