@@ -263,13 +263,15 @@ class _Compiler:
 
     def parallel_position(self, light: DirectionalLight) -> np.ndarray:
         direction = np.asarray(light.direction, dtype=np.float64)
-        bounds = self.scene.bounds()
-        if bounds is None:
-            return -direction
-        lo, hi = bounds
-        centre = (lo + hi) / 2
-        radius = float(np.linalg.norm(hi - lo)) / 2
-        return centre - direction * (PARALLEL_LIGHT_DISTANCE_RADII * radius + 1.0)
+        # Overflow (bounds near 1e308) gives inf here, which vec() then rejects naming the light.
+        with np.errstate(over="ignore", invalid="ignore"):
+            bounds = self.scene.bounds()
+            if bounds is None:
+                return -direction
+            lo, hi = bounds
+            centre = (lo + hi) / 2
+            radius = float(np.linalg.norm(hi - lo)) / 2
+            return centre - direction * (PARALLEL_LIGHT_DISTANCE_RADII * radius + 1.0)
 
     def ndotl_pigment(self, light) -> str:
         if isinstance(light, DirectionalLight):
@@ -282,7 +284,7 @@ class _Compiler:
 
     def exact_passes(self) -> None:
         self.lines.append("global_settings { assumed_gamma 1.0 adc_bailout 0 }")
-        self.lines.append(f"// n.l = sin(pi*(v - 1/2)) of the slope value v, as a filter colour ({NDOTL_SEGMENTS} linear segments).")
+        self.lines.append(f"// n.l = sin(pi (v - 1/2)) of the slope value v, as a filter colour ({NDOTL_SEGMENTS} linear segments).")
         entries = ["[0 rgbf <0, 0, 0, 1>]"]
         for k in range(NDOTL_SEGMENTS + 1):
             v = 0.5 + 0.5 * k / NDOTL_SEGMENTS
@@ -331,8 +333,9 @@ class _Compiler:
     def texture(self, m: PhongMaterial, name: str) -> str:
         cd = self.vec(m.diffuse_color, m, "diffuse_color")
         e = self.num(m.exponent, m, "exponent")
+        ks = self.num(m.ks, m, "ks")  # checked even where no highlight is written
         if not self.exact:
-            phong = f" phong {self.num(m.ks, m, 'ks')} phong_size {e}" if m.ks > 0 else ""
+            phong = f" phong {ks} phong_size {e}" if m.ks > 0 else ""
             return (
                 f"texture {{ pigment {{ rgb {cd} }} finish {{ ambient {self.num(m.ka, m, 'ka')}"
                 f" diffuse {self.num(m.kd / math.pi, m, 'kd')}{phong} }} }}"

@@ -5,7 +5,7 @@
 // (camera 0)
 camera { perspective location <0.37, 2.13, 5.71> direction <-0.07480960086695655, -0.3506700040638589, -1.3839776160386963> right <1.3313896977033441, 2.3129646346357427e-18, -0.07196701068666726> up <-0.013239060060694972, 0.9694522380444902, -0.24492261112285693> }
 global_settings { assumed_gamma 1.0 adc_bailout 0 }
-// n.l = sin(pi*(v - 1/2)) of the slope value v, as a filter colour (128 linear segments).
+// n.l = sin(pi (v - 1/2)) of the slope value v, as a filter colour (128 linear segments).
 #declare NdotL_Map = color_map {
   [0 rgbf <0, 0, 0, 1>]
   [0.5 rgbf <0.0, 0.0, 0.0, 1>]

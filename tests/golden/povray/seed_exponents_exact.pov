@@ -5,7 +5,7 @@
 // /World/Camera
 camera { perspective location <0.0, 3.0, 10.0> direction <0.0, -0.2751637606403538, -1.2507443665470626> right <1.333333333333333, 0.0, 0.0> up <0.0, 0.9766444667050899, -0.2148617826751198> }
 global_settings { assumed_gamma 1.0 adc_bailout 0 }
-// n.l = sin(pi*(v - 1/2)) of the slope value v, as a filter colour (128 linear segments).
+// n.l = sin(pi (v - 1/2)) of the slope value v, as a filter colour (128 linear segments).
 #declare NdotL_Map = color_map {
   [0 rgbf <0, 0, 0, 1>]
   [0.5 rgbf <0.0, 0.0, 0.0, 1>]
