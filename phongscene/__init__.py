@@ -42,6 +42,8 @@ _sys.modules[__name__].__class__ = _Package
 def __getattr__(name: str):
     if name in ("load_usd", "read_usd", "write_usd"):  # USD I/O imports pxr: load it on first use
         return getattr(_importlib.import_module(".usd", __name__), name)
+    if name == "compile_pov":  # the POV-Ray compiler (pure Python, numpy)
+        return _importlib.import_module(".backends.povray", __name__).compile_pov
     if name in _FUNCTION_MODULES:
         _importlib.import_module(f".{name}", __name__)  # binds the function (see _Package)
         return globals()[name]
@@ -65,6 +67,7 @@ __all__ = [
     "SphereAreaLight",
     "TriangleMesh",
     "compare",
+    "compile_pov",
     "diff",
     "load_usd",
     "read_usd",
