@@ -393,3 +393,20 @@ def test_million_triangle_mesh_compiles_fast():
         best = min(best, time.perf_counter() - start)
     assert sdl.count("\n") > 1_000_000
     assert best < MILLION_TRIANGLE_COMPILE_SECONDS, f"1M-triangle compile took {best:.2f} s"
+
+
+def test_compile_cli_on_a_usd_example(tmp_path, capsys):
+    from phongscene import cli, load_usd
+
+    usda = EXAMPLES / "seed_specular_color.usda"
+    out = tmp_path / "sub" / "scene.pov"
+    assert cli.main(["compile", str(usda), "-o", str(out), "--width", "48", "--spp", "2"]) == 0
+    scene = load_usd(usda)
+    settings = dataclasses.replace(scene.settings, width=48, height=round(48 * scene.settings.height / scene.settings.width), samples=2)
+    assert out.read_text() == compile_pov(scene, settings)
+    job = prepare(scene, settings)
+    ini = (tmp_path / "sub" / "scene.ini").read_text()
+    assert ini == job.ini("scene.pov", "scene.exr")
+    printed = capsys.readouterr().out
+    assert " ".join(job.command("scene.pov", "scene.exr")) in printed
+    assert "average 2 x 2 pixel blocks" in printed
