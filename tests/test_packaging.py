@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.resources
 import subprocess
 import sys
+import sysconfig
 import zipfile
 
 import pytest
@@ -39,13 +40,14 @@ def test_wheel_contains_the_backends_the_extension_and_no_cpp(tmp_path):
     assert not [n for n in names if n.endswith((".cpp", ".hpp", "CMakeLists.txt"))]
 
     # Import from the unpacked wheel, not from the editable install: -S skips site-packages'
-    # .pth files (where the editable redirect lives); the dependencies come from purelib.
+    # .pth files (where the editable redirect lives); the dependencies come from this
+    # environment's purelib, passed in because without `site` a venv's prefix is not set.
     target = tmp_path / "site"
     zipfile.ZipFile(wheel).extractall(target)
     probe = (
-        "import sys, sysconfig; sys.path[:0] = [sys.argv[1], sysconfig.get_paths()['purelib']];"
+        "import sys; sys.path[:0] = sys.argv[1:3];"
         "import phongscene.backends.native as n, phongscene.backends.povray as p, phongscene;"
         "assert n.__file__.startswith(sys.argv[1]) and p.__file__.startswith(sys.argv[1]), (n.__file__, p.__file__);"
         "assert n._native.hardware_threads() >= 1"
     )
-    subprocess.run([sys.executable, "-S", "-c", probe, str(target)], check=True, cwd=tmp_path)
+    subprocess.run([sys.executable, "-S", "-c", probe, str(target), sysconfig.get_paths()["purelib"]], check=True, cwd=tmp_path)
