@@ -182,8 +182,8 @@ def _vector_lines(words: np.ndarray, per_line: int = 1) -> str:
     out[:, 3 + 3 * k] = word(b">,")
     out[per_line - 1 :: per_line, 3 + 3 * k] = word(b">,\n")
     out[-1, 3 + 3 * k] = word(b">")
-    line = out.view(np.uint8).ravel()
-    return line[line != _PAD].tobytes().decode("ascii")
+    # bytes.translate drops the padding about twice as fast as a numpy boolean mask.
+    return out.tobytes().translate(None, bytes([_PAD])).decode("ascii")
 
 
 def float32_vectors(points: np.ndarray) -> str:
