@@ -191,3 +191,12 @@ def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
     with pytest.raises(OSError):
         pov_cli.write_text_atomic(tmp_path / "new.pov", "x")
     assert sorted(tmp_path.iterdir()) == before
+
+
+def test_mesh_indices_out_of_range_are_rejected_by_name():
+    mesh = TriangleMesh(np.eye(3), [[0, 1, -1]], source="/World/Broken")
+    with pytest.raises(SceneError, match=r"/World/Broken\.triangles: indices must be in \[0, 3\)"):
+        compile_pov(_simple(meshes=(mesh,)))
+    mesh = TriangleMesh(np.eye(3), [[0, 1, 2]], [[0, 0, 1]], [[0, 0, 1]], source="/World/Broken")
+    with pytest.raises(SceneError, match=r"/World/Broken\.normal_indices"):
+        compile_pov(_simple(meshes=(mesh,)))

@@ -153,3 +153,16 @@ def test_keep_dir_holds_the_sdl_ini_and_frames(tmp_path):
     conf = (tmp_path / "home" / ".povray" / "3.7" / "povray.conf").read_text()
     assert "restricted" in conf and "forbidden" in conf
     assert os.path.getsize(tmp_path / "scene.pov") > 0
+
+
+@pytest.mark.povray
+def test_interrupt_removes_the_temporary_directory(monkeypatch, tmp_path):
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+
+    def interrupted(path):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(run, "read_image", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        povray.render(_two_light_scene())
+    assert list(tmp_path.iterdir()) == []

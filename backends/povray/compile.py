@@ -377,6 +377,12 @@ class _Compiler:
         # The texture comes after the matrix, so it is not transformed (world-space slope).
         return f"sphere {{ <0, 0, 0>, 1 matrix <{numbers}> texture {{ {texture} }} }}"
 
+    def check_indices(self, mesh: TriangleMesh, attribute: str, indices: np.ndarray, count: int) -> None:
+        if indices.shape != mesh.triangles.shape:
+            raise self._error(mesh, attribute, f"must have one row of 3 per triangle, got shape {indices.shape}")
+        if indices.size and (indices.min() < 0 or indices.max() >= count):
+            raise self._error(mesh, attribute, f"indices must be in [0, {count}), got {indices.min()}..{indices.max()}")
+
     def float32_block(self, mesh: TriangleMesh, attribute: str, values: np.ndarray) -> str:
         try:
             return float32_vectors(values)
@@ -387,6 +393,9 @@ class _Compiler:
         if len(mesh.triangles) == 0:
             self.lines.append("// (no triangles)")
             return
+        self.check_indices(mesh, "triangles", mesh.triangles, len(mesh.points))
+        if mesh.normals is not None:
+            self.check_indices(mesh, "normal_indices", mesh.normal_indices, len(mesh.normals))
         vertices = self.float32_block(mesh, "points", mesh.points)
         normals = self.float32_block(mesh, "normals", mesh.normals) if mesh.normals is not None else None
         out = self.lines

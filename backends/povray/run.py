@@ -196,8 +196,23 @@ def _batch_sdl(items: list[tuple[Scene, RenderSettings, str]]) -> str:
 
 
 def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, frame_done) -> list[np.ndarray]:
-    """Run one POV-Ray process for ``job``; return its frames as float32 images."""
+    """Run one POV-Ray process for ``job``; return its frames as float32 images. The temporary
+    directory is removed afterwards, except after a ``BackendError`` (it holds the kept .pov)."""
     workdir = Path(keep_dir) if keep_dir else Path(tempfile.mkdtemp(prefix="phongscene-povray-"))
+    try:
+        frames = _run_in(job, workdir, stem, timeout, frame_done)
+    except BackendError:
+        raise
+    except BaseException:  # Ctrl-C, a full disk, ...: nothing worth keeping
+        if not keep_dir:
+            shutil.rmtree(workdir, ignore_errors=True)
+        raise
+    if not keep_dir:
+        shutil.rmtree(workdir, ignore_errors=True)
+    return frames
+
+
+def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_done) -> list[np.ndarray]:
     workdir.mkdir(parents=True, exist_ok=True)
     pov, output, log = workdir / f"{stem}.pov", workdir / f"{stem}.exr", workdir / f"{stem}.log"
     pov.write_text(job.sdl, encoding="ascii")
@@ -257,8 +272,6 @@ def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, fr
         if image.shape != (job.height, job.width, 3):
             raise fail(f"{f.name}: expected {job.width}x{job.height} pixels, got {image.shape[1]}x{image.shape[0]}")
     frame_done(job.frames)
-    if not keep_dir:
-        shutil.rmtree(workdir, ignore_errors=True)
     return frames
 
 
