@@ -85,13 +85,18 @@ class Thresholds:
 # The backends must agree at half-float precision at every pixel (POV-Ray's EXR output).
 HALF_FLOAT = Thresholds()
 
-# Area lights: POV-Ray's per-thread shadow cache (reference §6) retests the last occluder with
-# a looser window (1e-4 instead of 1e-3), so a shadow sample just below a sphere's horizon can
-# depend on the previously rendered pixel. The reference measured 1–7 of 6912 pixels (≤ 0.10 %)
-# differing by ≤ 0.027 on the self-shadow terminator. Allowed: twice that share of pixels
-# (small test images put a larger share of their pixels on the terminator), each off by at
-# most 0.1 (a few grid samples of one light flipping together).
-AREA_LIGHT_SHADOW_CACHE = replace(HALF_FLOAT, fail_percent=0.2, hard_fail=0.1)
+# POV-Ray's per-thread shadow cache (reference §6): each thread retests the last opaque occluder
+# of a light first, with a looser window (t ≥ 1e-4 instead of t > 1e-3). A shadow ray that meets
+# an occluder at 1e-4 ≤ t ≤ 1e-3 is then lit or shadowed depending on the previously rendered
+# pixel. That happens for area-light samples just below a sphere's horizon (the reference
+# measured 1–7 of 6912 pixels, ≤ 0.10 %) and on the terminator of smooth-normal meshes, where
+# the interpolated normal passes the n·l gate but the ray leaves the facet through a neighbour
+# (measured: orthographic calibration scene, pixel (10, 32), neighbour facet at t = 1.95e-4).
+# Such a pixel gains or loses a whole light's (or sample's) contribution, so no error bound
+# holds for it (hard_fail stays infinite); what is bounded is how many there are: 0.2 % of the
+# pixels, twice the reference's share, since small test images put a larger share of their
+# pixels on terminators.
+POVRAY_SHADOW_CACHE = replace(HALF_FLOAT, fail_percent=0.2)
 
 
 @dataclass(frozen=True, slots=True)
@@ -268,6 +273,23 @@ def compare(a, b, thresholds: Thresholds = HALF_FLOAT) -> Report:
         thresholds=thresholds,
         worst_pixels=tuple(worst),
     )
+
+
+def failing_mask(a, b, thresholds: Thresholds = HALF_FLOAT) -> np.ndarray:
+    """Which pixels fail: (H, W) bool, by the same rule ``compare`` counts with OIIO (a channel
+    fails when its error exceeds ``fail`` and ``fail_relative`` of mean(|a|, |b|); a NaN never
+    agrees; an infinity agrees only with the same infinity). For locating failures, e.g. to
+    explain each one; ``compare`` stays the verdict."""
+    a, b = load(a), load(b)
+    if a.shape != b.shape:
+        raise ImageMismatchError(f"cannot compare images of different sizes: {_size(a)} vs {_size(b)}")
+    a64, b64 = a.astype(np.float64), b.astype(np.float64)
+    with np.errstate(invalid="ignore"):
+        err = np.abs(a64 - b64)
+        bad = (err > thresholds.fail) & (err > thresholds.fail_relative * (np.abs(a64) + np.abs(b64)) / 2)
+        special = ~np.isfinite(a64) | ~np.isfinite(b64)
+        bad = np.where(special, ~(a64 == b64), bad)
+    return bad.any(axis=2)
 
 
 def channel_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -15,6 +15,7 @@ from phongscene.compare import (
     ImageMismatchError,
     Thresholds,
     compare,
+    failing_mask,
 )
 from phongscene.images import write_image
 
@@ -137,3 +138,19 @@ def test_compare_reads_image_paths(tmp_path):
 def test_thresholds_reject_bad_values(bad):
     with pytest.raises(ValueError, match="Thresholds.fail "):
         Thresholds(fail=bad)
+
+
+def test_failing_mask_counts_what_compare_counts():
+    # Errors spread around the relative threshold, plus non-finite values: the numpy mask and
+    # OIIO's count must agree pixel for pixel count.
+    rng = np.random.default_rng(5)
+    a = (rng.random((40, 50, 3)) * 4).astype(np.float32)
+    rel = rng.uniform(0, 4 * HALF_ROUNDING_RELATIVE, size=a.shape)
+    b = (a * (1 + rel)).astype(np.float32)
+    b[3, 4, 0], a[5, 6, 2] = np.nan, np.inf
+    a[7, 8] = b[7, 8] = (1.0, np.inf, 2.0)  # the same infinity agrees
+    mask = failing_mask(a, b)
+    r = compare(a, b)
+    assert 0 < mask.sum() < mask.size
+    assert mask.sum() == r.failing_pixels
+    assert mask[3, 4] and mask[5, 6] and not mask[7, 8]

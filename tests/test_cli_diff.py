@@ -1,0 +1,186 @@
+# SPDX-License-Identifier: Apache-2.0
+"""``phongscene diff`` and ``phongscene compare``: exit codes, output files, messages."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import phongscene
+from phongscene.cli import EXIT_BACKEND, EXIT_DIFFERENT, EXIT_OK, EXIT_SCENE, main
+from phongscene.images import write_image
+
+# A small scene for diff runs: one sphere, one point light, a camera (48×36 keeps POV-Ray fast).
+SMALL_SCENE = """#usda 1.0
+(
+    upAxis = "Y"
+    metersPerUnit = 1
+)
+def Camera "Cam"
+{
+    float focalLength = 35
+    float horizontalAperture = 36
+    double3 xformOp:translate = (0, 0.3, 5)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def SphereLight "Key"
+{
+    float inputs:intensity = 2.5
+    bool treatAsPoint = true
+    double3 xformOp:translate = (3, 4, 5)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def DomeLight "Ambient"
+{
+    float inputs:intensity = 0.2
+}
+def Sphere "Ball"
+{
+    double radius = 1.13
+    color3f[] primvars:displayColor = [(0.8, 0.3, 0.2)]
+}
+def RenderSettings "Settings"
+{
+    rel camera = </Cam>
+    int2 resolution = (48, 36)
+}
+"""
+
+BAD_SCENE = SMALL_SCENE.replace("double radius = 1.13", "double radius = -1.13")
+
+
+def _run(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "phongscene", *args], capture_output=True, text=True, env=env, timeout=120
+    )
+
+
+@pytest.fixture
+def small_scene(tmp_path) -> Path:
+    path = tmp_path / "small.usda"
+    path.write_text(SMALL_SCENE, encoding="utf-8")
+    return path
+
+
+# ----------------------------------------------------------------------------------------------
+# compare
+
+
+def _pair(tmp_path, delta: float = 0.0):
+    rng = np.random.default_rng(7)
+    a = rng.random((10, 14, 3)).astype(np.float32)
+    b = a.copy()
+    b[4, 6, 1] += delta
+    return write_image(tmp_path / "a.exr", a), write_image(tmp_path / "b.exr", b, half=True)
+
+
+def test_cli_compare_agreeing_files_exit_0(tmp_path, capsys):
+    pa, pb = _pair(tmp_path)
+    assert main(["compare", str(pa), str(pb)]) == EXIT_OK
+    assert "PASS" in capsys.readouterr().out
+
+
+def test_cli_compare_differing_files_exit_1_and_report(tmp_path, capsys):
+    pa, pb = _pair(tmp_path, delta=0.01)
+    out = tmp_path / "rep"
+    assert main(["compare", str(pa), str(pb), "-o", str(out)]) == EXIT_DIFFERENT
+    text = capsys.readouterr().out
+    assert "@ (6, 4, G)" in text and "FAILURE" in text
+    metrics = json.loads((out / "metrics.json").read_text(encoding="utf-8"))
+    assert metrics["report"]["failing_pixels"] == 1
+    assert (out / "index.html").is_file() and (out / "diff_heat.png").is_file()
+
+
+def test_cli_compare_thresholds_from_options(tmp_path):
+    pa, pb = _pair(tmp_path, delta=0.01)
+    assert main(["compare", str(pa), str(pb), "--fail-percent", "1"]) == EXIT_OK  # 1 of 140 px = 0.7 %
+    assert main(["compare", str(pa), str(pb), "--fail-percent", "1", "--hard-fail", "0.005"]) == EXIT_DIFFERENT
+
+
+def test_cli_compare_size_mismatch_exit_1(tmp_path, capsys):
+    pa = write_image(tmp_path / "a.exr", np.zeros((4, 4, 3), np.float32))
+    pb = write_image(tmp_path / "b.exr", np.zeros((4, 5, 3), np.float32))
+    assert main(["compare", str(pa), str(pb)]) == EXIT_DIFFERENT
+    assert "different sizes: 4x4" in capsys.readouterr().err
+
+
+def test_cli_compare_unreadable_file_exit_2(tmp_path, capsys):
+    pa, _ = _pair(tmp_path)
+    missing = tmp_path / "missing.exr"
+    assert main(["compare", str(pa), str(missing)]) == EXIT_SCENE
+    assert "missing.exr" in capsys.readouterr().err
+
+
+def test_cli_compare_bad_threshold_exit_2(tmp_path, capsys):
+    pa, pb = _pair(tmp_path)
+    assert main(["compare", str(pa), str(pb), "--fail", "-1"]) == EXIT_SCENE
+    assert "Thresholds.fail" in capsys.readouterr().err
+
+
+def test_python_api_exports_compare_and_diff():
+    assert phongscene.compare is __import__("phongscene.compare", fromlist=["compare"]).compare
+    assert callable(phongscene.diff) and callable(phongscene.render)
+
+
+# ----------------------------------------------------------------------------------------------
+# diff
+
+
+def test_cli_diff_bad_scene_exit_2(tmp_path):
+    path = tmp_path / "bad.usda"
+    path.write_text(BAD_SCENE, encoding="utf-8")
+    r = _run("diff", str(path), "-o", str(tmp_path / "out"))
+    assert r.returncode == EXIT_SCENE, r.stderr
+    assert "/Ball" in r.stderr and "radius" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_cli_diff_missing_scene_exit_2(tmp_path):
+    r = _run("diff", str(tmp_path / "nope.usda"), "-o", str(tmp_path / "out"))
+    assert r.returncode == EXIT_SCENE and "nope.usda" in r.stderr and "Traceback" not in r.stderr
+
+
+@pytest.mark.povray
+def test_cli_diff_agreeing_backends_exit_0(tmp_path, small_scene):
+    out = tmp_path / "out"
+    r = _run("diff", str(small_scene), "-o", str(out), "--width", "40")
+    assert r.returncode == EXIT_OK, r.stdout + r.stderr
+    metrics = json.loads((out / "metrics.json").read_text(encoding="utf-8"))
+    assert metrics["report"]["ok"] is True and metrics["settings"]["width"] == 40
+    assert metrics["settings"]["height"] == 30  # aspect ratio kept
+    assert set(metrics["timings_seconds"]) == {"povray", "native"}
+    assert "povray" in r.stderr and "native" in r.stderr  # progress lines
+
+
+@pytest.mark.povray
+def test_cli_diff_classic_mapping_exit_0(tmp_path, small_scene):
+    r = _run("diff", str(small_scene), "-o", str(tmp_path / "out"), "--mapping", "classic", "--width", "32")
+    assert r.returncode == EXIT_OK, r.stdout + r.stderr
+    metrics = json.loads((tmp_path / "out" / "metrics.json").read_text(encoding="utf-8"))
+    assert metrics["mapping"] == "classic" and metrics["native_specular"] == "povray-classic"
+
+
+@pytest.mark.povray
+def test_cli_diff_differing_images_exit_1(tmp_path, small_scene):
+    # With zero tolerance, POV-Ray's half-float rounding alone makes the images differ.
+    r = _run("diff", str(small_scene), "-o", str(tmp_path / "out"), "--width", "32", "--fail", "0",
+             "--fail-relative", "0")
+    assert r.returncode == EXIT_DIFFERENT, r.stdout + r.stderr
+    assert "FAILURE" in r.stdout
+
+
+def test_cli_diff_povray_unavailable_exit_3(tmp_path, small_scene):
+    # PATH without povray (python itself is called by its absolute path).
+    bare = tmp_path / "bin"
+    bare.mkdir()
+    env = {**os.environ, "PATH": str(bare)}
+    assert shutil.which("povray", path=str(bare)) is None
+    r = _run("diff", str(small_scene), "-o", str(tmp_path / "out"), "--width", "32", env=env)
+    assert r.returncode == EXIT_BACKEND, r.stdout + r.stderr
+    assert "povray" in r.stderr.lower() and "Traceback" not in r.stderr
