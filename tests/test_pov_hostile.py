@@ -135,11 +135,11 @@ NAN = float("nan")
 @pytest.mark.parametrize(
     "change,where",
     [
-        (lambda s: dataclasses.replace(s, spheres=(Sphere.at((0, 0, 0), 1.0, PhongMaterial(ks=NAN, source="/World/Mat")),)), "/World/Mat.ks"),
-        (lambda s: dataclasses.replace(s, lights=(PointLight((NAN, 0, 0), (1, 1, 1), source="/World/Key"),)), "/World/Key.position"),
-        (lambda s: dataclasses.replace(s, lights=(DirectionalLight((0, -1, 0), (np.inf, 1, 1), source="/World/Sun"),)), "/World/Sun.color"),
-        (lambda s: dataclasses.replace(s, camera=dataclasses.replace(s.camera, position=(0, NAN, 5), source="/World/Cam")), "/World/Cam.position"),
-        (lambda s: dataclasses.replace(s, spheres=(Sphere(np.diag([1, 1, NAN, 1]), source="/World/Egg"),)), "/World/Egg.world_from_object"),
+        (lambda s: dataclasses.replace(s, spheres=(Sphere.at((0, 0, 0), 1.0, PhongMaterial(ks=NAN, source="/World/Mat")),)), "/World/Mat.inputs:ks"),
+        (lambda s: dataclasses.replace(s, lights=(PointLight((NAN, 0, 0), (1, 1, 1), source="/World/Key"),)), "/World/Key.xformOp"),
+        (lambda s: dataclasses.replace(s, lights=(DirectionalLight((0, -1, 0), (np.inf, 1, 1), source="/World/Sun"),)), "/World/Sun.inputs:color"),
+        (lambda s: dataclasses.replace(s, camera=dataclasses.replace(s.camera, position=(0, NAN, 5), source="/World/Cam")), "/World/Cam.xformOp"),
+        (lambda s: dataclasses.replace(s, spheres=(Sphere(np.diag([1, 1, NAN, 1]), source="/World/Egg"),)), "/World/Egg.radius"),
         (
             lambda s: dataclasses.replace(
                 s, meshes=(TriangleMesh(np.eye(3), [[0, 1, 2]], [[0, 0, 1], [0, NAN, 1], [0, 0, 1]], [[0, 1, 2]], source="/World/M"),)
@@ -185,7 +185,7 @@ def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(diff_module, "load_scene", lambda path: (bad, []))
     assert cli.main(["compile", "scene.usda", "-o", str(out)]) == 2
     assert sorted(tmp_path.iterdir()) == before
-    assert "/World/Key.position" in capsys.readouterr().err
+    assert "/World/Key.xformOp" in capsys.readouterr().err
     # An interrupted write never leaves a half file either.
     monkeypatch.setattr(pov_cli.os, "replace", lambda a, b: (_ for _ in ()).throw(OSError("disk full")))
     with pytest.raises(OSError):
@@ -195,8 +195,8 @@ def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
 
 def test_mesh_indices_out_of_range_are_rejected_by_name():
     mesh = TriangleMesh(np.eye(3), [[0, 1, -1]], source="/World/Broken")
-    with pytest.raises(SceneError, match=r"/World/Broken\.triangles: indices must be in \[0, 3\)"):
+    with pytest.raises(SceneError, match=r"/World/Broken\.faceVertexIndices: indices must be in \[0, 3\)"):
         compile_pov(_simple(meshes=(mesh,)))
     mesh = TriangleMesh(np.eye(3), [[0, 1, 2]], [[0, 0, 1]], [[0, 0, 1]], source="/World/Broken")
-    with pytest.raises(SceneError, match=r"/World/Broken\.normal_indices"):
+    with pytest.raises(SceneError, match=r"/World/Broken\.normals: indices"):
         compile_pov(_simple(meshes=(mesh,)))

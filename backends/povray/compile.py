@@ -44,6 +44,7 @@ import math
 import numpy as np
 
 from phongscene.errors import Problem, SceneError
+from phongscene.validate import _USD_NAMES
 from phongscene.scene import (
     DirectionalLight,
     PhongMaterial,
@@ -174,8 +175,11 @@ class _Compiler:
         except NonFiniteNumber as e:
             raise self._error(node, attribute, f"is not finite in the SDL ({e})") from None
 
-    def _error(self, node, attribute: str, message: str) -> SceneError:
-        return SceneError(Problem(message, getattr(node, "source", ""), attribute, self.scene.source_file))
+    def _error(self, node, field: str, message: str) -> SceneError:
+        # Named like phongscene.validate names it: the USD attribute for a node read from USD.
+        source = getattr(node, "source", "")
+        attribute = _USD_NAMES.get(type(node), {}).get(field, field) if source.startswith("/") else field
+        return SceneError(Problem(message, source, attribute, self.scene.source_file))
 
     def comment(self, node, kind: str, index: int) -> None:
         self.lines.append(self.comment_text(node, kind, index))
