@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import shutil
@@ -15,6 +16,7 @@ import pytest
 
 import phongscene
 from phongscene.cli import EXIT_BACKEND, EXIT_DIFFERENT, EXIT_OK, EXIT_SCENE, main
+from phongscene.diff import ProgressBar
 from phongscene.images import write_image
 
 # A small scene for diff runs: one sphere, one point light, a camera (48×36 keeps POV-Ray fast).
@@ -184,3 +186,24 @@ def test_cli_diff_povray_unavailable_exit_3(tmp_path, small_scene):
     r = _run("diff", str(small_scene), "-o", str(tmp_path / "out"), "--width", "32", env=env)
     assert r.returncode == EXIT_BACKEND, r.stdout + r.stderr
     assert "povray" in r.stderr.lower() and "Traceback" not in r.stderr
+
+
+class _FakeTerminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_bar_draws_on_a_terminal_and_stays_quiet_in_logs():
+    tty = _FakeTerminal()
+    bar = ProgressBar("native", tty)
+    bar(0, 4)
+    bar(2, 4)  # the native backend reports (tiles done, tiles total)
+    bar(0.75)  # a fraction works too
+    bar.done(0.5)
+    text = tty.getvalue()
+    assert "\r" in text and " 50%" in text and " 75%" in text and "done in 0.50 s" in text
+    log = io.StringIO()
+    bar = ProgressBar("povray", log)
+    bar(1, 2)
+    bar.done(1.25)
+    assert log.getvalue() == "povray: rendered in 1.25 s\n"

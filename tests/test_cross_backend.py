@@ -5,13 +5,19 @@ half-float precision (POV-Ray's EXR output) at every pixel, under both mappings:
 ``finish { phong }`` vs native ``povray-classic``). Every calibration scene, every example and
 every third-party scene in ``conftest.SHARED_ASSETS`` is covered.
 
-The one named allowance (``phongscene.compare.POVRAY_SHADOW_CACHE``) applies only to scenes
-whose shadow rays can meet an occluder within POV-Ray's cache window (1e-4 ≤ t ≤ 1e-3, reference
-§6): scenes with area lights, or with smooth-normal meshes. Even there, every pixel that fails
-at half-float precision must be *explained*: the independent oracle (tests/oracle.py) rendered
-with the cache's looser window reproduces POV-Ray's value at that pixel. Every failure message
-names the thresholds used, and the full report (images, heat map, metrics, index.html) is
-written under pytest's ``tmp_path``.
+Two named allowances (``phongscene.compare``), each for one known POV-Ray behaviour and only
+for the scenes it can affect; every pixel they let through must be *explained* by the
+independent oracle (tests/oracle.py):
+
+* ``POVRAY_SHADOW_CACHE`` (scenes with area lights or smooth-normal meshes): POV-Ray's
+  per-thread shadow cache retests the last occluder with a looser window (1e-4 instead of 1e-3,
+  reference §6). Explained when the oracle rendered with that window reproduces POV-Ray's value.
+* ``POVRAY_MESH_FLOAT32`` (scenes with meshes): POV-Ray keeps mesh2 data in float32, which
+  perturbs n·l near a terminator. Explained when the native value matches the float64 oracle at
+  half-float precision (the native tracer is right; POV-Ray's storage is the difference).
+
+Every failure message names the thresholds used, and the full report (images, heat map,
+metrics, index.html) is written under pytest's ``tmp_path``.
 
 All POV-Ray images are rendered up front by ``render_many``: one POV-Ray process per image size,
 the scenes as its animation frames, instead of ~0.7 s of start-up per scene.
@@ -29,7 +35,14 @@ import pytest
 import oracle
 from calibration import SCENES
 from conftest import EXAMPLES, SHARED_ASSETS
-from phongscene.compare import HALF_FLOAT, POVRAY_SHADOW_CACHE, Thresholds, compare, failing_mask
+from phongscene.compare import (
+    HALF_FLOAT,
+    POVRAY_MESH_FLOAT32,
+    POVRAY_SHADOW_CACHE,
+    Thresholds,
+    compare,
+    failing_mask,
+)
 from phongscene.render import render, settings_for
 from phongscene.report import write_report
 from phongscene.scene import RectAreaLight, Scene, SphereAreaLight
@@ -71,13 +84,26 @@ CASES = (
 )
 
 
-def _thresholds(scene: Scene) -> tuple[str, Thresholds]:
-    """The named thresholds a scene is judged by (see the module docstring)."""
+def _allowances(scene: Scene) -> dict[str, Thresholds]:
+    """The named allowances that can apply to a scene (see the module docstring)."""
+    out = {}
     if any(isinstance(light, (RectAreaLight, SphereAreaLight)) for light in scene.lights) or any(
         mesh.normals is not None for mesh in scene.meshes
     ):
-        return "POVRAY_SHADOW_CACHE", POVRAY_SHADOW_CACHE
-    return "HALF_FLOAT", HALF_FLOAT
+        out["POVRAY_SHADOW_CACHE"] = POVRAY_SHADOW_CACHE
+    if scene.meshes:
+        out["POVRAY_MESH_FLOAT32"] = POVRAY_MESH_FLOAT32
+    return out
+
+
+def _thresholds(scene: Scene) -> tuple[str, Thresholds]:
+    """The thresholds a scene is judged by: HALF_FLOAT, or the most lenient allowance it has
+    (pixels beyond HALF_FLOAT must then still be explained one by one)."""
+    allowances = _allowances(scene)
+    if not allowances:
+        return "HALF_FLOAT", HALF_FLOAT
+    name = max(allowances, key=lambda k: allowances[k].fail_percent)
+    return " + ".join(allowances), allowances[name]
 
 
 @pytest.fixture(scope="module")
@@ -101,15 +127,22 @@ def _check(case: tuple[str, str, str], povray_images, tmp_path: Path, monkeypatc
     report = compare(pov, native, thresholds)
     unexplained = []
     if report.ok and report.failing_pixels:
-        # Allowed only if each failing pixel is POV-Ray's shadow cache at work.
-        monkeypatch.setattr(oracle, "SHADOW_TOLERANCE", SHADOW_CACHE_WINDOW)
-        cached = oracle.render(scene, settings)
-        explained = ~failing_mask(pov, cached.astype(np.float32), HALF_FLOAT)
-        unexplained = [(int(x), int(y)) for y, x in np.argwhere(failing_mask(pov, native) & ~explained)]
+        # Allowed only if each failing pixel is explained by a named POV-Ray behaviour.
+        failing = failing_mask(pov, native)
+        explained = np.zeros_like(failing)
+        allowances = _allowances(scene)
+        if "POVRAY_MESH_FLOAT32" in allowances:
+            exact = oracle.render(scene, settings).astype(np.float32)
+            explained |= ~failing_mask(native, exact, HALF_FLOAT)
+        if "POVRAY_SHADOW_CACHE" in allowances:
+            monkeypatch.setattr(oracle, "SHADOW_TOLERANCE", SHADOW_CACHE_WINDOW)
+            cached = oracle.render(scene, settings).astype(np.float32)
+            explained |= ~failing_mask(pov, cached, HALF_FLOAT)
+        unexplained = [(int(x), int(y)) for y, x in np.argwhere(failing & ~explained)]
     if not report.ok or unexplained:
         index = write_report(tmp_path / "report", pov, native, report, labels=("povray", "native"),
                              title=f"{name} ({mapping})", meta={"scene": name, "mapping": mapping})
-        why = f"pixels (x, y) not explained by the shadow cache: {unexplained}\n" if unexplained else ""
+        why = f"pixels (x, y) not explained by {allowance}: {unexplained}\n" if unexplained else ""
         pytest.fail(f"{kind} scene {name}, mapping {mapping}, thresholds {allowance}:\n{report.summary()}\n"
                     f"{why}report: {index}", pytrace=False)
 
