@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import io
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -58,10 +57,9 @@ def RenderSettings "Settings"
 BAD_SCENE = SMALL_SCENE.replace("double radius = 1.13", "double radius = -1.13")
 
 
-def _run(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "phongscene", *args], capture_output=True, text=True, env=env, timeout=120
-    )
+def _run(*args: str) -> subprocess.CompletedProcess:
+    """The real command in its own process: exit code and stderr as a user sees them."""
+    return subprocess.run([sys.executable, "-m", "phongscene", *args], capture_output=True, text=True, timeout=120)
 
 
 @pytest.fixture
@@ -143,49 +141,45 @@ def test_cli_diff_bad_scene_exit_2(tmp_path):
     assert "/Ball" in r.stderr and "radius" in r.stderr and "Traceback" not in r.stderr
 
 
-def test_cli_diff_missing_scene_exit_2(tmp_path):
-    r = _run("diff", str(tmp_path / "nope.usda"), "-o", str(tmp_path / "out"))
-    assert r.returncode == EXIT_SCENE and "nope.usda" in r.stderr and "Traceback" not in r.stderr
+def test_cli_diff_missing_scene_exit_2(tmp_path, capsys):
+    assert main(["diff", str(tmp_path / "nope.usda"), "-o", str(tmp_path / "out")]) == EXIT_SCENE
+    assert "nope.usda" in capsys.readouterr().err
 
 
 @pytest.mark.povray
-def test_cli_diff_agreeing_backends_exit_0(tmp_path, small_scene):
+def test_cli_diff_agreeing_backends_exit_0(tmp_path, small_scene, capsys):
     out = tmp_path / "out"
-    r = _run("diff", str(small_scene), "-o", str(out), "--width", "40")
-    assert r.returncode == EXIT_OK, r.stdout + r.stderr
+    assert main(["diff", str(small_scene), "-o", str(out), "--width", "40"]) == EXIT_OK
+    err = capsys.readouterr().err
     metrics = json.loads((out / "metrics.json").read_text(encoding="utf-8"))
     assert metrics["report"]["ok"] is True and metrics["settings"]["width"] == 40
     assert metrics["settings"]["height"] == 30  # aspect ratio kept
     assert set(metrics["timings_seconds"]) == {"povray", "native"}
-    assert "povray" in r.stderr and "native" in r.stderr  # progress lines
+    assert "povray: rendered in" in err and "native: rendered in" in err  # progress (not a terminal)
 
 
 @pytest.mark.povray
 def test_cli_diff_classic_mapping_exit_0(tmp_path, small_scene):
-    r = _run("diff", str(small_scene), "-o", str(tmp_path / "out"), "--mapping", "classic", "--width", "32")
-    assert r.returncode == EXIT_OK, r.stdout + r.stderr
+    assert main(["diff", str(small_scene), "-o", str(tmp_path / "out"), "--mapping", "classic", "--width", "32"]) == EXIT_OK
     metrics = json.loads((tmp_path / "out" / "metrics.json").read_text(encoding="utf-8"))
     assert metrics["mapping"] == "classic" and metrics["native_specular"] == "povray-classic"
 
 
 @pytest.mark.povray
-def test_cli_diff_differing_images_exit_1(tmp_path, small_scene):
+def test_cli_diff_differing_images_exit_1(tmp_path, small_scene, capsys):
     # With zero tolerance, POV-Ray's half-float rounding alone makes the images differ.
-    r = _run("diff", str(small_scene), "-o", str(tmp_path / "out"), "--width", "32", "--fail", "0",
-             "--fail-relative", "0")
-    assert r.returncode == EXIT_DIFFERENT, r.stdout + r.stderr
-    assert "FAILURE" in r.stdout
+    args = ["diff", str(small_scene), "-o", str(tmp_path / "out"), "--width", "32", "--fail", "0", "--fail-relative", "0"]
+    assert main(args) == EXIT_DIFFERENT
+    assert "FAILURE" in capsys.readouterr().out
 
 
-def test_cli_diff_povray_unavailable_exit_3(tmp_path, small_scene):
-    # PATH without povray (python itself is called by its absolute path).
-    bare = tmp_path / "bin"
+def test_cli_diff_povray_unavailable_exit_3(tmp_path, small_scene, monkeypatch, capsys):
+    bare = tmp_path / "bin"  # a PATH without povray
     bare.mkdir()
-    env = {**os.environ, "PATH": str(bare)}
-    assert shutil.which("povray", path=str(bare)) is None
-    r = _run("diff", str(small_scene), "-o", str(tmp_path / "out"), "--width", "32", env=env)
-    assert r.returncode == EXIT_BACKEND, r.stdout + r.stderr
-    assert "povray" in r.stderr.lower() and "Traceback" not in r.stderr
+    monkeypatch.setenv("PATH", str(bare))
+    assert shutil.which("povray") is None
+    assert main(["diff", str(small_scene), "-o", str(tmp_path / "out"), "--width", "32"]) == EXIT_BACKEND
+    assert "povray" in capsys.readouterr().err.lower()
 
 
 class _FakeTerminal(io.StringIO):
