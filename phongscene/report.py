@@ -210,7 +210,7 @@ th { background: #eee; } code { font-size: .95em; }
 
 def _fmt(value) -> str:
     if isinstance(value, float):
-        return f"{value:.6g}"
+        return f"{value:.8g}"
     if isinstance(value, (list, tuple)):
         return "(" + ", ".join(_fmt(v) for v in value) + ")"
     if value is None:
