@@ -98,8 +98,8 @@ HALF_FLOAT = Thresholds()
 # pixels on terminators.
 POVRAY_SHADOW_CACHE = replace(HALF_FLOAT, fail_percent=0.2)
 
-# POV-Ray stores mesh2 vertices and normals as float32 (reference §2, §7). Near a mesh's
-# terminator (n·l → 0) the shading is proportional to a small n·l whose absolute error from that
+# POV-Ray stores mesh2 vertices and normals as float32 (reference §2, §7). Near the terminator
+# of a smooth-normal mesh (n·l → 0) the shading is proportional to a small n·l whose absolute error from that
 # storage (~1e-7..1e-6) becomes a large relative one, so a pixel there can leave half-float
 # precision while the native tracer (float64 geometry) matches the float64 oracle. Measured: the
 # teapot (shared assets) at 96×72, classic, pixel (38, 29): n·l ≈ 7.9e-4, POV-Ray 2.09·2⁻¹¹ off

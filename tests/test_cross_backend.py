@@ -12,8 +12,8 @@ independent oracle (tests/oracle.py):
 * ``POVRAY_SHADOW_CACHE`` (scenes with area lights or smooth-normal meshes): POV-Ray's
   per-thread shadow cache retests the last occluder with a looser window (1e-4 instead of 1e-3,
   reference §6). Explained when the oracle rendered with that window reproduces POV-Ray's value.
-* ``POVRAY_MESH_FLOAT32`` (scenes with meshes): POV-Ray keeps mesh2 data in float32, which
-  perturbs n·l near a terminator. Explained when the native value matches the float64 oracle at
+* ``POVRAY_MESH_FLOAT32`` (scenes with smooth-normal meshes, which have terminators): POV-Ray
+  keeps mesh2 data in float32, which perturbs a small n·l near a terminator. Explained when the native value matches the float64 oracle at
   half-float precision (the native tracer is right; POV-Ray's storage is the difference).
 
 Every failure message names the thresholds used, and the full report (images, heat map,
@@ -91,7 +91,7 @@ def _allowances(scene: Scene) -> dict[str, Thresholds]:
         mesh.normals is not None for mesh in scene.meshes
     ):
         out["POVRAY_SHADOW_CACHE"] = POVRAY_SHADOW_CACHE
-    if scene.meshes:
+    if any(mesh.normals is not None for mesh in scene.meshes):
         out["POVRAY_MESH_FLOAT32"] = POVRAY_MESH_FLOAT32
     return out
 
