@@ -277,6 +277,9 @@ def _light_color(ctx: ReadContext, prim: Usd.Prim) -> tuple[float, float, float]
         color = color * np.asarray(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
     if api.GetNormalizeAttr().Get(ctx.time):
         ctx.unsupported["lights with inputs:normalize = 1 (normalize is not applied in this model)"].append(str(prim.GetPath()))
+    if prim.HasAPI(UsdLux.ShapingAPI):
+        # A spot cone or focus would need a light model we do not have; the light shines everywhere.
+        ctx.unsupported["lights with UsdLuxShapingAPI (cone and focus are ignored)"].append(str(prim.GetPath()))
     scale = intensity * 2.0**exposure
     return tuple(float(c) for c in (color * scale if scale != 1.0 else color))
 
