@@ -1,12 +1,11 @@
 # SPDX-License-Identifier: Apache-2.0
 """Images through OpenImageIO. The image convention everywhere: linear float32 (H, W, 3),
 row 0 at the top. EXR keeps the data (float, or half as POV-Ray writes it); PNG is sRGB for eyes.
-Writes are atomic: a temporary file in the target folder, then a rename."""
+Writes are atomic (``phongscene.files``)."""
 
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +13,7 @@ import OpenImageIO as oiio
 from OpenImageIO import ImageBuf, ImageBufAlgo
 
 from .errors import PhongSceneError
+from .files import atomic_path
 
 # Extensions we write, and how: EXR stays linear float; PNG is sRGB-encoded 8-bit.
 WRITABLE = (".exr", ".png")
@@ -63,14 +63,15 @@ def write_image(path: str | os.PathLike, pixels, *, half: bool = False) -> Path:
         fmt = "uint8"
     else:
         fmt = "half" if half else "float"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=ext, dir=path.parent)
-    os.close(fd)
-    try:
-        if not buf.write(tmp, fmt) or buf.has_error:
+    write_imagebuf(path, buf, fmt)
+    return path
+
+
+def write_imagebuf(path: str | os.PathLike, buf: ImageBuf, fmt: str) -> Path:
+    """Write an OpenImageIO ``buf`` as it is (no colour conversion) in pixel format ``fmt``,
+    atomically."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        if not buf.write(str(tmp), fmt) or buf.has_error:
             raise PhongSceneError(f"{path}: cannot write image: {buf.geterror()}")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
     return path

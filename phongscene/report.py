@@ -14,7 +14,6 @@ import json
 import math
 import os
 import re
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +21,8 @@ from OpenImageIO import ImageBuf, ImageBufAlgo, ImageSpec
 
 from .compare import CHANNEL_NAMES, Report, channel_error
 from .errors import PhongSceneError
-from .images import as_image, write_image
+from .files import write_text_atomic
+from .images import as_image, write_imagebuf, write_image
 
 HEAT_MAP = "inferno"  # perceptually uniform, dark at zero: any non-zero error stands out
 # Small images are enlarged (nearest neighbour, integer factor) to at least this width, so that
@@ -103,9 +103,9 @@ def write_report(
         "timings_seconds": dict(timings or {}),
         **(meta or {}),
     }
-    _write_text_atomic(out / FILE_NAMES["metrics"], json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+    write_text_atomic(out / FILE_NAMES["metrics"], json.dumps(metrics, indent=2, allow_nan=False) + "\n")
     page = _html_page(title, labels, files, report, metrics, a.shape[1], a.shape[0])
-    return _write_text_atomic(out / FILE_NAMES["html"], page)
+    return write_text_atomic(out / FILE_NAMES["html"], page)
 
 
 def write_heat_map(path: str | os.PathLike, error: np.ndarray) -> float:
@@ -146,43 +146,8 @@ def write_heat_map(path: str | os.PathLike, error: np.ndarray) -> float:
     if canvas.has_error:
         raise PhongSceneError(f"{path}: cannot draw the heat map: {canvas.geterror()}")
     # The colour map is already display-referred (sRGB): write it without conversion.
-    _write_buf_atomic(Path(path), canvas, "uint8")
+    write_imagebuf(path, canvas, "uint8")
     return top
-
-
-def _publish(tmp: str, path: Path) -> None:
-    """Rename the finished temporary file onto ``path`` with ordinary permissions (mkstemp
-    creates 0600 files; a report is meant to be read, e.g. served as a web page)."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)
-    os.replace(tmp, path)
-
-
-def _write_buf_atomic(path: Path, buf: ImageBuf, fmt: str) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        if not buf.write(tmp, fmt) or buf.has_error:
-            raise PhongSceneError(f"{path}: cannot write image: {buf.geterror()}")
-        _publish(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
-
-
-def _write_text_atomic(path: Path, text: str) -> Path:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        _publish(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
 
 
 def _file_stem(label: str) -> str:

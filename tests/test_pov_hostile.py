@@ -167,7 +167,7 @@ def test_derived_overflow_is_caught():
 
 
 def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
-    from phongscene.backends.povray import cli as pov_cli
+    from phongscene import files
 
     diff_module = importlib.import_module("phongscene.diff")
     scene = _simple()
@@ -187,9 +187,9 @@ def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
     assert sorted(tmp_path.iterdir()) == before
     assert "/World/Key.xformOp" in capsys.readouterr().err
     # An interrupted write never leaves a half file either.
-    monkeypatch.setattr(pov_cli.os, "replace", lambda a, b: (_ for _ in ()).throw(OSError("disk full")))
+    monkeypatch.setattr(files.os, "replace", lambda a, b: (_ for _ in ()).throw(OSError("disk full")))
     with pytest.raises(OSError):
-        pov_cli.write_text_atomic(tmp_path / "new.pov", "x")
+        files.write_text_atomic(tmp_path / "new.pov", "x")
     assert sorted(tmp_path.iterdir()) == before
 
 

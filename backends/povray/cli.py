@@ -4,11 +4,11 @@ povray command line that renders it."""
 
 from __future__ import annotations
 
-import os
 import shlex
 import sys
-import tempfile
 from pathlib import Path
+
+from phongscene.files import write_text_atomic
 
 from .run import prepare
 
@@ -49,8 +49,8 @@ def run_compile(args) -> int:
     settings = diff_settings(scene, args.mapping, width=args.width, height=args.height, samples=args.spp)
     job = prepare(scene, settings, args.mapping)
     ini, image = out.with_suffix(".ini"), out.with_suffix(".exr")
-    write_text_atomic(out, job.sdl)
-    write_text_atomic(ini, job.ini(out.name, image.name))
+    write_text_atomic(out, job.sdl, encoding="ascii")
+    write_text_atomic(ini, job.ini(out.name, image.name), encoding="ascii")
     mapping = args.mapping or ("exact" if settings.specular == "seed" else "classic")
     print(f"{out}: {mapping} mapping, {job.frames} frame(s), {settings.width} x {settings.height}")
     print(f"{ini}: the same options; render in {out.parent or '.'} with: povray {ini.name}")
@@ -61,15 +61,3 @@ def run_compile(args) -> int:
         print(f"  then average {job.supersample} x {job.supersample} pixel blocks (grid anti-aliasing)")
     return 0
 
-
-def write_text_atomic(path: Path, text: str) -> None:
-    """Write ASCII ``text`` to ``path`` through a temporary file in the same folder and a rename."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="ascii") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)

@@ -15,14 +15,13 @@ free, valid path, so reading a written scene and writing it again gives the same
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
 from ..errors import SceneError
+from ..files import atomic_path
 from ..scene import (
     DEFAULT_MATERIAL,
     AmbientLight,
@@ -245,16 +244,9 @@ def save_stage(stage: Usd.Stage, path) -> Path:
     path = Path(path)
     if path.suffix not in FORMATS:
         raise SceneError(f"{path}: can only write {', '.join(FORMATS)} files")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        if not stage.GetRootLayer().Export(tmp):
+    with atomic_path(path) as tmp:
+        if not stage.GetRootLayer().Export(str(tmp)):
             raise SceneError(f"{path}: USD could not write the file")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
     return path
 
 

@@ -1,0 +1,60 @@
+# SPDX-License-Identifier: Apache-2.0
+"""phongscene.files: atomic outputs get the ordinary mode (0666 & ~umask), never mkstemp's 0600,
+and leave nothing behind when the write fails."""
+
+from __future__ import annotations
+
+import os
+import stat
+
+import numpy as np
+import pytest
+
+from phongscene.files import atomic_path, write_text_atomic
+from phongscene.images import write_image
+from phongscene.scene import Scene, Sphere
+from phongscene.usd import write_usd
+
+# Two umasks whose results differ from each other and from 0600 in group and other bits.
+UMASKS = (0o022, 0o027)
+
+
+@pytest.fixture(params=UMASKS, ids=lambda m: f"umask{m:03o}")
+def umask(request):
+    previous = os.umask(request.param)
+    yield request.param
+    os.umask(previous)
+
+
+def _mode(path) -> int:
+    return stat.S_IMODE(os.stat(path).st_mode)
+
+
+def test_text_gets_the_normal_mode(tmp_path, umask):
+    path = write_text_atomic(tmp_path / "sub" / "a.txt", "hello")
+    assert path.read_text() == "hello"
+    assert _mode(path) == 0o666 & ~umask
+
+
+def test_files_written_by_name_get_the_normal_mode(tmp_path, umask):
+    # OpenImageIO and USD write by file name through atomic_path.
+    image = write_image(tmp_path / "a.exr", np.zeros((2, 3, 3), np.float32))
+    usd = write_usd(Scene(spheres=(Sphere.at((0.0, 0.0, 0.0), 1.0),)), tmp_path / "s.usda")
+    assert _mode(image) == _mode(usd) == 0o666 & ~umask
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.exr", "s.usda"]
+
+
+def test_a_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path):
+    target = write_text_atomic(tmp_path / "a.txt", "old")
+    with pytest.raises(RuntimeError), atomic_path(target) as tmp:
+        tmp.write_text("half")
+        raise RuntimeError("writer failed")
+    assert target.read_text() == "old"
+    assert [p.name for p in tmp_path.iterdir()] == ["a.txt"]
+
+
+def test_the_temporary_keeps_the_suffix_for_format_detection(tmp_path):
+    with atomic_path(tmp_path / "scene.usdc") as tmp:
+        assert tmp.parent == tmp_path and tmp.suffix == ".usdc" and tmp.exists()
+        tmp.write_bytes(b"x")
+    assert (tmp_path / "scene.usdc").read_bytes() == b"x"
