@@ -370,3 +370,13 @@ def test_unreadable_and_missing_files(tmp_path):
         read_usd(bad)
     with pytest.raises(SceneError, match="file not found"):
         read_usd(tmp_path / "missing.usda")
+
+
+def test_preview_surface_opacity_and_emission_are_reported_not_dropped_silently(tmp_path):
+    inputs = "float inputs:opacity = 0.5\n color3f inputs:emissiveColor = (1, 0, 0)"
+    warnings = read(tmp_path, PREVIEW.format(inputs=inputs)).warnings
+    assert any("inputs:opacity" in w and "/M/S" in w for w in warnings)
+    assert any("inputs:emissiveColor" in w and "/M/S" in w for w in warnings)
+    # the neutral values (opaque, no emission) are what the model renders: nothing to say
+    neutral = "float inputs:opacity = 1\n color3f inputs:emissiveColor = (0, 0, 0)"
+    assert not [w for w in read(tmp_path, PREVIEW.format(inputs=neutral)).warnings if "UsdPreviewSurface" in w]

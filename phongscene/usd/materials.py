@@ -142,6 +142,13 @@ class MaterialReader:
                 self.ctx.problem(prim, f"inputs:{name}", f"must be finite, got {value}")
                 value = self.preview_defaults[name]
             values[name] = value
+        # Inputs the classic model has no term for: say so instead of dropping them silently.
+        for name, neutral in (("opacity", 1.0), ("emissiveColor", (0.0, 0.0, 0.0))):
+            inp = shader.GetInput(name)
+            if inp and (inp.HasConnectedSource() or np.any(np.asarray(inp.Get(self.ctx.time)) != neutral)):
+                self.ctx.unsupported[f"UsdPreviewSurface inputs:{name} (not in the Phong model; ignored)"].append(
+                    str(prim.GetPath())
+                )
         return preview_to_phong(
             tuple(values["diffuseColor"]),
             float(values["roughness"]),
