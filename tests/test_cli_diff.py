@@ -15,7 +15,7 @@ import pytest
 
 import phongscene
 from phongscene.cli import EXIT_BACKEND, EXIT_DIFFERENT, EXIT_OK, EXIT_SCENE, main
-from phongscene.diff import ProgressBar
+from phongscene.progress import ProgressBar
 from phongscene.images import write_image
 
 # A small scene for diff runs: one sphere, one point light, a camera (48×36 keeps POV-Ray fast).
