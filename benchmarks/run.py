@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from phongscene.backends import native, povray
-from phongscene.render import SPECULAR_OF_MAPPING
+from phongscene.rendering import SPECULAR_OF_MAPPING
 from phongscene.usd import load_usd
 
 HERE = Path(__file__).resolve().parent

@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from phongscene.cli import EXIT_BACKEND, EXIT_DIFFERENT, EXIT_OK, EXIT_SCENE
-from phongscene.diff import diff
+from phongscene.crossvalidation import diff
 from phongscene.errors import BackendError, SceneError
 from phongscene.usd import read_usd
 

@@ -3,8 +3,6 @@
 and diff the two backends."""
 
 import importlib as _importlib
-import sys as _sys
-import types as _types
 
 from .errors import BackendError, PhongSceneError, Problem, SceneError
 from .scene import (
@@ -23,31 +21,26 @@ from .scene import (
 
 __version__ = "0.1.0"
 
-# compare / diff / render load on first use (OpenImageIO, the backends). Each name is both a
-# submodule and its main function; the import system binds a submodule to the package attribute
-# when it is first loaded, so the package's class swaps in the function at that moment.
-_FUNCTION_MODULES = ("compare", "diff", "render")
-
-
-class _Package(_types.ModuleType):
-    def __setattr__(self, name, value):
-        if name in _FUNCTION_MODULES and isinstance(value, _types.ModuleType):
-            value = getattr(value, name)
-        super().__setattr__(name, value)
-
-
-_sys.modules[__name__].__class__ = _Package
+# Exported on first use, name -> (module, attribute) (PEP 562 module __getattr__): these modules
+# bring in OpenImageIO, pxr or a backend, which ``import phongscene`` does not need.
+_LAZY_EXPORTS = {
+    "compare": (".comparison", "compare"),
+    "compile_pov": (".backends.povray", "compile_pov"),
+    "diff": (".crossvalidation", "diff"),
+    "load_usd": (".usd", "load_usd"),
+    "read_usd": (".usd", "read_usd"),
+    "render": (".rendering", "render"),
+    "write_usd": (".usd", "write_usd"),
+}
 
 
 def __getattr__(name: str):
-    if name in ("load_usd", "read_usd", "write_usd"):  # USD I/O imports pxr: load it on first use
-        return getattr(_importlib.import_module(".usd", __name__), name)
-    if name == "compile_pov":  # the POV-Ray compiler (pure Python, numpy)
-        return _importlib.import_module(".backends.povray", __name__).compile_pov
-    if name in _FUNCTION_MODULES:
-        _importlib.import_module(f".{name}", __name__)  # binds the function (see _Package)
-        return globals()[name]
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    if name not in _LAZY_EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    module, attribute = _LAZY_EXPORTS[name]
+    value = getattr(_importlib.import_module(module, __name__), attribute)
+    globals()[name] = value  # later lookups skip __getattr__
+    return value
 
 
 __all__ = [

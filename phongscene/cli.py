@@ -15,7 +15,7 @@ from pathlib import Path
 
 from . import __version__
 from .errors import BackendError, PhongSceneError, SceneError
-from .render import SPECULAR_OF_MAPPING
+from .rendering import SPECULAR_OF_MAPPING
 
 EXIT_OK, EXIT_DIFFERENT, EXIT_SCENE, EXIT_BACKEND, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -90,7 +90,7 @@ def _add_size_options(p: argparse.ArgumentParser, spp_help: str = SPP_HELP) -> N
 
 
 def _add_threshold_options(p: argparse.ArgumentParser) -> None:
-    from .compare import HALF_FLOAT as t  # OpenImageIO: only when a parser is built
+    from .comparison import HALF_FLOAT as t  # OpenImageIO: only when a parser is built
 
     group = p.add_argument_group("thresholds (idiff vocabulary; default: half-float precision)")
     group.add_argument("--fail", type=float, default=t.fail, metavar="ABS",
@@ -104,7 +104,7 @@ def _add_threshold_options(p: argparse.ArgumentParser) -> None:
 
 
 def _thresholds(args):
-    from .compare import Thresholds
+    from .comparison import Thresholds
 
     return Thresholds(fail=args.fail, fail_relative=args.fail_relative, fail_percent=args.fail_percent,
                       hard_fail=args.hard_fail)
@@ -139,7 +139,7 @@ def _add_diff_command(sub) -> None:
 
 
 def _run_diff(args) -> int:
-    from .diff import diff
+    from .crossvalidation import diff
 
     try:
         thresholds = _thresholds(args)
@@ -174,7 +174,7 @@ def _add_compare_command(sub) -> None:
 
 
 def _run_compare(args) -> int:
-    from .compare import ImageMismatchError, compare
+    from .comparison import ImageMismatchError, compare
     from .images import read_image
 
     try:
@@ -327,10 +327,10 @@ def _add_render_command(sub) -> None:
 def _run_render(args) -> int:
     import time
 
-    from .diff import diff_settings, load_scene
+    from .crossvalidation import diff_settings, load_scene
     from .images import WRITABLE, write_image
     from .progress import ProgressBar
-    from .render import render
+    from .rendering import render
 
     if not args.output.lower().endswith(WRITABLE):
         print(f"error: {args.output}: the output must end in one of {', '.join(WRITABLE)}", file=sys.stderr)
@@ -369,9 +369,9 @@ def _run_compile(args) -> int:
     import shlex
 
     from .backends.povray import prepare
-    from .diff import diff_settings, load_scene
+    from .crossvalidation import diff_settings, load_scene
     from .files import write_text_atomic
-    from .render import MAPPING_OF_SPECULAR
+    from .rendering import MAPPING_OF_SPECULAR
 
     out = Path(args.output)
     if out.suffix.lower() != ".pov":

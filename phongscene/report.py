@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from OpenImageIO import ImageBuf, ImageBufAlgo, ImageSpec
 
-from .compare import CHANNEL_NAMES, Report, channel_error
+from .comparison import CHANNEL_NAMES, Report, channel_error
 from .errors import PhongSceneError
 from .files import write_text_atomic
 from .images import as_image, write_imagebuf, write_image

@@ -125,7 +125,7 @@ def test_cli_compare_bad_threshold_exit_2(tmp_path, capsys):
 
 
 def test_python_api_exports_compare_and_diff():
-    assert phongscene.compare is __import__("phongscene.compare", fromlist=["compare"]).compare
+    assert phongscene.compare is __import__("phongscene.comparison", fromlist=["compare"]).compare
     assert callable(phongscene.diff) and callable(phongscene.render)
 
 

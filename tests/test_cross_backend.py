@@ -5,7 +5,7 @@ half-float precision (POV-Ray's EXR output) at every pixel, under both mappings:
 ``finish { phong }`` vs native ``povray-classic``). Every calibration scene, every example and
 every third-party scene in ``conftest.SHARED_ASSETS`` is covered.
 
-Two named allowances (``phongscene.compare``), each for one known POV-Ray behaviour and only
+Two named allowances (``phongscene.comparison``), each for one known POV-Ray behaviour and only
 for the scenes it can affect; every pixel they let through must be *explained* by the
 independent oracle (tests/oracle.py):
 
@@ -35,7 +35,7 @@ import pytest
 import oracle
 from calibration import SCENES
 from conftest import EXAMPLES, SHARED_ASSETS
-from phongscene.compare import (
+from phongscene.comparison import (
     HALF_FLOAT,
     POVRAY_MESH_FLOAT32,
     POVRAY_SHADOW_CACHE,
@@ -43,7 +43,7 @@ from phongscene.compare import (
     compare,
     failing_mask,
 )
-from phongscene.render import render, settings_for
+from phongscene.rendering import render, settings_for
 from phongscene.report import write_report
 from phongscene.scene import RectAreaLight, Scene, SphereAreaLight
 

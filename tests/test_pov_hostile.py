@@ -169,7 +169,7 @@ def test_derived_overflow_is_caught():
 def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
     from phongscene import files
 
-    diff_module = importlib.import_module("phongscene.diff")
+    diff_module = importlib.import_module("phongscene.crossvalidation")
     scene = _simple()
     monkeypatch.setattr(diff_module, "load_scene", lambda path: (scene, ["a warning"]))
     out = tmp_path / "out.pov"

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from OpenImageIO import ImageBuf, TypeFloat
 
-from phongscene.compare import compare
+from phongscene.comparison import compare
 from phongscene.images import read_image
 from phongscene.report import display_scale, write_report
 

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""phongscene.compare: thresholds at half-float precision, locations, NaN/inf, sizes."""
+"""phongscene.comparison: thresholds at half-float precision, locations, NaN/inf, sizes."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from OpenImageIO import ImageBuf, ImageBufAlgo
 
-from phongscene.compare import (
+from phongscene.comparison import (
     HALF_FLOAT,
     HALF_ROUNDING_RELATIVE,
     ImageMismatchError,

@@ -17,10 +17,10 @@ from typing import TextIO
 
 import numpy as np
 
-from .compare import HALF_FLOAT, ImageMismatchError, Report, Thresholds, compare
+from .comparison import HALF_FLOAT, ImageMismatchError, Report, Thresholds, compare
 from .errors import BackendError
 from .progress import ProgressBar
-from .render import SPECULAR_OF_MAPPING, render, settings_for
+from .rendering import SPECULAR_OF_MAPPING, render, settings_for
 from .scene import RenderSettings, Scene
 
 LABELS = ("povray", "native")
