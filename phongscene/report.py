@@ -164,9 +164,10 @@ body { font: 14px/1.4 system-ui, sans-serif; margin: 1.5em; color: #222; backgro
 h1 { font-size: 1.3em; margin: 0 0 .3em; }
 .verdict { display: inline-block; padding: .15em .6em; border-radius: .3em; color: #fff; font-weight: bold; }
 .pass { background: #2a7a2a; } .fail { background: #b02020; }
-.images { display: flex; flex-wrap: wrap; gap: 1.2em; align-items: flex-start; margin: 1em 0; }
-figure { margin: 0; } figcaption { font-weight: bold; margin-bottom: .3em; }
-img { image-rendering: pixelated; border: 1px solid #ccc; display: block; }
+.images { display: flex; gap: 1.2em; align-items: flex-start; margin: 1em 0; }
+/* Side by side at any window width: each figure takes a third and scales its image down. */
+figure { margin: 0; flex: 1 1 0; min-width: 0; } figcaption { font-weight: bold; margin-bottom: .3em; }
+img { image-rendering: pixelated; border: 1px solid #ccc; display: block; max-width: 100%; height: auto; }
 table { border-collapse: collapse; margin: .6em 0 1.2em; }
 td, th { border: 1px solid #ddd; padding: .2em .6em; text-align: left; font-variant-numeric: tabular-nums; }
 th { background: #eee; } code { font-size: .95em; }
