@@ -327,17 +327,16 @@ def _add_render_command(sub) -> None:
 def _run_render(args) -> int:
     import time
 
-    from .crossvalidation import diff_settings, load_scene
     from .images import WRITABLE, write_image
     from .progress import ProgressBar
-    from .rendering import render
+    from .rendering import load_scene, render, settings_with
 
     if not args.output.lower().endswith(WRITABLE):
         print(f"error: {args.output}: the output must end in one of {', '.join(WRITABLE)}", file=sys.stderr)
         return EXIT_SCENE
     scene, warnings = load_scene(args.scene)
     _print_warnings(warnings)
-    settings = diff_settings(scene, args.mapping, width=args.width, height=args.height, samples=args.spp,
+    settings = settings_with(scene, args.mapping, width=args.width, height=args.height, samples=args.spp,
                              threads=args.threads)
     bar = ProgressBar(args.backend)
     start = time.perf_counter()
@@ -369,9 +368,8 @@ def _run_compile(args) -> int:
     import shlex
 
     from .backends.povray import prepare
-    from .crossvalidation import diff_settings, load_scene
     from .files import write_text_atomic
-    from .rendering import MAPPING_OF_SPECULAR
+    from .rendering import MAPPING_OF_SPECULAR, load_scene, settings_with
 
     out = Path(args.output)
     if out.suffix.lower() != ".pov":
@@ -379,7 +377,7 @@ def _run_compile(args) -> int:
         return EXIT_SCENE
     scene, warnings = load_scene(args.scene)
     _print_warnings(warnings)
-    settings = diff_settings(scene, args.mapping, width=args.width, height=args.height, samples=args.spp)
+    settings = settings_with(scene, args.mapping, width=args.width, height=args.height, samples=args.spp)
     job = prepare(scene, settings, args.mapping)
     ini, image = out.with_suffix(".ini"), out.with_suffix(".exr")
     write_text_atomic(out, job.sdl, encoding="ascii")

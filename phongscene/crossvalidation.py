@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import TextIO
 
@@ -20,7 +20,7 @@ import numpy as np
 from .comparison import HALF_FLOAT, ImageMismatchError, Report, Thresholds, compare
 from .errors import BackendError
 from .progress import ProgressBar
-from .rendering import SPECULAR_OF_MAPPING, render, settings_for
+from .rendering import SPECULAR_OF_MAPPING, load_scene, render, settings_with
 from .scene import RenderSettings, Scene
 
 LABELS = ("povray", "native")
@@ -42,37 +42,6 @@ class DiffResult:
     @property
     def ok(self) -> bool:
         return self.report.ok
-
-
-def load_scene(scene_or_path: Scene | str | os.PathLike) -> tuple[Scene, list[str]]:
-    """A Scene as given, or read from a USD file, with the reader's warnings (raises
-    SceneError for a bad file)."""
-    if isinstance(scene_or_path, Scene):
-        return scene_or_path, []
-    from .usd import read_usd  # lazily: the USD reader imports pxr
-
-    result = read_usd(os.fspath(scene_or_path))
-    return result.scene, list(result.warnings)
-
-
-def diff_settings(
-    scene: Scene,
-    mapping: str = "exact",
-    *,
-    width: int | None = None,
-    height: int | None = None,
-    samples: int | None = None,
-    threads: int | None = None,
-) -> RenderSettings:
-    """The scene's settings with the overrides applied and the specular convention that the
-    POV-Ray ``mapping`` reproduces. Giving only one of width/height keeps the aspect ratio."""
-    s = settings_for(scene, mapping=mapping)
-    if width is not None and height is None:
-        height = max(1, round(width * s.height / s.width))
-    elif height is not None and width is None:
-        width = max(1, round(height * s.width / s.height))
-    changes = {"width": width, "height": height, "samples": samples, "threads": threads}
-    return replace(s, **{k: v for k, v in changes.items() if v is not None})
 
 
 def diff(
@@ -115,7 +84,7 @@ def diff(
     if progress is not None:
         for w in warnings:
             progress.write(f"warning: {w}\n")
-    settings = diff_settings(scene, mapping, width=width, height=height, samples=samples, threads=threads)
+    settings = settings_with(scene, mapping, width=width, height=height, samples=samples, threads=threads)
 
     images, timings = {}, {}
     for backend in LABELS:

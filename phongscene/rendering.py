@@ -1,10 +1,13 @@
 # SPDX-License-Identifier: Apache-2.0
 """One entry point for both backends: ``render(scene, backend=...)`` returns the common image
-(linear float32 (H, W, 3), row 0 at the top). Backends are imported on first use, so that
-``import phongscene`` stays light and a missing backend fails only when asked for."""
+(linear float32 (H, W, 3), row 0 at the top); with it, what every command does before it
+renders: load the scene (``load_scene``) and apply the size, sample, thread and mapping
+overrides (``settings_with``). Backends are imported on first use, so that ``import phongscene``
+stays light and a missing backend fails only when asked for."""
 
 from __future__ import annotations
 
+import os
 from dataclasses import replace
 from typing import Callable, Literal
 
@@ -30,6 +33,38 @@ def settings_for(scene: Scene, settings: RenderSettings | None = None, *, mappin
             raise ValueError(f"unknown POV-Ray mapping {mapping!r}; expected one of {', '.join(SPECULAR_OF_MAPPING)}")
         settings = replace(settings, specular=SPECULAR_OF_MAPPING[mapping])
     return settings
+
+
+def settings_with(
+    scene: Scene,
+    mapping: str | None = None,
+    *,
+    width: int | None = None,
+    height: int | None = None,
+    samples: int | None = None,
+    threads: int | None = None,
+) -> RenderSettings:
+    """The scene's settings with the overrides that are not None applied, and the specular
+    convention that the POV-Ray ``mapping`` reproduces (None: the scene's). Giving only one of
+    width/height keeps the aspect ratio."""
+    s = settings_for(scene, mapping=mapping)
+    if width is not None and height is None:
+        height = max(1, round(width * s.height / s.width))
+    elif height is not None and width is None:
+        width = max(1, round(height * s.width / s.height))
+    changes = {"width": width, "height": height, "samples": samples, "threads": threads}
+    return replace(s, **{k: v for k, v in changes.items() if v is not None})
+
+
+def load_scene(scene_or_path: Scene | str | os.PathLike) -> tuple[Scene, list[str]]:
+    """A Scene as given, or read from a USD file, with the reader's warnings (raises
+    SceneError for a bad file)."""
+    if isinstance(scene_or_path, Scene):
+        return scene_or_path, []
+    from .usd import read_usd  # lazily: the USD reader imports pxr
+
+    result = read_usd(os.fspath(scene_or_path))
+    return result.scene, list(result.warnings)
 
 
 def render(

@@ -169,9 +169,9 @@ def test_derived_overflow_is_caught():
 def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
     from phongscene import files
 
-    diff_module = importlib.import_module("phongscene.crossvalidation")
+    rendering = importlib.import_module("phongscene.rendering")
     scene = _simple()
-    monkeypatch.setattr(diff_module, "load_scene", lambda path: (scene, ["a warning"]))
+    monkeypatch.setattr(rendering, "load_scene", lambda path: (scene, ["a warning"]))
     out = tmp_path / "out.pov"
     assert cli.main(["compile", "scene.usda", "-o", str(out), "--mapping", "classic", "--width", "32"]) == 0
     text = capsys.readouterr()
@@ -182,7 +182,7 @@ def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
     # A scene that fails to compile leaves the previous file untouched and no temporary files.
     before = sorted(tmp_path.iterdir())
     bad = _simple(lights=(PointLight((NAN, 0, 0), (1, 1, 1), source="/World/Key"),))
-    monkeypatch.setattr(diff_module, "load_scene", lambda path: (bad, []))
+    monkeypatch.setattr(rendering, "load_scene", lambda path: (bad, []))
     assert cli.main(["compile", "scene.usda", "-o", str(out)]) == 2
     assert sorted(tmp_path.iterdir()) == before
     assert "/World/Key.xformOp" in capsys.readouterr().err

@@ -1,0 +1,44 @@
+# SPDX-License-Identifier: Apache-2.0
+"""phongscene.rendering: what every command does before it renders (load the scene, apply the
+overrides); the renders themselves are tested per backend and in test_cross_backend.py."""
+
+from __future__ import annotations
+
+import pytest
+
+from conftest import EXAMPLES
+from phongscene.errors import SceneError
+from phongscene.rendering import load_scene, settings_with
+from phongscene.scene import RenderSettings, Scene
+
+# 320 x 240 (4:3), specular "povray-classic": every override below visibly changes it.
+SCENE = Scene(settings=RenderSettings(width=320, height=240, samples=3, threads=2, specular="povray-classic"))
+
+
+def test_no_overrides_keep_the_scene_settings():
+    assert settings_with(SCENE) == SCENE.settings
+
+
+def test_one_side_keeps_the_aspect_ratio():
+    assert (settings_with(SCENE, width=40).width, settings_with(SCENE, width=40).height) == (40, 30)
+    assert (settings_with(SCENE, height=30).width, settings_with(SCENE, height=30).height) == (40, 30)
+    wide = Scene(settings=RenderSettings(width=400, height=100))
+    assert settings_with(wide, width=1).height == 1  # 0.25 rounds to 0: a side is never empty
+    both = settings_with(SCENE, width=10, height=50)
+    assert (both.width, both.height) == (10, 50)
+
+
+def test_samples_threads_and_mapping_are_applied():
+    s = settings_with(SCENE, "exact", samples=1, threads=0)
+    assert (s.samples, s.threads, s.specular) == (1, 0, "seed")
+    assert settings_with(SCENE, "classic").specular == "povray-classic"
+    with pytest.raises(ValueError, match="unknown POV-Ray mapping 'phong'"):
+        settings_with(SCENE, "phong")
+
+
+def test_load_scene_passes_a_scene_through_and_reads_a_file():
+    assert load_scene(SCENE) == (SCENE, [])
+    scene, warnings = load_scene(EXAMPLES / "seed_lobe.usda")
+    assert scene.source_file.endswith("seed_lobe.usda") and warnings == []
+    with pytest.raises(SceneError, match="nope.usda"):
+        load_scene(EXAMPLES / "nope.usda")
