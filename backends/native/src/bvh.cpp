@@ -44,18 +44,6 @@ constexpr double kIntersectionCost = 1.0;
 // kMaxSahDepth + log2(N) < kMaxTraversalDepth (bvh.hpp).
 constexpr int kMaxSahDepth = 40;
 
-float round_down(double x) {
-    float f = static_cast<float>(x);
-    if (double(f) > x) f = std::nextafter(f, -HUGE_VALF);
-    return f;
-}
-
-float round_up(double x) {
-    float f = static_cast<float>(x);
-    if (double(f) < x) f = std::nextafter(f, HUGE_VALF);
-    return f;
-}
-
 struct Builder {
     const std::vector<Bounds>& prim_bounds;
     std::vector<Vec3> centroids;

@@ -4,6 +4,7 @@
 // bounds; closest-hit traversal front to back, and any-hit traversal for shadow rays.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -20,6 +21,19 @@ struct Bounds {
     double half_area() const;  // half the surface area (the SAH only needs ratios)
     bool empty() const { return lo.x > hi.x; }
 };
+
+// The float nearest to x on the side away from the box's interior (boxes are stored in float
+// and must contain their double bounds).
+inline float round_down(double x) {
+    float f = static_cast<float>(x);
+    if (double(f) > x) f = std::nextafter(f, -HUGE_VALF);
+    return f;
+}
+inline float round_up(double x) {
+    float f = static_cast<float>(x);
+    if (double(f) < x) f = std::nextafter(f, HUGE_VALF);
+    return f;
+}
 
 // Traversal stack size: the build keeps the depth below 40 + log2(N) (bvh.cpp), i.e. < 72 for
 // 4e9 primitives.
@@ -40,11 +54,19 @@ struct Bvh {
     void build(const std::vector<Bounds>& prim_bounds);
 };
 
-// Slab test against a node, in double precision with precomputed reciprocal direction. NaN
+// One primitive's bounds, rounded outward like a node's (a shadow bundle's candidate,
+// Scene::shadow_candidates).
+struct PrimitiveBox {
+    float lo[3], hi[3];
+    int32_t ref;  // Scene's primitive reference
+};
+
+// Slab test against a node (or any box with float lo[3], hi[3]), in double precision with precomputed reciprocal direction. NaN
 // from 0·inf (origin on a slab plane, direction parallel to it) is ignored, which keeps the
 // box (conservative). t_far is widened by 2 ulps-ish (Ize 2013) so a rounding error in the
 // box test never culls a hit that the exact primitive test would report.
-inline bool hit_node(const BvhNode& n, const Vec3& o, const Vec3& inv, double t_min, double t_max, double& t_entry) {
+template <class Box>
+inline bool hit_node(const Box& n, const Vec3& o, const Vec3& inv, double t_min, double t_max, double& t_entry) {
     double t0 = t_min, t1 = t_max;
     const double os[3] = {o.x, o.y, o.z}, is[3] = {inv.x, inv.y, inv.z};
     for (int k = 0; k < 3; ++k) {

@@ -79,14 +79,29 @@ inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
         light);
 }
 
-// The unshadowed fraction of the light at p, in [0, 1]. `occluded(dir, distance)` traces one
+// The unshadowed fraction of the light at p, in [0, 1]. `shadow(dir, distance)` traces one
 // shadow ray from p (unit dir; distance to the light sample, inf for directional lights).
-template <class Occluded>
-double visible_fraction(const Light& light, const Vec3& p, const LightSample& centre, Occluded&& occluded) {
+// Before an area light's grid, `shadow.begin_grid(corners)` is told the four corners of a
+// parallelogram that holds every sample of the grid; it returns false when no sample can be
+// shadowed (then no ray is traced, and the weights are summed as for visible samples, in the
+// same order, so the fraction is bit-identical).
+template <class Shadow>
+double visible_fraction(const Light& light, const Vec3& p, const LightSample& centre, Shadow&& shadow) {
     auto grid = [&](int n, const Vec3& c, const Vec3& a1, const Vec3& a2, bool circular) {
+        // Samples sit at c + ju·a1 + jv·a2 with |ju|, |jv| <= 1/2 (the circular mapping only
+        // shrinks the nudged coordinates, so <= 1/2 + the nudge there).
+        const double half = circular ? 0.5 + kCircularAreaLightNudge : 0.5;
+        const Vec3 corners[4] = {c - a1 * half - a2 * half, c + a1 * half - a2 * half, c + a1 * half + a2 * half,
+                                 c - a1 * half + a2 * half};
+        const bool may_be_shadowed = shadow.begin_grid(corners);
         double visible = 0.0;
         for (int a = 0; a < n; ++a) {
             for (int b = 0; b < n; ++b) {
+                const double weight = detail::trapezoid_weight(a, n) * detail::trapezoid_weight(b, n);
+                if (!may_be_shadowed) {
+                    visible += weight;
+                    continue;
+                }
                 double ju = double(a) / (n - 1) - 0.5, jv = double(b) / (n - 1) - 0.5;
                 if (circular) {
                     // Map the square onto the disc (POV-Ray's shells: |(ju, jv)| -> max(|ju|, |jv|)).
@@ -99,7 +114,7 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
                 const Vec3 target = c + a1 * ju + a2 * jv;
                 const Vec3 v = target - p;
                 const double d = length(v);
-                if (!occluded(v / d, d)) visible += detail::trapezoid_weight(a, n) * detail::trapezoid_weight(b, n);
+                if (!shadow(v / d, d)) visible += weight;
             }
         }
         return visible;
@@ -108,7 +123,7 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
         [&](const auto& L) -> double {
             using T = std::decay_t<decltype(L)>;
             if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
-                return occluded(centre.l, centre.distance) ? 0.0 : 1.0;
+                return shadow(centre.l, centre.distance) ? 0.0 : 1.0;
             } else if constexpr (std::is_same_v<T, RectAreaLight>) {
                 return grid(L.samples, L.center, L.axis_u, L.axis_v, false);
             } else {

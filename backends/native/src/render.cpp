@@ -20,7 +20,31 @@ constexpr int kTileSize = 16;
 // How often the calling thread wakes to report progress and check for Ctrl-C.
 constexpr auto kPollInterval = std::chrono::milliseconds(50);
 
-RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSettings& settings, double window) {
+// visible_fraction()'s shadow rays from one shaded point p (lights.hpp). Shadow rays start at p;
+// occluders count inside the window (math.hpp). An area light's grid is traced as a bundle
+// against the primitives its hull can reach (Scene::shadow_candidates).
+struct ShadowQuery {
+    const Scene& scene;
+    const Vec3& p;
+    double window;
+    std::vector<PrimitiveBox>& candidates;  // of the current bundle (one per worker thread)
+    bool bundle = false;
+
+    bool begin_grid(const Vec3 (&corners)[4]) {
+        const Vec3 hull[5] = {p, corners[0], corners[1], corners[2], corners[3]};
+        bundle = scene.shadow_candidates(hull, 5, window, candidates);
+        return !bundle || !candidates.empty();
+    }
+
+    bool operator()(const Vec3& dir, double distance) const {
+        const Ray ray{p, dir};
+        return bundle ? scene.occluded_by(candidates, ray, window, distance - window)
+                      : scene.occluded(ray, window, distance - window);
+    }
+};
+
+RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSettings& settings, double window,
+              std::vector<PrimitiveBox>& candidates) {
     const Vec3 p = ray.at(hit.t);
     Vec3 n;
     const Material* material;
@@ -49,10 +73,7 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
         const LightSample centre = sample_light_centre(light, p);
         const double n_dot_l = dot(n, centre.l);
         if (n_dot_l < kMinCosineToLight) continue;  // no contribution and no shadow ray
-        // Shadow rays start at p; occluders count inside the window (math.hpp).
-        const double fraction = visible_fraction(light, p, centre, [&](const Vec3& dir, double distance) {
-            return scene.occluded({p, dir}, window, distance - window);
-        });
+        const double fraction = visible_fraction(light, p, centre, ShadowQuery{scene, p, window, candidates});
         if (fraction == 0.0) continue;
         color += shade_phong(*material, settings.convention, n, wo, centre.l, n_dot_l, centre.color * fraction);
     }
@@ -61,10 +82,11 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
 
 }  // namespace
 
-RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, double magnitude) {
+RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, double magnitude,
+                  std::vector<PrimitiveBox>& scratch) {
     Hit hit;
     if (!scene.closest_hit(ray, kPrimaryNear * magnitude, HUGE_VAL, hit)) return settings.background;
-    return shade_hit(scene, ray, hit, settings, kShadowWindow * magnitude);
+    return shade_hit(scene, ray, hit, settings, kShadowWindow * magnitude, scratch);
 }
 
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,
@@ -74,9 +96,9 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     double magnitude = std::fmax(scene.magnitude, max_abs_component(camera.position));
     if (!(magnitude > 0.0)) magnitude = 1.0;
 
-    auto render_pixel = [&](int i, int j) {
+    auto render_pixel = [&](int i, int j, std::vector<PrimitiveBox>& scratch) {
         auto trace_at = [&](double sx, double sy) {
-            return trace_primary(scene, camera.generate(sx, sy, width, height), settings, magnitude);
+            return trace_primary(scene, camera.generate(sx, sy, width, height), settings, magnitude, scratch);
         };
         RGB sum;
         int count = 0;
@@ -109,13 +131,14 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     std::condition_variable progressed;
 
     auto worker = [&] {
+        std::vector<PrimitiveBox> scratch;
         while (!cancel.load(std::memory_order_relaxed)) {
             const int tile = next.fetch_add(1);
             if (tile >= total) break;
             const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;
             const int x1 = std::min(width, x0 + kTileSize), y1 = std::min(height, y0 + kTileSize);
             for (int j = y0; j < y1; ++j)
-                for (int i = x0; i < x1; ++i) render_pixel(i, j);
+                for (int i = x0; i < x1; ++i) render_pixel(i, j, scratch);
             {
                 std::lock_guard<std::mutex> lock(mutex);
                 done.fetch_add(1);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <functional>
+#include <vector>
 
 #include "camera.hpp"
 #include "materials.hpp"
@@ -35,7 +36,9 @@ using PollFn = std::function<bool(int, int)>;
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,
                   const PollFn& poll);
 
-// The colour seen along one primary ray (exposed for tests and the pixel loop).
-RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, double magnitude);
+// The colour seen along one primary ray (exposed for tests and the pixel loop). `scratch` holds
+// shadow-bundle candidates (Scene::shadow_candidates); one per thread, reused from ray to ray.
+RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, double magnitude,
+                  std::vector<PrimitiveBox>& scratch);
 
 }  // namespace phong

@@ -3,6 +3,7 @@
 #include "scene.hpp"
 
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -191,6 +192,146 @@ bool Scene::occluded(const Ray& ray, double t_min, double t_max) const {
         return false;
     });
     return blocked;
+}
+
+namespace {
+// A linear scan of a bundle's candidates beats one BVH traversal per ray only while the list
+// is about as short as the nodes and primitives such a traversal visits (a few dozen); beyond
+// that, wide bundles through dense meshes go back to occluded().
+constexpr size_t kMaxBundleCandidates = 32;
+}  // namespace
+
+bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
+                              std::vector<PrimitiveBox>& candidates) const {
+    candidates.clear();
+    if (bvh_.nodes.empty()) return true;
+    // Candidate separating axes: x, y, z, the parallelogram's normal and the four side faces of
+    // the pyramid (apex hull[0]). Any vector is a valid axis: the hull's extent along it is
+    // computed from the points, not assumed.
+    constexpr int kAxes = 8;
+    Vec3 axes[kAxes] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    int axis_count = 3;
+    if (hull_count == 5) {
+        axes[axis_count++] = cross(hull[2] - hull[1], hull[4] - hull[1]);
+        for (int k = 1; k <= 4; ++k) axes[axis_count++] = cross(hull[k % 4 + 1] - hull[k], hull[k] - hull[0]);
+    }
+    double scale = magnitude;
+    for (int i = 0; i < hull_count; ++i) scale = std::fmax(scale, max_abs_component(hull[i]));
+    double lo[kAxes], hi[kAxes];
+    for (int a = 0; a < axis_count; ++a) {
+        const Vec3& n = axes[a];
+        lo[a] = hi[a] = dot(n, hull[0]);
+        for (int i = 1; i < hull_count; ++i) {
+            const double x = dot(n, hull[i]);
+            lo[a] = std::fmin(lo[a], x);
+            hi[a] = std::fmax(hi[a], x);
+        }
+        const double slack = kShadowBundleSlack * (std::fabs(n.x) + std::fabs(n.y) + std::fabs(n.z)) * scale;
+        lo[a] -= slack;
+        hi[a] += slack;
+    }
+    // Rays count hits only at t > t_min, i.e. beyond the apex p by t_min along their unit
+    // direction. Along a coordinate direction e that every ray of the bundle climbs
+    // (e·dir >= rise > 0 for all of them; the minimum over the parallelogram is at a corner, as
+    // e·(x−p)/|x−p| is quasi-concave), a hit lies at e·(x−p) >= t_min·rise, so a box below that
+    // level cannot hold one: the shaded surface itself (a floor under the point) drops out.
+    // Skipped when a corner is closer than t_min (then the directions' rounding is not small).
+    const Vec3& apex = hull[0];
+    double rise[3][2] = {};  // [axis][0: +e, 1: −e], 0 = not climbing
+    bool corners_far = hull_count > 1;
+    for (int i = 1; i < hull_count; ++i) corners_far = corners_far && length(hull[i] - apex) >= t_min;
+    if (corners_far) {
+        for (int k = 0; k < 3; ++k) {
+            double lowest[2] = {HUGE_VAL, HUGE_VAL};
+            for (int i = 1; i < hull_count; ++i) {
+                const Vec3 v = hull[i] - apex;
+                const double c = v[k] / length(v);
+                lowest[0] = std::fmin(lowest[0], c);
+                lowest[1] = std::fmin(lowest[1], -c);
+            }
+            for (int s = 0; s < 2; ++s) rise[k][s] = std::fmax(0.0, lowest[s] - kShadowBundleSlack);
+        }
+    }
+    auto below_the_window = [&](const float (&box_lo)[3], const float (&box_hi)[3]) {
+        for (int k = 0; k < 3; ++k) {
+            const double slack = kShadowBundleSlack * scale;
+            if (rise[k][0] > 0.0 && double(box_hi[k]) < apex[k] + t_min * rise[k][0] - slack) return true;
+            if (rise[k][1] > 0.0 && double(box_lo[k]) > apex[k] - t_min * rise[k][1] + slack) return true;
+        }
+        return false;
+    };
+    auto separated = [&](const float (&box_lo)[3], const float (&box_hi)[3]) {
+        for (int a = 0; a < axis_count; ++a) {
+            const double n[3] = {axes[a].x, axes[a].y, axes[a].z};
+            double min = 0.0, max = 0.0;
+            for (int k = 0; k < 3; ++k) {
+                const double p = n[k] * double(box_lo[k]), q = n[k] * double(box_hi[k]);
+                min += p < q ? p : q;
+                max += p < q ? q : p;
+            }
+            if (min > hi[a] || max < lo[a]) return true;
+        }
+        return false;
+    };
+    int32_t stack[kMaxTraversalDepth];
+    int sp = 0;
+    int32_t index = 0;
+    while (true) {
+        const BvhNode& node = bvh_.nodes[size_t(index)];
+        if (!separated(node.lo, node.hi)) {
+            if (node.count > 0) {
+                for (int i = 0; i < node.count; ++i) {
+                    const int32_t ref = refs_[size_t(node.offset + i)];
+                    Bounds b;
+                    if (ref >= 0) {
+                        const TriangleShape& tri = triangles[size_t(ref)];
+                        b.grow(tri.v0);
+                        b.grow(tri.v1);
+                        b.grow(tri.v2);
+                    } else {
+                        b.lo = spheres[size_t(~ref)].bounds_lo;
+                        b.hi = spheres[size_t(~ref)].bounds_hi;
+                    }
+                    PrimitiveBox box{{round_down(b.lo.x), round_down(b.lo.y), round_down(b.lo.z)},
+                                     {round_up(b.hi.x), round_up(b.hi.y), round_up(b.hi.z)},
+                                     ref};
+                    if (separated(box.lo, box.hi) || below_the_window(box.lo, box.hi)) continue;
+                    if (candidates.size() == kMaxBundleCandidates) return false;
+                    candidates.push_back(box);
+                }
+            } else {
+                stack[sp++] = node.offset;
+                index = index + 1;
+                continue;
+            }
+        }
+        if (sp == 0) return true;
+        index = stack[--sp];
+    }
+}
+
+bool Scene::occluded_by(std::vector<PrimitiveBox>& candidates, const Ray& ray, double t_min, double t_max) const {
+    const Vec3 inv{1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z};
+    std::optional<WatertightRay> wr;  // only when a triangle is tested
+    for (size_t k = 0; k < candidates.size(); ++k) {
+        const PrimitiveBox& box = candidates[k];
+        double t_entry;
+        if (!hit_node(box, ray.origin, inv, t_min, t_max, t_entry)) continue;
+        double t;
+        bool hit;
+        if (box.ref >= 0) {
+            if (!wr) wr.emplace(ray.dir);
+            Barycentric bary;
+            hit = intersect_triangle(triangles[size_t(box.ref)], ray, *wr, t_min, t_max, t, bary);
+        } else {
+            hit = intersect_sphere(spheres[size_t(~box.ref)], ray, t_min, t_max, t);
+        }
+        if (hit) {
+            std::swap(candidates[0], candidates[k]);
+            return true;
+        }
+    }
+    return false;
 }
 
 int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const {

@@ -60,6 +60,20 @@ class Scene {
     bool closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) const;
     bool occluded(const Ray& ray, double t_min, double t_max) const;
 
+    // Shadow-ray bundles (an area light's grid seen from one point). shadow_candidates() walks
+    // the BVH once and writes to `candidates` the box of every primitive (in a reached leaf)
+    // that is neither separated from the convex hull of `hull` (the shaded point and a
+    // parallelogram holding every sample) along one of a few axes, nor left by every ray before
+    // t_min (the floor under the shaded point): a superset of the primitives any ray of the
+    // bundle can hit in occluded(). It returns false, leaving the rays to occluded(), when there
+    // are more than kMaxBundleCandidates. occluded_by() answers occluded() for one ray of the
+    // bundle by testing only the candidates, each behind its own box (a primitive's hit lies in
+    // its box, as the BVH relies on for every node) with the same primitive tests: the same
+    // answer, as any-hit does not depend on the order. The occluder moves to the front, where
+    // the next ray tries it first.
+    bool shadow_candidates(const Vec3* hull, int hull_count, double t_min, std::vector<PrimitiveBox>& candidates) const;
+    bool occluded_by(std::vector<PrimitiveBox>& candidates, const Ray& ray, double t_min, double t_max) const;
+
     // Every primitive the ray hits in (t_min, t_max), by brute force (tests only).
     int count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const;
 
