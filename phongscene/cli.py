@@ -15,7 +15,7 @@ from pathlib import Path
 
 from . import __version__
 from .errors import BackendError, PhongSceneError, SceneError
-from .rendering import SPECULAR_OF_MAPPING
+from .rendering import MAPPINGS
 
 EXIT_OK, EXIT_DIFFERENT, EXIT_SCENE, EXIT_BACKEND, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -80,7 +80,7 @@ def _add_scene_argument(p: argparse.ArgumentParser) -> None:
 
 
 def _add_mapping_option(p: argparse.ArgumentParser, help: str, default: str | None = None) -> None:
-    p.add_argument("--mapping", choices=tuple(SPECULAR_OF_MAPPING), default=default, help=help)
+    p.add_argument("--mapping", choices=MAPPINGS, default=default, help=help)
 
 
 def _add_size_options(p: argparse.ArgumentParser, spp_help: str = SPP_HELP) -> None:
@@ -113,6 +113,18 @@ def _thresholds(args):
 def _print_warnings(warnings, stream=None) -> None:
     for warning in warnings:
         print(f"warning: {warning}", file=sys.stderr if stream is None else stream)
+
+
+def _scene_and_settings(args):
+    """The scene of ``args.scene`` (its warnings printed) and its settings with the command's
+    mapping, size, sample and thread overrides."""
+    from .rendering import load_scene, settings_with
+
+    scene, warnings = load_scene(args.scene)
+    _print_warnings(warnings)
+    settings = settings_with(scene, args.mapping, width=args.width, height=args.height, samples=args.spp,
+                             threads=getattr(args, "threads", None))
+    return scene, settings
 
 
 # ----------------------------------------------------------------------------------------------
@@ -329,15 +341,12 @@ def _run_render(args) -> int:
 
     from .images import WRITABLE, write_image
     from .progress import ProgressBar
-    from .rendering import load_scene, render, settings_with
+    from .rendering import render
 
     if not args.output.lower().endswith(WRITABLE):
         print(f"error: {args.output}: the output must end in one of {', '.join(WRITABLE)}", file=sys.stderr)
         return EXIT_SCENE
-    scene, warnings = load_scene(args.scene)
-    _print_warnings(warnings)
-    settings = settings_with(scene, args.mapping, width=args.width, height=args.height, samples=args.spp,
-                             threads=args.threads)
+    scene, settings = _scene_and_settings(args)
     bar = ProgressBar(args.backend)
     start = time.perf_counter()
     image = render(scene, args.backend, settings, progress=bar)
@@ -369,15 +378,13 @@ def _run_compile(args) -> int:
 
     from .backends.povray import prepare
     from .files import write_text_atomic
-    from .rendering import MAPPING_OF_SPECULAR, load_scene, settings_with
+    from .rendering import MAPPING_OF_SPECULAR
 
     out = Path(args.output)
     if out.suffix.lower() != ".pov":
         print(f"error: {out}: the output must end in .pov", file=sys.stderr)
         return EXIT_SCENE
-    scene, warnings = load_scene(args.scene)
-    _print_warnings(warnings)
-    settings = settings_with(scene, args.mapping, width=args.width, height=args.height, samples=args.spp)
+    scene, settings = _scene_and_settings(args)
     job = prepare(scene, settings, args.mapping)
     ini, image = out.with_suffix(".ini"), out.with_suffix(".exr")
     write_text_atomic(out, job.sdl, encoding="ascii")

@@ -20,7 +20,7 @@ import numpy as np
 from .comparison import HALF_FLOAT, ImageMismatchError, Report, Thresholds, compare
 from .errors import BackendError
 from .progress import ProgressBar
-from .rendering import SPECULAR_OF_MAPPING, load_scene, render, settings_with
+from .rendering import check_mapping, load_scene, render, settings_with
 from .scene import RenderSettings, Scene
 
 LABELS = ("povray", "native")
@@ -78,8 +78,7 @@ def diff(
         SceneError: the scene file is invalid.
         BackendError: a backend failed, or the two images came back in different sizes.
     """
-    if mapping not in SPECULAR_OF_MAPPING:
-        raise ValueError(f"unknown mapping {mapping!r}; expected one of {', '.join(SPECULAR_OF_MAPPING)}")
+    check_mapping(mapping)  # before the scene is read
     scene, warnings = load_scene(scene_or_path)
     if progress is not None:
         for w in warnings:

@@ -22,6 +22,14 @@ Mapping = Literal["exact", "classic"]
 # POV-Ray mapping ↔ the native specular convention it reproduces (DESIGN §4).
 SPECULAR_OF_MAPPING: dict[str, str] = {"exact": "seed", "classic": "povray-classic"}
 MAPPING_OF_SPECULAR: dict[str, str] = {v: k for k, v in SPECULAR_OF_MAPPING.items()}
+MAPPINGS: tuple[str, ...] = tuple(SPECULAR_OF_MAPPING)
+
+
+def check_mapping(mapping: str) -> str:
+    """``mapping`` if it is a POV-Ray mapping; otherwise ValueError naming the known ones."""
+    if mapping not in SPECULAR_OF_MAPPING:
+        raise ValueError(f"unknown POV-Ray mapping {mapping!r}; expected one of {', '.join(MAPPINGS)}")
+    return mapping
 
 
 def settings_for(scene: Scene, settings: RenderSettings | None = None, *, mapping: str | None = None) -> RenderSettings:
@@ -29,9 +37,7 @@ def settings_for(scene: Scene, settings: RenderSettings | None = None, *, mappin
     convention set by ``mapping`` when one is given."""
     settings = scene.settings if settings is None else settings
     if mapping is not None:
-        if mapping not in SPECULAR_OF_MAPPING:
-            raise ValueError(f"unknown POV-Ray mapping {mapping!r}; expected one of {', '.join(SPECULAR_OF_MAPPING)}")
-        settings = replace(settings, specular=SPECULAR_OF_MAPPING[mapping])
+        settings = replace(settings, specular=SPECULAR_OF_MAPPING[check_mapping(mapping)])
     return settings
 
 

@@ -94,8 +94,11 @@ _USD_NAMES: dict[type, dict[str, str]] = {
 }
 
 
-def _from_usd(source: str) -> bool:
-    return source.startswith("/")
+def attribute_name(node, field: str) -> str:
+    """How an error names ``field`` of ``node``: the USD attribute for a node read from USD
+    (its ``source`` is a prim path), else the model's field name."""
+    from_usd = getattr(node, "source", "").startswith("/")
+    return _USD_NAMES.get(type(node), {}).get(field, field) if from_usd else field
 
 
 class _Collector:
@@ -105,8 +108,7 @@ class _Collector:
 
     def add(self, node, field: str, message: str) -> None:
         source = getattr(node, "source", "")
-        attribute = _USD_NAMES.get(type(node), {}).get(field, field) if _from_usd(source) else field
-        self.problems.append(Problem(message, prim=source, attribute=attribute, file=self.file))
+        self.problems.append(Problem(message, prim=source, attribute=attribute_name(node, field), file=self.file))
 
     # -- generic checks --------------------------------------------------------------------
 

@@ -1,12 +1,14 @@
 # SPDX-License-Identifier: Apache-2.0
 """The package's public names: each resolves to a function or class, and ``import phongscene``
-stays light (the heavy ones load on first use)."""
+(or ``phongscene.cli``, for a fast ``--help``) stays light: the heavy modules load on first use."""
 
 from __future__ import annotations
 
 import inspect
 import subprocess
 import sys
+
+import pytest
 
 import phongscene
 
@@ -33,9 +35,10 @@ def test_unknown_names_raise_attribute_error():
     assert not hasattr(phongscene, "no_such_name")
 
 
-def test_importing_the_package_loads_no_heavy_module():
+@pytest.mark.parametrize("module", ["phongscene", "phongscene.cli"])
+def test_importing_the_package_or_the_cli_loads_no_heavy_module(module):
     probe = (
-        "import sys, phongscene\n"
+        f"import sys, {module}\n"
         f"heavy = [m for m in {HEAVY_MODULES!r} if m in sys.modules]\n"
         "assert not heavy, heavy\n"
     )

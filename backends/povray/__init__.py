@@ -1,7 +1,9 @@
 # SPDX-License-Identifier: Apache-2.0
 """POV-Ray backend: compile a Scene to POV-Ray 3.7 SDL, run povray, read the image back."""
 
-from .compile import MAPPINGS, compile_pov, pass_count, resolve_mapping, sanitize_comment
+from phongscene.rendering import MAPPINGS
+
+from .compile import compile_pov, pass_count, resolve_mapping, sanitize_comment
 from .run import INSTALL_HINT, PovJob, prepare, render, render_many, render_switches
 
 __all__ = [

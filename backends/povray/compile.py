@@ -44,7 +44,8 @@ import math
 import numpy as np
 
 from phongscene.errors import Problem, SceneError
-from phongscene.validate import _USD_NAMES
+from phongscene.rendering import MAPPING_OF_SPECULAR, check_mapping
+from phongscene.validate import attribute_name
 from phongscene.scene import (
     DirectionalLight,
     PhongMaterial,
@@ -58,9 +59,6 @@ from phongscene.scene import (
 )
 
 from .numbers import NonFiniteNumber, float32_vectors, int_vectors, sdl_float, sdl_vector
-
-MAPPINGS = ("exact", "classic")
-MAPPING_OF_SPECULAR = {"seed": "exact", "povray-classic": "classic"}
 
 # NdotL_Map resolution: 2**7 linear segments over v in [1/2, 1] (at most 256 colour_map entries).
 NDOTL_SEGMENTS = 128
@@ -96,9 +94,7 @@ def resolve_mapping(settings: RenderSettings, mapping: str | None) -> str:
         mapping = MAPPING_OF_SPECULAR.get(settings.specular)
         if mapping is None:
             raise SceneError(Problem(f"unknown specular convention {settings.specular!r}", settings.source, "specular"))
-    if mapping not in MAPPINGS:
-        raise ValueError(f"unknown POV-Ray mapping {mapping!r}; expected one of {', '.join(MAPPINGS)}")
-    return mapping
+    return check_mapping(mapping)
 
 
 def pass_count(scene: Scene, mapping: str) -> int:
@@ -176,10 +172,7 @@ class _Compiler:
             raise self._error(node, attribute, f"is not finite in the SDL ({e})") from None
 
     def _error(self, node, field: str, message: str) -> SceneError:
-        # Named like phongscene.validate names it: the USD attribute for a node read from USD.
-        source = getattr(node, "source", "")
-        attribute = _USD_NAMES.get(type(node), {}).get(field, field) if source.startswith("/") else field
-        return SceneError(Problem(message, source, attribute, self.scene.source_file))
+        return SceneError(Problem(message, getattr(node, "source", ""), attribute_name(node, field), self.scene.source_file))
 
     def comment(self, node, kind: str, index: int) -> None:
         self.lines.append(self.comment_text(node, kind, index))
