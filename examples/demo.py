@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from phongscene.cli import EXIT_BACKEND, EXIT_DIFFERENT, EXIT_OK, EXIT_SCENE
+from phongscene.comparison import HALF_ROUNDING_RELATIVE
 from phongscene.crossvalidation import diff
 from phongscene.errors import BackendError, SceneError
 from phongscene.usd import read_usd
@@ -56,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
     verdict = "agree" if r.ok else "DIFFER"
     print(
         f"  agreement   {verdict}: max error {r.max_error:.3g}"
-        f" (relative {r.max_relative_error / 2**-11:.2f} x 2^-11; half-float rounding is up to 1 x 2^-11),"
+        f" (relative {r.max_relative_error / HALF_ROUNDING_RELATIVE:.2f} x 2^-11; half-float rounding is up to 1 x 2^-11),"
         f" {r.failing_pixels} of {r.pixels} pixels outside half-float precision"
     )
     print(f"  report      {result.outdir / 'index.html'}")

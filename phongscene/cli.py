@@ -15,7 +15,7 @@ from pathlib import Path
 
 from . import __version__
 from .errors import BackendError, PhongSceneError, SceneError
-from .rendering import MAPPINGS
+from .rendering import BACKENDS, MAPPINGS
 
 EXIT_OK, EXIT_DIFFERENT, EXIT_SCENE, EXIT_BACKEND, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -328,7 +328,7 @@ def _add_render_command(sub) -> None:
     )
     _add_scene_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="IMAGE", help="output image, .exr or .png (atomic write)")
-    p.add_argument("--backend", choices=("native", "povray"), default="native", help="renderer (default: native)")
+    p.add_argument("--backend", choices=BACKENDS, default="native", help="renderer (default: native)")
     _add_mapping_option(p, "specular convention: exact (the seed model) or classic (plain POV-Ray phong, native "
                         "'povray-classic'); default: the scene's")
     _add_size_options(p)
@@ -389,9 +389,9 @@ def _run_compile(args) -> int:
     ini, image = out.with_suffix(".ini"), out.with_suffix(".exr")
     write_text_atomic(out, job.sdl, encoding="ascii")
     write_text_atomic(ini, job.ini(out.name, image.name), encoding="ascii")
-    mapping = args.mapping or MAPPING_OF_SPECULAR[settings.specular]
+    mapping = MAPPING_OF_SPECULAR[settings.specular]  # args.mapping, or the scene's
     print(f"{out}: {mapping} mapping, {job.frames} frame(s), {settings.width} x {settings.height}")
-    print(f"{ini}: the same options; render in {out.parent or '.'} with: povray {ini.name}")
+    print(f"{ini}: the same options; render in {out.parent} with: povray {ini.name}")
     print("  " + shlex.join(job.command(out.name, image.name)))
     if job.frames > 1:
         print(f"  then add the {job.frames} linear frame images (one per light)")

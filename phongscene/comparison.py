@@ -230,11 +230,7 @@ def compare(a, b, thresholds: Thresholds = HALF_FLOAT) -> Report:
     Raises:
         ImageMismatchError: the images differ in size.
     """
-    a_img, b_img = load(a), load(b)
-    if a_img.shape != b_img.shape:
-        raise ImageMismatchError(
-            f"cannot compare images of different sizes: {_size(a_img)} ({_name(a)}) vs {_size(b_img)} ({_name(b)})"
-        )
+    a_img, b_img = _load_pair(a, b)
     height, width = a_img.shape[:2]
     nonfinite_a = ~np.isfinite(a_img).all(axis=2)
     nonfinite_b = ~np.isfinite(b_img).all(axis=2)
@@ -288,9 +284,7 @@ def failing_mask(a, b, thresholds: Thresholds = HALF_FLOAT) -> np.ndarray:
     fails when its error exceeds ``fail`` and ``fail_relative`` of mean(|a|, |b|); a NaN never
     agrees; an infinity agrees only with the same infinity). For locating failures, e.g. to
     explain each one; ``compare`` stays the verdict."""
-    a, b = load(a), load(b)
-    if a.shape != b.shape:
-        raise ImageMismatchError(f"cannot compare images of different sizes: {_size(a)} vs {_size(b)}")
+    a, b = _load_pair(a, b)
     a64, b64 = a.astype(np.float64), b.astype(np.float64)
     with np.errstate(invalid="ignore"):
         err = np.abs(a64 - b64)
@@ -349,6 +343,16 @@ def _max_relative_error(a: np.ndarray, b: np.ndarray, floor: float) -> float:
         rel = err[mask] / scale[mask]
     rel = rel[~np.isnan(rel)]
     return float(rel.max()) if rel.size else 0.0
+
+
+def _load_pair(a, b) -> tuple[np.ndarray, np.ndarray]:
+    """Both images (``load``), or ImageMismatchError naming both when their sizes differ."""
+    a_img, b_img = load(a), load(b)
+    if a_img.shape != b_img.shape:
+        raise ImageMismatchError(
+            f"cannot compare images of different sizes: {_size(a_img)} ({_name(a)}) vs {_size(b_img)} ({_name(b)})"
+        )
+    return a_img, b_img
 
 
 def _size(img: np.ndarray) -> str:

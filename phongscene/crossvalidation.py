@@ -75,6 +75,7 @@ def diff(
         A ``DiffResult``: the report, the folder, both timings and both images.
 
     Raises:
+        ValueError: ``mapping`` is not "exact" or "classic".
         SceneError: the scene file is invalid.
         BackendError: a backend failed, or the two images came back in different sizes.
     """

@@ -28,8 +28,17 @@ HEAT_MAP = "inferno"  # perceptually uniform, dark at zero: any non-zero error s
 # Small images are enlarged (nearest neighbour, integer factor) to at least this width, so that
 # a one-pixel difference is a visible block on the heat map and in the browser.
 MIN_DISPLAY_WIDTH = 384
-LEGEND_HEIGHT = 52  # pixels below the heat map: title, colour bar, min and max labels
-LEGEND_MARGIN = 10
+# The heat map PNG is at least this wide (the error image at its top left), so that the
+# legend's title and its two end labels fit on one line each.
+MIN_HEAT_MAP_WIDTH = 2 * MIN_DISPLAY_WIDTH // 3
+# Legend layout in pixels below the heat map (text y positions are baselines): the title line,
+# the colour bar, then "0" and the maximum under the bar's two ends.
+LEGEND_HEIGHT = 52
+LEGEND_TITLE_BASELINE = 15
+LEGEND_BAR_TOP = 20
+LEGEND_BAR_HEIGHT = 12
+LEGEND_LABEL_BASELINE = 47
+LEGEND_MARGIN = 10  # left and right
 LEGEND_FONT_SIZE = 13
 LEGEND_BACKGROUND = (0.12, 0.12, 0.12)
 LEGEND_TEXT = (0.95, 0.95, 0.95)
@@ -126,7 +135,7 @@ def write_heat_map(path: str | os.PathLike, error: np.ndarray) -> float:
     pixels = np.asarray(heat.get_pixels(), np.float32).reshape(height, width, 3)
     pixels = np.repeat(np.repeat(pixels, scale, axis=0), scale, axis=1)
 
-    canvas_w = max(width * scale, 2 * MIN_DISPLAY_WIDTH // 3)
+    canvas_w = max(width * scale, MIN_HEAT_MAP_WIDTH)
     canvas = ImageBuf(ImageSpec(canvas_w, height * scale + LEGEND_HEIGHT, 3, "float"))
     ImageBufAlgo.fill(canvas, LEGEND_BACKGROUND)
     ImageBufAlgo.paste(canvas, 0, 0, 0, 0, ImageBuf(np.ascontiguousarray(pixels)))
@@ -134,14 +143,14 @@ def write_heat_map(path: str | os.PathLike, error: np.ndarray) -> float:
     # Legend: a title line, the colour bar, then "0" at the left and the maximum at the right.
     bar_w = canvas_w - 2 * LEGEND_MARGIN
     y0 = height * scale
-    ramp = np.tile(np.linspace(0, 1, bar_w, dtype=np.float32), (12, 1))[..., None]
+    ramp = np.tile(np.linspace(0, 1, bar_w, dtype=np.float32), (LEGEND_BAR_HEIGHT, 1))[..., None]
     bar = ImageBufAlgo.color_map(ImageBuf(np.ascontiguousarray(ramp)), 0, HEAT_MAP)
-    ImageBufAlgo.paste(canvas, LEGEND_MARGIN, y0 + 20, 0, 0, bar)
+    ImageBufAlgo.paste(canvas, LEGEND_MARGIN, y0 + LEGEND_BAR_TOP, 0, 0, bar)
     label = "|a - b|, max over R,G,B" + ("" if finite.all() else " (non-finite: top colour)")
-    ImageBufAlgo.render_text(canvas, LEGEND_MARGIN, y0 + 15, label, LEGEND_FONT_SIZE, "", LEGEND_TEXT)
-    ImageBufAlgo.render_text(canvas, LEGEND_MARGIN, y0 + 47, "0", LEGEND_FONT_SIZE, "", LEGEND_TEXT)
+    ImageBufAlgo.render_text(canvas, LEGEND_MARGIN, y0 + LEGEND_TITLE_BASELINE, label, LEGEND_FONT_SIZE, "", LEGEND_TEXT)
+    ImageBufAlgo.render_text(canvas, LEGEND_MARGIN, y0 + LEGEND_LABEL_BASELINE, "0", LEGEND_FONT_SIZE, "", LEGEND_TEXT)
     ImageBufAlgo.render_text(
-        canvas, canvas_w - LEGEND_MARGIN, y0 + 47, f"{top:.4g}", LEGEND_FONT_SIZE, "", LEGEND_TEXT, "right"
+        canvas, canvas_w - LEGEND_MARGIN, y0 + LEGEND_LABEL_BASELINE, f"{top:.4g}", LEGEND_FONT_SIZE, "", LEGEND_TEXT, "right"
     )
     if canvas.has_error:
         raise PhongSceneError(f"{path}: cannot draw the heat map: {canvas.geterror()}")
@@ -245,7 +254,7 @@ def _html_page(title, labels, files, report: Report, metrics: dict, width: int, 
 <div class="images">
 {figure(labels[0], files["a_png"], files["a_exr"], w, h)}
 {figure(labels[1], files["b_png"], files["b_exr"], w, h)}
-{figure(f"|{labels[0]} - {labels[1]}| (0 .. {heat['max']:.4g})", files["heat_png"], files["diff_exr"], max(w, 2 * MIN_DISPLAY_WIDTH // 3), None)}
+{figure(f"|{labels[0]} - {labels[1]}| (0 .. {heat['max']:.4g})", files["heat_png"], files["diff_exr"], max(w, MIN_HEAT_MAP_WIDTH), None)}
 </div>
 <h2>Numbers</h2>
 <table>
