@@ -144,6 +144,34 @@ def test_bvh_closest_hit_equals_brute_force():
     assert (count > 0).sum() > 500  # the test exercises many hits
 
 
+def test_coincident_primitives_resolve_to_the_lowest_id_whatever_the_bvh():
+    # The same surface listed twice is hit at exactly the same t by both copies. The closest
+    # hit is then the lower primitive id, not whichever copy the BVH happens to visit first
+    # (the copies are listed in reverse order, so visiting order and id order disagree often).
+    rng = np.random.default_rng(5)
+    n = 400
+    v = rng.uniform(-5, 5, size=(3 * n, 3))
+    tris = np.arange(3 * n).reshape(-1, 3)
+    v[tris[:, 1]] = v[tris[:, 0]] + rng.normal(scale=0.5, size=(n, 3))
+    v[tris[:, 2]] = v[tris[:, 0]] + rng.normal(scale=0.5, size=(n, 3))
+    spheres = tuple(Sphere.at(tuple(rng.uniform(-5, 5, 3)), float(rng.uniform(0.1, 0.6))) for _ in range(30))
+    mesh = TriangleMesh(points=v, triangles=np.concatenate([tris, tris[::-1]]))
+    built = native.build(Scene(spheres=spheres + spheres[::-1], meshes=(mesh,)))
+    origins = rng.uniform(-8, 8, size=(6000, 3))
+    d = unit(rng.normal(size=(6000, 3)))
+    t, prim = built.intersect(origins, d)
+    count, t_brute = built.count_hits(origins, d)
+    assert np.array_equal(t, t_brute)
+    hit = prim >= 0
+    assert hit.sum() > 500 and (count[hit] >= 2).all()  # every hit is a tie of two copies
+    n_spheres = 2 * len(spheres)
+    on_sphere = hit & (prim < n_spheres)
+    assert (prim[on_sphere] < len(spheres)).all()  # spheres: originals are 0..29
+    on_triangle = hit & (prim >= n_spheres)
+    assert on_sphere.sum() > 50 and on_triangle.sum() > 50
+    assert (prim[on_triangle] - n_spheres < n).all()  # triangles: originals come first
+
+
 # Flattening a Scene must not loop over elements in Python: a 1M-triangle mesh converts in well
 # under a second (measured ~0.05 s); the budget leaves room for a loaded CI machine.
 FLATTEN_1M_TRIANGLES_BUDGET_S = 1.0

@@ -61,25 +61,29 @@ struct PrimitiveBox {
     int32_t ref;  // Scene's primitive reference
 };
 
-// Slab test against a node (or any box with float lo[3], hi[3]), in double precision with precomputed reciprocal direction. NaN
-// from 0·inf (origin on a slab plane, direction parallel to it) is ignored, which keeps the
+// Slab test against a node (or any box with float lo[3], hi[3]), in double precision with
+// precomputed reciprocal direction. NaN from 0·inf (origin on a slab plane, direction parallel to it) is ignored, which keeps the
 // box (conservative). t_far is widened by 2 ulps-ish (Ize 2013) so a rounding error in the
 // box test never culls a hit that the exact primitive test would report.
+//
+// Branch-free (compare-and-select, which compiles to minsd/maxsd with the operand order that
+// keeps these NaN rules): the early exit on an empty interval after each axis only decides
+// sooner what the final t0 <= t1 decides, since t0 only grows and t1 only shrinks, and its
+// mispredicted branches cost more than the arithmetic they skip.
 template <class Box>
 inline bool hit_node(const Box& n, const Vec3& o, const Vec3& inv, double t_min, double t_max, double& t_entry) {
     double t0 = t_min, t1 = t_max;
     const double os[3] = {o.x, o.y, o.z}, is[3] = {inv.x, inv.y, inv.z};
     for (int k = 0; k < 3; ++k) {
-        double a = (double(n.lo[k]) - os[k]) * is[k];
-        double b = (double(n.hi[k]) - os[k]) * is[k];
-        if (a > b) std::swap(a, b);
-        b *= 1.0 + 4.0 * 2.220446049250313e-16;
-        if (a > t0) t0 = a;
-        if (b < t1) t1 = b;
-        if (t0 > t1) return false;
+        const double a = (double(n.lo[k]) - os[k]) * is[k];
+        const double b = (double(n.hi[k]) - os[k]) * is[k];
+        const double near = a > b ? b : a;  // NaN: a, as without the swap
+        const double far = (a > b ? a : b) * (1.0 + 4.0 * 2.220446049250313e-16);
+        t0 = near > t0 ? near : t0;  // NaN ignored
+        t1 = far < t1 ? far : t1;
     }
     t_entry = t0;
-    return true;
+    return t0 <= t1;
 }
 
 }  // namespace phong

@@ -151,24 +151,29 @@ void traverse(const std::vector<BvhNode>& nodes, const Ray& ray, double t_min, d
 }  // namespace
 
 bool Scene::closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) const {
+    // Exact ties (coincident surfaces hit at the same t) go to the lower primitive id, so the
+    // hit does not depend on the BVH's shape or visiting order: once a hit is found, primitives
+    // are tested up to and including t_best, and boxes up to a little beyond it (a box's entry
+    // distance rounds by < 2 ulps, kTieCullMargin covers it).
+    constexpr double kTieCullMargin = 8.0 * 2.220446049250313e-16;
     const WatertightRay wr(ray.dir);
     bool found = false;
-    traverse(bvh_.nodes, ray, t_min, t_max, [&](int32_t first, int count, double& t_best) {
+    double t_best = t_max, t_test = t_max, t_cull = t_max;
+    traverse(bvh_.nodes, ray, t_min, t_cull, [&](int32_t first, int count, double& cull) {
         for (int k = 0; k < count; ++k) {
             const int32_t ref = refs_[size_t(first + k)];
             double t;
-            if (ref >= 0) {
-                Barycentric bary;
-                if (intersect_triangle(triangles[size_t(ref)], ray, wr, t_min, t_best, t, bary)) {
-                    t_best = t;
-                    hit = {t, ref, bary};
-                    found = true;
-                }
-            } else if (intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_best, t)) {
-                t_best = t;
-                hit = {t, ref, {}};
-                found = true;
-            }
+            Barycentric bary{};
+            const bool hit_here = ref >= 0
+                                      ? intersect_triangle(triangles[size_t(ref)], ray, wr, t_min, t_test, t, bary)
+                                      : intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_test, t);
+            if (!hit_here) continue;
+            if (found && !(t < t_best || primitive_id(ref) < primitive_id(hit.ref))) continue;
+            found = true;
+            t_best = t;
+            hit = {t, ref, bary};
+            t_test = std::nextafter(t_best, HUGE_VAL);
+            cull = t_best + std::fabs(t_best) * kTieCullMargin;
         }
         return false;
     });

@@ -127,7 +127,11 @@ inline bool owns_edge(double px, double py, double qx, double qy, double det) {
 // ray through a shared edge or vertex hits exactly one of them.
 inline bool intersect_triangle(const TriangleShape& tri, const Ray& ray, const WatertightRay& wr, double t_min,
                                double t_max, double& t_hit, Barycentric& bary) {
-    const Vec3 a = tri.v0 - ray.origin, b = tri.v1 - ray.origin, c = tri.v2 - ray.origin;
+    // Arrays, not Vec3, so that the per-ray axis permutation below is an indexed load rather
+    // than a chain of selects (Vec3::operator[]).
+    const double a[3] = {tri.v0.x - ray.origin.x, tri.v0.y - ray.origin.y, tri.v0.z - ray.origin.z};
+    const double b[3] = {tri.v1.x - ray.origin.x, tri.v1.y - ray.origin.y, tri.v1.z - ray.origin.z};
+    const double c[3] = {tri.v2.x - ray.origin.x, tri.v2.y - ray.origin.y, tri.v2.z - ray.origin.z};
     // Shear and scale into the ray's frame (the ray is the +z axis through the origin).
     const double ax = a[wr.kx] - wr.sx * a[wr.kz], ay = a[wr.ky] - wr.sy * a[wr.kz];
     const double bx = b[wr.kx] - wr.sx * b[wr.kz], by = b[wr.ky] - wr.sy * b[wr.kz];
