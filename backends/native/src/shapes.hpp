@@ -91,14 +91,15 @@ struct WatertightRay {
     double sx, sy, sz;
 
     explicit WatertightRay(const Vec3& d) {
+        const double ds[3] = {d.x, d.y, d.z};
         const double ax = std::fabs(d.x), ay = std::fabs(d.y), az = std::fabs(d.z);
         kz = (ax > ay) ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
-        kx = (kz + 1) % 3;
-        ky = (kx + 1) % 3;
-        if (d[kz] < 0.0) std::swap(kx, ky);  // keep the winding
-        sx = d[kx] / d[kz];
-        sy = d[ky] / d[kz];
-        sz = 1.0 / d[kz];
+        kx = kz == 2 ? 0 : kz + 1;
+        ky = kx == 2 ? 0 : kx + 1;
+        if (ds[kz] < 0.0) std::swap(kx, ky);  // keep the winding
+        sx = ds[kx] / ds[kz];
+        sy = ds[ky] / ds[kz];
+        sz = 1.0 / ds[kz];
     }
 };
 
