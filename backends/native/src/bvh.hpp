@@ -54,13 +54,6 @@ struct Bvh {
     void build(const std::vector<Bounds>& prim_bounds);
 };
 
-// One primitive's bounds, rounded outward like a node's (a shadow bundle's candidate,
-// Scene::shadow_candidates).
-struct PrimitiveBox {
-    float lo[3], hi[3];
-    int32_t ref;  // Scene's primitive reference
-};
-
 // Slab test against a node (or any box with float lo[3], hi[3]), in double precision with
 // precomputed reciprocal direction. NaN from 0·inf (origin on a slab plane, direction parallel to it) is ignored, which keeps the
 // box (conservative). t_far is widened by 2 ulps-ish (Ize 2013) so a rounding error in the

@@ -96,8 +96,9 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
         const bool may_be_shadowed = shadow.begin_grid(corners);
         double visible = 0.0;
         for (int a = 0; a < n; ++a) {
+            const double weight_a = detail::trapezoid_weight(a, n);
             for (int b = 0; b < n; ++b) {
-                const double weight = detail::trapezoid_weight(a, n) * detail::trapezoid_weight(b, n);
+                const double weight = weight_a * detail::trapezoid_weight(b, n);
                 if (!may_be_shadowed) {
                     visible += weight;
                     continue;

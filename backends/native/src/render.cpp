@@ -27,7 +27,7 @@ struct ShadowQuery {
     const Scene& scene;
     const Vec3& p;
     double window;
-    std::vector<PrimitiveBox>& candidates;  // of the current bundle (one per worker thread)
+    std::vector<BundleCandidate>& candidates;  // of the current bundle (one per worker thread)
     bool bundle = false;
 
     bool begin_grid(const Vec3 (&corners)[4]) {
@@ -44,7 +44,7 @@ struct ShadowQuery {
 };
 
 RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSettings& settings, double window,
-              std::vector<PrimitiveBox>& candidates) {
+              std::vector<BundleCandidate>& candidates) {
     const Vec3 p = ray.at(hit.t);
     Vec3 n;
     const Material* material;
@@ -83,7 +83,7 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
 }  // namespace
 
 RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, double magnitude,
-                  std::vector<PrimitiveBox>& scratch) {
+                  std::vector<BundleCandidate>& scratch) {
     Hit hit;
     if (!scene.closest_hit(ray, kPrimaryNear * magnitude, HUGE_VAL, hit)) return settings.background;
     return shade_hit(scene, ray, hit, settings, kShadowWindow * magnitude, scratch);
@@ -96,7 +96,7 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     double magnitude = std::fmax(scene.magnitude, max_abs_component(camera.position));
     if (!(magnitude > 0.0)) magnitude = 1.0;
 
-    auto render_pixel = [&](int i, int j, std::vector<PrimitiveBox>& scratch) {
+    auto render_pixel = [&](int i, int j, std::vector<BundleCandidate>& scratch) {
         auto trace_at = [&](double sx, double sy) {
             return trace_primary(scene, camera.generate(sx, sy, width, height), settings, magnitude, scratch);
         };
@@ -131,7 +131,7 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     std::condition_variable progressed;
 
     auto worker = [&] {
-        std::vector<PrimitiveBox> scratch;
+        std::vector<BundleCandidate> scratch;
         while (!cancel.load(std::memory_order_relaxed)) {
             const int tile = next.fetch_add(1);
             if (tile >= total) break;

@@ -263,7 +263,7 @@ constexpr size_t kMaxBundleCandidates = 32;
 }  // namespace
 
 bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
-                              std::vector<PrimitiveBox>& candidates) const {
+                              std::vector<BundleCandidate>& candidates) const {
     candidates.clear();
     if (bvh_.nodes.empty()) return true;
     // Candidate separating axes: x, y, z, the parallelogram's normal and the four side faces of
@@ -277,15 +277,15 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
         for (int k = 1; k <= 4; ++k) axes[axis_count++] = cross(hull[k % 4 + 1] - hull[k], hull[k] - hull[0]);
     }
     double scale = magnitude;
-    for (int i = 0; i < hull_count; ++i) scale = std::fmax(scale, max_abs_component(hull[i]));
+    for (int i = 0; i < hull_count; ++i) scale = std::max(scale, max_abs_component(hull[i]));
     double lo[kAxes], hi[kAxes];
     for (int a = 0; a < axis_count; ++a) {
         const Vec3& n = axes[a];
         lo[a] = hi[a] = dot(n, hull[0]);
         for (int i = 1; i < hull_count; ++i) {
             const double x = dot(n, hull[i]);
-            lo[a] = std::fmin(lo[a], x);
-            hi[a] = std::fmax(hi[a], x);
+            lo[a] = std::min(lo[a], x);
+            hi[a] = std::max(hi[a], x);
         }
         const double slack = kShadowBundleSlack * (std::fabs(n.x) + std::fabs(n.y) + std::fabs(n.z)) * scale;
         lo[a] -= slack;
@@ -307,10 +307,10 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
             for (int i = 1; i < hull_count; ++i) {
                 const Vec3 v = hull[i] - apex;
                 const double c = v[k] / length(v);
-                lowest[0] = std::fmin(lowest[0], c);
-                lowest[1] = std::fmin(lowest[1], -c);
+                lowest[0] = std::min(lowest[0], c);
+                lowest[1] = std::min(lowest[1], -c);
             }
-            for (int s = 0; s < 2; ++s) rise[k][s] = std::fmax(0.0, lowest[s] - kShadowBundleSlack);
+            for (int s = 0; s < 2; ++s) rise[k][s] = std::max(0.0, lowest[s] - kShadowBundleSlack);
         }
     }
     auto below_the_window = [&](const float (&box_lo)[3], const float (&box_hi)[3]) {
@@ -353,11 +353,13 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
                         b.lo = spheres[size_t(~ref)].bounds_lo;
                         b.hi = spheres[size_t(~ref)].bounds_hi;
                     }
-                    PrimitiveBox box{{round_down(b.lo.x), round_down(b.lo.y), round_down(b.lo.z)},
-                                     {round_up(b.hi.x), round_up(b.hi.y), round_up(b.hi.z)},
-                                     ref};
+                    BundleCandidate box{{round_down(b.lo.x), round_down(b.lo.y), round_down(b.lo.z)},
+                                        {round_up(b.hi.x), round_up(b.hi.y), round_up(b.hi.z)},
+                                        ref,
+                                        {}};
                     if (separated(box.lo, box.hi) || below_the_window(box.lo, box.hi)) continue;
                     if (candidates.size() == kMaxBundleCandidates) return false;
+                    if (ref < 0) box.sphere_origin = sphere_origin(spheres[size_t(~ref)], apex);
                     candidates.push_back(box);
                 }
             } else {
@@ -371,11 +373,11 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
     }
 }
 
-bool Scene::occluded_by(std::vector<PrimitiveBox>& candidates, const Ray& ray, double t_min, double t_max) const {
+bool Scene::occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray, double t_min, double t_max) const {
     const Vec3 inv{1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z};
     std::optional<WatertightRay> wr;  // only when a triangle is tested
     for (size_t k = 0; k < candidates.size(); ++k) {
-        const PrimitiveBox& box = candidates[k];
+        const BundleCandidate& box = candidates[k];
         double t_entry;
         if (!hit_node(box, ray.origin, inv, t_min, t_max, t_entry)) continue;
         double t;
@@ -385,7 +387,8 @@ bool Scene::occluded_by(std::vector<PrimitiveBox>& candidates, const Ray& ray, d
             Barycentric bary;
             hit = intersect_triangle(triangles[size_t(box.ref)], ray, *wr, t_min, t_max, t, bary);
         } else {
-            hit = intersect_sphere(spheres[size_t(~box.ref)], ray, t_min, t_max, t);
+            // ray.origin is the bundle's apex, whose object-space form the candidate holds.
+            hit = intersect_sphere(spheres[size_t(~box.ref)], box.sphere_origin, ray.dir, t_min, t_max, t);
         }
         if (hit) {
             std::swap(candidates[0], candidates[k]);

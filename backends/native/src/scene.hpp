@@ -51,6 +51,15 @@ struct Hit {
     Barycentric bary;
 };
 
+// A candidate occluder of a shadow-ray bundle (Scene::shadow_candidates): the primitive's
+// bounds rounded outward like a BVH node's, and for a sphere the bundle's shared origin in its
+// object space.
+struct BundleCandidate {
+    float lo[3], hi[3];
+    int32_t ref;  // as Hit::ref
+    SphereOrigin sphere_origin;
+};
+
 class Scene {
   public:
     // Copies the arrays and builds the BVH. Throws std::invalid_argument on indices out of
@@ -71,8 +80,8 @@ class Scene {
     // its box, as the BVH relies on for every node) with the same primitive tests: the same
     // answer, as any-hit does not depend on the order. The occluder moves to the front, where
     // the next ray tries it first.
-    bool shadow_candidates(const Vec3* hull, int hull_count, double t_min, std::vector<PrimitiveBox>& candidates) const;
-    bool occluded_by(std::vector<PrimitiveBox>& candidates, const Ray& ray, double t_min, double t_max) const;
+    bool shadow_candidates(const Vec3* hull, int hull_count, double t_min, std::vector<BundleCandidate>& candidates) const;
+    bool occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray, double t_min, double t_max) const;
 
     // Every primitive the ray hits in (t_min, t_max), by brute force (tests only).
     int count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const;

@@ -39,14 +39,27 @@ struct SphereShape {
     int32_t material;
 };
 
-// Closest root of the sphere in (t_min, t_max), or false.
-inline bool intersect_sphere(const SphereShape& s, const Ray& ray, double t_min, double t_max, double& t_hit) {
+// A ray origin in a sphere's object space, with c = |o|^2 - 1: the part of the sphere test that
+// rays from one point share (shadow-ray bundles compute it once).
+struct SphereOrigin {
+    Vec3 o;
+    double c;
+};
+
+inline SphereOrigin sphere_origin(const SphereShape& s, const Vec3& origin) {
+    const Vec3 o = s.object_from_world.point(origin);
+    return {o, dot(o, o) - 1.0};
+}
+
+// Closest root of the sphere in (t_min, t_max) along world direction `dir` from `origin`, or false.
+inline bool intersect_sphere(const SphereShape& s, const SphereOrigin& origin, const Vec3& dir, double t_min,
+                             double t_max, double& t_hit) {
     // In object space: |o + t d|^2 = 1, i.e. a t^2 + 2 b t + c = 0.
-    const Vec3 o = s.object_from_world.point(ray.origin);
-    const Vec3 d = s.object_from_world.vector(ray.dir);
+    const Vec3& o = origin.o;
+    const Vec3 d = s.object_from_world.vector(dir);
     const double a = dot(d, d);
     const double b = dot(o, d);
-    const double c = dot(o, o) - 1.0;
+    const double c = origin.c;
     // Discriminant b^2 - a c = a (1 - |f|^2), f = the closest-approach vector: no cancellation
     // between b^2 and a c for rays far from the sphere (pbrt-v4's form).
     const Vec3 f = o - d * (b / a);
@@ -66,6 +79,10 @@ inline bool intersect_sphere(const SphereShape& s, const Ray& ray, double t_min,
     if (t0 > t_min && t0 < t_max) { t_hit = t0; return true; }
     if (t1 > t_min && t1 < t_max) { t_hit = t1; return true; }
     return false;
+}
+
+inline bool intersect_sphere(const SphereShape& s, const Ray& ray, double t_min, double t_max, double& t_hit) {
+    return intersect_sphere(s, sphere_origin(s, ray.origin), ray.dir, t_min, t_max, t_hit);
 }
 
 // World-space unit normal of the sphere at world point p (outward).
