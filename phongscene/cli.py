@@ -16,11 +16,12 @@ from pathlib import Path
 from . import __version__
 from .errors import BackendError, PhongSceneError, SceneError
 from .rendering import BACKENDS, MAPPINGS
+from .validate import MAX_SAMPLES
 
 EXIT_OK, EXIT_DIFFERENT, EXIT_SCENE, EXIT_BACKEND, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
 SCENE_HELP = "USD file (.usda, .usdc, .usd, .usdz)"
-SPP_HELP = "anti-aliasing: N x N samples per pixel"
+SPP_HELP = f"anti-aliasing: N x N samples per pixel, N in 1..{MAX_SAMPLES}"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -65,14 +66,25 @@ def main(argv: list[str] | None = None) -> int:
 # Arguments more than one command takes
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a number >= 1, got {value}")
-    return value
+def _int_in(low: int, high: int | None = None):
+    """An argparse type: a whole number in [low, high] (no upper bound when high is None)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if value < low or (high is not None and value > high):
+            bound = f">= {low}" if high is None else f"in {low}..{high}"
+            raise argparse.ArgumentTypeError(f"expected a number {bound}, got {value}")
+        return value
+
+    return parse
+
+
+_positive_int = _int_in(1)
+_thread_count = _int_in(0)  # 0 = all cores
+_samples_per_axis = _int_in(1, MAX_SAMPLES)  # the model's anti-aliasing range (RenderSettings.samples)
 
 
 def _add_scene_argument(p: argparse.ArgumentParser) -> None:
@@ -86,7 +98,7 @@ def _add_mapping_option(p: argparse.ArgumentParser, help: str, default: str | No
 def _add_size_options(p: argparse.ArgumentParser, spp_help: str = SPP_HELP) -> None:
     p.add_argument("--width", type=_positive_int, metavar="W", help="image width (alone: keeps the aspect ratio)")
     p.add_argument("--height", type=_positive_int, metavar="H", help="image height (alone: keeps the aspect ratio)")
-    p.add_argument("--spp", type=_positive_int, metavar="N", help=spp_help)
+    p.add_argument("--spp", type=_samples_per_axis, metavar="N", help=spp_help)
 
 
 def _add_threshold_options(p: argparse.ArgumentParser) -> None:
@@ -145,7 +157,7 @@ def _add_diff_command(sub) -> None:
     _add_mapping_option(p, "POV-Ray mapping: exact (the seed model, default) or classic (plain POV-Ray phong)",
                         default="exact")
     _add_size_options(p, spp_help=f"{SPP_HELP} (RenderSettings.samples; default: the scene's)")
-    p.add_argument("--threads", type=int, metavar="N", help="native worker threads (0 = all cores)")
+    p.add_argument("--threads", type=_thread_count, metavar="N", help="native worker threads (0 = all cores)")
     _add_threshold_options(p)
     p.set_defaults(func=_run_diff)
 
@@ -332,7 +344,7 @@ def _add_render_command(sub) -> None:
     _add_mapping_option(p, "specular convention: exact (the seed model) or classic (plain POV-Ray phong, native "
                         "'povray-classic'); default: the scene's")
     _add_size_options(p)
-    p.add_argument("--threads", type=int, metavar="N", help="worker threads (0 = all cores)")
+    p.add_argument("--threads", type=_thread_count, metavar="N", help="worker threads (0 = all cores)")
     p.set_defaults(func=_run_render)
 
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from .errors import BackendError
 from .scene import RenderSettings, Scene
+from .validate import check
 
 Backend = Literal["native", "povray"]
 BACKENDS: tuple[str, ...] = ("native", "povray")
@@ -98,9 +99,13 @@ def render(
         Linear float32 image (H, W, 3), row 0 at the top.
 
     Raises:
+        SceneError: the scene or the settings are invalid (every problem listed).
         BackendError: the backend is unavailable or failed.
     """
     settings = settings_for(scene, settings, mapping=mapping)
+    # The backends assume a valid scene (C++ only asserts): a scene built in Python or settings
+    # changed after loading are checked here. ~20 ms for a million triangles.
+    check(replace(scene, settings=settings))
     if backend == "native":
         try:
             from .backends import native

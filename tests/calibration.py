@@ -183,7 +183,7 @@ def pixel_centres() -> Scene:
     return Scene(
         camera=camera,
         ambient=AmbientLight((0.4, 0.4, 0.4)),
-        lights=(DirectionalLight((-0.21, -0.33, -0.92), (2.5, 2.5, 2.5)),),
+        lights=(DirectionalLight(_vec(np.array([-0.21, -0.33, -0.92]) / np.linalg.norm([-0.21, -0.33, -0.92])), (2.5, 2.5, 2.5)),),
         meshes=tuple(meshes),
         settings=_settings(width, height),
     )
@@ -372,7 +372,11 @@ def huge_exponent() -> Scene:
 
 
 def povray_golden() -> Scene:
-    """Reference §15's golden scene in model terms (classic convention; diffuse 0.6 = kd/π).
+    """Reference §15's golden scene in model terms (classic convention).
+
+    POV's ``diffuse 0.6`` is kd/π = 0.6, i.e. kd = 0.6π, outside the model's kd ∈ [0, 1]. The
+    classic model is linear in the lights, so the same image comes from lights π× brighter with
+    kd = 0.6 and ks = 0.5/π: diffuse kd·cd/π·(πL) = 0.6·cd·L and phong (ks)·(πL) = 0.5·L, as in POV.
 
     POV's camera ``location <0,1,-6> look_at 0 right -x*4/3 up y sky y angle 40`` looks toward +Z;
     with ``right -x`` (ref §3 recipe a) it is the right-handed camera forward = (0,−1,6)/√37,
@@ -382,8 +386,8 @@ def povray_golden() -> Scene:
     forward = np.array([0.0, -1.0, 6.0]) / math.sqrt(37.0)
     up = np.array([0.0, 6.0, 1.0]) / math.sqrt(37.0)
     camera = Camera(position=(0.0, 1.0, -6.0), forward=_vec(forward), up=_vec(up), horizontal_fov_deg=40.0)
-    kd = 0.6 * math.pi
-    big = PhongMaterial(ka=0.1, kd=kd, ks=0.5, exponent=40.0, diffuse_color=(0.9, 0.4, 0.2))
+    kd = 0.6
+    big = PhongMaterial(ka=0.1, kd=kd, ks=0.5 / math.pi, exponent=40.0, diffuse_color=(0.9, 0.4, 0.2))
     small = PhongMaterial(ka=0.1, kd=kd, ks=0.0, exponent=40.0, diffuse_color=(0.2, 0.5, 0.9))
     plane = PhongMaterial(ka=0.1, kd=kd, ks=0.0, exponent=40.0, diffuse_color=(0.7, 0.7, 0.7))
     half = 1e4
@@ -395,7 +399,10 @@ def povray_golden() -> Scene:
     return Scene(
         camera=camera,
         ambient=AmbientLight((1.0, 1.0, 1.0)),
-        lights=(PointLight((4.0, 6.0, -5.0), (0.8, 0.8, 0.8)), PointLight((-5.0, 2.0, -4.0), (0.2, 0.25, 0.3))),
+        lights=(
+            PointLight((4.0, 6.0, -5.0), _vec(math.pi * np.array([0.8, 0.8, 0.8]))),
+            PointLight((-5.0, 2.0, -4.0), _vec(math.pi * np.array([0.2, 0.25, 0.3]))),
+        ),
         spheres=(Sphere.at((0.0, 0.0, 0.0), 1.0, big), Sphere.at((1.6, -0.6, -0.6), 0.4, small)),
         meshes=(ground,),
         settings=RenderSettings(width=64, height=48, background=(0.1, 0.2, 0.3), specular="povray-classic"),

@@ -4,7 +4,9 @@ heavy module is tested in test_public_api.py)."""
 
 from __future__ import annotations
 
-from phongscene.cli import build_parser
+import pytest
+
+from phongscene.cli import build_parser, main
 
 COMMANDS = ("diff", "compare", "info", "validate", "import", "render", "compile")
 
@@ -15,3 +17,18 @@ def test_every_command_is_registered_with_help():
     assert tuple(sub.choices) == COMMANDS
     for name in COMMANDS:
         assert "Exit codes:" in sub.choices[name].format_help()
+
+
+OUTPUT = {"render": ["-o", "x.png"], "diff": ["-o", "outdir"], "compile": ["-o", "x.pov"]}
+BAD_OPTIONS = [["--spp", "0"], ["--spp", "10"], ["--width", "0"], ["--spp", "two"]]
+
+
+@pytest.mark.parametrize(
+    "command, option",
+    [(c, o) for c in OUTPUT for o in BAD_OPTIONS] + [(c, ["--threads", "-1"]) for c in ("render", "diff")],
+)
+def test_out_of_range_options_are_usage_errors(command, option, capsys):
+    with pytest.raises(SystemExit) as e:
+        main([command, "scene.usda", *OUTPUT[command], *option])
+    assert e.value.code == 2  # argparse's usage error, before any file is read
+    assert f"argument {option[0]}" in capsys.readouterr().err

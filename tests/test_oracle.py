@@ -27,6 +27,7 @@ from phongscene.scene import (
     SphereAreaLight,
     TriangleMesh,
 )
+from phongscene.validate import validate
 
 # Closed forms are evaluated in float64 like the oracle; only the order of operations differs.
 EXACT = 1e-12
@@ -563,3 +564,9 @@ def test_calibration_scene_is_well_posed(name):
         for dx, dy in ((COINCIDENCE_SHIFT_PX, COINCIDENCE_SHIFT_PX), (-COINCIDENCE_SHIFT_PX, COINCIDENCE_SHIFT_PX)):
             jump = np.abs(_render_shifted(variant, dx, dy) - image).max(axis=2)
             assert jump.max() <= COINCIDENCE_JUMP, f"{name}: discontinuity near a sample at pixels {np.argwhere(jump > COINCIDENCE_JUMP)}"
+
+
+@pytest.mark.parametrize("name", sorted(calibration.SCENES))
+def test_calibration_scene_is_a_valid_model_scene(name):
+    # The backends' public render() validates its input; every calibration scene must pass.
+    assert validate(calibration.SCENES[name]()) == []

@@ -4,12 +4,14 @@ overrides); the renders themselves are tested per backend and in test_cross_back
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from conftest import EXAMPLES
 from phongscene.errors import SceneError
-from phongscene.rendering import load_scene, settings_with
-from phongscene.scene import RenderSettings, Scene
+from phongscene.rendering import BACKENDS, load_scene, render, settings_with
+from phongscene.scene import PhongMaterial, RenderSettings, Scene, Sphere
 
 # 320 x 240 (4:3), specular "povray-classic": every override below visibly changes it.
 SCENE = Scene(settings=RenderSettings(width=320, height=240, samples=3, threads=2, specular="povray-classic"))
@@ -42,3 +44,15 @@ def test_load_scene_passes_a_scene_through_and_reads_a_file():
     assert scene.source_file.endswith("seed_lobe.usda") and warnings == []
     with pytest.raises(SceneError, match="nope.usda"):
         load_scene(EXAMPLES / "nope.usda")
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_render_rejects_an_invalid_scene_before_any_backend_runs(backend):
+    # A Python-built scene never went through the USD reader's validation: render() checks it,
+    # so neither backend (nor the C++ code) ever sees NaN or an out-of-range setting.
+    bad_material = PhongMaterial(ks=float("nan"))
+    scene = Scene(spheres=(Sphere.at((0, 0, -5), 1, bad_material),), settings=RenderSettings(width=8, height=6))
+    with pytest.raises(SceneError) as e:
+        render(scene, backend, replace(scene.settings, samples=12))
+    text = str(e.value)
+    assert "ks" in text and "samples" in text  # both problems, in one error
