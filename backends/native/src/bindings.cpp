@@ -171,6 +171,8 @@ NB_MODULE(_native, m) {
     m.attr("LIGHT_COLUMNS") = phong::kLightColumns;
     m.attr("SHADOW_WINDOW") = phong::kShadowWindow;
     m.attr("PRIMARY_NEAR") = phong::kPrimaryNear;
+    m.attr("SELF_HIT_WINDOW") = phong::kSelfHitWindow;
+    m.attr("ACNE_FREE_COSINE") = phong::kAcneFreeCosine;
 
     nb::class_<phong::Scene>(m, "Scene", "A scene built from flat arrays, with its BVH.")
         .def("__init__",

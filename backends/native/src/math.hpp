@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 namespace phong {
 
@@ -45,25 +46,73 @@ struct Ray {
 
 // ---------------------------------------------------------------------------------------------
 // Tolerances. POV-Ray's are absolute (primary t >= 1e-4, shadow 1e-3 < t < dist - 1e-3), which
-// makes its images wrong below ~1e-3 and beyond ~1e6 scene units. Ours are relative to the
-// scene's magnitude M = the largest absolute coordinate of the geometry bounds and the camera
-// position (computed once per render): a hit point p = o + t·d is computed to a few ulps of M
-// (~1e-16·M), whatever the scene's scale, so a tolerance proportional to M is scale-invariant.
+// makes its images wrong below ~1e-3 and beyond ~1e6 scene units. Ours play two roles, each
+// with its own measure of the scene (computed once per render, ray_tolerances() below):
+//  * matching POV-Ray at ordinary scales, relative to the scene's extent E = half the largest
+//    side of the bounding box of the geometry and the camera (its size, which neither uniform
+//    scaling nor translation changes relative to the features: an image's shadows are decided
+//    the same way wherever the scene sits);
+//  * floating-point safety (no self-hit "acne"), relative to the magnitude M = the largest
+//    absolute coordinate of that box (the scale of every coordinate's rounding).
+// The shadow window is the larger of the two. For a scene around the origin E ~ M and the first
+// one rules; a small scene far from the origin (extent 100 at 1e6) keeps POV-Ray's window,
+// where a window relative to M alone would be 15 units and lose every contact shadow.
 
 // Shadow rays start exactly at the hit point (as in POV-Ray) and an occluder counts only for
-// kShadowWindow·M < t < distance − kShadowWindow·M. 1.5e-5 is POV-Ray's SHADOW_TOLERANCE (1e-3)
-// expressed relative to M ≈ 67, the magnitude of a typical scene (unit-sized objects on a ground
-// quad of ±40…60 units, as in tests/calibration.py with M = 63.7 and the benchmarks): there the
-// window is 0.96e-3, so the images match POV-Ray even where its tolerance decides a pixel (an
-// area-light sample just below a sphere's horizon, whose chord through the sphere is < 1e-3; a
-// smooth mesh's terminator). It is also robust: a self-hit's computed distance is at most
-// ~1e-16·M/(n·l) <= 1e-6·M at the n·l >= 1e-10 gate, 15x below the window, so no acne at any
-// scale. Features thinner than ~1e-5·M cannot cast shadows (POV-Ray: thinner than 1e-3 units).
-constexpr double kShadowWindow = 1.5e-5;
+// window < t < distance - window, window = max(kShadowWindow·E, kSelfHitWindow·M). 1.9e-5 is
+// POV-Ray's SHADOW_TOLERANCE (1e-3) relative to E = 52.8, the extent of the calibration scenes
+// (unit-sized objects on a ground quad of about ±40…60 units, tests/calibration.py; the
+// benchmark scenes are alike): there the window is 1.003e-3, so the images match POV-Ray even
+// where its tolerance decides a pixel (an area-light sample just below a sphere's horizon, whose
+// chord through the sphere is < 1e-3; a smooth mesh's terminator). Features thinner than
+// ~2e-5·E cannot cast shadows (POV-Ray: thinner than 1e-3 units).
+constexpr double kShadowWindow = 1.9e-5;
 
-// A primary hit needs t >= kPrimaryNear·M: POV-Ray's MIN_ISECT_DEPTH (1e-4) relative to the same
-// typical magnitude (the ratio of the two POV-Ray tolerances is kept).
-constexpr double kPrimaryNear = 1.5e-6;
+// A primary hit needs t >= kPrimaryNear·E: POV-Ray's MIN_ISECT_DEPTH (1e-4) relative to the same
+// extent (the ratio of the two POV-Ray tolerances is kept). Camera rays start on no surface, so
+// they need no floating-point term.
+constexpr double kPrimaryNear = 1.9e-6;
+
+// A shadow ray leaving p along l re-hits p's own surface, if at all, at t_self <= δ/|n·l| with n
+// the geometric normal and δ the distance of the computed p from the exact surface plus the
+// rounding of the re-intersection. Both are a few ulps of M: p = o + t·d rounds by <= ε/2 per
+// operation on coordinates <= M (t itself comes from differences of coordinates <= M, to a few
+// ε relative), and the sphere and watertight triangle tests start by subtracting the origin
+// p from the centre or vertices (<= ε/2·M each). Measured: t_self·|n·l| <= 2.1ε·M over 2·10^5
+// self-hits of rays leaving spheres, ellipsoids and triangles at scales 1e-6…1 and translations
+// 0…1e6, cosines 1e-12…1. kSelfHitError = 8ε keeps a 4x margin. (A sphere's curvature also
+// caps t_self at ~sqrt(2rδ), whatever the cosine.)
+constexpr double kSelfHitError = 8.0 * std::numeric_limits<double>::epsilon();
+
+// Self-hits stay inside the window wherever |n·l| >= kSelfHitError·M / window, which is at most
+// kAcneFreeCosine and, for a scene around the origin (window = 1.9e-5·E, M ~ E), ~1e-10, the
+// n·l gate below, as before. A floating-point window that covered cosines down to the gate in
+// every scene would be ~1.8e-5·M (15 units at 1e6), which swallows the contact shadows of a
+// scene far from the origin; 1e-4 is the compromise: below it a point light's diffuse
+// contribution is < 1e-4 of its value at normal incidence, and only scenes smaller than
+// kSelfHitWindow / kShadowWindow ≈ 1e-6 of their distance from the origin are concerned.
+constexpr double kAcneFreeCosine = 1e-4;
+
+// The floating-point term of the shadow window, per unit of M: 1.8e-11·M, i.e. 1.8e-5 units at
+// 1e6 from the origin (a radius-1e-3 sphere there still casts its contact shadow).
+constexpr double kSelfHitWindow = kSelfHitError / kAcneFreeCosine;
+
+struct RayTolerances {
+    double primary_near;   // primary hits need t >= primary_near
+    double shadow_window;  // occluders count for shadow_window < t < distance - shadow_window
+};
+
+// The tolerances of a render whose geometry and camera lie in `box_lo`…`box_hi`.
+inline RayTolerances ray_tolerances(const Vec3& box_lo, const Vec3& box_hi) {
+    const Vec3 side = box_hi - box_lo;
+    double extent = 0.5 * std::fmax(side.x, std::fmax(side.y, side.z));
+    double magnitude = std::fmax(max_abs_component(box_lo), max_abs_component(box_hi));
+    // A box of one point (no geometry, or all of it at the camera): nothing to resolve, any
+    // positive scale will do.
+    if (!(magnitude > 0.0)) magnitude = 1.0;
+    if (!(extent > 0.0)) extent = magnitude;
+    return {kPrimaryNear * extent, std::fmax(kShadowWindow * extent, kSelfHitWindow * magnitude)};
+}
 
 // POV-Ray's EPSILON gate: a light contributes only where n·l >= 1e-10 (also no shadow ray).
 constexpr double kMinCosineToLight = 1e-10;

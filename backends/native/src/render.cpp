@@ -82,23 +82,24 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
 
 }  // namespace
 
-RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, double magnitude,
+RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, const RayTolerances& tolerances,
                   std::vector<BundleCandidate>& scratch) {
     Hit hit;
-    if (!scene.closest_hit(ray, kPrimaryNear * magnitude, HUGE_VAL, hit)) return settings.background;
-    return shade_hit(scene, ray, hit, settings, kShadowWindow * magnitude, scratch);
+    if (!scene.closest_hit(ray, tolerances.primary_near, HUGE_VAL, hit)) return settings.background;
+    return shade_hit(scene, ray, hit, settings, tolerances.shadow_window, scratch);
 }
 
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,
                   const PollFn& poll) {
     const int width = settings.width, height = settings.height, n = settings.samples;
-    // The scene's magnitude for the tolerances (math.hpp); 1 for a scene at the origin.
-    double magnitude = std::fmax(scene.magnitude, max_abs_component(camera.position));
-    if (!(magnitude > 0.0)) magnitude = 1.0;
+    // The tolerances from the box of the geometry and the camera (math.hpp).
+    Bounds box = scene.bounds;
+    box.grow(camera.position);
+    const RayTolerances tolerances = ray_tolerances(box.lo, box.hi);
 
     auto render_pixel = [&](int i, int j, std::vector<BundleCandidate>& scratch) {
         auto trace_at = [&](double sx, double sy) {
-            return trace_primary(scene, camera.generate(sx, sy, width, height), settings, magnitude, scratch);
+            return trace_primary(scene, camera.generate(sx, sy, width, height), settings, tolerances, scratch);
         };
         RGB sum;
         int count = 0;

@@ -38,7 +38,7 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
 
 // The colour seen along one primary ray (exposed for tests and the pixel loop). `scratch` holds
 // shadow-bundle candidates (Scene::shadow_candidates); one per thread, reused from ray to ray.
-RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, double magnitude,
+RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, const RayTolerances& tolerances,
                   std::vector<BundleCandidate>& scratch);
 
 }  // namespace phong

@@ -114,10 +114,10 @@ Scene::Scene(const SceneArrays& in) : ambient(in.ambient) {
 
     bvh_.build(prim_bounds);
 
+    for (const Bounds& b : prim_bounds) bounds.grow(b);
+    magnitude = bounds.empty() ? 0.0 : std::fmax(max_abs_component(bounds.lo), max_abs_component(bounds.hi));
+
     // Primitive refs and triangle data in leaf order, so leaves read memory sequentially.
-    Bounds all;
-    for (const Bounds& b : prim_bounds) all.grow(b);
-    magnitude = all.empty() ? 0.0 : std::fmax(max_abs_component(all.lo), max_abs_component(all.hi));
     // Leaf position k holds triangle slot k − (spheres before k).
     const std::vector<uint32_t>& order = bvh_.order;
     std::vector<uint32_t> sphere_positions;

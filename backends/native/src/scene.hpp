@@ -97,6 +97,7 @@ class Scene {
     std::vector<Material> materials;
     std::vector<Light> lights;
     RGB ambient;
+    Bounds bounds;           // of the geometry (empty without primitives)
     double magnitude = 0.0;  // largest absolute coordinate of the geometry bounds
 
   private:
