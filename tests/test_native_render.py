@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: Apache-2.0
 """The native tracer's images: per-pixel agreement with the independent numpy oracle on every
-calibration scene (both specular conventions), scale invariance from 1e-6 to 1e6 units, hard
-shading cases, thread-count determinism, progress, Ctrl-C and memory."""
+calibration scene (both specular conventions), scale invariance from 1e-6 to 1e6 units,
+translation invariance far from the origin (no lost shadows, no acne), hard shading cases,
+thread-count determinism, progress, Ctrl-C and memory."""
 
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ import pytest
 from phongscene.backends import native
 from phongscene.scene import (
     AmbientLight,
+    DirectionalLight,
     PhongMaterial,
     PointLight,
     RenderSettings,
@@ -114,6 +116,141 @@ def test_povray_absolute_tolerances_lose_shadows_at_1e_minus_6_units():
     small = scaled(scene, 1e-6)
     assert np.abs(oracle.render(small) - oracle.render(scene)).max() > 0.05
     assert np.abs(native.render(small) - native.render(scene)).max() < 1e-5
+
+
+# ---------------------------------------------------------------------------------------------
+# Translation invariance: the window that matches POV-Ray is relative to the scene's extent, not
+# to its distance from the origin; only the floating-point term grows with the distance (math.hpp).
+
+# A coordinate near 1e6 (or near 1 after scaling by 1e-6) rounds by ulp/2 ≈ 6e-11 absolute (1e-16
+# relative to it), i.e. ~1e-10 of the unit-sized objects: normals, light vectors and distances
+# move by ~1e-10 relative and a highlight of exponent e by ~e·1e-10 (< 1e-8 here), far below the
+# float32 storage rounding of 6e-8. 1e-6 relative, as for the oracle, still catches any changed
+# shadow, silhouette or highlight decision (those move a pixel by orders of magnitude more).
+TRANSLATION_RELATIVE_TOLERANCE = 1e-6
+
+
+def translated(scene: Scene, offset) -> Scene:
+    """The scene moved by ``offset``: geometry, camera and light positions (not directions)."""
+    offset = np.asarray(offset, dtype=np.float64)
+
+    def pos(p):
+        return tuple(np.asarray(p, dtype=np.float64) + offset)
+
+    move = calibration.translation(offset)
+    lights = tuple(
+        dataclasses.replace(light, **{f: pos(getattr(light, f)) for f in ("position", "center") if hasattr(light, f)})
+        for light in scene.lights
+    )
+    return dataclasses.replace(
+        scene,
+        camera=dataclasses.replace(scene.camera, position=pos(scene.camera.position)),
+        lights=lights,
+        spheres=tuple(dataclasses.replace(sp, world_from_object=move @ sp.world_from_object) for sp in scene.spheres),
+        meshes=tuple(dataclasses.replace(m, points=m.points + offset) for m in scene.meshes),
+    )
+
+
+def without_light(scene: Scene, index: int) -> Scene:
+    return dataclasses.replace(scene, lights=scene.lights[:index] + scene.lights[index + 1:])
+
+
+def unlit_by(image: np.ndarray, image_without_light: np.ndarray) -> np.ndarray:
+    """Pixels the removed light adds nothing to: in its shadow, or facing away from it (every
+    contribution is then skipped, so the pixel is bit-identical to the render without it)."""
+    return (image == image_without_light).all(axis=2)
+
+
+@pytest.mark.parametrize(
+    "scale, offset",
+    [(1.0, (1e6, -1e6, 1e6)), (1.0, (-2.7e6, 3.1e5, 1.3e6)), (1e-6, (1.0, -1.0, 1.0))],
+    ids=["1e6", "mixed-1e6", "1e-6-units-at-1"],
+)
+@pytest.mark.parametrize("name", ["shadows_two_lights", "rect_area_light", "sphere_area_light", "smooth_mesh",
+                                  "transformed_spheres", "orthographic", "directional_light", "fade"])
+def test_native_image_is_the_same_translated_far_from_the_origin(name, scale, offset):
+    scene = calibration.SCENES[name]()
+    reference = native.render(scene).astype(np.float64)
+    moved = translated(scaled(scene, scale), offset)
+    image = native.render(moved).astype(np.float64)
+    error = np.abs(image - reference)
+    bad = (error > TRANSLATION_RELATIVE_TOLERANCE * np.abs(reference) + ORACLE_ABSOLUTE_FLOOR).any(axis=2)
+    assert not bad.any(), f"{int(bad.sum())} pixels differ, e.g. (row, col) {np.argwhere(bad)[:5].tolist()}"
+    # The shadows are still there: every pixel in the shadow of (or facing away from) a point
+    # light untranslated still gets nothing from it, and there are such pixels on the ground.
+    for k, light in enumerate(scene.lights):
+        if not isinstance(light, PointLight):
+            continue
+        expected = unlit_by(native.render(scene), native.render(without_light(scene, k)))
+        actual = unlit_by(native.render(moved), native.render(without_light(moved, k)))
+        assert np.array_equal(actual, expected)
+        assert expected[expected.shape[0] // 2:].sum() > 0  # some shadow on the ground (lower half)
+
+
+# The radius-1e-3 sphere 1e6 from the origin: every coordinate there rounds by ~6e-11, i.e.
+# ~6e-8 of the sphere's radius, and a normal (p − c)/r, a light vector and the highlight
+# (exponent 24) amplify that by up to ~e·(a few) into the shading: 1e-5 relative bounds it with
+# margin, while a shadow, silhouette or highlight decision moves a pixel by > 1e-2.
+TINY_FAR_RELATIVE_TOLERANCE = 1e-5
+
+
+def test_a_radius_1e_minus_3_sphere_at_1e6_casts_its_contact_shadow():
+    # point_light at 1e-3 scale: a sphere of radius 1.03e-3 floating 5e-5 above a ground quad,
+    # moved 1e6 from the origin. The floating-point term of the window rules there (1.8e-11·M =
+    # 1.8e-5 units; a window relative to M alone would be 15 units and lose the shadow). The
+    # oracle renders the same scene at unit scale around the origin, with POV-Ray's 1e-3.
+    unit_scene = calibration.SCENES["point_light"]()
+    far = translated(scaled(unit_scene, 1e-3), (1e6, -1e6, 1e6))
+    assert native.build(far).magnitude > 1e6 - 1.0
+    image = native.render(far)
+    expected = oracle.render(unit_scene)
+    error = np.abs(image.astype(np.float64) - expected)
+    bad = (error > TINY_FAR_RELATIVE_TOLERANCE * np.abs(expected) + ORACLE_ABSOLUTE_FLOOR).any(axis=2)
+    assert not bad.any(), f"{int(bad.sum())} pixels differ from the oracle, e.g. {np.argwhere(bad)[:5].tolist()}"
+    # Same shadow, pixel for pixel (and no acne: no lit pixel turns dark).
+    shadow = unlit_by(expected, oracle.render(without_light(unit_scene, 0)))
+    assert np.array_equal(unlit_by(image, native.render(without_light(far, 0))), shadow)
+    assert shadow[shadow.shape[0] // 2:].sum() > 20  # the shadow on the ground (lower half)
+
+
+def rotated(scene: Scene, rotation: np.ndarray) -> Scene:
+    """The scene turned by the 4×4 ``rotation`` about the origin (geometry, camera, lights)."""
+    r = rotation[:3, :3]
+
+    def rot(v):
+        return tuple(r @ np.asarray(v, dtype=np.float64))
+
+    fields = ("position", "center", "axis_u", "axis_v", "direction")
+    return dataclasses.replace(
+        scene,
+        camera=dataclasses.replace(scene.camera, position=rot(scene.camera.position),
+                                   forward=rot(scene.camera.forward), up=rot(scene.camera.up)),
+        lights=tuple(dataclasses.replace(light, **{f: rot(getattr(light, f)) for f in fields if hasattr(light, f)})
+                     for light in scene.lights),
+        spheres=tuple(dataclasses.replace(sp, world_from_object=rotation @ sp.world_from_object)
+                      for sp in scene.spheres),
+        meshes=tuple(dataclasses.replace(m, points=m.points @ r.T, normals=None if m.normals is None else m.normals @ r.T)
+                     for m in scene.meshes),
+    )
+
+
+@pytest.mark.parametrize("offset", [(1e6, -1e6, 1e6), (1e7, -1e7, 1e7)], ids=["1e6", "1e7"])
+def test_no_acne_far_from_the_origin_down_to_the_promised_grazing_cosine(offset):
+    # The floating-point term of the window keeps self-hits out wherever n·l >= ACNE_FREE_COSINE
+    # (math.hpp). A tilted ground (an axis-aligned plane at a representable coordinate has no
+    # rounding across it) under a directional light at exactly that cosine, in the tiny scene far
+    # from the origin: a self-hit would darken ground pixels the oracle (unit scale, around the
+    # origin, where the hit points round ~1e6x less) lights. Without that term (window 1.9e-5·E
+    # only) acne showed from n·l = 5e-5 at 1e6 (146 pixels) and at this cosine at 1e7.
+    cos = native._native.ACNE_FREE_COSINE
+    side = math.sqrt(1.0 - cos * cos)
+    light = DirectionalLight((-0.6 * side, -cos, -0.8 * side), (3.0, 3.0, 3.0))
+    unit_scene = dataclasses.replace(calibration.SCENES["point_light"](), lights=(light,))
+    unit_scene = rotated(unit_scene, calibration.rotation((0.3, 0.2, 1.0), 23.0))
+    far = translated(scaled(unit_scene, 1e-3), offset)
+    shadow = unlit_by(oracle.render(unit_scene), oracle.render(without_light(unit_scene, 0)))
+    assert np.array_equal(unlit_by(native.render(far), native.render(without_light(far, 0))), shadow)
+    assert (~shadow).sum() > shadow.size // 4  # the lit ground, where acne would show
 
 
 # ---------------------------------------------------------------------------------------------
