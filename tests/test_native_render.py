@@ -61,7 +61,7 @@ def test_native_matches_oracle_on_calibration_scene(name, convention):
 
 
 # ---------------------------------------------------------------------------------------------
-# Scale invariance: our tolerances are relative to the scene's magnitude (src/math.hpp).
+# Scale invariance: our tolerances are relative to the scene's extent and magnitude (src/math.hpp).
 
 # Scaling by 1e±6 is not exact in binary, so coordinates differ by ~1 ulp between the scaled
 # copies; a pixel's value then moves by ~1e-15 relative, far below float32's 6e-8. 1e-6 relative
