@@ -264,9 +264,14 @@ def plot(result: dict, path: Path) -> None:
 
 
 def git_commit() -> str:
+    """The commit the figures belong to, flagged when the native sources had uncommitted changes
+    (the installed extension may then be built from them)."""
+    def git(*args: str) -> str:
+        return subprocess.run(["git", *args], cwd=HERE, check=True, capture_output=True, text=True).stdout.strip()
+
     try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE, check=True, capture_output=True,
-                              text=True).stdout.strip()
+        commit = git("rev-parse", "--short", "HEAD")
+        return commit + (" (native sources modified)" if git("status", "--porcelain", "--", "../backends/native") else "")
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
 
