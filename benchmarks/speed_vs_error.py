@@ -213,7 +213,8 @@ def markdown(result: dict) -> str:
             "",
             f"Native RMS error ≈ C·h^p with p = {fit['order']:.2f} (h = sample spacing; least squares over the "
             f"{fit['fitted_settings']} coarsest settings); extrapolated, the reference's own RMS error is "
-            f"≈ {fit['reference_error_estimate']:.1e}, so rows within a few times that are understated.",
+            f"≈ {fit['reference_error_estimate']:.1e}, so each row's RMS error against the reference may differ "
+            "from its true RMS error by up to that much (triangle inequality).",
         ]
     return "\n".join(lines) + "\n"
 
