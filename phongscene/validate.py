@@ -36,6 +36,12 @@ UNIT_TOLERANCE = 1e-6
 SINGULAR_RELATIVE_DET = 1e-12
 MAX_SAMPLES = 9  # anti-aliasing grid per axis (RenderSettings.samples)
 
+
+def is_singular(linear: np.ndarray) -> bool:
+    """Whether a 3x3 linear map is singular to ``SINGULAR_RELATIVE_DET`` (scale-invariant)."""
+    scale = float(np.prod(np.linalg.norm(linear, axis=0)))
+    return scale == 0 or abs(float(np.linalg.det(linear))) <= SINGULAR_RELATIVE_DET * scale
+
 # Model field -> USD attribute, per node type, for nodes read from USD.
 _USD_NAMES: dict[type, dict[str, str]] = {
     PhongMaterial: {
@@ -285,9 +291,7 @@ def _check_sphere(c: _Collector, s: Sphere) -> None:
         return
     if not np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0]):
         c.add(s, "world_from_object", f"must be affine (last row 0 0 0 1), got {_show(tuple(m[3]))}")
-    a = m[:3, :3]
-    scale = float(np.prod(np.linalg.norm(a, axis=0)))
-    if scale == 0 or abs(float(np.linalg.det(a))) <= SINGULAR_RELATIVE_DET * scale:
+    if is_singular(m[:3, :3]):
         c.add(s, "world_from_object", "is singular (zero radius or a zero/degenerate scale)")
 
 

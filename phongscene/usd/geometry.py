@@ -20,7 +20,7 @@ import trimesh
 from pxr import Usd, UsdGeom
 
 from ..scene import PhongMaterial, Sphere, TriangleMesh
-from ..validate import UNIT_TOLERANCE
+from ..validate import UNIT_TOLERANCE, is_singular
 from .context import ReadContext, authored_type
 
 SEGMENTS = 64  # around the axis of Cylinder, Cone, Capsule: chord error r·(1 − cos(π/64)) ≈ 1.2e-3·r
@@ -44,12 +44,17 @@ def _to_world(points: np.ndarray, world: np.ndarray) -> np.ndarray:
     return points @ world[:3, :3].T + world[:3, 3]
 
 
-def _normals_to_world(normals: np.ndarray, world: np.ndarray) -> np.ndarray:
+def _normals_to_world(ctx: ReadContext, prim: Usd.Prim, normals: np.ndarray, world: np.ndarray) -> np.ndarray | None:
     """Normals transform by the inverse transpose. Rows already unit within the model's
     tolerance (float32 storage leaves ~1e-8) are kept bit-for-bit, so re-reading a written
-    mesh is exact; others are divided by their length."""
+    mesh is exact; others are divided by their length. A singular transform (a zero scale)
+    has no inverse: a problem is recorded and None returned."""
     a = world[:3, :3]
     if not np.array_equal(a, np.eye(3)):
+        if is_singular(a):
+            ctx.problem(prim, "xformOpOrder", "the world transform is singular (a zero or degenerate scale): "
+                        "its normals cannot be transformed")
+            return None
         normals = normals @ np.linalg.inv(a)
     lengths = np.linalg.norm(normals, axis=1)
     rescale = np.abs(lengths - 1.0) > UNIT_TOLERANCE
@@ -128,7 +133,10 @@ def mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMat
     if normals is None:
         return TriangleMesh(world_points, triangles, material=material, source=path)
     values, normal_indices = normals
-    return TriangleMesh(world_points, triangles, _normals_to_world(values, world), normal_indices, material, path)
+    world_normals = _normals_to_world(ctx, prim, values, world)
+    if world_normals is None:
+        return None
+    return TriangleMesh(world_points, triangles, world_normals, normal_indices, material, path)
 
 
 def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_of_tri):
@@ -270,9 +278,10 @@ def primitive(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: Pho
         values, normal_indices = normals
         if _winding_flipped(world):
             triangles, normal_indices = triangles[:, [0, 2, 1]], normal_indices[:, [0, 2, 1]]
-        return TriangleMesh(
-            _to_world(np.asarray(tm.vertices), world), triangles, _normals_to_world(values, world), normal_indices, material, path
-        )
+        world_normals = _normals_to_world(ctx, prim, values, world)
+        if world_normals is None:
+            return None
+        return TriangleMesh(_to_world(np.asarray(tm.vertices), world), triangles, world_normals, normal_indices, material, path)
     if _winding_flipped(world):
         triangles = triangles[:, [0, 2, 1]]
     return TriangleMesh(_to_world(np.asarray(tm.vertices), world), triangles, material=material, source=path)
