@@ -205,12 +205,23 @@ def check(scene: Scene) -> Scene:
 
 
 def _unique(materials: Iterable[PhongMaterial]) -> list[PhongMaterial]:
-    # Shared materials are reported once. Equality (not identity): frozen dataclasses.
-    seen: list[PhongMaterial] = []
+    # Shared materials are reported once. Equality (not identity): frozen dataclasses, hashed
+    # so that thousands of distinct materials (one per displayColor gprim) cost linear time.
+    # A material built in Python with an unhashable field (a list colour) is compared by hand.
+    unique: list[PhongMaterial] = []
+    seen: set[PhongMaterial] = set()
+    unhashable: list[PhongMaterial] = []
     for m in materials:
-        if not any(m is s or m == s for s in seen):
-            seen.append(m)
-    return seen
+        try:
+            if m in seen:
+                continue
+            seen.add(m)
+        except TypeError:
+            if any(m is u or m == u for u in unhashable):
+                continue
+            unhashable.append(m)
+        unique.append(m)
+    return unique
 
 
 def _check_material(c: _Collector, m: PhongMaterial) -> None:

@@ -154,3 +154,12 @@ def test_boundary_values_are_valid():
         lights=(RectAreaLight((0, 5, 0), (1, 0, 0), (0, 0, 1), (0, 0, 0), 3), SphereAreaLight((0, 0, 0), 1e-9, (1, 1, 1), 17)),
     )
     assert validate(scene) == []
+
+
+def test_a_shared_material_is_reported_once_in_order_of_first_use():
+    bad_ks = replace(MAT, ks=-0.5)
+    bad_ka = replace(MAT, ka=2.0)
+    unhashable = replace(MAT, diffuse_color=[0.5, -1.0, 0.5])  # a list colour, as built by hand
+    materials = [bad_ks, bad_ka, replace(MAT, ks=-0.5), unhashable, bad_ka, replace(MAT, diffuse_color=[0.5, -1.0, 0.5])]
+    scene = replace(base(), spheres=tuple(Sphere.at((i, 0, 0), 0.4, m) for i, m in enumerate(materials)))
+    assert [p.attribute for p in validate(scene)] == ["ks", "ka", "diffuse_color"]
