@@ -57,6 +57,9 @@ def main(argv: list[str] | None = None) -> int:
     except BackendError as e:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_BACKEND
+    except (PhongSceneError, OSError) as e:  # an output that cannot be written, an unreadable input
+        print(f"error: {e}", file=sys.stderr)
+        return EXIT_SCENE
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pytest
 
+from conftest import REPO
 from phongscene.cli import build_parser, main
 
 COMMANDS = ("diff", "compare", "info", "validate", "import", "render", "compile")
@@ -32,3 +33,12 @@ def test_out_of_range_options_are_usage_errors(command, option, capsys):
         main([command, "scene.usda", *OUTPUT[command], *option])
     assert e.value.code == 2  # argparse's usage error, before any file is read
     assert f"argument {option[0]}" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command, output", [("render", "x.png"), ("compile", "x.pov")])
+def test_an_unwritable_output_is_an_error_naming_it(command, output, tmp_path, capsys):
+    blocked = tmp_path / "a-file"  # a regular file where the output's folder should be
+    blocked.write_text("")
+    assert main([command, str(REPO / "examples" / "seed_lobe.usda"), "-o", str(blocked / output), "--width", "8"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("error: ") and str(blocked) in err[-1]
