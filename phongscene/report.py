@@ -83,7 +83,9 @@ def write_report(
         The path of ``index.html``.
     """
     a, b = as_image(a), as_image(b)
+    # A label may not name one of the report's own files (``compare old/diff.exr new.exr``).
     stems = [_file_stem(label) for label in labels]
+    stems = [f"{s}_image" if {f"{s}.exr", f"{s}.png"} & set(FILE_NAMES.values()) else s for s in stems]
     if stems[0] == stems[1]:
         stems = [stems[0] + "_a", stems[1] + "_b"]
     out = Path(outdir)

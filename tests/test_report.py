@@ -119,3 +119,13 @@ def test_report_handles_non_finite_errors(tmp_path, bad):
     metrics = json.loads((index.parent / "metrics.json").read_text(encoding="utf-8"))  # strict JSON
     assert metrics["report"]["hard_fail"] is True
     assert Path(index.parent / "diff_heat.png").is_file()
+
+
+@pytest.mark.parametrize("label", ["diff", "diff_heat"])
+def test_report_a_label_never_overwrites_the_reports_own_files(tmp_path, label):
+    a, b = _images()
+    index = _write(tmp_path, a, b, labels=(label, "other"))
+    files = json.loads((index.parent / "metrics.json").read_text(encoding="utf-8"))["files"]
+    assert len(set(files.values())) == len(files), files
+    np.testing.assert_array_equal(read_image(index.parent / files["a_exr"]), a)
+    np.testing.assert_array_equal(read_image(index.parent / files["diff_exr"]), np.abs(a - b))
