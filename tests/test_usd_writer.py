@@ -148,3 +148,19 @@ def test_import_mesh_command(tmp_path, capsys):
     stage = Usd.Stage.Open(str(out))
     assert stage.GetPrimAtPath("/World/ico").GetAttribute("subdivisionScheme").Get() == "none"
     assert main(["import", str(tmp_path / "missing.ply"), "-o", str(out)]) == 2
+
+
+def test_import_mesh_gives_every_vertex_a_unit_normal(tmp_path):
+    # A two-sided sheet (each triangle twice, opposite windings: the vertex normals cancel) and a
+    # degenerate triangle whose third vertex belongs to no other face.
+    points = [(0, 0, 0), (1, 0, 0), (0, 0, 1), (2, 0, 0)]
+    faces = [(0, 1, 2), (0, 2, 1), (0, 1, 3)]
+    source = tmp_path / "sheet.obj"
+    source.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in points) + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces))
+    out = tmp_path / "sheet.usda"
+    assert main(["import", str(source), "-o", str(out)]) == 0
+    (mesh,) = read_usd(out).scene.meshes  # raised SceneError (zero-length normals) before
+    assert np.allclose(np.linalg.norm(mesh.normals, axis=1), 1.0)
+    # Where the sheet's faces meet, the normal is the sheet's (±Y), not an arbitrary axis.
+    sheet = np.unique(mesh.triangles[:2])
+    assert np.allclose(np.abs(mesh.normals[sheet, 1]), 1.0)

@@ -36,6 +36,7 @@ from ..scene import (
     SphereAreaLight,
     TriangleMesh,
 )
+from ..validate import UNIT_TOLERANCE
 from .shader_defs import PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
 
 # The focal length written for perspective cameras (tenths of a scene unit, as in USD); the
@@ -340,9 +341,25 @@ def import_mesh(mesh_file, output, material: PhongMaterial = DEFAULT_MATERIAL) -
     if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
         raise SceneError(f"{mesh_file}: no triangles found")
     faces = np.asarray(tm.faces, dtype=np.int64)
-    model = TriangleMesh(np.asarray(tm.vertices), faces, np.asarray(tm.vertex_normals), faces, material)
+    model = TriangleMesh(np.asarray(tm.vertices), faces, _unit_vertex_normals(tm), faces, material)
     stage = new_stage()
     usd_material = define_phong_material(stage, "/World/Looks/Default", material)
     prim = define_mesh(stage, f"/World/{Tf.MakeValidIdentifier(mesh_file.stem)}", model)
     bind_material(prim.GetPrim(), usd_material)
     return save_stage(stage, output)
+
+
+def _unit_vertex_normals(tm) -> np.ndarray:
+    """trimesh's vertex normals, with a unit normal wherever trimesh has none: where the faces'
+    normals cancel (a two-sided sheet) or every face is degenerate, the normal of one of the
+    vertex's faces (shading is two-sided), and +Z on a vertex with no face of any area (it is
+    never seen). Otherwise the file would fail validation when read back."""
+    normals = np.array(tm.vertex_normals, dtype=np.float64)
+    bad = np.abs(np.linalg.norm(normals, axis=1) - 1.0) > UNIT_TOLERANCE
+    if bad.any():
+        face_normals = np.asarray(tm.face_normals, dtype=np.float64)
+        usable = np.abs(np.linalg.norm(face_normals, axis=1) - 1.0) <= UNIT_TOLERANCE
+        fallback = np.tile([0.0, 0.0, 1.0], (len(normals), 1))
+        fallback[np.asarray(tm.faces)[usable].ravel()] = np.repeat(face_normals[usable], 3, axis=0)
+        normals[bad] = fallback[bad]
+    return normals
