@@ -331,17 +331,12 @@ class _Compiler:
         cd = self.vec(m.diffuse_color, m, "diffuse_color")
         e = self.num(m.exponent, m, "exponent")
         ks = self.num(m.ks, m, "ks")  # checked even where no highlight is written
-        if not self.exact:
+        if not self.exact or m.ks <= 0:
+            # Classic: one idiomatic finish. Exact without a highlight: one plain texture is exact.
             phong = f" phong {ks} phong_size {e}" if m.ks > 0 else ""
             return (
                 f"texture {{ pigment {{ rgb {cd} }} finish {{ ambient {self.num(m.ka, m, 'ka')}"
                 f" diffuse {self.num(m.kd / math.pi, m, 'kd')}{phong} }} }}"
-            )
-        if m.ks <= 0:
-            # No highlight: one plain texture is already exact.
-            return (
-                f"texture {{ pigment {{ rgb {cd} }} finish {{ ambient {self.num(m.ka, m, 'ka')}"
-                f" diffuse {self.num(m.kd / math.pi, m, 'kd')} }} }}"
             )
         # (A) the average of a diffuse texture and a layered specular texture, each doubled.
         # (A texture_map entry cannot hold a layered texture inline: it is declared first.)
