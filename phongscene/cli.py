@@ -255,7 +255,7 @@ def _run_info(args) -> int:
     print("prims -> model nodes:")
     for prim, node in result.nodes:
         print(f"  {prim} -> {node}")
-    materials = {id(m.material): m.material for m in (*scene.spheres, *scene.meshes)}
+    materials = {m.material for m in (*scene.spheres, *scene.meshes)}  # equal materials count once
     kinds: dict[str, int] = {}
     for light in scene.lights:
         kinds[type(light).__name__] = kinds.get(type(light).__name__, 0) + 1

@@ -305,6 +305,10 @@ class Scene:
         return np.min(lows, axis=0), np.max(highs, axis=0)
 
 
+# A scene whose bounds are a single point still gets a camera at a positive distance.
+FRAMING_MIN_RADIUS = 1e-12
+
+
 def framing_camera(scene: Scene, horizontal_fov_deg: float = 60.0) -> Camera:
     """The default camera for a scene without one: looking down −Z (slightly from above) at the
     centre of the bounds, far enough back that the bounding sphere fits the narrower FOV."""
@@ -313,7 +317,7 @@ def framing_camera(scene: Scene, horizontal_fov_deg: float = 60.0) -> Camera:
         return Camera(horizontal_fov_deg=horizontal_fov_deg)
     lo, hi = b
     centre = (lo + hi) / 2
-    radius = max(float(np.linalg.norm(hi - lo)) / 2, 1e-12)
+    radius = max(float(np.linalg.norm(hi - lo)) / 2, FRAMING_MIN_RADIUS)
     aspect = scene.settings.width / scene.settings.height
     half_h = math.radians(horizontal_fov_deg) / 2
     half_v = math.atan(math.tan(half_h) / aspect)

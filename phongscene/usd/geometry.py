@@ -23,6 +23,13 @@ from ..scene import PhongMaterial, Sphere, TriangleMesh
 from ..validate import UNIT_TOLERANCE, is_singular
 from .context import ReadContext, authored_type
 
+# A tessellated face whose unit normal is within this of ±Z (|n_z| > 1 − tol) is a flat cap of a
+# cylinder or cone (caps are exactly axial; side faces have |n_z| = 0 on a cylinder and
+# r/√(r²+h²) < 1 on a cone).
+CAP_NORMAL_TOLERANCE = 1e-9
+# Corners closer than this to the primitive's axis (a cone's apex) have no radial direction.
+ON_AXIS_DISTANCE = 1e-12
+
 SEGMENTS = 64  # around the axis of Cylinder, Cone, Capsule: chord error r·(1 − cos(π/64)) ≈ 1.2e-3·r
 NORMAL_TYPES = tuple(t + "[]" for t in ("normal3f", "normal3d", "normal3h", "vector3f", "vector3d", "float3", "double3", "half3"))
 # Cyclic permutations taking the object's Z axis to the USD `axis` (proper rotations, det +1).
@@ -86,7 +93,10 @@ def mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMat
     idx = np.asarray(indices, dtype=np.int64)
     if not np.all(np.isfinite(p)):
         ctx.problem(prim, "points", f"{int(np.count_nonzero(~np.isfinite(p).all(axis=1)))} points are not finite")
-    if (counts < 0).any() or int(counts.sum()) != len(idx):
+    if (counts < 0).any():
+        ctx.problem(prim, "faceVertexCounts", f"must be >= 0, got {int(counts.min())}")
+        return None
+    if int(counts.sum()) != len(idx):
         ctx.problem(prim, "faceVertexCounts", f"sums to {int(counts.sum())}, but faceVertexIndices has {len(idx)} entries")
         return None
     out_of_range = (idx < 0) | (idx >= len(p))
@@ -205,7 +215,7 @@ def _smooth_corner_normals(tm: trimesh.Trimesh, surface_normal) -> tuple[np.ndar
     corners = tm.vertices[tm.faces].reshape(-1, 3)
     face_n = np.repeat(tm.face_normals, 3, axis=0)
     normals = surface_normal(corners, face_n)
-    cap = np.abs(face_n[:, 2]) > 1 - 1e-9  # flat discs of cylinder and cone
+    cap = np.abs(face_n[:, 2]) > 1 - CAP_NORMAL_TOLERANCE  # flat discs of cylinder and cone
     normals[cap] = face_n[cap]
     normals /= np.linalg.norm(normals, axis=1)[:, None]
     return normals, np.arange(len(corners), dtype=np.int64).reshape(-1, 3)
@@ -215,7 +225,7 @@ def _radial(points: np.ndarray, face_n: np.ndarray) -> np.ndarray:
     """Unit radial direction in XY; at the axis (a cone's apex) the face normal's XY is used.
     Corners of flat caps may get any value here: the caller replaces them by the face normal."""
     xy = points[:, :2].copy()
-    on_axis = np.linalg.norm(xy, axis=1) < 1e-12
+    on_axis = np.linalg.norm(xy, axis=1) < ON_AXIS_DISTANCE
     xy[on_axis] = face_n[on_axis, :2]
     length = np.linalg.norm(xy, axis=1)
     xy[length == 0] = (1.0, 0.0)

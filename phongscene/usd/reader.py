@@ -41,6 +41,9 @@ from . import geometry
 from .context import COLOR_TYPES, FLOAT_TYPES, INT_TYPES, STRING_TYPES, ReadContext, gf_to_numpy, unit
 from .materials import MaterialReader
 
+# |forward·up| below this counts as orthogonal: a few ulps of the unit vectors' rounding.
+CAMERA_ORTHOGONAL_TOLERANCE = 1e-12
+
 DEFAULT_SHADOW_SAMPLES = 9  # phong:shadowSamples on area lights: a 9×9 grid (2^3 + 1)
 # Orthographic width = horizontalAperture · this (apertures are tenths of a scene unit).
 APERTURE_UNIT = 0.1
@@ -232,7 +235,8 @@ def _camera(ctx: ReadContext, prim: Usd.Prim) -> Camera | None:
     up = world[:3, 1]
     if forward is not None:
         d = float(forward @ up)
-        up = up - forward * d if abs(d) > 1e-12 else up  # Gram-Schmidt only when needed (exact re-reads)
+        # Gram-Schmidt only when needed, so a camera we wrote reads back bit for bit.
+        up = up - forward * d if abs(d) > CAMERA_ORTHOGONAL_TOLERANCE else up
     up = unit(up)
     if forward is None or up is None:
         ctx.problem(prim, "xformOpOrder", "the camera transform is degenerate (no view or up direction)")
