@@ -104,8 +104,8 @@ def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:
         if meshes
         else np.zeros((0, 3), np.int32)
     )
-    materials = np.array([_material_row(m) for m in material_ids], dtype=np.float64).reshape(-1, 10)
-    lights = np.array([_light_row(light) for light in scene.lights], dtype=np.float64).reshape(-1, 20)
+    materials = np.array([_material_row(m) for m in material_ids], dtype=np.float64).reshape(-1, _native.MATERIAL_COLUMNS)
+    lights = np.array([_light_row(light) for light in scene.lights], dtype=np.float64).reshape(-1, _native.LIGHT_COLUMNS)
 
     def c(a, dtype):
         return np.ascontiguousarray(a, dtype=dtype)
