@@ -37,11 +37,7 @@ GROUND = PhongMaterial(ka=0.2, kd=0.8, ks=0.0, exponent=1.0, diffuse_color=(0.6,
 
 
 def camera(position, target) -> Camera:
-    forward = np.subtract(target, position, dtype=np.float64)
-    forward /= np.linalg.norm(forward)
-    right = np.cross(forward, (0.0, 1.0, 0.0))
-    up = np.cross(right / np.linalg.norm(right), forward)
-    return Camera(position=tuple(position), forward=tuple(forward), up=tuple(up), horizontal_fov_deg=60.0)
+    return Camera.look_at(position, target, 60.0)
 
 
 def ground(height: float = 0.0, half: float = 50.0) -> TriangleMesh:

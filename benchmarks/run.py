@@ -29,12 +29,13 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from timing import best_time  # noqa: E402  (benchmarks/ is not a package)
 NATIVE_EXTENSION_MODULE = "phongscene.backends.native._native"
 
 
@@ -46,15 +47,6 @@ def use_extension(path: Path) -> None:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     sys.modules[NATIVE_EXTENSION_MODULE] = module
-
-
-def best_time(fn, repeat: int) -> tuple[float, np.ndarray]:
-    best, image = float("inf"), None
-    for _ in range(repeat):
-        start = time.perf_counter()
-        image = fn()
-        best = min(best, time.perf_counter() - start)
-    return best, image
 
 
 def time_baseline(args: argparse.Namespace, name: str, threads: int) -> tuple[float, np.ndarray]:
@@ -86,11 +78,10 @@ def main() -> None:
     if args.extension:
         use_extension(args.extension)
 
-    sys.path.insert(0, str(HERE))
     from make_scenes import FILES, make
 
     from phongscene.backends import native, povray
-    from phongscene.rendering import SPECULAR_OF_MAPPING
+    from phongscene.backends.povray import SPECULAR_OF_MAPPING
     from phongscene.usd import load_usd
 
     args.scenes = args.scenes or list(FILES)

@@ -33,12 +33,13 @@ import os
 import platform
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from timing import best_time  # noqa: E402  (benchmarks/ is not a package)
 RESULTS = HERE / "results"
 STEM = "speed_vs_error"
 
@@ -121,15 +122,6 @@ def scene_at(scene, study: str, setting: int, settings):
     lights = tuple(dataclasses.replace(light, samples=setting) if isinstance(light, RectAreaLight) else light
                    for light in scene.lights)
     return dataclasses.replace(scene, lights=lights), dataclasses.replace(settings, samples=1)
-
-
-def best_time(fn, repeat: int) -> tuple[float, np.ndarray]:
-    best, image = float("inf"), None
-    for _ in range(repeat):
-        start = time.perf_counter()
-        image = fn()
-        best = min(best, time.perf_counter() - start)
-    return best, image
 
 
 def run_study(study: str, scene, base_settings, repeat: int) -> dict:
@@ -288,12 +280,11 @@ def main() -> None:
     if args.threads < 0 or args.repeat < 1:
         parser.error("--threads must be >= 0 and --repeat >= 1")
 
-    sys.path.insert(0, str(HERE))
     from make_scenes import FILES, make
 
     from phongscene.errors import PhongSceneError
     from phongscene.files import write_text_atomic
-    from phongscene.rendering import SPECULAR_OF_MAPPING
+    from phongscene.backends.povray import SPECULAR_OF_MAPPING
     from phongscene.usd import load_usd
 
     threads = args.threads or os.cpu_count() or 1

@@ -8,7 +8,6 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import numpy as np
 
 from phongscene.scene import AmbientLight, Camera, PhongMaterial, PointLight, RenderSettings, Scene, Sphere, TriangleMesh
 from phongscene.usd import write_usd
@@ -20,11 +19,7 @@ SETTINGS = RenderSettings(width=320, height=240, source="/Render/Settings")
 
 def look_at(eye, target, fov_deg: float = 45.0) -> Camera:
     """A perspective camera at ``eye`` looking at ``target`` with +Y as the up hint."""
-    eye, target = np.asarray(eye, float), np.asarray(target, float)
-    forward = (target - eye) / np.linalg.norm(target - eye)
-    up = np.array([0.0, 1.0, 0.0]) - forward * forward[1]
-    up /= np.linalg.norm(up)
-    return Camera(tuple(eye), tuple(map(float, forward)), tuple(map(float, up)), horizontal_fov_deg=fov_deg, source="/World/Camera")
+    return Camera.look_at(eye, target, fov_deg, source="/World/Camera")
 
 
 def ground(half_size: float = 10.0) -> TriangleMesh:

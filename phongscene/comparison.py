@@ -2,7 +2,7 @@
 """Comparing two linear float images: the thresholds (the only place they live) and the
 verdict, computed by OpenImageIO's ``ImageBufAlgo.compare`` in idiff's vocabulary.
 
-Why these thresholds: POV-Ray 3.7 writes half-float EXR (reference §2), so the best agreement
+Why these thresholds: POV-Ray 3.7 writes half-float EXR (ref §2), so the best agreement
 the two backends can reach is half precision. Half floats have an 11-bit significand: rounding
 to nearest moves a normal value v by at most 2⁻¹¹·|v|; below 2⁻¹⁴ (subnormal halves) the step is
 a fixed 2⁻²⁴. A pixel therefore *agrees* when, in every channel,
@@ -11,8 +11,8 @@ a fixed 2⁻²⁴. A pixel therefore *agrees* when, in every channel,
 
 which is exactly OpenImageIO's rule (``compare(A, B, fail, warn, failrelative, ...)`` counts a
 failure only when the absolute error exceeds ``fail`` *and* the error relative to the mean of
-|a| and |b| exceeds ``failrelative``; verified on OIIO 3.2.2, see tests/test_compare.py).
-PSNR is not used: its peak is the image maximum, meaningless for HDR (notes §4).
+|a| and |b| exceeds ``failrelative``; verified on OIIO 3.2.2, see tests/test_comparison.py).
+PSNR is not used: its peak is the image maximum, meaningless for HDR.
 
 The comparison fails (``ok`` False) when more than ``fail_percent`` % of the pixels fail, when
 any channel error exceeds ``hard_fail``, or when non-finite values differ: a NaN never agrees
@@ -20,6 +20,8 @@ any channel error exceeds ``hard_fail``, or when non-finite values differ: a NaN
 infinity. OpenImageIO ignores NaN and infinity silently (neither fails), so those pixels are
 judged here and left out of the mean/RMS statistics. Images of different sizes cannot be
 compared: ``ImageMismatchError``.
+
+POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 """
 
 from __future__ import annotations
@@ -63,7 +65,7 @@ class Thresholds:
     # k·2⁻¹¹ with k = 2: one half-float rounding (2⁻¹¹) on POV-Ray's side, doubled to cover what
     # else separates the backends, all far smaller: OIIO divides by the mean of |a| and |b|, not
     # the exact value (≤ 2⁻¹² relative); float32 colour arithmetic in both renderers (~1e-6);
-    # the exact mapping's slope colour_map (≤ 2e-5 relative, reference §12) and its per-light
+    # the exact mapping's slope colour_map (≤ 2e-5 relative, ref §12) and its per-light
     # passes, each rounded to half before they are summed.
     fail_relative: float = 2 * HALF_ROUNDING_RELATIVE
     fail_percent: float = 0.0  # % of pixels allowed to fail; 0: every pixel must agree
@@ -85,7 +87,7 @@ class Thresholds:
 # The backends must agree at half-float precision at every pixel (POV-Ray's EXR output).
 HALF_FLOAT = Thresholds()
 
-# POV-Ray's per-thread shadow cache (reference §6): each thread retests the last opaque occluder
+# POV-Ray's per-thread shadow cache (ref §6): each thread retests the last opaque occluder
 # of a light first, with a looser window (t ≥ 1e-4 instead of t > 1e-3). A shadow ray that meets
 # an occluder at 1e-4 ≤ t ≤ 1e-3 is then lit or shadowed depending on the previously rendered
 # pixel. That happens for area-light samples just below a sphere's horizon (the reference
@@ -98,7 +100,7 @@ HALF_FLOAT = Thresholds()
 # pixels on terminators.
 POVRAY_SHADOW_CACHE = replace(HALF_FLOAT, fail_percent=0.2)
 
-# POV-Ray stores mesh2 vertices and normals as float32 (reference §2, §7). Near the terminator
+# POV-Ray stores mesh2 vertices and normals as float32 (ref §2, §7). Near the terminator
 # of a smooth-normal mesh (n·l → 0) the shading is proportional to a small n·l whose absolute error from that
 # storage (~1e-7..1e-6) becomes a large relative one, so a pixel there can leave half-float
 # precision while the native tracer (float64 geometry) matches the float64 oracle. Measured: the

@@ -20,7 +20,7 @@ import numpy as np
 from .comparison import HALF_FLOAT, ImageMismatchError, Report, Thresholds, compare
 from .errors import BackendError
 from .progress import ProgressBar
-from .rendering import check_mapping, load_scene, render, settings_with
+from .rendering import load_scene, render, settings_with
 from .scene import RenderSettings, Scene
 
 LABELS = ("povray", "native")
@@ -79,6 +79,8 @@ def diff(
         SceneError: the scene file is invalid.
         BackendError: a backend failed, or the two images came back in different sizes.
     """
+    from .backends.povray import check_mapping
+
     check_mapping(mapping)  # before the scene is read
     scene, warnings = load_scene(scene_or_path)
     if progress is not None:
@@ -90,7 +92,7 @@ def diff(
     for backend in LABELS:
         bar = ProgressBar(backend, progress) if progress is not None else None
         start = time.perf_counter()
-        images[backend] = render(scene, backend, settings, mapping=mapping, progress=bar, timeout=timeout)
+        images[backend] = render(scene, backend, settings, progress=bar, timeout=timeout)
         timings[backend] = time.perf_counter() - start
         if bar is not None:
             bar.done(timings[backend])

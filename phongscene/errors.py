@@ -14,6 +14,9 @@ class Problem:
     prim: str = ""  # USD prim path ("" for scenes built in Python)
     attribute: str = ""  # attribute name on that prim, or a model field name
     file: str = ""  # the USD file
+    # The model node type (e.g. "PhongMaterial") when ``attribute`` is one of its fields: the USD
+    # layer translates it into the USD attribute (phongscene.usd.names.in_usd_terms).
+    node: str = ""
 
     def __str__(self) -> str:
         where = self.prim + (f".{self.attribute}" if self.attribute else "") if self.prim else self.attribute

@@ -13,32 +13,23 @@ from typing import Callable, Literal
 
 import numpy as np
 
-from .errors import BackendError
+from .errors import BackendError, SceneError
 from .scene import RenderSettings, Scene
 from .validate import check
 
 Backend = Literal["native", "povray"]
 BACKENDS: tuple[str, ...] = ("native", "povray")
-Mapping = Literal["exact", "classic"]
-# POV-Ray mapping ↔ the native specular convention it reproduces (DESIGN §4).
-SPECULAR_OF_MAPPING: dict[str, str] = {"exact": "seed", "classic": "povray-classic"}
-MAPPING_OF_SPECULAR: dict[str, str] = {v: k for k, v in SPECULAR_OF_MAPPING.items()}
-MAPPINGS: tuple[str, ...] = tuple(SPECULAR_OF_MAPPING)
-
-
-def check_mapping(mapping: str) -> str:
-    """``mapping`` if it is a POV-Ray mapping; otherwise ValueError naming the known ones."""
-    if mapping not in SPECULAR_OF_MAPPING:
-        raise ValueError(f"unknown POV-Ray mapping {mapping!r}; expected one of {', '.join(MAPPINGS)}")
-    return mapping
 
 
 def settings_for(scene: Scene, settings: RenderSettings | None = None, *, mapping: str | None = None) -> RenderSettings:
     """The settings to render with: ``settings`` (default: the scene's), with the specular
-    convention set by ``mapping`` when one is given."""
+    convention that POV-Ray ``mapping`` reproduces when one is given (the CLI's ``--mapping``;
+    ValueError for an unknown one)."""
     settings = scene.settings if settings is None else settings
     if mapping is not None:
-        settings = replace(settings, specular=SPECULAR_OF_MAPPING[check_mapping(mapping)])
+        from .backends.povray import specular_of  # the mapping is the POV-Ray backend's vocabulary
+
+        settings = replace(settings, specular=specular_of(mapping))
     return settings
 
 
@@ -74,24 +65,49 @@ def load_scene(scene_or_path: Scene | str | os.PathLike) -> tuple[Scene, list[st
     return result.scene, list(result.warnings)
 
 
+def in_file_terms(error: SceneError) -> SceneError:
+    """``error`` naming USD attributes instead of model fields for nodes read from USD (their
+    prims are USD paths), so a user reads the names in their file."""
+    if not any(p.node and p.prim.startswith("/") for p in error.problems):
+        return error
+    from .usd.names import error_in_usd_terms
+
+    return error_in_usd_terms(error)
+
+
+def check_settings(scene: Scene, settings: RenderSettings | None = None) -> RenderSettings:
+    """Validate ``scene`` rendered with ``settings`` (default: its own) and return the settings.
+
+    The backends assume a valid scene (C++ only asserts): a scene built in Python or settings
+    changed after loading are checked here. ~20 ms for a million triangles.
+
+    Raises:
+        SceneError: every problem, in the terms of the file the scene came from.
+    """
+    settings = scene.settings if settings is None else settings
+    try:
+        check(replace(scene, settings=settings))
+    except SceneError as e:
+        raise in_file_terms(e) from None
+    return settings
+
+
 def render(
     scene: Scene,
     backend: Backend = "native",
     settings: RenderSettings | None = None,
     *,
-    mapping: Mapping | None = None,
     progress: Callable | None = None,
     timeout: float | None = None,
 ) -> np.ndarray:
     """Render ``scene`` with one backend.
 
     Args:
-        scene: a validated scene (``phongscene.load_usd`` or built in Python).
+        scene: a scene (``phongscene.load_usd`` or built in Python); it is validated first.
         backend: "native" (the C++ tracer) or "povray".
-        settings: render settings; default ``scene.settings``.
-        mapping: POV-Ray mapping, "exact" (native convention "seed") or "classic" (native
-            "povray-classic"); it sets ``settings.specular`` for either backend. Default: the
-            one that matches ``settings.specular``.
+        settings: render settings; default ``scene.settings``. ``settings.specular`` chooses
+            the convention for either backend (POV-Ray renders "seed" with its exact mapping,
+            "povray-classic" with its classic one).
         progress: called with the backend's progress reports.
         timeout: POV-Ray only: seconds before the render is abandoned.
 
@@ -102,22 +118,43 @@ def render(
         SceneError: the scene or the settings are invalid (every problem listed).
         BackendError: the backend is unavailable or failed.
     """
-    settings = settings_for(scene, settings, mapping=mapping)
-    # The backends assume a valid scene (C++ only asserts): a scene built in Python or settings
-    # changed after loading are checked here. ~20 ms for a million triangles.
-    check(replace(scene, settings=settings))
-    if backend == "native":
-        try:
-            from .backends import native
-        except ImportError as e:
-            raise BackendError(f"the native backend is not available: {e}") from e
-        return native.render(scene, settings, progress=progress)
-    if backend == "povray":
-        try:
-            from .backends import povray
-        except ImportError as e:
-            raise BackendError(f"the POV-Ray backend is not available: {e}") from e
-        return povray.render(
-            scene, settings, mapping=MAPPING_OF_SPECULAR[settings.specular], progress=progress, timeout=timeout
-        )
-    raise ValueError(f"unknown backend {backend!r}; expected one of {', '.join(BACKENDS)}")
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; expected one of {', '.join(BACKENDS)}")
+    settings = check_settings(scene, settings)
+    try:
+        if backend == "native":
+            from .backends import native as module
+        else:
+            from .backends import povray as module
+    except ImportError as e:
+        raise BackendError(f"the {backend} backend is not available: {e}") from e
+    try:
+        if backend == "native":
+            return module.render(scene, settings, progress=progress)
+        return module.render(scene, settings, progress=progress, timeout=timeout)
+    except SceneError as e:  # a backend's own check (e.g. a number not finite in the SDL)
+        raise in_file_terms(e) from None
+
+
+def compile_pov(scene: Scene, settings: RenderSettings | None = None, mapping: str | None = None) -> str:
+    """Validate ``scene`` and compile it to POV-Ray 3.7 SDL.
+
+    Args:
+        scene: the scene.
+        settings: render settings (default: the scene's).
+        mapping: "exact" or "classic"; default: the one that renders ``settings.specular``.
+
+    Returns:
+        The SDL text (``phongscene.backends.povray.compile_pov`` documents its passes).
+
+    Raises:
+        SceneError: the scene is invalid (every problem listed, in the file's terms).
+        ValueError: ``mapping`` is unknown.
+    """
+    from .backends import povray
+
+    settings = check_settings(scene, settings)
+    try:
+        return povray.compile_pov(scene, settings, mapping)
+    except SceneError as e:
+        raise in_file_terms(e) from None

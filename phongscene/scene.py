@@ -5,7 +5,7 @@ Plain, typed, immutable dataclasses. Every node keeps ``source``, the USD prim p
 from ("" when built in Python), so every later error can name it. Numpy arrays are copied,
 made C-contiguous with a fixed dtype, and set read-only.
 
-Conventions (DESIGN §1–§3):
+Conventions:
 
 * World space is right-handed, +Y up (a Z-up stage is rotated to Y-up by the reader).
 * Colours are linear RGB. A light's ``color`` is its strength ``ls·cl`` (USD:
@@ -22,6 +22,8 @@ Conventions (DESIGN §1–§3):
   computes: the specular term has no n·l factor and is coloured by the light, not by cs::
 
       L = ka·cd·La + Σ_j [ kd·cd/π·(n·l_j) + ks·(r_j·wo)^e ] · Lj      (r_j·wo > 0)
+
+POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 """
 
 from __future__ import annotations
@@ -104,6 +106,30 @@ class Camera:
     ortho_width: float = 2.0  # orthographic only: width of the view window, world units, > 0
     source: str = ""
 
+    @staticmethod
+    def look_at(
+        position: Vec3,
+        target: Vec3,
+        horizontal_fov_deg: float = 60.0,
+        up_hint: Vec3 = (0.0, 1.0, 0.0),
+        source: str = "",
+    ) -> Camera:
+        """A perspective camera at ``position`` looking at ``target``; ``up`` is ``up_hint``
+        made orthogonal to the view direction (Gram-Schmidt) and unit."""
+        eye = np.asarray(position, dtype=np.float64)
+        forward = np.asarray(target, dtype=np.float64) - eye
+        forward /= np.linalg.norm(forward)
+        up = np.asarray(up_hint, dtype=np.float64)
+        up = up - forward * (up @ forward)
+        up /= np.linalg.norm(up)
+        return Camera(
+            position=tuple(map(float, eye)),
+            forward=tuple(map(float, forward)),
+            up=tuple(map(float, up)),
+            horizontal_fov_deg=horizontal_fov_deg,
+            source=source,
+        )
+
     @property
     def right(self) -> Vec3:
         f, u = self.forward, self.up
@@ -145,7 +171,7 @@ class DirectionalLight:
 
 @dataclass(frozen=True, slots=True)
 class RectAreaLight:
-    """A rectangular area light with POV-Ray's semantics (reference §5): shading is computed
+    """A rectangular area light with POV-Ray's semantics (ref §5): shading is computed
     once from ``center`` like a point light; only the shadow fraction comes from a
     ``samples × samples`` grid spanning ``center ± axis_u/2 ± axis_v/2`` (edges included),
     weighted by full 4-corner subdivision (trapezoid weights for samples = 2^k + 1)."""
@@ -263,7 +289,7 @@ class RenderSettings:
     samples: int = 1  # anti-aliasing: n per axis (1 = the pixel centre only), 1..9
     # "grid": an n×n cell-centred grid, box filtered (POV-Ray: render n× larger with -A and
     # average n×n blocks). "povray-am1": POV-Ray's +AM1 +A0.0 +R n -J, i.e. the pixel centre
-    # plus the n×n grid, divided by n²+1 (reference §8).
+    # plus the n×n grid, divided by n²+1 (ref §8).
     sample_pattern: SamplePattern = "grid"
     threads: int = 0  # native backend: worker threads, 0 = all cores
     background: RGB = (0.0, 0.0, 0.0)  # colour of rays that hit nothing, linear RGB

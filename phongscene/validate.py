@@ -1,9 +1,9 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Validation of a ``Scene``: every problem at once, each naming prim, attribute and file.
+"""Validation of a ``Scene``: every problem at once, each naming prim, model field and file.
 
-Backends assume a validated scene (their own checks are assertions). A node that came from USD
-(its ``source`` is a prim path) is reported with the USD attribute name (``inputs:ks``); a node
-built in Python with the model's field name (``ks``).
+Backends assume a validated scene (their own checks are assertions). Problems name the model's
+fields (``ks``, ``samples``) and carry the node type; the USD layer translates them into the
+attributes of the file a scene was read from (``phongscene.usd.names.in_usd_terms``).
 """
 
 from __future__ import annotations
@@ -14,7 +14,6 @@ import numpy as np
 
 from .errors import Problem, SceneError
 from .scene import (
-    AmbientLight,
     Camera,
     DirectionalLight,
     PhongMaterial,
@@ -26,85 +25,9 @@ from .scene import (
     SphereAreaLight,
     TriangleMesh,
 )
+from .tolerances import SINGULAR_RELATIVE_DET, UNIT_TOLERANCE, is_singular
 
-# Unit vectors (camera axes, light directions, mesh normals) may be off unit length or
-# orthogonality by this much: USD stores normals as float32, whose rounding leaves |n| within
-# a few 1e-8 of 1; 1e-6 admits that with margin and still catches unnormalized input (>= 1e-3).
-UNIT_TOLERANCE = 1e-6
-# A sphere transform is singular when |det| of its 3x3 part is below this fraction of the
-# product of its column norms (i.e. the axes are (nearly) linearly dependent or one is zero).
-SINGULAR_RELATIVE_DET = 1e-12
 MAX_SAMPLES = 9  # anti-aliasing grid per axis (RenderSettings.samples)
-
-
-def is_singular(linear: np.ndarray) -> bool:
-    """Whether a 3x3 linear map is singular to ``SINGULAR_RELATIVE_DET`` (scale-invariant)."""
-    scale = float(np.prod(np.linalg.norm(linear, axis=0)))
-    return scale == 0 or abs(float(np.linalg.det(linear))) <= SINGULAR_RELATIVE_DET * scale
-
-# Model field -> USD attribute, per node type, for nodes read from USD.
-_USD_NAMES: dict[type, dict[str, str]] = {
-    PhongMaterial: {
-        "ka": "inputs:ka",
-        "kd": "inputs:kd",
-        "ks": "inputs:ks",
-        "exponent": "inputs:exponent",
-        "diffuse_color": "inputs:diffuseColor",
-        "specular_color": "inputs:specularColor",
-    },
-    Camera: {
-        "position": "xformOp",
-        "forward": "xformOp",
-        "up": "xformOp",
-        "projection": "projection",
-        "horizontal_fov_deg": "horizontalAperture",
-        "ortho_width": "horizontalAperture",
-    },
-    AmbientLight: {"color": "inputs:color"},
-    PointLight: {
-        "position": "xformOp",
-        "color": "inputs:color",
-        "fade_distance": "phong:fadeDistance",
-        "fade_power": "phong:fadePower",
-    },
-    DirectionalLight: {"direction": "xformOp", "color": "inputs:color"},
-    RectAreaLight: {
-        "center": "xformOp",
-        "axis_u": "inputs:width",
-        "axis_v": "inputs:height",
-        "color": "inputs:color",
-        "samples": "phong:shadowSamples",
-    },
-    SphereAreaLight: {
-        "center": "xformOp",
-        "radius": "inputs:radius",
-        "color": "inputs:color",
-        "samples": "phong:shadowSamples",
-    },
-    Sphere: {"world_from_object": "radius"},
-    TriangleMesh: {
-        "points": "points",
-        "triangles": "faceVertexIndices",
-        "normals": "normals",
-        "normal_indices": "normals",
-    },
-    RenderSettings: {
-        "width": "resolution",
-        "height": "resolution",
-        "samples": "phong:samples",
-        "sample_pattern": "phong:samplePattern",
-        "specular": "phong:specularConvention",
-        "background": "phong:background",
-        "threads": "threads",
-    },
-}
-
-
-def attribute_name(node, field: str) -> str:
-    """How an error names ``field`` of ``node``: the USD attribute for a node read from USD
-    (its ``source`` is a prim path), else the model's field name."""
-    from_usd = getattr(node, "source", "").startswith("/")
-    return _USD_NAMES.get(type(node), {}).get(field, field) if from_usd else field
 
 
 class _Collector:
@@ -114,7 +37,7 @@ class _Collector:
 
     def add(self, node, field: str, message: str) -> None:
         source = getattr(node, "source", "")
-        self.problems.append(Problem(message, prim=source, attribute=attribute_name(node, field), file=self.file))
+        self.problems.append(Problem(message, prim=source, attribute=field, file=self.file, node=type(node).__name__))
 
     # -- generic checks --------------------------------------------------------------------
 
@@ -312,7 +235,8 @@ def _check_mesh(c: _Collector, mesh: TriangleMesh) -> None:
     tri = mesh.triangles
     if tri.size and (tri.min() < 0 or tri.max() >= n_points):
         bad = int(np.count_nonzero((tri < 0) | (tri >= n_points)))
-        c.add(mesh, "triangles", f"{bad} indices out of range [0, {n_points}), e.g. {int(tri[(tri < 0) | (tri >= n_points)][0])}")
+        example = int(tri[(tri < 0) | (tri >= n_points)][0])
+        c.add(mesh, "triangles", f"indices must be in [0, {n_points}): {bad} are not, e.g. {example}")
     if mesh.normals is None:
         return
     if c.finite(mesh, "normals", mesh.normals):
@@ -330,4 +254,4 @@ def _check_mesh(c: _Collector, mesh: TriangleMesh) -> None:
     k = len(mesh.normals)
     if ni.size and (ni.min() < 0 or ni.max() >= k):
         bad = int(np.count_nonzero((ni < 0) | (ni >= k)))
-        c.add(mesh, "normal_indices", f"{bad} indices out of range [0, {k})")
+        c.add(mesh, "normal_indices", f"indices must be in [0, {k}): {bad} are not")

@@ -9,6 +9,8 @@ under both specular conventions (``classic_variant``). Rules every scene follows
   area-light sample line) by construction — sizes and positions are deliberately "generic"
   numbers — except in ``pixel_centres``, which is built around pixel centres on purpose;
 * the ground, where there is one, is a big two-triangle quad (the model has no plane).
+
+POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 """
 
 from __future__ import annotations
@@ -39,15 +41,7 @@ from phongscene.scene import (
 
 def look_at(position, target, horizontal_fov_deg: float = 50.0, up_hint=(0.0, 1.0, 0.0)) -> Camera:
     """A perspective camera at ``position`` looking at ``target`` with an orthonormal (forward, up)."""
-    position = np.asarray(position, dtype=np.float64)
-    forward = np.asarray(target, dtype=np.float64) - position
-    forward /= np.linalg.norm(forward)
-    up = np.asarray(up_hint, dtype=np.float64)
-    up = up - forward * (up @ forward)
-    up /= np.linalg.norm(up)
-    return Camera(
-        position=_vec(position), forward=_vec(forward), up=_vec(up), horizontal_fov_deg=horizontal_fov_deg
-    )
+    return Camera.look_at(position, target, horizontal_fov_deg, up_hint)
 
 
 def _vec(a) -> tuple[float, float, float]:

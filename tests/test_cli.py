@@ -42,3 +42,10 @@ def test_an_unwritable_output_is_an_error_naming_it(command, output, tmp_path, c
     assert main([command, str(REPO / "examples" / "seed_lobe.usda"), "-o", str(blocked / output), "--width", "8"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].startswith("error: ") and str(blocked) in err[-1]
+
+
+def test_mapping_choices_are_the_povray_backends():
+    from phongscene.backends.povray import MAPPINGS
+    from phongscene.cli import MAPPING_CHOICES
+
+    assert MAPPING_CHOICES == MAPPINGS

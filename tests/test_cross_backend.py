@@ -11,7 +11,7 @@ independent oracle (tests/oracle.py):
 
 * ``POVRAY_SHADOW_CACHE`` (scenes with area lights or smooth-normal meshes): POV-Ray's
   per-thread shadow cache retests the last occluder with a looser window (1e-4 instead of 1e-3,
-  reference §6). Explained when the oracle rendered with that window reproduces POV-Ray's value.
+  ref §6). Explained when the oracle rendered with that window reproduces POV-Ray's value.
 * ``POVRAY_MESH_FLOAT32`` (scenes with smooth-normal meshes, which have terminators): POV-Ray
   keeps mesh2 data in float32, which perturbs a small n·l near a terminator. Explained when the native value matches the float64 oracle at
   half-float precision (the native tracer is right; POV-Ray's storage is the difference).
@@ -21,6 +21,8 @@ metrics, index.html) is written under pytest's ``tmp_path``.
 
 All POV-Ray images are rendered up front by ``render_many``: one POV-Ray process per image size,
 the scenes as its animation frames, instead of ~0.7 s of start-up per scene.
+
+POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 """Checks of the oracle (tests/oracle.py) against closed forms, and of the calibration catalogue.
 
 Each test states its closed form in a comment (pbrt's habit). The closed forms come from
-DESIGN §2 and the POV-Ray reference (ref §n), never from the oracle's own output.
+the shading model in README.md and the POV-Ray reference (ref §n: docs/povray-3.7-semantics.md), never from the oracle's own output.
 """
 
 from __future__ import annotations
@@ -168,7 +168,7 @@ def _head_on_scene(specular: str) -> Scene:
 
 def test_head_on_directional_light_centre_pixel_seed():
     # Centre pixel of an odd image looks along −Z at the sphere's pole: n = l = wo = +Z, so
-    # n·l = 1 and r·wo = 1: L = ka·cd·La + (kd·cd/π + ks·cs)·L (DESIGN §2).
+    # n·l = 1 and r·wo = 1: L = ka·cd·La + (kd·cd/π + ks·cs)·L (README: the shading model).
     m = HEAD_ON
     expected = m.ka * np.array(m.diffuse_color) * HEAD_ON_LA + (
         m.kd * np.array(m.diffuse_color) / math.pi + m.ks * np.array(m.specular_color)
@@ -421,7 +421,7 @@ def test_smooth_mesh_normal_is_barycentric_interpolation_and_two_sided():
 # Reference §15 golden example and calibration scenes with closed forms
 
 
-GOLDEN_PIXELS = {  # (col, row): reference §15 "expected (numpy)" column
+GOLDEN_PIXELS = {  # (col, row): ref §15 "expected (numpy)" column
     (32, 24): (0.39576, 0.18253, 0.09459),
     (27, 18): (0.87979, 0.59849, 0.48447),
     (26, 18): (0.69496, 0.41236, 0.29811),

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""The backends install inside the package (DESIGN §1), from an editable install and a wheel."""
+"""The backends install inside the package, from an editable install and a wheel."""
 
 from __future__ import annotations
 

@@ -1,7 +1,9 @@
 # SPDX-License-Identifier: Apache-2.0
 """The POV-Ray compiler as text: structure of both mappings, exact numbers, the camera and
 sphere-matrix conventions, mesh2, light placement, golden SDL, and compile speed. No POV-Ray
-needed (test_povray_render.py renders)."""
+needed (test_povray_render.py renders).
+
+POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n"."""
 
 from __future__ import annotations
 

@@ -16,6 +16,7 @@ import calibration
 from phongscene import cli
 from phongscene.backends import povray
 from phongscene.backends.povray import compile_pov, sanitize_comment
+from phongscene.rendering import compile_pov as checked_compile_pov  # validates; names in the file's terms
 from phongscene.errors import SceneError
 from phongscene.scene import (
     AmbientLight,
@@ -151,7 +152,7 @@ NAN = float("nan")
 @pytest.mark.parametrize("mapping", ["exact", "classic"])
 def test_non_finite_numbers_are_a_clean_error_naming_the_prim(change, where, mapping):
     with pytest.raises(SceneError) as e:
-        compile_pov(change(_simple()), mapping=mapping)
+        checked_compile_pov(change(_simple()), mapping=mapping)
     assert where in str(e.value)
 
 
@@ -196,7 +197,7 @@ def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
 def test_mesh_indices_out_of_range_are_rejected_by_name():
     mesh = TriangleMesh(np.eye(3), [[0, 1, -1]], source="/World/Broken")
     with pytest.raises(SceneError, match=r"/World/Broken\.faceVertexIndices: indices must be in \[0, 3\)"):
-        compile_pov(_simple(meshes=(mesh,)))
+        checked_compile_pov(_simple(meshes=(mesh,)))
     mesh = TriangleMesh(np.eye(3), [[0, 1, 2]], [[0, 0, 1]], [[0, 0, 1]], source="/World/Broken")
     with pytest.raises(SceneError, match=r"/World/Broken\.normals: indices"):
-        compile_pov(_simple(meshes=(mesh,)))
+        checked_compile_pov(_simple(meshes=(mesh,)))

@@ -4,7 +4,9 @@ half-float precision under both mappings (exact ↔ seed, classic ↔ povray-cla
 runner's failure modes: POV-Ray missing, failing, timing out; temporary files; progress.
 
 All calibration renders run in one ``render_many`` call: one POV-Ray process per distinct
-image size / anti-aliasing switches, each scene (and each exact-mapping pass) a frame."""
+image size / anti-aliasing switches, each scene (and each exact-mapping pass) a frame.
+
+POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n"."""
 
 from __future__ import annotations
 

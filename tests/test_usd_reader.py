@@ -380,3 +380,20 @@ def test_preview_surface_opacity_and_emission_are_reported_not_dropped_silently(
     # the neutral values (opaque, no emission) are what the model renders: nothing to say
     neutral = "float inputs:opacity = 1\n color3f inputs:emissiveColor = (0, 0, 0)"
     assert not [w for w in read(tmp_path, PREVIEW.format(inputs=neutral)).warnings if "UsdPreviewSurface" in w]
+
+
+def test_a_prim_with_a_type_problem_still_reports_its_range_problems(tmp_path):
+    # The reader checks types, validate checks ranges: both are reported, each once, in USD terms.
+    body = """
+    def Material "M" { token outputs:phong:surface.connect = </M/Phong.outputs:surface>
+        def Shader "Phong" { uniform token info:id = "phongscene_PhongSurface"
+            double inputs:ka = 0.5
+            float inputs:ks = -0.5
+            token outputs:surface } }
+    def Sphere "Ball" (prepend apiSchemas = ["MaterialBindingAPI"]) { rel material:binding = </M> }
+    """
+    with pytest.raises(SceneError) as info:
+        read(tmp_path, body)
+    found = sorted((p.prim, p.attribute) for p in info.value.problems)
+    assert found == [("/M/Phong", "inputs:ka"), ("/M/Phong", "inputs:ks")]
+    assert "must be in [0, 1], got -0.5" in str(info.value)

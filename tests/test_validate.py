@@ -23,6 +23,7 @@ from phongscene.scene import (
     SphereAreaLight,
     TriangleMesh,
 )
+from phongscene.rendering import in_file_terms
 from phongscene.validate import check, validate
 
 NAN, INF = float("nan"), float("inf")
@@ -138,13 +139,22 @@ def test_every_problem_is_reported_at_once_with_usd_names_and_file():
     )
     with pytest.raises(SceneError) as info:
         check(scene)
-    found = {(p.prim, p.attribute, p.file) for p in info.value.problems}
+    # The model names its own fields (and the node type); the USD layer translates them into
+    # the file's attributes for nodes read from USD, which is what the CLI and render() print.
+    model_terms = {(p.prim, p.attribute, p.node) for p in info.value.problems}
+    assert model_terms == {
+        ("/World/Looks/M/Phong", "ks", "PhongMaterial"),
+        ("/World/Looks/M/Phong", "exponent", "PhongMaterial"),
+        ("/Render/Settings", "samples", "RenderSettings"),
+    }
+    error = in_file_terms(info.value)
+    found = {(p.prim, p.attribute, p.file) for p in error.problems}
     assert found == {
         ("/World/Looks/M/Phong", "inputs:ks", "scene.usda"),
         ("/World/Looks/M/Phong", "inputs:exponent", "scene.usda"),
         ("/Render/Settings", "phong:samples", "scene.usda"),
     }
-    assert "scene.usda: /World/Looks/M/Phong.inputs:ks: must be in [0, 1], got -0.5" in str(info.value)
+    assert "scene.usda: /World/Looks/M/Phong.inputs:ks: must be in [0, 1], got -0.5" in str(error)
 
 
 def test_boundary_values_are_valid():

@@ -1,12 +1,12 @@
 # SPDX-License-Identifier: Apache-2.0
 """Compile a ``Scene`` to POV-Ray 3.7 SDL: a pure, deterministic function ``Scene -> str``.
 
-The reference is ``reference/povray-3.7-semantics.md`` (cited as "ref §n"). Two mappings:
+The reference is ``docs/povray-3.7-semantics.md`` (cited as "ref §n"). Two mappings:
 
 ``classic`` (the ``povray-classic`` convention): one idiomatic, hand-editable texture per
 material, ``pigment { rgb cd } finish { ambient ka diffuse kd/π phong ks phong_size e }``, light
 colours ``ls·cl``, ``ambient_light La``; one render pass. Its known differences from the seed
-model (DESIGN §2), all of them POV-Ray's ``phong`` (ref §4):
+model (README: the shading model), all of them POV-Ray's ``phong`` (ref §4):
 
 * the highlight has no n·l factor: POV adds ``ks·(r·wo)^e·Lj``, the seed ``ks·cs·(r·wo)^e·Lj·(n·l)``;
 * the highlight is in the light's colour, not in cs (cs is ignored);
@@ -44,8 +44,6 @@ import math
 import numpy as np
 
 from phongscene.errors import Problem, SceneError
-from phongscene.rendering import MAPPING_OF_SPECULAR, check_mapping
-from phongscene.validate import attribute_name
 from phongscene.scene import (
     DirectionalLight,
     PhongMaterial,
@@ -88,12 +86,33 @@ def sanitize_comment(text: str) -> str:
     return "".join(out)
 
 
+# POV-Ray mapping -> the specular convention of the model (RenderSettings.specular) it reproduces.
+# The convention is the one knob; a mapping is how this backend renders it.
+SPECULAR_OF_MAPPING: dict[str, str] = {"exact": "seed", "classic": "povray-classic"}
+MAPPING_OF_SPECULAR: dict[str, str] = {v: k for k, v in SPECULAR_OF_MAPPING.items()}
+MAPPINGS: tuple[str, ...] = tuple(SPECULAR_OF_MAPPING)
+
+
+def check_mapping(mapping: str) -> str:
+    """``mapping`` if it is a POV-Ray mapping; otherwise ValueError naming the known ones."""
+    if mapping not in SPECULAR_OF_MAPPING:
+        raise ValueError(f"unknown POV-Ray mapping {mapping!r}; expected one of {', '.join(MAPPINGS)}")
+    return mapping
+
+
+def specular_of(mapping: str) -> str:
+    """The model's specular convention that POV-Ray ``mapping`` reproduces."""
+    return SPECULAR_OF_MAPPING[check_mapping(mapping)]
+
+
 def resolve_mapping(settings: RenderSettings, mapping: str | None) -> str:
     """The mapping to use: ``mapping`` if given, else the one matching ``settings.specular``."""
     if mapping is None:
         mapping = MAPPING_OF_SPECULAR.get(settings.specular)
         if mapping is None:
-            raise SceneError(Problem(f"unknown specular convention {settings.specular!r}", settings.source, "specular"))
+            raise SceneError(
+                Problem(f"unknown specular convention {settings.specular!r}", settings.source, "specular", node="RenderSettings")
+            )
     return check_mapping(mapping)
 
 
@@ -107,8 +126,8 @@ def compile_pov(scene: Scene, settings: RenderSettings | None = None, mapping: s
     """Compile ``scene`` to POV-Ray 3.7 SDL.
 
     Args:
-        scene: the scene (validate it with ``phongscene.validate.check``; here only
-            non-finite numbers are rejected).
+        scene: a validated scene (``phongscene.compile_pov`` validates first; here only
+            numbers that are not finite in the SDL are rejected).
         settings: render settings (only the image aspect ratio and the background enter the
             SDL); default ``scene.settings``.
         mapping: "exact" (the seed model, one pass per light) or "classic" (one idiomatic
@@ -120,7 +139,7 @@ def compile_pov(scene: Scene, settings: RenderSettings | None = None, mapping: s
         whose linear images sum to the picture (see ``run.render``).
 
     Raises:
-        SceneError: the scene is invalid, or a derived number is not finite (naming the prim).
+        SceneError: a number is not finite in the SDL (naming the prim and model field).
     """
     settings = scene.settings if settings is None else settings
     mapping = resolve_mapping(settings, mapping)
@@ -142,9 +161,9 @@ def compile_body(scene: Scene, settings: RenderSettings, mapping: str) -> str:
     """Everything after ``#version``; the exact mapping switches on the identifier ``Pass``
     (0-based), which the caller declares (``run`` batches several scenes in one file).
 
-    The scene is not range-checked here (that is ``phongscene.validate``'s job, and POV-Ray
-    renders out-of-range coefficients faithfully), but every number is checked for being
-    finite as it is written: a NaN or inf raises ``SceneError`` naming the prim and attribute.
+    The scene is not range-checked here (validation is the caller's job, and POV-Ray renders
+    out-of-range coefficients faithfully), but every number is checked for being finite as it is
+    written: a NaN or inf (also a derived one) raises ``SceneError`` naming the prim and field.
     """
     return _Compiler(scene, settings, mapping).run()
 
@@ -172,7 +191,8 @@ class _Compiler:
             raise self._error(node, attribute, f"is not finite in the SDL ({e})") from None
 
     def _error(self, node, field: str, message: str) -> SceneError:
-        return SceneError(Problem(message, getattr(node, "source", ""), attribute_name(node, field), self.scene.source_file))
+        source = getattr(node, "source", "")
+        return SceneError(Problem(message, source, field, self.scene.source_file, node=type(node).__name__))
 
     def comment(self, node, kind: str, index: int) -> None:
         self.lines.append(self.comment_text(node, kind, index))
@@ -369,12 +389,6 @@ class _Compiler:
         # The texture comes after the matrix, so it is not transformed (world-space slope).
         return f"sphere {{ <0, 0, 0>, 1 matrix <{numbers}> texture {{ {texture} }} }}"
 
-    def check_indices(self, mesh: TriangleMesh, attribute: str, indices: np.ndarray, count: int) -> None:
-        if indices.shape != mesh.triangles.shape:
-            raise self._error(mesh, attribute, f"must have one row of 3 per triangle, got shape {indices.shape}")
-        if indices.size and (indices.min() < 0 or indices.max() >= count):
-            raise self._error(mesh, attribute, f"indices must be in [0, {count}), got {indices.min()}..{indices.max()}")
-
     def float32_block(self, mesh: TriangleMesh, attribute: str, values: np.ndarray) -> str:
         try:
             return float32_vectors(values)
@@ -385,9 +399,6 @@ class _Compiler:
         if len(mesh.triangles) == 0:
             self.lines.append("// (no triangles)")
             return
-        self.check_indices(mesh, "triangles", mesh.triangles, len(mesh.points))
-        if mesh.normals is not None:
-            self.check_indices(mesh, "normal_indices", mesh.normal_indices, len(mesh.normals))
         vertices = self.float32_block(mesh, "points", mesh.points)
         normals = self.float32_block(mesh, "normals", mesh.normals) if mesh.normals is not None else None
         out = self.lines

@@ -3,15 +3,17 @@
 
 Scalars are printed with ``repr`` (the shortest decimal that reads back as the same float64,
 at most 17 significant digits); never ``%g``, whose 6 digits once cost an 11x error in the
-camera (reference §13, e01).
+camera (ref §13, e01).
 
-``mesh2`` stores vertices and normals as float32 (reference §7), so a mesh array is first
+``mesh2`` stores vertices and normals as float32 (ref §7), so a mesh array is first
 rounded to float32 and printed with 9 significant digits. That reads back to the identical
 float32 POV-Ray would have stored from the 17-digit float64: 9 digits are within 1.5e-8
 relative of the float32 value even if the last digit is off by one (below), while the
 nearest rounding boundary of float32 is at least 2**-25 ~ 2.98e-8 relative away.
 Formatting is done in numpy on byte matrices (one row per number) with digit lookup tables, so
 a 1M-triangle mesh compiles in a fraction of a second; Python never formats a mesh number.
+
+POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 """
 
 from __future__ import annotations

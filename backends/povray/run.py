@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Run POV-Ray 3.7 on compiled scenes and read the images back (reference §1, §8, §11).
+"""Run POV-Ray 3.7 on compiled scenes and read the images back (ref §1, §8, §11).
 
 Every render runs in a fresh temporary directory (the working directory of the process) with
 ``HOME`` pointed at a ``.povray/3.7/povray.conf`` there that restricts file I/O and forbids shell
@@ -8,6 +8,8 @@ EXR, linear), ``-D -V -GD -GR -GS +Q9 -J``, and ``-A`` or ``+AM1 +A0.0 +R n`` fo
 "grid" anti-aliasing renders at n× the resolution with ``-A`` and box-averages n×n blocks
 (exact, ref §8). POV-Ray's start-up costs ~0.7 s per process, so all render passes, and in
 ``render_many`` several scenes, are animation frames of ONE process.
+
+POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 """
 
 from __future__ import annotations

@@ -10,21 +10,13 @@ import numpy as np
 from pxr import Gf, Usd, UsdGeom
 
 from ..errors import Problem
+from ..tolerances import KEEP_UNIT
+from .names import COLOR_TYPES, FLOAT_TYPES
 
 # A Z-up stage is rotated −90° about X into the model's Y-up frame: (x, y, z) → (x, z, −y).
 Z_UP_TO_Y_UP = np.array(
     [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
 )
-# A unit vector read in double precision is kept bit-for-bit when its length is within this of
-# 1 (a few ulps), so that reading what the writer wrote is exactly idempotent; otherwise it is
-# divided by its length.
-KEEP_UNIT = 1e-14
-
-FLOAT_TYPES = ("float", "double", "half")
-VEC3_TYPES = ("float3", "double3", "half3", "color3f", "color3d", "color3h", "vector3f", "vector3d", "point3f", "point3d", "normal3f", "normal3d")
-COLOR_TYPES = ("color3f", "color3d", "color3h", "float3", "double3", "half3")
-INT_TYPES = ("int", "uint", "int64", "uint64")
-STRING_TYPES = ("token", "string")
 
 
 def unit(v: np.ndarray) -> np.ndarray | None:
@@ -55,7 +47,7 @@ class ReadContext:
         self.file = file
         self.problems: list[Problem] = []
         self.warnings: list[str] = []
-        # One warning per kind of unsupported thing, listing every prim (DESIGN §3).
+        # One warning per kind of unsupported thing, listing every prim.
         self.unsupported: dict[str, list[str]] = defaultdict(list)
         self.nodes: list[tuple[str, str]] = []  # (prim path, model node) for `phongscene info`
         self.time = stage.GetStartTimeCode() if stage.HasAuthoredTimeCodeRange() else Usd.TimeCode.Default()
@@ -111,6 +103,7 @@ class ReadContext:
             return default
         if minimum is not None and (value <= minimum if strict else value < minimum):
             self.problem(prim, name, f"must be {'>' if strict else '>='} {minimum:g}, got {value!r}")
+            return default  # reported once: the model built from it must not report it again
         return value
 
     def color(self, prim, name: str, default) -> tuple[float, float, float]:

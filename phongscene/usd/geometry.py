@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""USD gprims → model geometry in world space (DESIGN §3).
+"""USD gprims → model geometry in world space.
 
 * ``Sphere`` stays analytic: ``world_from_object = world · diag(r, r, r, 1)``.
 * ``Mesh`` is fan-triangulated with numpy (no per-face Python loop; exact for convex faces),
@@ -20,7 +20,7 @@ import trimesh
 from pxr import Usd, UsdGeom
 
 from ..scene import PhongMaterial, Sphere, TriangleMesh
-from ..validate import UNIT_TOLERANCE, is_singular
+from ..tolerances import UNIT_TOLERANCE, is_singular
 from .context import ReadContext, authored_type
 
 # A tessellated face whose unit normal is within this of ±Z (|n_z| > 1 − tol) is a flat cap of a

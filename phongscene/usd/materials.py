@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
-"""USD materials → ``PhongMaterial`` (DESIGN §3): our Phong shader exactly, a
-``UsdPreviewSurface`` approximately (usd-oiio-trimesh-notes §1c), else displayColor or grey."""
+"""USD materials → ``PhongMaterial``: our Phong shader exactly, a
+``UsdPreviewSurface`` approximately, else displayColor or grey."""
 
 from __future__ import annotations
 
@@ -8,14 +8,15 @@ import numpy as np
 from pxr import Sdf, Sdr, Usd, UsdGeom, UsdShade
 
 from ..scene import DEFAULT_MATERIAL, PhongMaterial
-from .context import COLOR_TYPES, ReadContext, authored_type
-from .shader_defs import PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID, phong_input_defaults
+from .context import ReadContext, authored_type
+from .names import COLOR_TYPES, PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
+from .shader_defs import phong_input_defaults, phong_inputs
 
 PREVIEW_SHADER_ID = "UsdPreviewSurface"
 # Highest Phong exponent produced from a UsdPreviewSurface: roughness → 0 maps to a mirror-like
 # lobe (e → ∞); 1e4 is already a sub-pixel highlight at our resolutions.
 PREVIEW_MAX_EXPONENT = 1e4
-# Smallest roughness used in the mapping (keeps 2/α² finite); notes §1c.
+# Smallest roughness used in the mapping (keeps 2/α² finite).
 PREVIEW_MIN_ROUGHNESS = 1e-3
 PREVIEW_INPUTS = ("diffuseColor", "roughness", "metallic", "specularColor", "useSpecularWorkflow", "ior")
 
@@ -29,7 +30,7 @@ def preview_to_phong(
     ior: float = 1.5,
     source: str = "",
 ) -> PhongMaterial:
-    """Approximate a UsdPreviewSurface by a Phong material (usd-oiio-trimesh-notes §1c).
+    """Approximate a UsdPreviewSurface by a Phong material.
 
     roughness r → α = r² (UsdPreviewSurface), Blinn exponent n = 2/α² − 2 (Walter et al. 2007),
     Phong exponent e ≈ n/4 (R·V ≈ cos 2θ_h). Metallic tints the specular colour and darkens the
@@ -115,7 +116,7 @@ class MaterialReader:
     def _phong(self, shader: UsdShade.Shader) -> PhongMaterial:
         prim = shader.GetPrim()
         values = {}
-        for name, (field, sdf_type) in PHONG_INPUTS.items():
+        for name, (field, sdf_type) in phong_inputs().items():
             default = self.phong_defaults[name]
             inp = shader.GetInput(name)
             found = authored_type(inp.GetAttr()) if inp else ""

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Read a USD stage into a validated ``Scene`` (DESIGN §3).
+"""Read a USD stage into a validated ``Scene``.
 
 Every problem found (unreadable file, wrong types, NaN, out-of-range values and indices,
 unknown ``phong:`` attributes) is collected and raised as ONE ``SceneError``, each naming the
@@ -36,28 +36,14 @@ from ..scene import (
     framing_camera,
     head_light,
 )
+from ..tolerances import CAMERA_ORTHOGONAL_TOLERANCE
 from ..validate import validate
-from . import geometry
-from .context import COLOR_TYPES, FLOAT_TYPES, INT_TYPES, STRING_TYPES, ReadContext, gf_to_numpy, unit
+from . import geometry, names
+from .context import ReadContext, gf_to_numpy, unit
 from .materials import MaterialReader
-
-# |forward·up| below this counts as orthogonal: a few ulps of the unit vectors' rounding.
-CAMERA_ORTHOGONAL_TOLERANCE = 1e-12
+from .names import INT_TYPES, PHONG_ATTRIBUTES, STRING_TYPES, in_usd_terms
 
 DEFAULT_SHADOW_SAMPLES = 9  # phong:shadowSamples on area lights: a 9×9 grid (2^3 + 1)
-# Orthographic width = horizontalAperture · this (apertures are tenths of a scene unit).
-APERTURE_UNIT = 0.1
-# Our attributes, by the prim types that may carry them. Anything else in `phong:` is an error.
-PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
-    "SphereLight": {"phong:shadowSamples": INT_TYPES, "phong:fadeDistance": FLOAT_TYPES, "phong:fadePower": FLOAT_TYPES},
-    "RectLight": {"phong:shadowSamples": INT_TYPES},
-    "RenderSettings": {
-        "phong:samples": INT_TYPES,
-        "phong:samplePattern": STRING_TYPES,
-        "phong:specularConvention": STRING_TYPES,
-        "phong:background": COLOR_TYPES,
-    },
-}
 # Composition errors name their arc in the text; report it as the "attribute" (a metadata field).
 _ARC_ATTRIBUTE = {"for reference": "references", "for payload": "payload", "sublayer": "subLayers"}
 _GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cone", "Capsule"}
@@ -131,10 +117,12 @@ def read_usd(source) -> ReadResult:
         ctx.warn("no point, distant or area light: using a head light at the camera (phongscene.scene.head_light)")
     ctx.flush_unsupported()
 
-    # Validation of the model. A prim the reader already found wrong is not reported again
-    # (e.g. a negative intensity would reappear as a negative light colour).
-    reported = {p.prim for p in ctx.problems}
-    problems = ctx.problems + [p for p in validate(scene) if p.prim not in reported]
+    # Validation of the model, in the file's terms. The reader replaced each value it found wrong
+    # by its default, so the model does not report it again; a problem both found on the same
+    # attribute is listed once.
+    reported = {(p.prim, p.attribute) for p in ctx.problems}
+    found = [in_usd_terms(p) for p in validate(scene)]
+    problems = ctx.problems + [p for p in found if (p.prim, p.attribute) not in reported]
     if problems:
         raise SceneError(problems)
     return ReadResult(scene, ctx.warnings, ctx.nodes)
@@ -175,7 +163,7 @@ def _renderable(ctx: ReadContext, prim: Usd.Prim) -> bool:
 
 
 def _check_phong_namespace(ctx: ReadContext) -> None:
-    """Unknown attributes in our `phong:` namespace are errors (DESIGN §3)."""
+    """Unknown attributes in our `phong:` namespace are errors."""
     predicate = Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)
     for prim in Usd.PrimRange(ctx.stage.GetPseudoRoot(), predicate):
         props = prim.GetAuthoredPropertiesInNamespace("phong")
@@ -206,17 +194,17 @@ def _render_settings(ctx: ReadContext) -> tuple[RenderSettings, Usd.Prim | None]
         res = ctx.get(prim, "resolution", ("int2",))
         if res is not None:
             values["width"], values["height"] = int(res[0]), int(res[1])
-    samples = ctx.get(prim, "phong:samples", INT_TYPES)
+    samples = ctx.get(prim, names.SAMPLES, INT_TYPES)
     if samples is not None:
         values["samples"] = int(samples)
-    pattern = ctx.get(prim, "phong:samplePattern", STRING_TYPES)
+    pattern = ctx.get(prim, names.SAMPLE_PATTERN, STRING_TYPES)
     if pattern is not None:
         values["sample_pattern"] = str(pattern)
-    convention = ctx.get(prim, "phong:specularConvention", STRING_TYPES)
+    convention = ctx.get(prim, names.SPECULAR_CONVENTION, STRING_TYPES)
     if convention is not None:
         values["specular"] = str(convention)
-    if prim.GetAttribute("phong:background"):
-        values["background"] = ctx.color(prim, "phong:background", defaults.background)
+    if prim.GetAttribute(names.BACKGROUND):
+        values["background"] = ctx.color(prim, names.BACKGROUND, defaults.background)
     camera = None
     targets = UsdRender.Settings(prim).GetCameraRel().GetForwardedTargets()
     if targets:
@@ -250,7 +238,7 @@ def _camera(ctx: ReadContext, prim: Usd.Prim) -> Camera | None:
         source=str(prim.GetPath()),
     )
     if projection == UsdGeom.Tokens.orthographic:
-        camera = Camera(projection="orthographic", ortho_width=aperture * APERTURE_UNIT, **values)
+        camera = Camera(projection="orthographic", ortho_width=aperture * names.APERTURE_UNIT, **values)
     elif projection == UsdGeom.Tokens.perspective:
         focal = ctx.number(prim, "focalLength", 50.0, minimum=0.0, strict=True)
         fov = 2.0 * math.degrees(math.atan(0.5 * aperture / focal)) if focal > 0 else 60.0
@@ -273,9 +261,7 @@ def _light_color(ctx: ReadContext, prim: Usd.Prim) -> tuple[float, float, float]
     api = UsdLux.LightAPI(prim)
     intensity = ctx.number(prim, "inputs:intensity", 1.0, minimum=0.0)
     exposure = ctx.number(prim, "inputs:exposure", 0.0)
-    color = np.asarray(ctx.color(prim, "inputs:color", (1.0, 1.0, 1.0)), dtype=np.float64)
-    if min(color) < 0:
-        ctx.problem(prim, "inputs:color", f"must be >= 0 in every channel, got {tuple(color)}")
+    color = np.asarray(ctx.color(prim, "inputs:color", (1.0, 1.0, 1.0)), dtype=np.float64)  # >= 0: validate
     if api.GetEnableColorTemperatureAttr().Get(ctx.time):
         kelvin = ctx.number(prim, "inputs:colorTemperature", 6500.0, minimum=0.0, strict=True)
         color = color * np.asarray(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
@@ -289,7 +275,7 @@ def _light_color(ctx: ReadContext, prim: Usd.Prim) -> tuple[float, float, float]
 
 
 def _shadow_samples(ctx: ReadContext, prim: Usd.Prim) -> int:
-    return int(ctx.get(prim, "phong:shadowSamples", INT_TYPES, DEFAULT_SHADOW_SAMPLES))
+    return int(ctx.get(prim, names.SHADOW_SAMPLES, INT_TYPES, DEFAULT_SHADOW_SAMPLES))
 
 
 def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> None:
@@ -311,14 +297,14 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
         radius_world = radius * float(np.mean(np.linalg.norm(world[:3, :3], axis=0)))
         colour = _light_color(ctx, prim)
         if point:
-            if prim.GetAttribute("phong:shadowSamples").HasAuthoredValue():
-                ctx.problem(prim, "phong:shadowSamples", "applies to area lights only (this SphereLight is a point light)")
-            fade_distance = ctx.number(prim, "phong:fadeDistance", 0.0)
-            fade_power = ctx.number(prim, "phong:fadePower", 0.0)
+            if prim.GetAttribute(names.SHADOW_SAMPLES).HasAuthoredValue():
+                ctx.problem(prim, names.SHADOW_SAMPLES, "applies to area lights only (this SphereLight is a point light)")
+            fade_distance = ctx.number(prim, names.FADE_DISTANCE, 0.0)
+            fade_power = ctx.number(prim, names.FADE_POWER, 0.0)
             lights.append(PointLight(centre, colour, fade_distance, fade_power, path))
             ctx.nodes.append((path, "PointLight"))
         else:
-            for name in ("phong:fadeDistance", "phong:fadePower"):
+            for name in (names.FADE_DISTANCE, names.FADE_POWER):
                 if prim.GetAttribute(name).HasAuthoredValue():
                     ctx.problem(prim, name, "applies to point lights only (treatAsPoint or radius 0)")
             lights.append(SphereAreaLight(centre, radius_world, colour, _shadow_samples(ctx, prim), path))

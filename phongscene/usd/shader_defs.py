@@ -2,7 +2,7 @@
 """Registers phongscene's Phong surface with USD's shader registry (Sdr) and describes its inputs.
 
 The definition lives in ``schemas/phongShaderDefs.usda`` (packaged as ``phongscene.schemas``).
-Sdr registration works at any time, also after stages were opened (usd-oiio-trimesh-notes §1a),
+Sdr registration works at any time, also after stages were opened (Sdr.Registry accepts discovery results at any time),
 so importing this module late is fine.
 """
 
@@ -12,19 +12,16 @@ import importlib.resources
 
 from pxr import Sdf, Sdr, Usd, UsdShade
 
-PHONG_SHADER_ID = "phongscene_PhongSurface"  # Sdr identifier = the definition prim's name
-PHONG_RENDER_CONTEXT = "phong"  # materials connect our shader to outputs:phong:surface
-DEFINITIONS_FILE = "phongShaderDefs.usda"
+from .names import PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
 
-# USD input name -> (PhongMaterial field, Sdf value type). The one attribute <-> field table.
-PHONG_INPUTS: dict[str, tuple[str, Sdf.ValueTypeName]] = {
-    "ka": ("ka", Sdf.ValueTypeNames.Float),
-    "kd": ("kd", Sdf.ValueTypeNames.Float),
-    "ks": ("ks", Sdf.ValueTypeNames.Float),
-    "exponent": ("exponent", Sdf.ValueTypeNames.Float),
-    "diffuseColor": ("diffuse_color", Sdf.ValueTypeNames.Color3f),
-    "specularColor": ("specular_color", Sdf.ValueTypeNames.Color3f),
-}
+DEFINITIONS_FILE = "phongShaderDefs.usda"
+__all__ = ["DEFINITIONS_FILE", "PHONG_RENDER_CONTEXT", "PHONG_SHADER_ID", "phong_inputs", "phong_input_defaults",
+           "register_phong_shader"]
+
+
+def phong_inputs() -> dict[str, tuple[str, Sdf.ValueTypeName]]:
+    """The Phong shader's inputs: USD input name -> (PhongMaterial field, Sdf value type)."""
+    return {name: (field, Sdf.ValueTypeNames.Find(type_name)) for name, (field, type_name) in PHONG_INPUTS.items()}
 
 
 def register_phong_shader() -> None:

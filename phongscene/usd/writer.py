@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """Author USD from the scene model: small ``define_*`` helpers and ``write_usd(scene, path)``.
 
-Materials get BOTH surface outputs (DESIGN §3): ``outputs:surface`` → a UsdPreviewSurface (what
+Materials get BOTH surface outputs: ``outputs:surface`` → a UsdPreviewSurface (what
 usdview and other tools show) and ``outputs:phong:surface`` → our Phong shader with every input
 authored. The file is written atomically (temporary file + rename).
 
@@ -36,13 +36,14 @@ from ..scene import (
     SphereAreaLight,
     TriangleMesh,
 )
-from ..validate import UNIT_TOLERANCE
-from .shader_defs import PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
+from ..tolerances import UNIT_TOLERANCE
+from . import names
+from .names import PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
+from .shader_defs import phong_inputs
 
 # The focal length written for perspective cameras (tenths of a scene unit, as in USD); the
 # horizontal aperture is chosen to give the model's FOV. 50 is USD's fallback.
 FOCAL_LENGTH = 50.0
-APERTURE_UNIT = 0.1  # orthographic width = horizontalAperture · 0.1
 FORMATS = (".usda", ".usdc", ".usd")
 
 
@@ -78,13 +79,13 @@ def define_phong_material(stage: Usd.Stage, path: str, material: PhongMaterial =
     mat = UsdShade.Material.Define(stage, path)
     phong = UsdShade.Shader.Define(stage, f"{path}/Phong")
     phong.SetShaderId(PHONG_SHADER_ID)
-    for name, (field, sdf_type) in PHONG_INPUTS.items():
+    for name, (field, sdf_type) in phong_inputs().items():
         value = getattr(material, field)
         phong.CreateInput(name, sdf_type).Set(Gf.Vec3f(*map(float, value)) if isinstance(value, tuple) else float(value))
     mat.CreateSurfaceOutput(PHONG_RENDER_CONTEXT).ConnectToSource(phong.ConnectableAPI(), "surface")
 
     # Preview fallback: Lambert albedo kd·cd, specular ks·cs, roughness inverting the reader's
-    # mapping e = (2/α² − 2)/4 with α = r² (usd-oiio-trimesh-notes §1c).
+    # mapping e = (2/α² − 2)/4 with α = r².
     preview = UsdShade.Shader.Define(stage, f"{path}/Preview")
     preview.SetShaderId("UsdPreviewSurface")
     albedo = np.clip(np.asarray(material.diffuse_color, dtype=np.float64) * material.kd, 0.0, 1.0)
@@ -166,14 +167,14 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
         prim.CreateRadiusAttr(0.0)
         _set_translate(prim, light.position)
         p = prim.GetPrim()
-        p.CreateAttribute("phong:fadeDistance", Sdf.ValueTypeNames.Double).Set(float(light.fade_distance))
-        p.CreateAttribute("phong:fadePower", Sdf.ValueTypeNames.Double).Set(float(light.fade_power))
+        p.CreateAttribute(names.FADE_DISTANCE, Sdf.ValueTypeNames.Double).Set(float(light.fade_distance))
+        p.CreateAttribute(names.FADE_POWER, Sdf.ValueTypeNames.Double).Set(float(light.fade_power))
     elif isinstance(light, SphereAreaLight):
         prim = UsdLux.SphereLight.Define(stage, path)
         prim.CreateTreatAsPointAttr(False)
         prim.CreateRadiusAttr(float(light.radius))
         _set_translate(prim, light.center)
-        prim.GetPrim().CreateAttribute("phong:shadowSamples", Sdf.ValueTypeNames.Int).Set(int(light.samples))
+        prim.GetPrim().CreateAttribute(names.SHADOW_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.samples))
     elif isinstance(light, DirectionalLight):
         prim = UsdLux.DistantLight.Define(stage, path)
         d = np.asarray(light.direction, dtype=np.float64)
@@ -188,7 +189,7 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
         prim.CreateWidthAttr(1.0)
         prim.CreateHeightAttr(1.0)
         _set_transform(prim, _frame(light.axis_u, light.axis_v, light.center))
-        prim.GetPrim().CreateAttribute("phong:shadowSamples", Sdf.ValueTypeNames.Int).Set(int(light.samples))
+        prim.GetPrim().CreateAttribute(names.SHADOW_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.samples))
     else:
         raise TypeError(f"not a light: {light!r}")
     _set_light_color(UsdLux.LightAPI(prim.GetPrim()), light.color)
@@ -205,7 +206,7 @@ def define_camera(stage: Usd.Stage, path: str, camera: Camera, aspect: float = 4
     _set_transform(prim, m)
     if camera.projection == "orthographic":
         prim.CreateProjectionAttr(UsdGeom.Tokens.orthographic)
-        aperture = camera.ortho_width / APERTURE_UNIT
+        aperture = camera.ortho_width / names.APERTURE_UNIT
     else:
         prim.CreateProjectionAttr(UsdGeom.Tokens.perspective)
         prim.CreateFocalLengthAttr(FOCAL_LENGTH)
@@ -223,10 +224,10 @@ def define_render_settings(stage: Usd.Stage, path: str, settings: RenderSettings
     if camera_path:
         prim.CreateCameraRel().SetTargets([Sdf.Path(camera_path)])
     p = prim.GetPrim()
-    p.CreateAttribute("phong:samples", Sdf.ValueTypeNames.Int).Set(int(settings.samples))
-    p.CreateAttribute("phong:samplePattern", Sdf.ValueTypeNames.Token).Set(settings.sample_pattern)
-    p.CreateAttribute("phong:specularConvention", Sdf.ValueTypeNames.Token).Set(settings.specular)
-    p.CreateAttribute("phong:background", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*map(float, settings.background)))
+    p.CreateAttribute(names.SAMPLES, Sdf.ValueTypeNames.Int).Set(int(settings.samples))
+    p.CreateAttribute(names.SAMPLE_PATTERN, Sdf.ValueTypeNames.Token).Set(settings.sample_pattern)
+    p.CreateAttribute(names.SPECULAR_CONVENTION, Sdf.ValueTypeNames.Token).Set(settings.specular)
+    p.CreateAttribute(names.BACKGROUND, Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*map(float, settings.background)))
     stage.SetMetadata("renderSettingsPrimPath", path)
     return prim
 

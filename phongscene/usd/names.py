@@ -1,0 +1,135 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The one table between the scene model's field names and USD's attribute names.
+
+The model (``phongscene.scene``, ``phongscene.validate``) and the backends name model fields
+(``ks``, ``samples``); USD files name attributes (``inputs:ks``, ``phong:samples``). The reader,
+the writer and the shader definition use this table, and ``in_usd_terms`` translates a problem
+found in the model into the attribute a user sees in the file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from ..errors import Problem, SceneError
+
+# -- the Phong shader ---------------------------------------------------------------------------
+
+PHONG_SHADER_ID = "phongscene_PhongSurface"  # Sdr identifier = the definition prim's name
+PHONG_RENDER_CONTEXT = "phong"  # materials connect our shader to outputs:phong:surface
+
+# Shader input (without "inputs:") -> (PhongMaterial field, Sdf value type name).
+PHONG_INPUTS: dict[str, tuple[str, str]] = {
+    "ka": ("ka", "float"),
+    "kd": ("kd", "float"),
+    "ks": ("ks", "float"),
+    "exponent": ("exponent", "float"),
+    "diffuseColor": ("diffuse_color", "color3f"),
+    "specularColor": ("specular_color", "color3f"),
+}
+
+# -- our own attributes (the `phong:` namespace) -------------------------------------------------
+
+INT_TYPES = ("int", "uint", "int64", "uint64")
+FLOAT_TYPES = ("float", "double", "half")
+STRING_TYPES = ("token", "string")
+COLOR_TYPES = ("color3f", "color3d", "color3h", "float3", "double3", "half3")
+
+SHADOW_SAMPLES = "phong:shadowSamples"
+FADE_DISTANCE = "phong:fadeDistance"
+FADE_POWER = "phong:fadePower"
+SAMPLES = "phong:samples"
+SAMPLE_PATTERN = "phong:samplePattern"
+SPECULAR_CONVENTION = "phong:specularConvention"
+BACKGROUND = "phong:background"
+
+# Our attributes, by the prim types that may carry them, with the value types accepted.
+# Anything else in `phong:` is an error (a typo must not be ignored).
+PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
+    "SphereLight": {SHADOW_SAMPLES: INT_TYPES, FADE_DISTANCE: FLOAT_TYPES, FADE_POWER: FLOAT_TYPES},
+    "RectLight": {SHADOW_SAMPLES: INT_TYPES},
+    "RenderSettings": {
+        SAMPLES: INT_TYPES,
+        SAMPLE_PATTERN: STRING_TYPES,
+        SPECULAR_CONVENTION: STRING_TYPES,
+        BACKGROUND: COLOR_TYPES,
+    },
+}
+
+# -- USD conventions ------------------------------------------------------------------------------
+
+# Camera apertures are in tenths of a scene unit (UsdGeom.Camera): an orthographic camera's
+# view width is horizontalAperture · APERTURE_UNIT.
+APERTURE_UNIT = 0.1
+
+# -- model field -> USD attribute, by model node type --------------------------------------------
+
+# Transforms come from the prim's xformOps; a sphere's size from its radius (its transform is
+# world · diag(radius)); a camera's FOV and orthographic width from its horizontal aperture.
+USD_ATTRIBUTES: dict[str, dict[str, str]] = {
+    "PhongMaterial": {field: f"inputs:{name}" for name, (field, _) in PHONG_INPUTS.items()},
+    "Camera": {
+        "position": "xformOp",
+        "forward": "xformOp",
+        "up": "xformOp",
+        "projection": "projection",
+        "horizontal_fov_deg": "horizontalAperture",
+        "ortho_width": "horizontalAperture",
+    },
+    "AmbientLight": {"color": "inputs:color"},
+    "PointLight": {
+        "position": "xformOp",
+        "color": "inputs:color",
+        "fade_distance": FADE_DISTANCE,
+        "fade_power": FADE_POWER,
+    },
+    "DirectionalLight": {"direction": "xformOp", "color": "inputs:color"},
+    "RectAreaLight": {
+        "center": "xformOp",
+        "axis_u": "inputs:width",
+        "axis_v": "inputs:height",
+        "color": "inputs:color",
+        "samples": SHADOW_SAMPLES,
+    },
+    "SphereAreaLight": {
+        "center": "xformOp",
+        "radius": "inputs:radius",
+        "color": "inputs:color",
+        "samples": SHADOW_SAMPLES,
+    },
+    "Sphere": {"world_from_object": "radius"},
+    "TriangleMesh": {
+        "points": "points",
+        "triangles": "faceVertexIndices",
+        "normals": "normals",
+        "normal_indices": "normals",
+    },
+    "RenderSettings": {
+        "width": "resolution",
+        "height": "resolution",
+        "samples": SAMPLES,
+        "sample_pattern": SAMPLE_PATTERN,
+        "specular": SPECULAR_CONVENTION,
+        "background": BACKGROUND,
+    },
+}
+
+
+def usd_attribute(node: str, field: str) -> str:
+    """The USD attribute that holds model field ``field`` of a node of type ``node``
+    (``field`` itself when it has no USD counterpart, e.g. ``threads``)."""
+    return USD_ATTRIBUTES.get(node, {}).get(field, field)
+
+
+def in_usd_terms(problem: Problem) -> Problem:
+    """``problem`` naming the USD attribute instead of the model field, when it is about a node
+    read from USD (its prim is a USD path); otherwise unchanged."""
+    if not problem.node or not problem.prim.startswith("/"):
+        return problem
+    return replace(problem, attribute=usd_attribute(problem.node, problem.attribute), node="")
+
+
+def error_in_usd_terms(error: SceneError) -> SceneError:
+    """The same error with every problem ``in_usd_terms``."""
+    problems = [in_usd_terms(p) for p in error.problems]
+    return error if problems == error.problems else SceneError(problems)
