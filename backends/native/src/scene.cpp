@@ -199,9 +199,10 @@ void traverse(const std::vector<BvhNode>& nodes, const Ray& ray, double t_min, d
 bool Scene::closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) const {
     // Exact ties (coincident surfaces hit at the same t) go to the lower primitive id, so the
     // hit does not depend on the BVH's shape or visiting order: once a hit is found, primitives
-    // are tested up to and including t_best, and boxes up to a little beyond it (a box's entry
-    // distance rounds by < 2 ulps, kTieCullMargin covers it).
-    constexpr double kTieCullMargin = 8.0 * 2.220446049250313e-16;
+    // are tested up to and including t_best, and boxes up to a little beyond it: a box's entry
+    // distance errs by < 2ε relative (three roundings of ≤ ε/2, as in hit_node), and
+    // kTieCullMargin = 8ε keeps a 4x margin over it, like kSelfHitError.
+    constexpr double kTieCullMargin = ulps(8);
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool found = false;
     double t_best = t_max, t_test = t_max, t_cull = t_max;
