@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// The camera: primary rays exactly as POV-Ray 3.7 builds them (reference §3, tracepixel.cpp
+// The camera: primary rays exactly as POV-Ray 3.7 builds them (its source, tracepixel.cpp:
 // CreateCameraRay), from the model's Camera (position, forward, up, horizontal FOV or ortho
 // width) set up like POV-Ray's `right -x*W/H up y angle HFOV` for a right-handed world.
 #pragma once

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Lights with POV-Ray 3.7's semantics (reference §5; trace.cpp ComputeOneWhiteLightRay,
+// Lights with POV-Ray 3.7's semantics (its source, trace.cpp: ComputeOneWhiteLightRay,
 // TraceAreaLightShadowRay, TraceAreaLightSubsetShadowRay): shading always uses the direction
 // to the light's centre; area lights only change the shadow fraction, computed over a
 // samples x samples grid (edges included) with the weights of POV-Ray's full 4-corner
