@@ -24,6 +24,11 @@ struct PointLight {
 struct DirectionalLight {
     Vec3 to_light;  // unit, opposite to the direction the light travels
     RGB color;
+
+    // From the direction the light travels (the model's and POV-Ray's), of any length.
+    static DirectionalLight travelling(const Vec3& direction, const RGB& color) {
+        return {-normalize(direction), color};
+    }
 };
 
 struct RectAreaLight {
