@@ -1,11 +1,12 @@
 # SPDX-License-Identifier: Apache-2.0
 """Native backend: the C++ ray tracer extension (``_native``) and its thin Python wrapper.
 
-``render(scene)`` flattens a validated :class:`phongscene.Scene` into a few numpy arrays
-(meshes concatenated with index offsets, per-primitive material ids, sphere matrices and their
-inverses) with vectorised numpy only, hands them to C++ (which copies them and builds a SAH BVH
-with the GIL released) and renders on a thread pool. This module is the only code that knows
-both sides; the row layouts match ``src/scene.hpp``.
+``render(scene)`` turns a validated :class:`phongscene.Scene` into the extension's objects:
+materials, lights, camera and settings as the bound C++ structs (``_native.Material``,
+``_native.PointLight``, ...), and the geometry as a few numpy arrays (meshes concatenated with
+index offsets, per-primitive material ids, sphere matrices and their inverses) built with
+vectorised numpy only. C++ copies them and builds a SAH BVH with the GIL released, then renders
+on a thread pool. This module is the only code that knows both sides.
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ from collections.abc import Callable
 import numpy as np
 
 from phongscene.scene import (
+    Camera,
     DirectionalLight,
+    Light,
     PhongMaterial,
     PointLight,
     RectAreaLight,
@@ -28,44 +31,65 @@ from . import _native
 
 __all__ = ["build", "render", "scene_arrays", "_native"]
 
-# Light row layout (src/scene.hpp): kind, position|center (1-3), direction (4-6), color (7-9),
-# fade_distance (10), fade_power (11), axis_u (12-14), axis_v (15-17), radius (18), samples (19).
-_POINT, _DIRECTIONAL, _RECT, _SPHERE = 0, 1, 2, 3
-assert _native.LIGHT_COLUMNS == 20 and _native.MATERIAL_COLUMNS == 10
+_SAMPLE_PATTERNS = {"grid": _native.SamplePattern.grid, "povray-am1": _native.SamplePattern.povray_am1}
+_SPECULAR_CONVENTIONS = {
+    "seed": _native.SpecularConvention.seed,
+    "povray-classic": _native.SpecularConvention.povray_classic,
+}
 
 
-def _material_row(m: PhongMaterial) -> list[float]:
-    return [m.ka, m.kd, m.ks, m.exponent, *m.diffuse_color, *m.specular_color]
+def _material(m: PhongMaterial) -> _native.Material:
+    return _native.Material(
+        ka=m.ka, kd=m.kd, ks=m.ks, exponent=m.exponent, diffuse_color=m.diffuse_color, specular_color=m.specular_color
+    )
 
 
-def _light_row(light) -> np.ndarray:
-    row = np.zeros(_native.LIGHT_COLUMNS)
-    row[7:10] = light.color
+def _light(light: Light):
     if isinstance(light, PointLight):
-        row[0] = _POINT
-        row[1:4] = light.position
-        row[10:12] = light.fade_distance, light.fade_power
-    elif isinstance(light, DirectionalLight):
-        row[0] = _DIRECTIONAL
-        row[4:7] = light.direction
-    elif isinstance(light, RectAreaLight):
-        row[0] = _RECT
-        row[1:4] = light.center
-        row[12:15] = light.axis_u
-        row[15:18] = light.axis_v
-        row[19] = light.samples
-    elif isinstance(light, SphereAreaLight):
-        row[0] = _SPHERE
-        row[1:4] = light.center
-        row[18] = light.radius
-        row[19] = light.samples
-    else:  # a validated scene has only the model's light types
-        raise TypeError(f"unsupported light {type(light).__name__}")
-    return row
+        return _native.PointLight(
+            position=light.position, color=light.color, fade_distance=light.fade_distance, fade_power=light.fade_power
+        )
+    if isinstance(light, DirectionalLight):
+        return _native.DirectionalLight(direction=light.direction, color=light.color)
+    if isinstance(light, RectAreaLight):
+        return _native.RectAreaLight(
+            center=light.center, axis_u=light.axis_u, axis_v=light.axis_v, color=light.color, samples=light.samples
+        )
+    if isinstance(light, SphereAreaLight):
+        return _native.SphereAreaLight(
+            center=light.center, radius=light.radius, color=light.color, samples=light.samples
+        )
+    # A validated scene has only the model's light types.
+    raise TypeError(f"unsupported light {type(light).__name__}")
+
+
+def _camera(camera: Camera) -> _native.CameraDescription:
+    return _native.CameraDescription(
+        position=camera.position,
+        forward=camera.forward,
+        up=camera.up,
+        orthographic=camera.projection == "orthographic",
+        horizontal_fov_deg=camera.horizontal_fov_deg,
+        ortho_width=camera.ortho_width,
+    )
+
+
+def _settings(s: RenderSettings) -> _native.RenderSettings:
+    return _native.RenderSettings(
+        width=s.width,
+        height=s.height,
+        samples=s.samples,
+        sample_pattern=_SAMPLE_PATTERNS[s.sample_pattern],
+        threads=s.threads,
+        background=s.background,
+        specular_convention=_SPECULAR_CONVENTIONS[s.specular],
+    )
 
 
 def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:
-    """The flat arrays ``_native.Scene`` takes (keyword names match its constructor)."""
+    """The arguments ``_native.Scene`` takes, by keyword: the geometry as numpy arrays, the
+    materials (indexed by ``sphere_material`` and ``triangle_material``), the lights and the
+    ambient colour."""
     material_ids: dict[PhongMaterial, int] = {}
 
     def material_id(m: PhongMaterial) -> int:
@@ -104,8 +128,6 @@ def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:
         if meshes
         else np.zeros((0, 3), np.int32)
     )
-    materials = np.array([_material_row(m) for m in material_ids], dtype=np.float64).reshape(-1, _native.MATERIAL_COLUMNS)
-    lights = np.array([_light_row(light) for light in scene.lights], dtype=np.float64).reshape(-1, _native.LIGHT_COLUMNS)
 
     def c(a, dtype):
         return np.ascontiguousarray(a, dtype=dtype)
@@ -119,9 +141,9 @@ def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:
         "triangle_material": c(triangle_material, np.int32),
         "normals": c(normals, np.float64),
         "normal_indices": c(normal_indices, np.int32),
-        "materials": c(materials, np.float64),
-        "lights": c(lights, np.float64),
-        "ambient": c(scene.ambient.color, np.float64),
+        "materials": [_material(m) for m in material_ids],
+        "lights": [_light(light) for light in scene.lights],
+        "ambient": scene.ambient.color,
     }
 
 
@@ -152,22 +174,9 @@ def render(
     Raises:
         KeyboardInterrupt: on Ctrl-C, promptly (the workers stop at their next tile).
     """
-    s = scene.settings if settings is None else settings
     native_scene = build(scene)
-    cam = scene.camera
     return native_scene.render(
-        position=np.array(cam.position, np.float64),
-        forward=np.array(cam.forward, np.float64),
-        up=np.array(cam.up, np.float64),
-        orthographic=cam.projection == "orthographic",
-        horizontal_fov_deg=float(cam.horizontal_fov_deg),
-        ortho_width=float(cam.ortho_width),
-        width=int(s.width),
-        height=int(s.height),
-        samples=int(s.samples),
-        pattern=s.sample_pattern,
-        threads=int(s.threads),
-        background=np.array(s.background, np.float64),
-        specular=s.specular,
+        camera=_camera(scene.camera),
+        settings=_settings(scene.settings if settings is None else settings),
         progress=progress,
     )

@@ -1,22 +1,52 @@
 // SPDX-License-Identifier: Apache-2.0
-// Python bindings of the native tracer: the only file that includes nanobind. The Python
-// wrapper (backends/native/__init__.py) flattens a phongscene.Scene into the arrays below.
+// Python bindings of the native tracer: the only file that includes nanobind. The C++ structs
+// of materials, lights, the camera and the render settings are bound as Python classes with
+// named fields; numpy arrays carry only the bulk geometry. The Python wrapper
+// (backends/native/__init__.py) builds both from a phongscene.Scene.
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
-#include <nanobind/stl/string.h>
+#include <nanobind/stl/array.h>
+#include <nanobind/stl/variant.h>
+#include <nanobind/stl/vector.h>
 
+#include <array>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <stdexcept>
-#include <string>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include "camera.hpp"
+#include "lights.hpp"
+#include "materials.hpp"
 #include "render.hpp"
 #include "scene.hpp"
 
 namespace nb = nanobind;
 using namespace nb::literals;
+
+// Vec3 (and RGB) cross as any sequence of three floats from Python and come back as a list, like
+// std::array<double, 3>.
+namespace nanobind::detail {
+template <>
+struct type_caster<phong::Vec3> {
+    using Xyz = std::array<double, 3>;
+    NB_TYPE_CASTER(phong::Vec3, make_caster<Xyz>::Name)
+
+    bool from_python(handle src, uint32_t flags, cleanup_list* cleanup) noexcept {
+        make_caster<Xyz> xyz;
+        if (!xyz.from_python(src, flags, cleanup)) return false;
+        value = {xyz.value[0], xyz.value[1], xyz.value[2]};
+        return true;
+    }
+
+    static handle from_cpp(const phong::Vec3& v, rv_policy policy, cleanup_list* cleanup) noexcept {
+        return make_caster<Xyz>::from_cpp(Xyz{v.x, v.y, v.z}, policy, cleanup);
+    }
+};
+}  // namespace nanobind::detail
 
 namespace {
 
@@ -27,26 +57,19 @@ using Matrices = In<double, nb::shape<-1, 4, 4>>;
 using Rows3 = In<double, nb::shape<-1, 3>>;
 using Index3 = In<int32_t, nb::shape<-1, 3>>;
 using Index1 = In<int32_t, nb::shape<-1>>;
-using Table = In<double, nb::shape<-1, -1>>;
-using Vector3 = In<double, nb::shape<3>>;
-
-phong::Vec3 vec3(const Vector3& a) { return {a(0), a(1), a(2)}; }
 
 std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_object,
                                          const Matrices& sphere_object_from_world, const Index1& sphere_material,
                                          const Rows3& points, const Index3& triangles, const Index1& triangle_material,
-                                         const Rows3& normals, const Index3& normal_indices, const Table& materials,
-                                         const Table& lights, const Vector3& ambient) {
+                                         const Rows3& normals, const Index3& normal_indices,
+                                         std::vector<phong::Material> materials, std::vector<phong::Light> lights,
+                                         const phong::RGB& ambient) {
     const size_t n_spheres = sphere_world_from_object.shape(0), n_triangles = triangles.shape(0);
     if (sphere_object_from_world.shape(0) != n_spheres || sphere_material.shape(0) != n_spheres)
         throw std::invalid_argument("sphere arrays differ in length");
     if (triangle_material.shape(0) != n_triangles || normal_indices.shape(0) != n_triangles)
         throw std::invalid_argument("triangle arrays differ in length");
-    if (materials.shape(1) != phong::kMaterialColumns && materials.shape(0) > 0)
-        throw std::invalid_argument("materials must have " + std::to_string(phong::kMaterialColumns) + " columns");
-    if (lights.shape(1) != phong::kLightColumns && lights.shape(0) > 0)
-        throw std::invalid_argument("lights must have " + std::to_string(phong::kLightColumns) + " columns");
-    phong::SceneArrays a;
+    phong::GeometryArrays a;
     a.sphere_world_from_object = sphere_world_from_object.data();
     a.sphere_object_from_world = sphere_object_from_world.data();
     a.sphere_material = sphere_material.data();
@@ -59,39 +82,20 @@ std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_objec
     a.triangle_count = n_triangles;
     a.normals = normals.data();
     a.normal_count = normals.shape(0);
-    a.materials = materials.data();
-    a.material_count = materials.shape(0);
-    a.lights = lights.data();
-    a.light_count = lights.shape(0);
-    a.ambient = vec3(ambient);
     // The arrays stay alive (held by the caller's frame) while the GIL is released.
     nb::gil_scoped_release release;
-    return std::make_unique<phong::Scene>(a);
+    return std::make_unique<phong::Scene>(a, std::move(materials), std::move(lights), ambient);
 }
 
 using Image = nb::ndarray<nb::numpy, float, nb::shape<-1, -1, 3>>;
 
-Image render(const phong::Scene& scene, const Vector3& position, const Vector3& forward, const Vector3& up,
-             bool orthographic, double horizontal_fov_deg, double ortho_width, int width, int height, int samples,
-             const std::string& pattern, int threads, const Vector3& background, const std::string& specular,
-             nb::object progress) {
-    if (width < 1 || height < 1 || samples < 1) throw std::invalid_argument("width, height and samples must be >= 1");
-    phong::RenderSettings settings;
-    settings.width = width;
-    settings.height = height;
-    settings.samples = samples;
-    if (pattern == "grid") settings.pattern = phong::SamplePattern::kGrid;
-    else if (pattern == "povray-am1") settings.pattern = phong::SamplePattern::kPovrayAm1;
-    else throw std::invalid_argument("unknown sample pattern '" + pattern + "'");
-    if (specular == "seed") settings.convention = phong::SpecularConvention::kSeed;
-    else if (specular == "povray-classic") settings.convention = phong::SpecularConvention::kPovrayClassic;
-    else throw std::invalid_argument("unknown specular convention '" + specular + "'");
-    settings.threads = threads;
-    settings.background = vec3(background);
-    const phong::Camera camera = phong::Camera::make(vec3(position), vec3(forward), vec3(up), orthographic,
-                                                     horizontal_fov_deg, ortho_width, width, height);
+Image render(const phong::Scene& scene, const phong::CameraDescription& camera_description,
+             const phong::RenderSettings& settings, nb::object progress) {
+    if (settings.width < 1 || settings.height < 1 || settings.samples < 1)
+        throw std::invalid_argument("width, height and samples must be >= 1");
+    const phong::Camera camera = phong::Camera::make(camera_description, settings.width, settings.height);
 
-    const size_t count = size_t(width) * size_t(height) * 3;
+    const size_t count = size_t(settings.width) * size_t(settings.height) * 3;
     float* pixels = new float[count]();
     nb::capsule owner(pixels, [](void* p) noexcept { delete[] static_cast<float*>(p); });
 
@@ -113,7 +117,7 @@ Image render(const phong::Scene& scene, const Vector3& position, const Vector3& 
         });
     }
     if (error) throw std::move(*error);
-    return Image(pixels, {size_t(height), size_t(width), 3}, owner);
+    return Image(pixels, {size_t(settings.height), size_t(settings.width), 3}, owner);
 }
 
 // Closest hit per ray through the BVH: (t, primitive id), t = inf and id = -1 on a miss.
@@ -167,29 +171,107 @@ NB_MODULE(_native, m) {
     m.doc() = "phongscene native ray tracer (C++17)";
     m.def("hardware_threads", [] { return std::thread::hardware_concurrency(); },
           "Number of hardware threads the tracer uses when threads=0.");
-    m.attr("MATERIAL_COLUMNS") = phong::kMaterialColumns;
-    m.attr("LIGHT_COLUMNS") = phong::kLightColumns;
     m.attr("SHADOW_WINDOW") = phong::kShadowWindow;
     m.attr("PRIMARY_NEAR") = phong::kPrimaryNear;
     m.attr("SELF_HIT_WINDOW") = phong::kSelfHitWindow;
     m.attr("ACNE_FREE_COSINE") = phong::kAcneFreeCosine;
 
-    nb::class_<phong::Scene>(m, "Scene", "A scene built from flat arrays, with its BVH.")
+    nb::enum_<phong::SamplePattern>(m, "SamplePattern", "Where a pixel's primary rays go (render.hpp).")
+        .value("grid", phong::SamplePattern::kGrid)
+        .value("povray_am1", phong::SamplePattern::kPovrayAm1);
+    nb::enum_<phong::SpecularConvention>(m, "SpecularConvention", "Which Phong specular term (materials.hpp).")
+        .value("seed", phong::SpecularConvention::kSeed)
+        .value("povray_classic", phong::SpecularConvention::kPovrayClassic);
+
+    using phong::Material;
+    nb::class_<Material>(m, "Material", "Suffern's Phong material (materials.hpp).")
+        .def(nb::init<double, double, double, double, phong::RGB, phong::RGB>(), "ka"_a, "kd"_a, "ks"_a,
+             "exponent"_a, "diffuse_color"_a, "specular_color"_a)
+        .def_rw("ka", &Material::ka)
+        .def_rw("kd", &Material::kd)
+        .def_rw("ks", &Material::ks)
+        .def_rw("exponent", &Material::exponent)
+        .def_rw("diffuse_color", &Material::diffuse_color)
+        .def_rw("specular_color", &Material::specular_color);
+
+    using phong::PointLight;
+    nb::class_<PointLight>(m, "PointLight", "A point light, with POV-Ray's fade when fade_power > 0.")
+        .def(nb::init<phong::Vec3, phong::RGB, double, double>(), "position"_a, "color"_a, "fade_distance"_a,
+             "fade_power"_a)
+        .def_rw("position", &PointLight::position)
+        .def_rw("color", &PointLight::color)
+        .def_rw("fade_distance", &PointLight::fade_distance)
+        .def_rw("fade_power", &PointLight::fade_power);
+
+    using phong::DirectionalLight;
+    nb::class_<DirectionalLight>(m, "DirectionalLight", "A light at infinity; made from the direction it travels.")
+        .def("__init__",
+             [](DirectionalLight* self, const phong::Vec3& direction, const phong::RGB& color) {
+                 new (self) DirectionalLight(DirectionalLight::travelling(direction, color));
+             },
+             "direction"_a, "color"_a)
+        .def_rw("to_light", &DirectionalLight::to_light)
+        .def_rw("color", &DirectionalLight::color);
+
+    using phong::RectAreaLight;
+    nb::class_<RectAreaLight>(m, "RectAreaLight", "A rectangular area light, samples x samples shadow rays.")
+        .def(nb::init<phong::Vec3, phong::Vec3, phong::Vec3, phong::RGB, int>(), "center"_a, "axis_u"_a, "axis_v"_a,
+             "color"_a, "samples"_a)
+        .def_rw("center", &RectAreaLight::center)
+        .def_rw("axis_u", &RectAreaLight::axis_u)
+        .def_rw("axis_v", &RectAreaLight::axis_v)
+        .def_rw("color", &RectAreaLight::color)
+        .def_rw("samples", &RectAreaLight::samples);
+
+    using phong::SphereAreaLight;
+    nb::class_<SphereAreaLight>(m, "SphereAreaLight", "A spherical light: POV-Ray's circular, oriented area light.")
+        .def(nb::init<phong::Vec3, double, phong::RGB, int>(), "center"_a, "radius"_a, "color"_a, "samples"_a)
+        .def_rw("center", &SphereAreaLight::center)
+        .def_rw("radius", &SphereAreaLight::radius)
+        .def_rw("color", &SphereAreaLight::color)
+        .def_rw("samples", &SphereAreaLight::samples);
+
+    using phong::CameraDescription;
+    nb::class_<CameraDescription>(m, "CameraDescription", "The model's camera (camera.hpp).")
+        .def(nb::init<phong::Vec3, phong::Vec3, phong::Vec3, bool, double, double>(), "position"_a, "forward"_a,
+             "up"_a, "orthographic"_a, "horizontal_fov_deg"_a, "ortho_width"_a)
+        .def_rw("position", &CameraDescription::position)
+        .def_rw("forward", &CameraDescription::forward)
+        .def_rw("up", &CameraDescription::up)
+        .def_rw("orthographic", &CameraDescription::orthographic)
+        .def_rw("horizontal_fov_deg", &CameraDescription::horizontal_fov_deg)
+        .def_rw("ortho_width", &CameraDescription::ortho_width);
+
+    using phong::RenderSettings;
+    nb::class_<RenderSettings>(m, "RenderSettings", "Image size, sampling, threads, background, convention.")
+        .def(nb::init<int, int, int, phong::SamplePattern, int, phong::RGB, phong::SpecularConvention>(), "width"_a,
+             "height"_a, "samples"_a, "sample_pattern"_a, "threads"_a, "background"_a, "specular_convention"_a)
+        .def_rw("width", &RenderSettings::width)
+        .def_rw("height", &RenderSettings::height)
+        .def_rw("samples", &RenderSettings::samples)
+        .def_rw("sample_pattern", &RenderSettings::sample_pattern)
+        .def_rw("threads", &RenderSettings::threads)
+        .def_rw("background", &RenderSettings::background)
+        .def_rw("specular_convention", &RenderSettings::specular_convention);
+
+    nb::class_<phong::Scene>(m, "Scene", "Geometry from flat arrays, materials and lights, with the BVH.")
         .def("__init__",
              [](phong::Scene* self, const Matrices& swo, const Matrices& sow, const Index1& smat, const Rows3& points,
                 const Index3& triangles, const Index1& tmat, const Rows3& normals, const Index3& nidx,
-                const Table& materials, const Table& lights, const Vector3& ambient) {
-                 std::unique_ptr<phong::Scene> built =
-                     make_scene(swo, sow, smat, points, triangles, tmat, normals, nidx, materials, lights, ambient);
+                std::vector<phong::Material> materials, std::vector<phong::Light> lights, const phong::RGB& ambient) {
+                 std::unique_ptr<phong::Scene> built = make_scene(swo, sow, smat, points, triangles, tmat, normals,
+                                                                  nidx, std::move(materials), std::move(lights),
+                                                                  ambient);
                  new (self) phong::Scene(std::move(*built));
              },
              "sphere_world_from_object"_a, "sphere_object_from_world"_a, "sphere_material"_a, "points"_a,
              "triangles"_a, "triangle_material"_a, "normals"_a, "normal_indices"_a, "materials"_a, "lights"_a,
-             "ambient"_a)
+             "ambient"_a,
+             "Materials are indexed by sphere_material and triangle_material; lights are summed in list order.")
         .def_prop_ro("magnitude", [](const phong::Scene& s) { return s.magnitude; })
-        .def("render", &render, "position"_a, "forward"_a, "up"_a, "orthographic"_a, "horizontal_fov_deg"_a,
-             "ortho_width"_a, "width"_a, "height"_a, "samples"_a, "pattern"_a, "threads"_a, "background"_a,
-             "specular"_a, "progress"_a = nb::none())
+        .def("render", &render, "camera"_a, "settings"_a, "progress"_a = nb::none(),
+             "The image, float32 (height, width, 3), row 0 at the top. progress(done, total) is called from this "
+             "thread while rendering; an exception it raises (or Ctrl-C) stops the render.")
         .def("intersect", &intersect, "origins"_a, "dirs"_a, "t_min"_a = 0.0,
              "Closest hit per ray (tests): (t, primitive id); spheres are 0..S-1, then triangles.")
         .def("count_hits", &count_hits, "origins"_a, "dirs"_a, "t_min"_a = 0.0,

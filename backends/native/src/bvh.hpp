@@ -55,14 +55,20 @@ struct Bvh {
 };
 
 // Slab test against a node (or any box with float lo[3], hi[3]), in double precision with
-// precomputed reciprocal direction. NaN from 0·inf (origin on a slab plane, direction parallel to it) is ignored, which keeps the
-// box (conservative). t_far is widened by 2 ulps-ish (Ize 2013) so a rounding error in the
-// box test never culls a hit that the exact primitive test would report.
+// precomputed reciprocal direction. NaN from 0·inf (origin on a slab plane, direction parallel
+// to it) is ignored, which keeps the box (conservative). t_far is widened by kSlabFarWidening so
+// a rounding error in the box test never culls a hit that the exact primitive test would report.
 //
 // Branch-free (compare-and-select, which compiles to minsd/maxsd with the operand order that
 // keeps these NaN rules): the early exit on an empty interval after each axis only decides
 // sooner what the final t0 <= t1 decides, since t0 only grows and t1 only shrinks, and its
 // mispredicted branches cost more than the arithmetic they skip.
+// Each slab distance (bound − o)·inv takes three roundings of ≤ ε/2 (the subtraction, the
+// reciprocal, the product), so it errs by γ(3) ≈ 1.5ε relative; Ize 2013 ("Robust BVH Ray
+// Traversal") widens t_far by 1 + 2γ(3) ≈ 1 + 3ε to cover the errors of t_near and t_far
+// together; ulps(4) is the smallest whole number of ε above 2γ(3) = 3ε / (1 − 1.5ε).
+constexpr double kSlabFarWidening = 1.0 + ulps(4);
+
 template <class Box>
 inline bool hit_node(const Box& n, const Vec3& o, const Vec3& inv, double t_min, double t_max, double& t_entry) {
     double t0 = t_min, t1 = t_max;
@@ -71,7 +77,7 @@ inline bool hit_node(const Box& n, const Vec3& o, const Vec3& inv, double t_min,
         const double a = (double(n.lo[k]) - os[k]) * is[k];
         const double b = (double(n.hi[k]) - os[k]) * is[k];
         const double near = a > b ? b : a;  // NaN: a, as without the swap
-        const double far = (a > b ? a : b) * (1.0 + 4.0 * 2.220446049250313e-16);
+        const double far = (a > b ? a : b) * kSlabFarWidening;
         t0 = near > t0 ? near : t0;  // NaN ignored
         t1 = far < t1 ? far : t1;
     }

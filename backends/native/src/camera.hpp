@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// The camera: primary rays exactly as POV-Ray 3.7 builds them (reference §3, tracepixel.cpp
+// The camera: primary rays exactly as POV-Ray 3.7 builds them (its source, tracepixel.cpp:
 // CreateCameraRay), from the model's Camera (position, forward, up, horizontal FOV or ortho
 // width) set up like POV-Ray's `right -x*W/H up y angle HFOV` for a right-handed world.
 #pragma once
@@ -10,6 +10,17 @@
 
 namespace phong {
 
+// The camera as the model describes it (phongscene.scene.Camera): the eye, a unit view
+// direction and a unit up orthogonal to it, and the view's width as an angle (perspective) or a
+// length (orthographic).
+struct CameraDescription {
+    Vec3 position, forward, up;
+    bool orthographic;
+    double horizontal_fov_deg;  // perspective only, full horizontal angle
+    double ortho_width;         // orthographic only, world units
+};
+
+// The vectors of POV-Ray's camera, made from a description for an image of a given shape.
 struct Camera {
     Vec3 position;
     Vec3 right;      // R: spans the image width (u in [-1/2, 1/2])
@@ -17,25 +28,24 @@ struct Camera {
     Vec3 direction;  // D: from the eye to the image plane's centre
     bool orthographic = false;
 
-    // forward and up are unit and orthogonal; right = forward x up (right-handed world).
-    static Camera make(const Vec3& position, const Vec3& forward, const Vec3& up, bool orthographic,
-                       double horizontal_fov_deg, double ortho_width, int width, int height) {
+    // right = forward x up (right-handed world).
+    static Camera make(const CameraDescription& d, int width, int height) {
         const double aspect = double(width) / double(height);
-        const Vec3 right = cross(forward, up);
+        const Vec3 right = cross(d.forward, d.up);
         Camera c;
-        c.position = position;
-        c.orthographic = orthographic;
-        if (orthographic) {
+        c.position = d.position;
+        c.orthographic = d.orthographic;
+        if (d.orthographic) {
             // POV-Ray with explicit right/up and no angle: the view is exactly |R| x |U|.
-            c.right = right * ortho_width;
-            c.up = up * (ortho_width / aspect);
-            c.direction = forward;
+            c.right = right * d.ortho_width;
+            c.up = d.up * (d.ortho_width / aspect);
+            c.direction = d.forward;
         } else {
             // POV-Ray: |D| = |R| / (2 tan(angle/2)) with |R| = W/H and |U| = 1.
-            const double half_angle = horizontal_fov_deg * (kPi / 180.0) / 2.0;
+            const double half_angle = d.horizontal_fov_deg * (kPi / 180.0) / 2.0;
             c.right = right * aspect;
-            c.up = up;
-            c.direction = forward * (aspect / (2.0 * std::tan(half_angle)));
+            c.up = d.up;
+            c.direction = d.forward * (aspect / (2.0 * std::tan(half_angle)));
         }
         return c;
     }

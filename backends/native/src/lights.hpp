@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Lights with POV-Ray 3.7's semantics (reference §5; trace.cpp ComputeOneWhiteLightRay,
+// Lights with POV-Ray 3.7's semantics (its source, trace.cpp: ComputeOneWhiteLightRay,
 // TraceAreaLightShadowRay, TraceAreaLightSubsetShadowRay): shading always uses the direction
 // to the light's centre; area lights only change the shadow fraction, computed over a
 // samples x samples grid (edges included) with the weights of POV-Ray's full 4-corner
@@ -24,6 +24,11 @@ struct PointLight {
 struct DirectionalLight {
     Vec3 to_light;  // unit, opposite to the direction the light travels
     RGB color;
+
+    // From the direction the light travels (the model's and POV-Ray's), of any length.
+    static DirectionalLight travelling(const Vec3& direction, const RGB& color) {
+        return {-normalize(direction), color};
+    }
 };
 
 struct RectAreaLight {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The Phong material and shade_phong(): the one shading equation, in the symbols of the seed
-// (Suffern, lecture 10; DESIGN §2), in both specular conventions.
+// (Suffern, lecture 10), in both specular conventions (README.md, "The shading model and the two
+// POV-Ray mappings", states them for users).
 //
 //   L = ka·cd·La + Σ_j light_j                                     (ambient_term + shade_phong)
 //   seed:            light_j = [kd·cd/π + ks·cs·max(0, r_j·wo)^e] · Lj · (n·l_j)

@@ -44,6 +44,14 @@ struct Ray {
     Vec3 at(double t) const { return origin + dir * t; }
 };
 
+// n units of machine epsilon ε = 2^-52, the spacing of doubles just above 1 (one correctly
+// rounded operation errs by at most u = ε/2 relative). Every floating-point error margin of the
+// tracer is written as ulps(n), with n argued where it is used. The margins are error bounds
+// with slack, so pbrt-v4's exact bound gamma(k) = k·u / (1 − k·u) would only move them by a
+// relative 1e-15; plain n·ε is exact (n ≤ 2^52), so ulps(n) is the very double its users
+// compare against.
+constexpr double ulps(int n) { return n * std::numeric_limits<double>::epsilon(); }
+
 // ---------------------------------------------------------------------------------------------
 // Tolerances. POV-Ray's are absolute (primary t >= 1e-4, shadow 1e-3 < t < dist - 1e-3), which
 // makes its images wrong below ~1e-3 and beyond ~1e6 scene units. Ours play two roles, each
@@ -82,7 +90,7 @@ constexpr double kPrimaryNear = 1.9e-6;
 // self-hits of rays leaving spheres, ellipsoids and triangles at scales 1e-6…1 and translations
 // 0…1e6, cosines 1e-12…1. kSelfHitError = 8ε keeps a 4x margin. (A sphere's curvature also
 // caps t_self at ~sqrt(2rδ), whatever the cosine.)
-constexpr double kSelfHitError = 8.0 * std::numeric_limits<double>::epsilon();
+constexpr double kSelfHitError = ulps(8);
 
 // Self-hits stay inside the window wherever |n·l| >= kSelfHitError·M / window, which is at most
 // kAcneFreeCosine and, for a scene around the origin (window = 1.9e-5·E, M ~ E), ~1e-10, the

@@ -75,7 +75,8 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
         if (n_dot_l < kMinCosineToLight) continue;  // no contribution and no shadow ray
         const double fraction = visible_fraction(light, p, centre, ShadowQuery{scene, p, window, candidates});
         if (fraction == 0.0) continue;
-        color += shade_phong(*material, settings.convention, n, wo, centre.l, n_dot_l, centre.color * fraction);
+        color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l,
+                             centre.color * fraction);
     }
     return color;
 }
@@ -103,11 +104,11 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         };
         RGB sum;
         int count = 0;
-        if (settings.pattern == SamplePattern::kPovrayAm1) {
+        if (settings.sample_pattern == SamplePattern::kPovrayAm1) {
             sum += trace_at(i + 0.5, j + 0.5);
             ++count;
         }
-        if (n == 1 && settings.pattern == SamplePattern::kGrid) {
+        if (n == 1 && settings.sample_pattern == SamplePattern::kGrid) {
             sum += trace_at(i + 0.5, j + 0.5);
             ++count;
         } else {

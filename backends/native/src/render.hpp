@@ -20,10 +20,10 @@ enum class SamplePattern {
 struct RenderSettings {
     int width = 1, height = 1;
     int samples = 1;  // per axis
-    SamplePattern pattern = SamplePattern::kGrid;
+    SamplePattern sample_pattern = SamplePattern::kGrid;
     int threads = 0;  // 0: all hardware threads
     RGB background;
-    SpecularConvention convention = SpecularConvention::kSeed;
+    SpecularConvention specular_convention = SpecularConvention::kSeed;
 };
 
 // Called on the rendering (calling) thread about every kPollInterval with (tiles done, tiles

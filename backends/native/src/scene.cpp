@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Scene construction from flat arrays and the BVH queries.
+// Scene construction from flat geometry arrays, materials and lights, and the BVH queries.
 #include "scene.hpp"
 
 #include <algorithm>
@@ -10,6 +10,9 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <type_traits>
+#include <utility>
+#include <variant>
 
 namespace phong {
 
@@ -23,15 +26,15 @@ void check_index(int64_t i, size_t count, const char* what) {
                                     std::to_string(count) + ")");
 }
 
-Light make_light(const double* r) {
-    const RGB color = row3(r + 7);
-    switch (int(r[0])) {
-        case kPointLight: return PointLight{row3(r + 1), color, r[10], r[11]};
-        case kDirectionalLight: return DirectionalLight{-normalize(row3(r + 4)), color};
-        case kRectAreaLight: return RectAreaLight{row3(r + 1), row3(r + 12), row3(r + 15), color, int(r[19])};
-        case kSphereAreaLight: return SphereAreaLight{row3(r + 1), r[18], color, int(r[19])};
-    }
-    throw std::invalid_argument("unknown light kind " + std::to_string(r[0]));
+// An area light's grid weighs its samples by 1/(samples − 1) per axis (lights.hpp).
+void check_area_light_samples(const Light& light) {
+    std::visit(
+        [](const auto& L) {
+            using T = std::decay_t<decltype(L)>;
+            if constexpr (std::is_same_v<T, RectAreaLight> || std::is_same_v<T, SphereAreaLight>)
+                if (L.samples < 2) throw std::invalid_argument("area light samples must be >= 2");
+        },
+        light);
 }
 
 // Runs fn(begin, end) over [0, n) in one chunk per hardware thread when n is large enough to
@@ -64,17 +67,10 @@ void for_chunks(size_t n, Fn&& fn) {
 
 }  // namespace
 
-Scene::Scene(const SceneArrays& in) : ambient(in.ambient) {
-    for (size_t i = 0; i < in.material_count; ++i) {
-        const double* r = in.materials + i * kMaterialColumns;
-        materials.push_back({r[0], r[1], r[2], r[3], row3(r + 4), row3(r + 7)});
-    }
-    for (size_t i = 0; i < in.light_count; ++i) {
-        const double* r = in.lights + i * kLightColumns;
-        if (int(r[0]) >= kRectAreaLight && !(r[19] >= 2.0))
-            throw std::invalid_argument("area light samples must be >= 2");
-        lights.push_back(make_light(r));
-    }
+Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, std::vector<Light> scene_lights,
+             const RGB& ambient_light)
+    : materials(std::move(scene_materials)), lights(std::move(scene_lights)), ambient(ambient_light) {
+    for (const Light& light : lights) check_area_light_samples(light);
     for (size_t i = 0; i < in.normal_count; ++i) normals.push_back(row3(in.normals + 3 * i));
 
     const size_t n_spheres = in.sphere_count, n_triangles = in.triangle_count;
@@ -199,9 +195,10 @@ void traverse(const std::vector<BvhNode>& nodes, const Ray& ray, double t_min, d
 bool Scene::closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) const {
     // Exact ties (coincident surfaces hit at the same t) go to the lower primitive id, so the
     // hit does not depend on the BVH's shape or visiting order: once a hit is found, primitives
-    // are tested up to and including t_best, and boxes up to a little beyond it (a box's entry
-    // distance rounds by < 2 ulps, kTieCullMargin covers it).
-    constexpr double kTieCullMargin = 8.0 * 2.220446049250313e-16;
+    // are tested up to and including t_best, and boxes up to a little beyond it: a box's entry
+    // distance errs by < 2ε relative (three roundings of ≤ ε/2, as in hit_node), and
+    // kTieCullMargin = 8ε keeps a 4x margin over it, like kSelfHitError.
+    constexpr double kTieCullMargin = ulps(8);
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool found = false;
     double t_best = t_max, t_test = t_max, t_cull = t_max;

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// The C++ scene: flat arrays from Python (phongscene.backends.native) turned into shapes,
-// materials, lights and one BVH over every primitive; closest-hit and any-hit queries.
+// The C++ scene: flat geometry arrays, materials and lights from Python
+// (phongscene.backends.native) turned into shapes and one BVH over every primitive; closest-hit
+// and any-hit queries.
 #pragma once
 
 #include <cstddef>
@@ -15,33 +16,20 @@
 
 namespace phong {
 
-// Row layouts of the flat arrays (kept in sync with backends/native/__init__.py).
-constexpr int kMaterialColumns = 10;  // ka, kd, ks, e, cd rgb, cs rgb
-constexpr int kLightColumns = 20;
-// Light row: kind, position|center xyz (1-3), direction xyz (4-6), color rgb (7-9),
-// fade_distance (10), fade_power (11), axis_u xyz (12-14), axis_v xyz (15-17), radius (18),
-// samples (19).
-enum LightKind { kPointLight = 0, kDirectionalLight = 1, kRectAreaLight = 2, kSphereAreaLight = 3 };
-
-// Borrowed views of the Python arrays (row-major, C-contiguous).
-struct SceneArrays {
+// Borrowed views of the Python arrays of the geometry (row-major, C-contiguous).
+struct GeometryArrays {
     const double* sphere_world_from_object = nullptr;  // (S, 4, 4)
     const double* sphere_object_from_world = nullptr;  // (S, 4, 4)
-    const int32_t* sphere_material = nullptr;          // (S,)
+    const int32_t* sphere_material = nullptr;          // (S,) indices of materials
     size_t sphere_count = 0;
     const double* points = nullptr;  // (V, 3)
     size_t point_count = 0;
     const int32_t* triangles = nullptr;          // (T, 3) rows of points
-    const int32_t* triangle_material = nullptr;  // (T,)
+    const int32_t* triangle_material = nullptr;  // (T,) indices of materials
     const int32_t* normal_indices = nullptr;     // (T, 3) rows of normals, -1: flat
     size_t triangle_count = 0;
     const double* normals = nullptr;  // (K, 3) unit
     size_t normal_count = 0;
-    const double* materials = nullptr;  // (M, kMaterialColumns)
-    size_t material_count = 0;
-    const double* lights = nullptr;  // (L, kLightColumns)
-    size_t light_count = 0;
-    RGB ambient;
 };
 
 // A ray's closest hit. ref >= 0: triangle index (leaf order); ref < 0: sphere ~ref.
@@ -63,8 +51,10 @@ struct BundleCandidate {
 class Scene {
   public:
     // Copies the arrays and builds the BVH. Throws std::invalid_argument on indices out of
-    // range (Python validates scenes; this only guards against a crash).
-    explicit Scene(const SceneArrays& arrays);
+    // range and on area lights with fewer than 2 samples per axis (Python validates scenes;
+    // this only guards against a crash or a meaningless image).
+    Scene(const GeometryArrays& geometry, std::vector<Material> materials, std::vector<Light> lights,
+          const RGB& ambient);
 
     bool closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) const;
     bool occluded(const Ray& ray, double t_min, double t_max) const;
