@@ -40,6 +40,11 @@ RGB = tuple[float, float, float]
 SpecularConvention = Literal["seed", "povray-classic"]
 SamplePattern = Literal["grid", "povray-am1"]
 Projection = Literal["perspective", "orthographic"]
+# How a point, sphere or rect light's strength reaches a surface at distance d from its centre:
+# "none" is the seed's (Suffern's) light, ``color`` arrives unchanged; "inverse-square" is UsdLux's,
+# ``color`` is the radiant intensity and ``color / d²`` arrives (a rect light: also × max(0, cos θ)
+# of the angle from its emitting side, a one-sided Lambertian panel).
+Falloff = Literal["none", "inverse-square"]
 
 
 def _readonly(array, dtype, shape_tail: tuple[int, ...]) -> np.ndarray:
@@ -154,10 +159,11 @@ class PointLight:
     ``color · 2 / (1 + (d / fade_distance)^fade_power)``)."""
 
     position: Vec3
-    color: RGB  # ls·cl, linear RGB
+    color: RGB  # ls·cl, linear RGB (falloff "inverse-square": the radiant intensity)
     fade_distance: float = 0.0  # > 0 when fade_power > 0, world units
     fade_power: float = 0.0  # 0 = no fade (the default, as in Suffern and POV-Ray)
     source: str = ""
+    falloff: Falloff = "none"  # "inverse-square": color / d² (then no fade)
 
 
 @dataclass(frozen=True, slots=True)
@@ -182,6 +188,9 @@ class RectAreaLight:
     color: RGB
     samples: int = 9  # grid points per axis, 2^k + 1 (k >= 1)
     source: str = ""
+    # "inverse-square": color · max(0, cos θ) / d², θ from the emitting side −(axis_u × axis_v)
+    # (UsdLux's RectLight emits along its local −Z).
+    falloff: Falloff = "none"
 
 
 @dataclass(frozen=True, slots=True)
@@ -195,6 +204,7 @@ class SphereAreaLight:
     color: RGB
     samples: int = 9  # grid points per axis, 2^k + 1 (k >= 1)
     source: str = ""
+    falloff: Falloff = "none"  # "inverse-square": color / d²
 
 
 Light = Union[PointLight, DirectionalLight, RectAreaLight, SphereAreaLight]

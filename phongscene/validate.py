@@ -189,8 +189,16 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
     c.colour(s, "background")
 
 
+FALLOFFS = ("none", "inverse-square")
+
+
 def _check_light(c: _Collector, light) -> None:
     c.colour(light, "color")
+    falloff = getattr(light, "falloff", "none")
+    if falloff not in FALLOFFS:
+        c.add(light, "falloff", f"must be one of {', '.join(FALLOFFS)}, got {falloff!r}")
+    elif falloff != "none" and getattr(light, "fade_power", 0.0) > 0:
+        c.add(light, "fade_power", "must be 0 with falloff 'inverse-square' (the fade is POV-Ray's alternative)")
     if isinstance(light, PointLight):
         c.finite(light, "position", light.position)
         fd_ok = c.finite(light, "fade_distance", light.fade_distance)

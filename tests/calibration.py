@@ -208,6 +208,21 @@ def sphere_area_light() -> Scene:
     return _sphere_on_ground(light, material=GREEN)
 
 
+def inverse_square_lights() -> Scene:
+    """UsdLux falloff: a point light and a spherical light fall off as I/d², a tilted rect light
+    as I·cos θ/d² (one-sided Lambertian panel), each with its shadows."""
+    scene = _sphere_on_ground(
+        PointLight((3.41, 5.07, 2.93), (61.0, 57.0, 52.0), falloff="inverse-square"), material=GOLD
+    )
+    rect = RectAreaLight(
+        center=(-2.41, 3.93, 1.17), axis_u=(1.2, 0.0, 0.2), axis_v=(0.1, 0.3, -1.0), color=(48.0, 50.0, 55.0),
+        samples=5, falloff="inverse-square",
+    )
+    disc = SphereAreaLight(center=(0.37, 4.61, -2.9), radius=0.41, color=(20.0, 26.0, 31.0), samples=3,
+                           falloff="inverse-square")
+    return dataclasses.replace(scene, lights=(*scene.lights, rect, disc))
+
+
 def ambient_only() -> Scene:
     """No lights at all: every hit is ka·cd·La exactly, misses are the background."""
     scene = _sphere_on_ground(PointLight((0, 5, 0), (1, 1, 1)))
@@ -415,6 +430,7 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "directional_light": directional_light,
     "rect_area_light": rect_area_light,
     "sphere_area_light": sphere_area_light,
+    "inverse_square_lights": inverse_square_lights,
     "ambient_only": ambient_only,
     "transformed_spheres": transformed_spheres,
     "smooth_mesh": smooth_mesh,

@@ -35,7 +35,8 @@ a shadow ray starts exactly at P and an occluder counts for SHADOW_TOLERANCE < t
 SHADOW_TOLERANCE (and t < MAX_DISTANCE); a light with n·l < EPSILON is skipped (no shadow ray).
 
 Lights (ref §5). Point: l = normalise(p − P), dist = |p − P|, colour Lc (no falloff), or with
-fade_power > 0: Lc·2/(1 + (dist/fade_distance)^fade_power). Directional: l = −direction, shadow
+fade_power > 0: Lc·2/(1 + (dist/fade_distance)^fade_power); falloff "inverse-square" (UsdLux):
+Lc/dist², for a rect light × max(0, cos θ) from its emitting side −(A1 × A2). Directional: l = −direction, shadow
 ray up to MAX_DISTANCE (the model has no light position, so nothing lies "behind" it). Area lights:
 shading exactly like a point light at the centre (including the n·l gate on the centre direction),
 times a shadow fraction = Σ w_u·w_v·visible(sample_uv), samples at
@@ -475,6 +476,15 @@ def _light_at_centre(light, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     if isinstance(light, PointLight) and light.fade_power > 0.0 and light.fade_distance != 0.0:
         fade = 2.0 / (1.0 + (dist / light.fade_distance) ** light.fade_power)
         lc = lc * fade[:, None]
+    if light.falloff == "inverse-square":
+        # UsdLux: colour is the radiant intensity; a rect light is a one-sided Lambertian panel
+        # emitting along −(axis_u × axis_v), seen from afar: I·cos θ / d².
+        factor = 1.0 / dist**2
+        if isinstance(light, RectAreaLight):
+            emit = -np.cross(light.axis_u, light.axis_v)
+            cos_light = (-l) @ (emit / np.linalg.norm(emit))
+            factor = factor * np.maximum(cos_light, 0.0)
+        lc = lc * factor[:, None]
     return l, dist, lc
 
 

@@ -47,17 +47,20 @@ def _material(m: PhongMaterial) -> _native.Material:
 def _light(light: Light):
     if isinstance(light, PointLight):
         return _native.PointLight(
-            position=light.position, color=light.color, fade_distance=light.fade_distance, fade_power=light.fade_power
+            position=light.position, color=light.color, fade_distance=light.fade_distance, fade_power=light.fade_power,
+            inverse_square=light.falloff == "inverse-square",
         )
     if isinstance(light, DirectionalLight):
         return _native.DirectionalLight(direction=light.direction, color=light.color)
     if isinstance(light, RectAreaLight):
         return _native.RectAreaLight(
-            center=light.center, axis_u=light.axis_u, axis_v=light.axis_v, color=light.color, samples=light.samples
+            center=light.center, axis_u=light.axis_u, axis_v=light.axis_v, color=light.color, samples=light.samples,
+            inverse_square=light.falloff == "inverse-square",
         )
     if isinstance(light, SphereAreaLight):
         return _native.SphereAreaLight(
-            center=light.center, radius=light.radius, color=light.color, samples=light.samples
+            center=light.center, radius=light.radius, color=light.color, samples=light.samples,
+            inverse_square=light.falloff == "inverse-square",
         )
     # A validated scene has only the model's light types.
     raise TypeError(f"unsupported light {type(light).__name__}")

@@ -65,6 +65,17 @@ NDOTL_SEGMENTS = 128
 # within POV's working range (ref §6, §10).
 PARALLEL_LIGHT_DISTANCE_RADII = 2.0
 
+# UsdLux's inverse-square falloff (model falloff "inverse-square") has no exact POV-Ray form; POV's
+# fade 2/(1 + (d/fd)²) with the colour scaled by 1/(2·fd²) is I/(d² + fd²): relative error
+# (fd/d)². fd = this fraction of the scene's radius keeps that below 1e-6 (far below half
+# precision, 2⁻¹¹) for every point farther than 1e-3 radii from the light.
+INVERSE_SQUARE_FADE_RADII = 1e-6
+# A rect light's one-sided Lambertian emission, cos θ from its emitting side, is POV-Ray's
+# spotlight with radius = falloff = 90° (no smooth edge inside the hemisphere) and tightness 1,
+# whose attenuation is cos θ¹ measured from the light's centre (checked against the native tracer
+# in tests/test_cross_backend.py).
+LAMBERT_SPOTLIGHT = "spotlight radius 90 falloff 90 tightness 1"
+
 # Characters copied verbatim into a comment; everything else becomes \xNN / \uNNNN / \UNNNNNNNN.
 # '#', '"', '*', '\\' and all control characters are escaped, so a comment can neither end early
 # nor carry a directive.
@@ -244,8 +255,20 @@ class _Compiler:
 
     # -- lights --------------------------------------------------------------------------------
 
+    def inverse_square_fade(self, light) -> tuple[str, str]:
+        """(the scaled colour, the fade clause) that make POV's fade an inverse square."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            bounds = self.scene.bounds()
+            radius = 1.0 if bounds is None else float(np.linalg.norm(bounds[1] - bounds[0])) / 2 or 1.0
+            fd = INVERSE_SQUARE_FADE_RADII * radius
+            scaled = np.asarray(light.color, dtype=np.float64) / (2.0 * fd * fd)
+        return self.vec(scaled, light, "color"), f" fade_distance {self.num(fd, light, 'falloff')} fade_power 2"
+
     def light_source(self, light) -> str:
         colour = self.vec(light.color, light, "color")
+        fade = ""
+        if getattr(light, "falloff", "none") == "inverse-square":
+            colour, fade = self.inverse_square_fade(light)
         if isinstance(light, PointLight):
             text = f"light_source {{ {self.vec(light.position, light, 'position')} color rgb {colour}"
             if light.fade_power > 0:
@@ -253,7 +276,7 @@ class _Compiler:
                     f" fade_distance {self.num(light.fade_distance, light, 'fade_distance')}"
                     f" fade_power {self.num(light.fade_power, light, 'fade_power')}"
                 )
-            return text + " }"
+            return text + fade + " }"
         if isinstance(light, DirectionalLight):
             position = self.parallel_position(light)
             target = position + np.asarray(light.direction, dtype=np.float64)
@@ -265,16 +288,21 @@ class _Compiler:
             n = int(light.samples)
             # No 'adaptive': POV's default level (100) subdivides fully, giving trapezoid
             # weights for n = 2^k + 1 (ref §5). No 'jitter' (not deterministic).
+            spot = ""
+            if light.falloff == "inverse-square":
+                emit = -np.cross(light.axis_u, light.axis_v)
+                target = np.asarray(light.center, dtype=np.float64) + emit / np.linalg.norm(emit)
+                spot = f" {LAMBERT_SPOTLIGHT} point_at {self.vec(target, light, 'axis_v')}"
             return (
-                f"light_source {{ {self.vec(light.center, light, 'center')} color rgb {colour}"
-                f" area_light {self.vec(light.axis_u, light, 'axis_u')}, {self.vec(light.axis_v, light, 'axis_v')}, {n}, {n} }}"
+                f"light_source {{ {self.vec(light.center, light, 'center')} color rgb {colour}{spot}"
+                f" area_light {self.vec(light.axis_u, light, 'axis_u')}, {self.vec(light.axis_v, light, 'axis_v')}, {n}, {n}{fade} }}"
             )
         if isinstance(light, SphereAreaLight):
             n = int(light.samples)
             d = self.num(2.0 * light.radius, light, "radius")
             return (
                 f"light_source {{ {self.vec(light.center, light, 'center')} color rgb {colour}"
-                f" area_light <{d}, 0, 0>, <0, {d}, 0>, {n}, {n} circular orient }}"
+                f" area_light <{d}, 0, 0>, <0, {d}, 0>, {n}, {n} circular orient{fade} }}"
             )
         raise self._error(light, "lights", f"unknown light type {type(light).__name__}")
 

@@ -196,12 +196,13 @@ NB_MODULE(_native, m) {
 
     using phong::PointLight;
     nb::class_<PointLight>(m, "PointLight", "A point light, with POV-Ray's fade when fade_power > 0.")
-        .def(nb::init<phong::Vec3, phong::RGB, double, double>(), "position"_a, "color"_a, "fade_distance"_a,
-             "fade_power"_a)
+        .def(nb::init<phong::Vec3, phong::RGB, double, double, bool>(), "position"_a, "color"_a, "fade_distance"_a,
+             "fade_power"_a, "inverse_square"_a = false)
         .def_rw("position", &PointLight::position)
         .def_rw("color", &PointLight::color)
         .def_rw("fade_distance", &PointLight::fade_distance)
-        .def_rw("fade_power", &PointLight::fade_power);
+        .def_rw("fade_power", &PointLight::fade_power)
+        .def_rw("inverse_square", &PointLight::inverse_square);
 
     using phong::DirectionalLight;
     nb::class_<DirectionalLight>(m, "DirectionalLight", "A light at infinity; made from the direction it travels.")
@@ -215,8 +216,9 @@ NB_MODULE(_native, m) {
 
     using phong::RectAreaLight;
     nb::class_<RectAreaLight>(m, "RectAreaLight", "A rectangular area light, samples x samples shadow rays.")
-        .def(nb::init<phong::Vec3, phong::Vec3, phong::Vec3, phong::RGB, int>(), "center"_a, "axis_u"_a, "axis_v"_a,
-             "color"_a, "samples"_a)
+        .def(nb::init<phong::Vec3, phong::Vec3, phong::Vec3, phong::RGB, int, bool>(), "center"_a, "axis_u"_a,
+             "axis_v"_a, "color"_a, "samples"_a, "inverse_square"_a = false)
+        .def_rw("inverse_square", &RectAreaLight::inverse_square)
         .def_rw("center", &RectAreaLight::center)
         .def_rw("axis_u", &RectAreaLight::axis_u)
         .def_rw("axis_v", &RectAreaLight::axis_v)
@@ -225,7 +227,9 @@ NB_MODULE(_native, m) {
 
     using phong::SphereAreaLight;
     nb::class_<SphereAreaLight>(m, "SphereAreaLight", "A spherical light: POV-Ray's circular, oriented area light.")
-        .def(nb::init<phong::Vec3, double, phong::RGB, int>(), "center"_a, "radius"_a, "color"_a, "samples"_a)
+        .def(nb::init<phong::Vec3, double, phong::RGB, int, bool>(), "center"_a, "radius"_a, "color"_a, "samples"_a,
+             "inverse_square"_a = false)
+        .def_rw("inverse_square", &SphereAreaLight::inverse_square)
         .def_rw("center", &SphereAreaLight::center)
         .def_rw("radius", &SphereAreaLight::radius)
         .def_rw("color", &SphereAreaLight::color)

@@ -14,11 +14,16 @@
 
 namespace phong {
 
+// inverse_square (UsdLux semantics): `color` is the radiant intensity, and the light arriving at
+// distance d is color / d² (a rect light's additionally × max(0, cos) of the angle from its
+// emitting side, -(axis_u × axis_v): a one-sided Lambertian panel seen from afar). Otherwise the
+// seed's constant light: `color` arrives unchanged (or with POV-Ray's fade on a point light).
 struct PointLight {
     Vec3 position;
     RGB color;
     double fade_distance;  // used only when fade_power > 0
     double fade_power;     // 0: no fade
+    bool inverse_square = false;
 };
 
 struct DirectionalLight {
@@ -35,6 +40,7 @@ struct RectAreaLight {
     Vec3 center, axis_u, axis_v;  // full edge vectors
     RGB color;
     int samples;  // per axis, 2^k + 1
+    bool inverse_square = false;
 };
 
 // POV-Ray's `area_light <2r,0,0>, <0,2r,0>, n, n circular orient`.
@@ -43,6 +49,7 @@ struct SphereAreaLight {
     double radius;
     RGB color;
     int samples;
+    bool inverse_square = false;
 };
 
 using Light = std::variant<PointLight, DirectionalLight, RectAreaLight, SphereAreaLight>;
@@ -74,11 +81,22 @@ inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
                 LightSample s = detail::toward(L.position, p, L.color);
                 if (L.fade_power > 0.0)  // POV-Ray: 2 / (1 + (d / fade_distance)^fade_power)
                     s.color = s.color * (2.0 / (1.0 + std::pow(s.distance / L.fade_distance, L.fade_power)));
+                if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
                 return s;
             } else if constexpr (std::is_same_v<T, DirectionalLight>) {
                 return {L.to_light, HUGE_VAL, L.color};
+            } else if constexpr (std::is_same_v<T, RectAreaLight>) {
+                LightSample s = detail::toward(L.center, p, L.color);
+                if (L.inverse_square) {
+                    // cos at the light = (p - c)·emit / d with emit = -unit(axis_u × axis_v) = l·unit(u × v).
+                    const double cos_light = dot(s.l, normalize(cross(L.axis_u, L.axis_v)));
+                    s.color = s.color * (std::fmax(0.0, cos_light) / (s.distance * s.distance));
+                }
+                return s;
             } else {
-                return detail::toward(L.center, p, L.color);
+                LightSample s = detail::toward(L.center, p, L.color);
+                if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
+                return s;
             }
         },
         light);
