@@ -4,6 +4,8 @@ files contain. Expected counts come from the README and from pxr directly, not f
 
 from __future__ import annotations
 
+import math
+
 import pytest
 from pxr import Usd, UsdGeom
 
@@ -56,8 +58,12 @@ def test_sphere_lights_z_up():
     (shaping,) = [w for w in result.warnings if "ShapingAPI" in w]
     assert "/Environment/Lights/SphereLight_02" in shaping
     assert len(s.lights) == 3 and all(type(l).__name__ == "SphereAreaLight" for l in s.lights)
-    assert sorted(l.color[0] for l in s.lights) == [1.0, 10.0, 30.0]  # intensities 30 / 1 / 10
     assert all(l.radius == pytest.approx(5.0) for l in s.lights)
+    # UsdLux units: intensities 30 / 1 / 10 of spheres of radius 5, not normalized: I = L·πr²
+    assert [l.color[0] / (math.pi * l.radius**2) for l in sorted(s.lights, key=lambda l: l.color[0])] == pytest.approx(
+        [1.0, 10.0, 30.0]
+    )
+    assert all(l.falloff == "inverse-square" for l in s.lights)
     # Z-up: the lights are 14.67 units above the ground (file z) → model +Y
     assert all(l.center[1] == pytest.approx(14.666749, abs=1e-4) for l in s.lights)
     assert s.meshes[0].points[:, 1].tolist() == [0.0] * 4  # ground plane at z = 0 → y = 0

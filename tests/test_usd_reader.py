@@ -167,6 +167,7 @@ LIGHTS = """
 def DomeLight "Dome" { float inputs:intensity = 0.5 }
 def DomeLight "Dome2" { color3f inputs:color = (0.1, 0.2, 0.3) }
 def SphereLight "Point" {
+    uniform token phong:lightModel = "seed"
     float inputs:intensity = 2
     float inputs:exposure = 1
     color3f inputs:color = (1, 0.5, 0.25)
@@ -177,6 +178,7 @@ def SphereLight "Point" {
     uniform token[] xformOpOrder = ["xformOp:translate"]
 }
 def SphereLight "Ball" {
+    uniform token phong:lightModel = "seed"
     float inputs:radius = 0.5
     int phong:shadowSamples = 5
     double3 xformOp:translate = (0, 5, 0)
@@ -184,11 +186,13 @@ def SphereLight "Ball" {
     uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
 }
 def DistantLight "Sun" {
+    uniform token phong:lightModel = "seed"
     float inputs:intensity = 3
     float3 xformOp:rotateXYZ = (-90, 0, 0)
     uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
 }
 def RectLight "Panel" {
+    uniform token phong:lightModel = "seed"
     float inputs:width = 2
     float inputs:height = 4
     double3 xformOp:translate = (0, 6, 0)
@@ -202,6 +206,7 @@ def Sphere "Target" {}
 
 
 def test_lights(tmp_path):
+    # The seed's constant lights (phong:lightModel = "seed"): strength = intensity · 2^exposure · color.
     result = read(tmp_path, LIGHTS)
     scene = result.scene
     assert scene.ambient.color == pytest.approx((0.6, 0.7, 0.8), abs=FLOAT32)  # DomeLights add up
@@ -397,3 +402,46 @@ def test_a_prim_with_a_type_problem_still_reports_its_range_problems(tmp_path):
     found = sorted((p.prim, p.attribute) for p in info.value.problems)
     assert found == [("/M/Phong", "inputs:ka"), ("/M/Phong", "inputs:ks")]
     assert "must be in [0, 1], got -0.5" in str(info.value)
+
+
+# Each light alone, in UsdLux's units (the default): L = intensity · 2^exposure · color.
+USDLUX_LIGHTS = """
+def SphereLight "Bulb" { float inputs:intensity = 8
+    bool inputs:normalize = 1
+    bool treatAsPoint = 1 }
+def SphereLight "Globe" { float inputs:intensity = 2
+    float inputs:radius = 0.5
+    double3 xformOp:scale = (2, 2, 2)
+    uniform token[] xformOpOrder = ["xformOp:scale"] }
+def SphereLight "Unlit" { float inputs:intensity = 5
+    float inputs:radius = 0 }
+def RectLight "Panel" { float inputs:intensity = 3
+    float inputs:width = 2
+    float inputs:height = 4 }
+def RectLight "Normalized" { float inputs:intensity = 3
+    bool inputs:normalize = 1
+    float inputs:width = 2 }
+def DistantLight "Sun" { float inputs:intensity = 50000 }
+def DistantLight "Lux" { float inputs:intensity = 7
+    bool inputs:normalize = 1 }
+"""
+
+
+def test_usdlux_lights_in_usdlux_units(tmp_path):
+    bulb, globe, unlit, panel, normalized, sun, lux = read(tmp_path, USDLUX_LIGHTS).scene.lights
+    # A sphere light of world radius r radiates I = L·πr² (L/4 when normalized, whatever r).
+    assert bulb.falloff == "inverse-square" and bulb.color == (2.0, 2.0, 2.0)
+    assert globe.falloff == "inverse-square" and globe.radius == 1.0
+    assert globe.color == pytest.approx((2 * math.pi,) * 3)
+    assert unlit.color == (0.0, 0.0, 0.0)  # radius 0, not normalized: no power by the letter of UsdLux
+    # A rect light of area A radiates I = L·A along its normal (L when normalized).
+    assert panel.falloff == "inverse-square" and panel.color == (24.0, 24.0, 24.0)
+    assert normalized.color == (3.0, 3.0, 3.0)
+    # A distant light's irradiance is L·π·sin²(angle/2) (angle 0.53° by default), L when normalized.
+    assert sun.color == pytest.approx((50000 * math.pi * math.sin(math.radians(0.53) / 2) ** 2,) * 3)
+    assert lux.color == (7.0, 7.0, 7.0)
+
+
+def test_unknown_light_model_is_an_error(tmp_path):
+    with pytest.raises(SceneError, match=r"/L\.phong:lightModel: must be one of usdlux, seed"):
+        read(tmp_path, 'def SphereLight "L" { token phong:lightModel = "suffern" }')

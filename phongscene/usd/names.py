@@ -42,12 +42,19 @@ SAMPLES = "phong:samples"
 SAMPLE_PATTERN = "phong:samplePattern"
 SPECULAR_CONVENTION = "phong:specularConvention"
 BACKGROUND = "phong:background"
+# A light's model: "usdlux" (the default: UsdLux's units, normalize and falloff) or "seed" (the
+# seed's constant light ls·cl = intensity · 2^exposure · color, no falloff; our examples use it).
+LIGHT_MODEL = "phong:lightModel"
+LIGHT_MODEL_USDLUX, LIGHT_MODEL_SEED = "usdlux", "seed"
+LIGHT_MODELS = (LIGHT_MODEL_USDLUX, LIGHT_MODEL_SEED)
 
 # Our attributes, by the prim types that may carry them, with the value types accepted.
 # Anything else in `phong:` is an error (a typo must not be ignored).
 PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
-    "SphereLight": {SHADOW_SAMPLES: INT_TYPES, FADE_DISTANCE: FLOAT_TYPES, FADE_POWER: FLOAT_TYPES},
-    "RectLight": {SHADOW_SAMPLES: INT_TYPES},
+    "SphereLight": {SHADOW_SAMPLES: INT_TYPES, FADE_DISTANCE: FLOAT_TYPES, FADE_POWER: FLOAT_TYPES, LIGHT_MODEL: STRING_TYPES},
+    "RectLight": {SHADOW_SAMPLES: INT_TYPES, LIGHT_MODEL: STRING_TYPES},
+    "DistantLight": {LIGHT_MODEL: STRING_TYPES},
+    "DomeLight": {LIGHT_MODEL: STRING_TYPES},
     "RenderSettings": {
         SAMPLES: INT_TYPES,
         SAMPLE_PATTERN: STRING_TYPES,
@@ -82,6 +89,7 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "color": "inputs:color",
         "fade_distance": FADE_DISTANCE,
         "fade_power": FADE_POWER,
+        "falloff": LIGHT_MODEL,
     },
     "DirectionalLight": {"direction": "xformOp", "color": "inputs:color"},
     "RectAreaLight": {
@@ -90,12 +98,14 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "axis_v": "inputs:height",
         "color": "inputs:color",
         "samples": SHADOW_SAMPLES,
+        "falloff": LIGHT_MODEL,
     },
     "SphereAreaLight": {
         "center": "xformOp",
         "radius": "inputs:radius",
         "color": "inputs:color",
         "samples": SHADOW_SAMPLES,
+        "falloff": LIGHT_MODEL,
     },
     "Sphere": {"world_from_object": "radius"},
     "TriangleMesh": {

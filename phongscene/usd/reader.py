@@ -256,8 +256,9 @@ def _camera(ctx: ReadContext, prim: Usd.Prim) -> Camera | None:
 # -- lights ---------------------------------------------------------------------------------
 
 
-def _light_color(ctx: ReadContext, prim: Usd.Prim) -> tuple[float, float, float]:
-    """ls·cl = intensity · 2^exposure · color (× blackbody RGB when enabled)."""
+def _luminance(ctx: ReadContext, prim: Usd.Prim) -> np.ndarray:
+    """UsdLux's emitted luminance L = intensity · 2^exposure · color (× the blackbody colour when
+    enableColorTemperature), before normalize."""
     api = UsdLux.LightAPI(prim)
     intensity = ctx.number(prim, "inputs:intensity", 1.0, minimum=0.0)
     exposure = ctx.number(prim, "inputs:exposure", 0.0)
@@ -265,13 +266,52 @@ def _light_color(ctx: ReadContext, prim: Usd.Prim) -> tuple[float, float, float]
     if api.GetEnableColorTemperatureAttr().Get(ctx.time):
         kelvin = ctx.number(prim, "inputs:colorTemperature", 6500.0, minimum=0.0, strict=True)
         color = color * np.asarray(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
-    if api.GetNormalizeAttr().Get(ctx.time):
-        ctx.unsupported["lights with inputs:normalize = 1 (normalize is not applied in this model)"].append(str(prim.GetPath()))
     if prim.HasAPI(UsdLux.ShapingAPI):
         # A spot cone or focus would need a light model we do not have; the light shines everywhere.
         ctx.unsupported["lights with UsdLuxShapingAPI (cone and focus are ignored)"].append(str(prim.GetPath()))
-    scale = intensity * 2.0**exposure
-    return tuple(float(c) for c in (color * scale if scale != 1.0 else color))
+    for name in ("inputs:diffuse", "inputs:specular"):
+        attr = prim.GetAttribute(name)
+        if attr and attr.HasAuthoredValue() and attr.Get(ctx.time) != 1.0:
+            ctx.unsupported[f"lights with {name} != 1 (the multiplier is not applied)"].append(str(prim.GetPath()))
+    with np.errstate(over="ignore"):
+        scale = np.float64(intensity) * np.exp2(np.float64(exposure))
+    if not np.isfinite(scale):
+        ctx.problem(prim, "inputs:exposure", f"intensity · 2^exposure overflows ({intensity!r} · 2^{exposure!r})")
+        scale = 1.0
+    return color * scale if scale != 1.0 else color
+
+
+def _seed_light(ctx: ReadContext, prim: Usd.Prim) -> bool:
+    """Whether the light asks for the seed's constant light (``phong:lightModel = "seed"``):
+    strength ls·cl = intensity · 2^exposure · color arriving unchanged, no normalize, no falloff.
+    Otherwise (the default) UsdLux's units and falloff apply."""
+    model = ctx.get(prim, names.LIGHT_MODEL, STRING_TYPES, names.LIGHT_MODEL_USDLUX)
+    if model not in names.LIGHT_MODELS:
+        ctx.problem(prim, names.LIGHT_MODEL, f"must be one of {', '.join(names.LIGHT_MODELS)}, got {model!r}")
+        return False
+    seed = model == names.LIGHT_MODEL_SEED
+    if seed and UsdLux.LightAPI(prim).GetNormalizeAttr().Get(ctx.time):
+        ctx.unsupported["seed lights with inputs:normalize = 1 (normalize is not applied to the seed's light)"].append(
+            str(prim.GetPath())
+        )
+    return seed
+
+
+def _normalized(ctx: ReadContext, prim: Usd.Prim) -> bool:
+    return bool(UsdLux.LightAPI(prim).GetNormalizeAttr().Get(ctx.time))
+
+
+def _rgb(v) -> tuple[float, float, float]:
+    return tuple(float(c) for c in v)
+
+
+def _blender_sun_factor(ctx: ReadContext) -> float:
+    """Blender's USD exporter (5.0) writes a sun of strength S W/m² as a DistantLight of intensity
+    S/4 (normalize 1, angle 0), which UsdLux reads as an irradiance of S/4 where Cycles renders S
+    (measured: a white Lambert plane under a sun of strength 3). A layer Blender wrote says so in
+    its ``doc``; its suns are read as Cycles renders them, with a warning."""
+    doc = ctx.stage.GetRootLayer().documentation or ""
+    return 4.0 if doc.startswith("Blender") else 1.0
 
 
 def _shadow_samples(ctx: ReadContext, prim: Usd.Prim) -> int:
@@ -279,61 +319,114 @@ def _shadow_samples(ctx: ReadContext, prim: Usd.Prim) -> int:
 
 
 def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> None:
+    """One UsdLux light into the model, in UsdLux's units (see README: lights) unless it asks for
+    the seed's light. The emitted luminance L (normalized by the emitting area when
+    ``inputs:normalize``) becomes: for a SphereLight of world radius r the radiant intensity
+    I = L·πr² (= L/4 when normalized; treatAsPoint or r = 0: a point light with that I), for a
+    RectLight of world area A the intensity along its normal I = L·A (= L when normalized), for
+    a DistantLight the irradiance E = L·π·sin²(angle/2) (= L when normalized or angle = 0), for
+    an untextured DomeLight the ambient radiance La = L."""
     path = str(prim.GetPath())
     world = ctx.world(prim)
     centre = tuple(float(c) for c in world[:3, 3])
     type_name = prim.GetTypeName()
+    known = prim.IsA(UsdLux.DomeLight) or type_name == "DomeLight_1" or prim.IsA(UsdLux.SphereLight) or prim.IsA(
+        UsdLux.DistantLight
+    ) or prim.IsA(UsdLux.RectLight)
+    if not known:
+        ctx.unsupported["unsupported lights (ignored)"].append(f"{path} ({type_name})")
+        return
+    seed = _seed_light(ctx, prim)
+    luminance = _luminance(ctx, prim)
+    falloff = "none" if seed else "inverse-square"
     if prim.IsA(UsdLux.DomeLight) or type_name == "DomeLight_1":
         texture = prim.GetAttribute("inputs:texture:file")
         if texture and texture.Get(ctx.time) and texture.Get(ctx.time).path:
-            ctx.unsupported["textured DomeLights (ignored)"].append(path)
-            return
-        ambient.append(AmbientLight(_light_color(ctx, prim), path))
+            mean = _texture_mean(ctx, prim, texture.Get(ctx.time))
+            if mean is None:
+                return
+            luminance = luminance * mean
+        ambient.append(AmbientLight(_rgb(luminance), path))
         ctx.nodes.append((path, "AmbientLight"))
     elif prim.IsA(UsdLux.SphereLight):
         radius = ctx.number(prim, "inputs:radius", 0.5, minimum=0.0)
         point = bool(ctx.get(prim, "treatAsPoint", ("bool",), False)) or radius == 0
         # The world radius: the light's transform scales its radius (mean axis scale).
         radius_world = radius * float(np.mean(np.linalg.norm(world[:3, :3], axis=0)))
-        colour = _light_color(ctx, prim)
+        if seed:
+            colour = luminance
+        elif _normalized(ctx, prim):
+            colour = luminance / 4.0  # L/(4πr²) · πr², also in the limit r → 0
+        else:
+            colour = luminance * (math.pi * radius_world**2)
+            if radius_world == 0 and np.any(luminance > 0):
+                ctx.unsupported["point lights of radius 0 without inputs:normalize (they emit nothing in UsdLux)"].append(path)
         if point:
             if prim.GetAttribute(names.SHADOW_SAMPLES).HasAuthoredValue():
                 ctx.problem(prim, names.SHADOW_SAMPLES, "applies to area lights only (this SphereLight is a point light)")
             fade_distance = ctx.number(prim, names.FADE_DISTANCE, 0.0)
             fade_power = ctx.number(prim, names.FADE_POWER, 0.0)
-            lights.append(PointLight(centre, colour, fade_distance, fade_power, path))
-            ctx.nodes.append((path, "PointLight"))
+            lights.append(PointLight(centre, _rgb(colour), fade_distance, fade_power, path, falloff))
+            ctx.nodes.append((path, "PointLight" + ("" if seed else " (UsdLux)")))
         else:
             for name in (names.FADE_DISTANCE, names.FADE_POWER):
                 if prim.GetAttribute(name).HasAuthoredValue():
                     ctx.problem(prim, name, "applies to point lights only (treatAsPoint or radius 0)")
-            lights.append(SphereAreaLight(centre, radius_world, colour, _shadow_samples(ctx, prim), path))
-            ctx.nodes.append((path, "SphereAreaLight"))
+            lights.append(SphereAreaLight(centre, radius_world, _rgb(colour), _shadow_samples(ctx, prim), path, falloff))
+            ctx.nodes.append((path, "SphereAreaLight" + ("" if seed else " (UsdLux)")))
     elif prim.IsA(UsdLux.DistantLight):
         direction = unit(world[:3, :3] @ np.array([0.0, 0.0, -1.0]))
         if direction is None:
             ctx.problem(prim, "xformOpOrder", "the light's transform is degenerate (no −Z direction)")
             return
-        lights.append(DirectionalLight(tuple(float(c) for c in direction), _light_color(ctx, prim), path))
+        irradiance = luminance
+        if not seed:
+            angle = ctx.number(prim, "inputs:angle", 0.53, minimum=0.0)
+            if not _normalized(ctx, prim) and angle > 0:
+                irradiance = luminance * (math.pi * math.sin(math.radians(min(angle, 180.0)) / 2) ** 2)
+            factor = _blender_sun_factor(ctx)
+            if factor != 1.0:
+                irradiance = irradiance * factor
+                ctx.unsupported["Blender suns (its exporter writes strength S as intensity S/4: read as S, "
+                                "as Cycles renders them)"].append(path)
+        lights.append(DirectionalLight(tuple(float(c) for c in direction), _rgb(irradiance), path))
         ctx.nodes.append((path, "DirectionalLight"))
-    elif prim.IsA(UsdLux.RectLight):
+    else:  # RectLight
         width = ctx.number(prim, "inputs:width", 1.0, minimum=0.0, strict=True)
         height = ctx.number(prim, "inputs:height", 1.0, minimum=0.0, strict=True)
         axis_u = world[:3, :3] @ np.array([width, 0.0, 0.0])
         axis_v = world[:3, :3] @ np.array([0.0, height, 0.0])
+        if seed or _normalized(ctx, prim):
+            colour = luminance
+        else:
+            colour = luminance * float(np.linalg.norm(np.cross(axis_u, axis_v)))
         lights.append(
-            RectAreaLight(
-                centre,
-                tuple(float(c) for c in axis_u),
-                tuple(float(c) for c in axis_v),
-                _light_color(ctx, prim),
-                _shadow_samples(ctx, prim),
-                path,
-            )
+            RectAreaLight(centre, _rgb(axis_u), _rgb(axis_v), _rgb(colour), _shadow_samples(ctx, prim), path, falloff)
         )
-        ctx.nodes.append((path, "RectAreaLight"))
-    else:
-        ctx.unsupported["unsupported lights (ignored)"].append(f"{path} ({type_name})")
+        ctx.nodes.append((path, "RectAreaLight" + ("" if seed else " (UsdLux)")))
+
+
+def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
+    """The mean radiance of a DomeLight's texture (OpenImageIO), over texels weighted by the
+    solid angle they cover in a lat-long map (cos of the latitude), with a warning; None (and a
+    problem) when it cannot be read."""
+    from ..errors import PhongSceneError
+    from ..images import read_image  # OpenImageIO: only for a scene with a textured dome
+
+    path = asset.resolvedPath or asset.path
+    try:
+        image = read_image(path)
+    except PhongSceneError as e:
+        ctx.problem(prim, "inputs:texture:file", f"cannot read the texture: {e}")
+        return None
+    rows = image.shape[0]
+    latitude = (np.arange(rows) + 0.5) / rows * math.pi - math.pi / 2
+    weights = np.cos(latitude)[:, None] * np.ones(image.shape[1])
+    mean = (image[..., :3] * weights[..., None]).sum(axis=(0, 1)) / weights.sum()
+    ctx.unsupported["textured DomeLights (their mean radiance is the ambient light)"].append(
+        f"{prim.GetPath()} (mean {', '.join(f'{c:.4g}' for c in mean)})"
+    )
+    return mean
 
 
 # -- geometry -------------------------------------------------------------------------------

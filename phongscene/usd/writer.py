@@ -158,7 +158,16 @@ def _set_light_color(light: UsdLux.LightAPI, color) -> None:
 
 def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
     """A UsdLux light for a model light (PointLight, DirectionalLight, RectAreaLight,
-    SphereAreaLight) or an AmbientLight (an untextured DomeLight)."""
+    SphereAreaLight) or an AmbientLight (an untextured DomeLight).
+
+    A seed light (falloff "none") is marked ``phong:lightModel = "seed"``; an inverse-square one
+    is written in UsdLux's units with ``normalize = 1``, where the reader's radiant intensity is
+    intensity/4 for a SphereLight and the intensity itself for a RectLight (exact: ×4 and /4
+    are exact in binary). A DistantLight is written normalized, so its intensity is the
+    irradiance whatever its angle.
+    """
+    strength = np.asarray(light.color, dtype=np.float64)
+    falloff = getattr(light, "falloff", "none")
     if isinstance(light, AmbientLight):
         prim = UsdLux.DomeLight.Define(stage, path)
     elif isinstance(light, PointLight):
@@ -167,14 +176,19 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
         prim.CreateRadiusAttr(0.0)
         _set_translate(prim, light.position)
         p = prim.GetPrim()
-        p.CreateAttribute(names.FADE_DISTANCE, Sdf.ValueTypeNames.Double).Set(float(light.fade_distance))
-        p.CreateAttribute(names.FADE_POWER, Sdf.ValueTypeNames.Double).Set(float(light.fade_power))
+        if falloff == "none":
+            p.CreateAttribute(names.FADE_DISTANCE, Sdf.ValueTypeNames.Double).Set(float(light.fade_distance))
+            p.CreateAttribute(names.FADE_POWER, Sdf.ValueTypeNames.Double).Set(float(light.fade_power))
+        else:
+            strength = strength * 4.0
     elif isinstance(light, SphereAreaLight):
         prim = UsdLux.SphereLight.Define(stage, path)
         prim.CreateTreatAsPointAttr(False)
         prim.CreateRadiusAttr(float(light.radius))
         _set_translate(prim, light.center)
         prim.GetPrim().CreateAttribute(names.SHADOW_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.samples))
+        if falloff != "none":
+            strength = strength * 4.0
     elif isinstance(light, DirectionalLight):
         prim = UsdLux.DistantLight.Define(stage, path)
         d = np.asarray(light.direction, dtype=np.float64)
@@ -192,7 +206,12 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
         prim.GetPrim().CreateAttribute(names.SHADOW_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.samples))
     else:
         raise TypeError(f"not a light: {light!r}")
-    _set_light_color(UsdLux.LightAPI(prim.GetPrim()), light.color)
+    api = UsdLux.LightAPI(prim.GetPrim())
+    if isinstance(light, (PointLight, SphereAreaLight, RectAreaLight)) and falloff == "none":
+        prim.GetPrim().CreateAttribute(names.LIGHT_MODEL, Sdf.ValueTypeNames.Token).Set(names.LIGHT_MODEL_SEED)
+    elif not isinstance(light, AmbientLight):
+        api.CreateNormalizeAttr(True)
+    _set_light_color(api, strength)
     return prim.GetPrim()
 
 
