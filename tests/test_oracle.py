@@ -7,6 +7,8 @@ the shading model in README.md and the POV-Ray reference (ref §n: docs/povray-3
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 
 import numpy as np
@@ -269,6 +271,21 @@ def test_point_light_fade():
         factor = 2.0 / (1.0 + (3.0 / fade_distance) ** fade_power)
         got = _one_ray(_ground_scene([light]), (0.5, 1, 1), (0, 0, 0))
         np.testing.assert_allclose(got, _ground_value(np.full(3, 1.5 * factor), 1.0), atol=1e-9)
+
+
+def test_usdlux_inverse_square_point_and_lambertian_rect_light():
+    # UsdLux: a point light of intensity I, 3 above P = origin, gives I/9 (n·l = 1); a rect light
+    # centred at (4, 3, 0) emitting straight down gives I·cos θ/d² with cos θ = 3/5, d = 5, and
+    # n·l = 3/5 at P; turned to emit upwards (its back to P) it gives nothing.
+    point = PointLight((0, 3, 0), (18.0, 18.0, 18.0), falloff="inverse-square")
+    got = _one_ray(_ground_scene([point]), (0.5, 1, 1), (0, 0, 0))
+    np.testing.assert_allclose(got, _ground_value(np.full(3, 2.0), 1.0), atol=1e-9)
+    down = RectAreaLight((4, 3, 0), axis_u=(0, 0, 0.1), axis_v=(0.1, 0, 0), color=(50.0, 50.0, 50.0), samples=3,
+                         falloff="inverse-square")  # emits along −(u × v) = −y
+    got = _one_ray(_ground_scene([down]), (0.5, 1, 1), (0, 0, 0))
+    np.testing.assert_allclose(got, _ground_value(np.full(3, 50.0 * 0.6 / 25.0), 0.6), atol=1e-9)
+    up = dataclasses.replace(down, axis_u=down.axis_v, axis_v=down.axis_u)
+    np.testing.assert_allclose(_one_ray(_ground_scene([up]), (0.5, 1, 1), (0, 0, 0)), _ground_value((0, 0, 0), 0.6), atol=1e-9)
 
 
 @pytest.mark.parametrize(("samples", "fraction"), [(3, 1 / 4), (5, 3 / 8), (9, 5 / 16)])

@@ -445,3 +445,43 @@ def test_usdlux_lights_in_usdlux_units(tmp_path):
 def test_unknown_light_model_is_an_error(tmp_path):
     with pytest.raises(SceneError, match=r"/L\.phong:lightModel: must be one of usdlux, seed"):
         read(tmp_path, 'def SphereLight "L" { token phong:lightModel = "suffern" }')
+
+
+def test_image_aspect_follows_the_camera_apertures_without_a_resolution(tmp_path):
+    body = """
+    def Camera "Wide" { float horizontalAperture = 36
+        float verticalAperture = 20.25 }
+    """
+    settings = read(tmp_path, body).scene.settings
+    assert (settings.width, settings.height) == (320, 180)  # 16:9 at the default width
+
+
+def test_a_resolution_that_disagrees_with_the_apertures_fits_horizontally_with_a_warning(tmp_path):
+    body = """
+    def Camera "Wide" { float horizontalAperture = 36
+        float verticalAperture = 20.25 }
+    def RenderSettings "S" { int2 resolution = (400, 300)
+        rel camera = </Wide> }
+    """
+    result = read(tmp_path, body)
+    assert (result.scene.settings.width, result.scene.settings.height) == (400, 300)
+    assert result.scene.camera.horizontal_fov_deg == pytest.approx(2 * math.degrees(math.atan(18 / 50)))
+    assert any("fitting horizontally" in w and "/Wide" in w for w in result.warnings)
+
+
+def test_blender_specular_level_scales_the_preview_surface_f0(tmp_path):
+    body = """
+    def Material "M" { token outputs:surface.connect = </M/S.outputs:surface>
+        def Shader "S" { uniform token info:id = "UsdPreviewSurface"
+            float inputs:roughness = 0.5
+            float inputs:specular = 0
+            token outputs:surface }
+        def Shader "T" { uniform token info:id = "UsdPreviewSurface"
+            float inputs:roughness = 0.5
+            token outputs:surface } }
+    def Sphere "Ball" (prepend apiSchemas = ["MaterialBindingAPI"]) { rel material:binding = </M> }
+    """
+    (ball,) = read(tmp_path, body).scene.spheres
+    assert ball.material.ks == 0.0  # Blender's "Specular IOR Level" 0: no highlight
+    assert preview_to_phong((0.8, 0.8, 0.8), 0.5).ks == pytest.approx(0.04)  # ior 1.5, level 0.5 (neutral)
+    assert preview_to_phong((0.8, 0.8, 0.8), 0.5, specular_level=1.0).ks == pytest.approx(0.08)

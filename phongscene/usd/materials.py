@@ -18,6 +18,8 @@ PREVIEW_SHADER_ID = "UsdPreviewSurface"
 PREVIEW_MAX_EXPONENT = 1e4
 # Smallest roughness used in the mapping (keeps 2/α² finite).
 PREVIEW_MIN_ROUGHNESS = 1e-3
+# Not in the UsdPreviewSurface spec: Blender writes its Principled BSDF's "Specular IOR Level" here.
+BLENDER_SPECULAR_LEVEL = "specular"
 PREVIEW_INPUTS = ("diffuseColor", "roughness", "metallic", "specularColor", "useSpecularWorkflow", "ior")
 
 
@@ -29,6 +31,7 @@ def preview_to_phong(
     use_specular_workflow: int = 0,
     ior: float = 1.5,
     source: str = "",
+    specular_level: float = 0.5,
 ) -> PhongMaterial:
     """Approximate a UsdPreviewSurface by a Phong material.
 
@@ -45,7 +48,9 @@ def preview_to_phong(
         cs, kd_colour = np.clip(np.asarray(specular_color, dtype=np.float64), 0.0, None), cd
     else:
         m = float(np.clip(metallic, 0.0, 1.0))
-        f0 = ((1.0 - ior) / (1.0 + ior)) ** 2  # 0.04 at ior 1.5 (UsdPreviewSurface spec)
+        # 0.04 at ior 1.5 (UsdPreviewSurface spec), scaled by Blender's "Specular IOR Level"
+        # (exported as the non-standard inputs:specular; 0.5 leaves F0 as the IOR gives it, 0 removes it).
+        f0 = ((1.0 - ior) / (1.0 + ior)) ** 2 * (2.0 * float(np.clip(specular_level, 0.0, 1.0)))
         cs, kd_colour = (1.0 - m) * f0 + m * cd, cd * (1.0 - m)
     ks = float(np.clip(cs.max(), 0.0, 1.0))
     cs = cs / cs.max() if cs.max() > 0 else np.ones(3)
@@ -150,6 +155,14 @@ class MaterialReader:
                 self.ctx.unsupported[f"UsdPreviewSurface inputs:{name} (not in the Phong model; ignored)"].append(
                     str(prim.GetPath())
                 )
+        level = shader.GetInput(BLENDER_SPECULAR_LEVEL)
+        specular_level = 0.5
+        if level and level.GetAttr().HasAuthoredValue():
+            value = level.Get(self.ctx.time)
+            if isinstance(value, (int, float)) and np.isfinite(value):
+                specular_level = float(value)
+            else:
+                self.ctx.problem(prim, f"inputs:{BLENDER_SPECULAR_LEVEL}", f"must be a finite number, got {value!r}")
         return preview_to_phong(
             tuple(values["diffuseColor"]),
             float(values["roughness"]),
@@ -158,6 +171,7 @@ class MaterialReader:
             int(values["useSpecularWorkflow"]),
             float(values["ior"]),
             source=str(prim.GetPath()),
+            specular_level=specular_level,
         )
 
     def _display_color(self, prim: Usd.Prim) -> PhongMaterial:

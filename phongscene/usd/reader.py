@@ -99,6 +99,8 @@ def read_usd(source) -> ReadResult:
 
     if camera_prim is not None:
         camera = _camera(ctx, camera_prim)
+        if camera is not None:
+            settings = _conform_to_aperture(ctx, camera_prim, settings)
     ambient_color = tuple(float(sum(a.color[i] for a in ambient)) for i in range(3)) if ambient else (0.0, 0.0, 0.0)
     scene = Scene(
         camera=camera or Camera(),
@@ -214,6 +216,34 @@ def _render_settings(ctx: ReadContext) -> tuple[RenderSettings, Usd.Prim | None]
             camera = None
     ctx.nodes.append((str(prim.GetPath()), "RenderSettings"))
     return RenderSettings(**values), camera
+
+
+# Image and aperture aspects closer than this (relative) agree: apertures are float32 tenths of
+# a unit, and integer pixel sizes round an aspect by up to half a pixel in a few hundred.
+ASPECT_TOLERANCE = 5e-3
+
+
+def _conform_to_aperture(ctx: ReadContext, prim: Usd.Prim, settings: RenderSettings) -> RenderSettings:
+    """The image aspect a camera's apertures ask for. Without a resolution (no RenderSettings
+    resolution) the image takes the aspect horizontalAperture / verticalAperture at the default
+    width; with one that disagrees, USD's default conform policy applies (fit horizontal: the
+    horizontal field of view is kept, the vertical one follows the image), with a warning."""
+    h_attr, v_attr = prim.GetAttribute("horizontalAperture"), prim.GetAttribute("verticalAperture")
+    if not (h_attr and v_attr and (h_attr.HasAuthoredValue() or v_attr.HasAuthoredValue())):
+        return settings
+    horizontal = ctx.number(prim, "horizontalAperture", 20.955, minimum=0.0, strict=True)
+    vertical = ctx.number(prim, "verticalAperture", 15.2908, minimum=0.0, strict=True)
+    aperture_aspect = horizontal / vertical
+    image_aspect = settings.width / settings.height
+    if abs(image_aspect / aperture_aspect - 1.0) <= ASPECT_TOLERANCE:
+        return settings
+    if not settings.source or not UsdRender.Settings(ctx.stage.GetPrimAtPath(settings.source)).GetResolutionAttr().HasAuthoredValue():
+        return replace(settings, height=max(1, round(settings.width / aperture_aspect)))
+    ctx.warn(
+        f"{prim.GetPath()}: the aperture aspect {aperture_aspect:.4g} differs from the image's {image_aspect:.4g} "
+        f"({settings.width}x{settings.height}); fitting horizontally (USD's default): the horizontal field of view is kept"
+    )
+    return settings
 
 
 def _camera(ctx: ReadContext, prim: Usd.Prim) -> Camera | None:
