@@ -8,6 +8,7 @@ from .errors import BackendError, PhongSceneError, Problem, SceneError
 from .scene import (
     AmbientLight,
     Camera,
+    Cone,
     DirectionalLight,
     PhongMaterial,
     PointLight,
@@ -47,6 +48,7 @@ __all__ = [
     "AmbientLight",
     "BackendError",
     "Camera",
+    "Cone",
     "DirectionalLight",
     "PhongMaterial",
     "PhongSceneError",

@@ -154,6 +154,18 @@ class AmbientLight:
 
 
 @dataclass(frozen=True, slots=True)
+class Cone:
+    """A spot light's cone (UsdLux ShapingAPI): along unit ``axis`` the light is unchanged where
+    cos θ >= ``cos_inner``, zero where cos θ <= ``cos_outer``, and smoothstep in cos θ between
+    (t = (cos θ − cos_outer)/(cos_inner − cos_outer), t²(3 − 2t): POV-Ray's spotlight edge).
+    0 < cos_outer <= cos_inner <= 1 (a cone narrower than a hemisphere)."""
+
+    axis: Vec3
+    cos_outer: float
+    cos_inner: float
+
+
+@dataclass(frozen=True, slots=True)
 class PointLight:
     """A point light. No distance falloff unless ``fade_power > 0`` (POV-Ray's fade rule:
     ``color · 2 / (1 + (d / fade_distance)^fade_power)``)."""
@@ -164,6 +176,7 @@ class PointLight:
     fade_power: float = 0.0  # 0 = no fade (the default, as in Suffern and POV-Ray)
     source: str = ""
     falloff: Falloff = "none"  # "inverse-square": color / d² (then no fade)
+    cone: Cone | None = None  # a spot light's cone
 
 
 @dataclass(frozen=True, slots=True)

@@ -201,6 +201,13 @@ def _check_light(c: _Collector, light) -> None:
         c.add(light, "fade_power", "must be 0 with falloff 'inverse-square' (the fade is POV-Ray's alternative)")
     if isinstance(light, PointLight):
         c.finite(light, "position", light.position)
+        cone = light.cone
+        if cone is not None:
+            axis = np.asarray(cone.axis, dtype=np.float64)
+            if axis.shape != (3,) or not np.all(np.isfinite(axis)) or abs(float(np.linalg.norm(axis)) - 1) > UNIT_TOLERANCE:
+                c.add(light, "cone", f"the cone's axis must be a finite unit vector, got {_show(tuple(cone.axis))}")
+            if not (np.isfinite(cone.cos_outer) and np.isfinite(cone.cos_inner) and 0 < cone.cos_outer <= cone.cos_inner <= 1):
+                c.add(light, "cone", f"must have 0 < cos_outer <= cos_inner <= 1, got {cone.cos_outer!r}, {cone.cos_inner!r}")
         fd_ok = c.finite(light, "fade_distance", light.fade_distance)
         if c.finite(light, "fade_power", light.fade_power):
             if light.fade_power < 0:

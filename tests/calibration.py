@@ -24,6 +24,7 @@ import numpy as np
 from phongscene.scene import (
     AmbientLight,
     Camera,
+    Cone,
     DirectionalLight,
     PhongMaterial,
     PointLight,
@@ -210,7 +211,8 @@ def sphere_area_light() -> Scene:
 
 def inverse_square_lights() -> Scene:
     """UsdLux falloff: a point light and a spherical light fall off as I/d², a tilted rect light
-    as I·cos θ/d² (one-sided Lambertian panel), each with its shadows."""
+    as I·cos θ/d² (one-sided Lambertian panel), a spot light's cone edge is a smoothstep in cos θ,
+    each with its shadows."""
     scene = _sphere_on_ground(
         PointLight((3.41, 5.07, 2.93), (61.0, 57.0, 52.0), falloff="inverse-square"), material=GOLD
     )
@@ -220,7 +222,10 @@ def inverse_square_lights() -> Scene:
     )
     disc = SphereAreaLight(center=(0.37, 4.61, -2.9), radius=0.41, color=(20.0, 26.0, 31.0), samples=3,
                            falloff="inverse-square")
-    return dataclasses.replace(scene, lights=(*scene.lights, rect, disc))
+    spot_axis = np.array([0.3, -1.0, -0.2]) / np.linalg.norm([0.3, -1.0, -0.2])
+    spot = PointLight((-0.8, 3.9, 0.9), (16.0, 14.0, 12.0), falloff="inverse-square",
+                      cone=Cone(_vec(spot_axis), math.cos(math.radians(21.0)), math.cos(math.radians(14.0))))
+    return dataclasses.replace(scene, lights=(*scene.lights, rect, disc, spot))
 
 
 def ambient_only() -> Scene:

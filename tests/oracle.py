@@ -485,6 +485,12 @@ def _light_at_centre(light, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
             cos_light = (-l) @ (emit / np.linalg.norm(emit))
             factor = factor * np.maximum(cos_light, 0.0)
         lc = lc * factor[:, None]
+    if isinstance(light, PointLight) and light.cone is not None:
+        cone = light.cone
+        c = (-l) @ np.asarray(cone.axis, dtype=np.float64)
+        span = cone.cos_inner - cone.cos_outer
+        t = np.clip((c - cone.cos_outer) / span, 0.0, 1.0) if span > 0 else (c > cone.cos_outer).astype(np.float64)
+        lc = lc * (t * t * (3.0 - 2.0 * t))[:, None]
     return l, dist, lc
 
 

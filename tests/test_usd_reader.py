@@ -485,3 +485,20 @@ def test_blender_specular_level_scales_the_preview_surface_f0(tmp_path):
     assert ball.material.ks == 0.0  # Blender's "Specular IOR Level" 0: no highlight
     assert preview_to_phong((0.8, 0.8, 0.8), 0.5).ks == pytest.approx(0.04)  # ior 1.5, level 0.5 (neutral)
     assert preview_to_phong((0.8, 0.8, 0.8), 0.5, specular_level=1.0).ks == pytest.approx(0.08)
+
+
+def test_shaping_cone_on_a_point_light(tmp_path):
+    body = """
+    def SphereLight "Spot" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 30
+        float inputs:shaping:cone:softness = 0.5 }
+    def SphereLight "Wide" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 180 }
+    """
+    spot, wide = read(tmp_path, body).scene.lights
+    assert spot.cone.axis == (0.0, 0.0, -1.0)
+    assert spot.cone.cos_outer == pytest.approx(math.cos(math.radians(30)))
+    assert spot.cone.cos_inner == pytest.approx(math.cos(math.radians(15)))  # smooth start θc·(1 − softness)
+    assert wide.cone is None  # a 180° cone restricts nothing

@@ -46,10 +46,14 @@ def _material(m: PhongMaterial) -> _native.Material:
 
 def _light(light: Light):
     if isinstance(light, PointLight):
-        return _native.PointLight(
+        native = _native.PointLight(
             position=light.position, color=light.color, fade_distance=light.fade_distance, fade_power=light.fade_power,
             inverse_square=light.falloff == "inverse-square",
         )
+        if light.cone is not None:
+            native.cone_axis = light.cone.axis
+            native.cone_cos_outer, native.cone_cos_inner = light.cone.cos_outer, light.cone.cos_inner
+        return native
     if isinstance(light, DirectionalLight):
         return _native.DirectionalLight(direction=light.direction, color=light.color)
     if isinstance(light, RectAreaLight):

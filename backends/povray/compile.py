@@ -276,6 +276,16 @@ class _Compiler:
                     f" fade_distance {self.num(light.fade_distance, light, 'fade_distance')}"
                     f" fade_power {self.num(light.fade_power, light, 'fade_power')}"
                 )
+            if light.cone is not None:
+                # POV-Ray's spotlight: 1 inside `radius`, 0 outside `falloff`, a cubic (smoothstep)
+                # in cos between; tightness 0 adds no cos^n factor.
+                cone = light.cone
+                target = np.asarray(light.position, dtype=np.float64) + np.asarray(cone.axis, dtype=np.float64)
+                text += (
+                    f" spotlight point_at {self.vec(target, light, 'cone')}"
+                    f" radius {self.num(math.degrees(math.acos(cone.cos_inner)), light, 'cone')}"
+                    f" falloff {self.num(math.degrees(math.acos(cone.cos_outer)), light, 'cone')} tightness 0"
+                )
             return text + fade + " }"
         if isinstance(light, DirectionalLight):
             position = self.parallel_position(light)

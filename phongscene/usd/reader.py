@@ -27,6 +27,7 @@ from ..errors import Problem, SceneError
 from ..scene import (
     AmbientLight,
     Camera,
+    Cone,
     DirectionalLight,
     PointLight,
     RectAreaLight,
@@ -296,9 +297,6 @@ def _luminance(ctx: ReadContext, prim: Usd.Prim) -> np.ndarray:
     if api.GetEnableColorTemperatureAttr().Get(ctx.time):
         kelvin = ctx.number(prim, "inputs:colorTemperature", 6500.0, minimum=0.0, strict=True)
         color = color * np.asarray(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
-    if prim.HasAPI(UsdLux.ShapingAPI):
-        # A spot cone or focus would need a light model we do not have; the light shines everywhere.
-        ctx.unsupported["lights with UsdLuxShapingAPI (cone and focus are ignored)"].append(str(prim.GetPath()))
     for name in ("inputs:diffuse", "inputs:specular"):
         attr = prim.GetAttribute(name)
         if attr and attr.HasAuthoredValue() and attr.Get(ctx.time) != 1.0:
@@ -342,6 +340,38 @@ def _blender_sun_factor(ctx: ReadContext) -> float:
     its ``doc``; its suns are read as Cycles renders them, with a warning."""
     doc = ctx.stage.GetRootLayer().documentation or ""
     return 4.0 if doc.startswith("Blender") else 1.0
+
+
+# A cone of this half-angle or wider restricts nothing.
+FULL_CONE_DEG = 180.0
+# POV-Ray's spotlight lights only cos θ > 0: a cone must be narrower than a hemisphere.
+HEMISPHERE_DEG = 90.0
+
+
+def _cone(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray) -> Cone | None:
+    """A point light's ShapingAPI cone: zero beyond shaping:cone:angle θc off its −Z axis, full
+    inside θc·(1 − softness) (UsdLux's smooth start), smoothstep in cos θ between (UsdLux
+    interpolates the angle; POV-Ray's spotlight the cosine, which both backends then share)."""
+    if not prim.HasAPI(UsdLux.ShapingAPI):
+        return None
+    path = str(prim.GetPath())
+    shaping = UsdLux.ShapingAPI(prim)
+    focus = shaping.GetShapingFocusAttr().Get(ctx.time) or 0.0
+    if focus != 0.0:
+        ctx.unsupported["lights with shaping:focus (ignored)"].append(path)
+    angle = ctx.number(prim, "inputs:shaping:cone:angle", 90.0, minimum=0.0)
+    softness = float(np.clip(ctx.number(prim, "inputs:shaping:cone:softness", 0.0), 0.0, 1.0))
+    if angle >= FULL_CONE_DEG:
+        return None
+    if angle >= HEMISPHERE_DEG or angle == 0.0:
+        ctx.unsupported["spot cones of 90° or more, or of 0° (ignored: the light shines everywhere)"].append(path)
+        return None
+    axis = unit(world[:3, :3] @ np.array([0.0, 0.0, -1.0]))
+    if axis is None:
+        ctx.problem(prim, "xformOpOrder", "the light's transform is degenerate (no −Z direction for its cone)")
+        return None
+    outer = math.radians(angle)
+    return Cone(_rgb(axis), math.cos(outer), math.cos(outer * (1.0 - softness)))
 
 
 def _shadow_samples(ctx: ReadContext, prim: Usd.Prim) -> int:
@@ -396,9 +426,12 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
                 ctx.problem(prim, names.SHADOW_SAMPLES, "applies to area lights only (this SphereLight is a point light)")
             fade_distance = ctx.number(prim, names.FADE_DISTANCE, 0.0)
             fade_power = ctx.number(prim, names.FADE_POWER, 0.0)
-            lights.append(PointLight(centre, _rgb(colour), fade_distance, fade_power, path, falloff))
+            cone = _cone(ctx, prim, world)
+            lights.append(PointLight(centre, _rgb(colour), fade_distance, fade_power, path, falloff, cone))
             ctx.nodes.append((path, "PointLight" + ("" if seed else " (UsdLux)")))
         else:
+            if prim.HasAPI(UsdLux.ShapingAPI):
+                ctx.unsupported["spherical or rect lights with UsdLuxShapingAPI (the cone is ignored)"].append(path)
             for name in (names.FADE_DISTANCE, names.FADE_POWER):
                 if prim.GetAttribute(name).HasAuthoredValue():
                     ctx.problem(prim, name, "applies to point lights only (treatAsPoint or radius 0)")
@@ -422,6 +455,8 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
         lights.append(DirectionalLight(tuple(float(c) for c in direction), _rgb(irradiance), path))
         ctx.nodes.append((path, "DirectionalLight"))
     else:  # RectLight
+        if prim.HasAPI(UsdLux.ShapingAPI):
+            ctx.unsupported["spherical or rect lights with UsdLuxShapingAPI (the cone is ignored)"].append(path)
         width = ctx.number(prim, "inputs:width", 1.0, minimum=0.0, strict=True)
         height = ctx.number(prim, "inputs:height", 1.0, minimum=0.0, strict=True)
         axis_u = world[:3, :3] @ np.array([width, 0.0, 0.0])

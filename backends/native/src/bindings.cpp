@@ -202,7 +202,10 @@ NB_MODULE(_native, m) {
         .def_rw("color", &PointLight::color)
         .def_rw("fade_distance", &PointLight::fade_distance)
         .def_rw("fade_power", &PointLight::fade_power)
-        .def_rw("inverse_square", &PointLight::inverse_square);
+        .def_rw("inverse_square", &PointLight::inverse_square)
+        .def_rw("cone_axis", &PointLight::cone_axis)
+        .def_rw("cone_cos_outer", &PointLight::cone_cos_outer)
+        .def_rw("cone_cos_inner", &PointLight::cone_cos_inner);
 
     using phong::DirectionalLight;
     nb::class_<DirectionalLight>(m, "DirectionalLight", "A light at infinity; made from the direction it travels.")

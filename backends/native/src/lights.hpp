@@ -24,6 +24,10 @@ struct PointLight {
     double fade_distance;  // used only when fade_power > 0
     double fade_power;     // 0: no fade
     bool inverse_square = false;
+    // A spot cone along unit cone_axis: 1 for cos >= cone_cos_inner, 0 for cos <= cone_cos_outer,
+    // smoothstep in cos between (POV-Ray's spotlight edge). cone_cos_outer <= -1: no cone.
+    Vec3 cone_axis{0, 0, -1};
+    double cone_cos_outer = -2.0, cone_cos_inner = -2.0;
 };
 
 struct DirectionalLight {
@@ -82,6 +86,13 @@ inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
                 if (L.fade_power > 0.0)  // POV-Ray: 2 / (1 + (d / fade_distance)^fade_power)
                     s.color = s.color * (2.0 / (1.0 + std::pow(s.distance / L.fade_distance, L.fade_power)));
                 if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
+                if (L.cone_cos_outer > -1.0) {
+                    const double c = -dot(s.l, L.cone_axis);
+                    const double span = L.cone_cos_inner - L.cone_cos_outer;
+                    double t = span > 0.0 ? (c - L.cone_cos_outer) / span : (c > L.cone_cos_outer ? 1.0 : 0.0);
+                    t = std::fmin(1.0, std::fmax(0.0, t));
+                    s.color = s.color * (t * t * (3.0 - 2.0 * t));
+                }
                 return s;
             } else if constexpr (std::is_same_v<T, DirectionalLight>) {
                 return {L.to_light, HUGE_VAL, L.color};
