@@ -1,6 +1,8 @@
 # SPDX-License-Identifier: Apache-2.0
 """Shared test set-up: the ``povray`` marker skips without POV-Ray, except in CI
-(PHONGSCENE_REQUIRE_POVRAY=1), where a missing POV-Ray is a failure, never a skip."""
+(PHONGSCENE_REQUIRE_POVRAY=1), where a missing POV-Ray is a failure, never a skip; likewise the
+``shared_assets`` marker without the third-party scenes beside the repository (a user's clone
+has none), except with PHONGSCENE_REQUIRE_ASSETS=1 (CI)."""
 
 from __future__ import annotations
 
@@ -15,8 +17,12 @@ SHARED_ASSETS = REPO.parent / "shared" / "assets" / "usd"
 EXAMPLES = REPO / "examples"
 
 
+def _required(variable: str) -> bool:
+    return os.environ.get(variable, "") not in ("", "0")
+
+
 def povray_required() -> bool:
-    return os.environ.get("PHONGSCENE_REQUIRE_POVRAY", "") not in ("", "0")
+    return _required("PHONGSCENE_REQUIRE_POVRAY")
 
 
 def pytest_runtest_setup(item):
@@ -24,3 +30,7 @@ def pytest_runtest_setup(item):
         if povray_required():
             pytest.fail("PHONGSCENE_REQUIRE_POVRAY=1 but povray is not on PATH", pytrace=False)
         pytest.skip("povray not installed (apt-get install povray)")
+    if item.get_closest_marker("shared_assets") and not SHARED_ASSETS.is_dir():
+        if _required("PHONGSCENE_REQUIRE_ASSETS"):
+            pytest.fail(f"PHONGSCENE_REQUIRE_ASSETS=1 but {SHARED_ASSETS} is missing", pytrace=False)
+        pytest.skip(f"third-party scenes not present ({SHARED_ASSETS})")

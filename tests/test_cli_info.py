@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from conftest import EXAMPLES, SHARED_ASSETS
 from phongscene.cli import build_parser, main
 
@@ -18,6 +20,7 @@ def test_info_lists_nodes_counts_camera_settings_and_warnings(capsys):
     assert "warning:" not in out
 
 
+@pytest.mark.shared_assets
 def test_info_shows_warnings(capsys):
     assert main(["info", str(SHARED_ASSETS / "teapot" / "teapot.usda")]) == 0
     out = capsys.readouterr().out

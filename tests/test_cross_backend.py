@@ -169,6 +169,10 @@ def test_cross_backend_third_party_scene_agrees(case, povray_images, tmp_path, m
     _check(case, povray_images, tmp_path, monkeypatch)
 
 
-def test_cross_backend_covers_examples_and_shared_assets():
+def test_cross_backend_covers_the_examples():
     assert EXAMPLE_FILES, f"no examples in {EXAMPLES}"
+
+
+@pytest.mark.shared_assets
+def test_cross_backend_covers_the_shared_assets():
     assert SHARED_FILES, f"no third-party scenes in {SHARED_ASSETS}"

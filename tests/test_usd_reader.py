@@ -497,8 +497,10 @@ def test_shaping_cone_on_a_point_light(tmp_path):
         bool inputs:normalize = 1
         float inputs:shaping:cone:angle = 180 }
     """
-    spot, wide = read(tmp_path, body).scene.lights
+    result = read(tmp_path, body)
+    spot, wide = result.scene.lights
     assert spot.cone.axis == (0.0, 0.0, -1.0)
     assert spot.cone.cos_outer == pytest.approx(math.cos(math.radians(30)))
     assert spot.cone.cos_inner == pytest.approx(math.cos(math.radians(15)))  # smooth start θc·(1 − softness)
-    assert wide.cone is None  # a 180° cone restricts nothing
+    assert wide.cone is None  # a hard 180° cone restricts nothing, and is not warned about
+    assert not [w for w in result.warnings if "cone" in w]

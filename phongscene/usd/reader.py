@@ -318,7 +318,7 @@ def _seed_light(ctx: ReadContext, prim: Usd.Prim) -> bool:
         ctx.problem(prim, names.LIGHT_MODEL, f"must be one of {', '.join(names.LIGHT_MODELS)}, got {model!r}")
         return False
     seed = model == names.LIGHT_MODEL_SEED
-    if seed and UsdLux.LightAPI(prim).GetNormalizeAttr().Get(ctx.time):
+    if seed and _normalized(ctx, prim):
         ctx.unsupported["seed lights with inputs:normalize = 1 (normalize is not applied to the seed's light)"].append(
             str(prim.GetPath())
         )
@@ -348,23 +348,30 @@ FULL_CONE_DEG = 180.0
 HEMISPHERE_DEG = 90.0
 
 
+def _shaping(ctx: ReadContext, prim: Usd.Prim) -> tuple[float, float] | None:
+    """(cone angle in degrees, softness in [0, 1]) of a ShapingAPI light whose cone restricts its
+    emission; None when it restricts nothing (no ShapingAPI, or a hard 180° cone). A focus is
+    warned about (not modelled)."""
+    if not prim.HasAPI(UsdLux.ShapingAPI):
+        return None
+    if (UsdLux.ShapingAPI(prim).GetShapingFocusAttr().Get(ctx.time) or 0.0) != 0.0:
+        ctx.unsupported["lights with shaping:focus (ignored)"].append(str(prim.GetPath()))
+    angle = ctx.number(prim, "inputs:shaping:cone:angle", 90.0, minimum=0.0)
+    softness = float(np.clip(ctx.number(prim, "inputs:shaping:cone:softness", 0.0), 0.0, 1.0))
+    return None if angle >= FULL_CONE_DEG and softness == 0.0 else (angle, softness)
+
+
 def _cone(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray) -> Cone | None:
     """A point light's ShapingAPI cone: zero beyond shaping:cone:angle θc off its −Z axis, full
     inside θc·(1 − softness) (UsdLux's smooth start), smoothstep in cos θ between (UsdLux
     interpolates the angle; POV-Ray's spotlight the cosine, which both backends then share)."""
-    if not prim.HasAPI(UsdLux.ShapingAPI):
+    shape = _shaping(ctx, prim)
+    if shape is None:
         return None
+    angle, softness = shape
     path = str(prim.GetPath())
-    shaping = UsdLux.ShapingAPI(prim)
-    focus = shaping.GetShapingFocusAttr().Get(ctx.time) or 0.0
-    if focus != 0.0:
-        ctx.unsupported["lights with shaping:focus (ignored)"].append(path)
-    angle = ctx.number(prim, "inputs:shaping:cone:angle", 90.0, minimum=0.0)
-    softness = float(np.clip(ctx.number(prim, "inputs:shaping:cone:softness", 0.0), 0.0, 1.0))
-    if angle >= FULL_CONE_DEG:
-        return None
-    if angle >= HEMISPHERE_DEG or angle == 0.0:
-        ctx.unsupported["spot cones of 90° or more, or of 0° (ignored: the light shines everywhere)"].append(path)
+    if angle >= HEMISPHERE_DEG:
+        ctx.unsupported["spot cones of 90° or more (ignored: the light shines everywhere)"].append(path)
         return None
     axis = unit(world[:3, :3] @ np.array([0.0, 0.0, -1.0]))
     if axis is None:
@@ -390,19 +397,18 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
     world = ctx.world(prim)
     centre = tuple(float(c) for c in world[:3, 3])
     type_name = prim.GetTypeName()
-    known = prim.IsA(UsdLux.DomeLight) or type_name == "DomeLight_1" or prim.IsA(UsdLux.SphereLight) or prim.IsA(
-        UsdLux.DistantLight
-    ) or prim.IsA(UsdLux.RectLight)
-    if not known:
+    dome = prim.IsA(UsdLux.DomeLight) or type_name == "DomeLight_1"
+    if not (dome or prim.IsA(UsdLux.SphereLight) or prim.IsA(UsdLux.DistantLight) or prim.IsA(UsdLux.RectLight)):
         ctx.unsupported["unsupported lights (ignored)"].append(f"{path} ({type_name})")
         return
     seed = _seed_light(ctx, prim)
     luminance = _luminance(ctx, prim)
     falloff = "none" if seed else "inverse-square"
-    if prim.IsA(UsdLux.DomeLight) or type_name == "DomeLight_1":
+    if dome:
         texture = prim.GetAttribute("inputs:texture:file")
-        if texture and texture.Get(ctx.time) and texture.Get(ctx.time).path:
-            mean = _texture_mean(ctx, prim, texture.Get(ctx.time))
+        asset = texture.Get(ctx.time) if texture else None
+        if asset and asset.path:
+            mean = _texture_mean(ctx, prim, asset)
             if mean is None:
                 return
             luminance = luminance * mean
@@ -430,8 +436,8 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
             lights.append(PointLight(centre, _rgb(colour), fade_distance, fade_power, path, falloff, cone))
             ctx.nodes.append((path, "PointLight" + ("" if seed else " (UsdLux)")))
         else:
-            if prim.HasAPI(UsdLux.ShapingAPI):
-                ctx.unsupported["spherical or rect lights with UsdLuxShapingAPI (the cone is ignored)"].append(path)
+            if _shaping(ctx, prim) is not None:
+                ctx.unsupported["spherical or rect lights with a UsdLuxShapingAPI cone (ignored)"].append(path)
             for name in (names.FADE_DISTANCE, names.FADE_POWER):
                 if prim.GetAttribute(name).HasAuthoredValue():
                     ctx.problem(prim, name, "applies to point lights only (treatAsPoint or radius 0)")
@@ -455,8 +461,8 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
         lights.append(DirectionalLight(tuple(float(c) for c in direction), _rgb(irradiance), path))
         ctx.nodes.append((path, "DirectionalLight"))
     else:  # RectLight
-        if prim.HasAPI(UsdLux.ShapingAPI):
-            ctx.unsupported["spherical or rect lights with UsdLuxShapingAPI (the cone is ignored)"].append(path)
+        if _shaping(ctx, prim) is not None:
+            ctx.unsupported["spherical or rect lights with a UsdLuxShapingAPI cone (ignored)"].append(path)
         width = ctx.number(prim, "inputs:width", 1.0, minimum=0.0, strict=True)
         height = ctx.number(prim, "inputs:height", 1.0, minimum=0.0, strict=True)
         axis_u = world[:3, :3] @ np.array([width, 0.0, 0.0])
