@@ -186,6 +186,10 @@ class _Compiler:
         self.exact = mapping == "exact"
         self.lines: list[str] = []
         self.materials: dict[PhongMaterial, str] = {}
+        # The geometry's bounds (a pass over every mesh point), for placing parallel lights and
+        # scaling the inverse-square fade: computed once, not once per light and pass.
+        with np.errstate(over="ignore", invalid="ignore"):
+            self.bounds = scene.bounds()
 
     # -- numbers, with the prim named when one is not finite ---------------------------------
 
@@ -258,7 +262,7 @@ class _Compiler:
     def inverse_square_fade(self, light) -> tuple[str, str]:
         """(the scaled colour, the fade clause) that make POV's fade an inverse square."""
         with np.errstate(over="ignore", invalid="ignore"):
-            bounds = self.scene.bounds()
+            bounds = self.bounds
             radius = 1.0 if bounds is None else float(np.linalg.norm(bounds[1] - bounds[0])) / 2 or 1.0
             fd = INVERSE_SQUARE_FADE_RADII * radius
             scaled = np.asarray(light.color, dtype=np.float64) / (2.0 * fd * fd)
@@ -320,7 +324,7 @@ class _Compiler:
         direction = np.asarray(light.direction, dtype=np.float64)
         # Overflow (bounds near 1e308) gives inf here, which vec() then rejects naming the light.
         with np.errstate(over="ignore", invalid="ignore"):
-            bounds = self.scene.bounds()
+            bounds = self.bounds
             if bounds is None:
                 return -direction
             lo, hi = bounds

@@ -324,36 +324,28 @@ def top_camera(scene):
     add_camera(scene, (0, 0, 8), rot=(0, 0, 0), lens=35.0)
 
 
-def scene_plane_point(samples):
+def lit_plane(samples, name, kind, location, power, **light):
+    """The 10 m white Lambert plane under one light, seen from straight above."""
     scene = reset()
     setup_render(scene, 320, 240, samples)
     mat = white_plane()
     add_plane("Plane", 10.0, mat)
-    add_light(scene, "PointLight", 'POINT', (0, 0, 3), 1000.0, shadow_soft_size=0.0)
+    add_light(scene, name, kind, location, power, **light)
     top_camera(scene)
     return scene, [mat]
+
+
+def scene_plane_point(samples):
+    return lit_plane(samples, "PointLight", 'POINT', (0, 0, 3), 1000.0, shadow_soft_size=0.0)
 
 
 def scene_plane_sun(samples):
-    scene = reset()
-    setup_render(scene, 320, 240, samples)
-    mat = white_plane()
-    add_plane("Plane", 10.0, mat)
     # rotation about X by 45 deg: light travels along (0, +0.707, -0.707) -> 45 deg elevation
-    add_light(scene, "SunLight", 'SUN', (0, -3, 3), 3.0, rot=(math.radians(45), 0, 0), angle=0.0)
-    top_camera(scene)
-    return scene, [mat]
+    return lit_plane(samples, "SunLight", 'SUN', (0, -3, 3), 3.0, rot=(math.radians(45), 0, 0), angle=0.0)
 
 
 def scene_plane_area(samples):
-    scene = reset()
-    setup_render(scene, 320, 240, samples)
-    mat = white_plane()
-    add_plane("Plane", 10.0, mat)
-    add_light(scene, "AreaLight", 'AREA', (0, 0, 2), 500.0, rot=(0, 0, 0),
-              shape='SQUARE', size=1.0)
-    top_camera(scene)
-    return scene, [mat]
+    return lit_plane(samples, "AreaLight", 'AREA', (0, 0, 2), 500.0, rot=(0, 0, 0), shape='SQUARE', size=1.0)
 
 
 def scene_spheres_roughness(samples):
