@@ -293,10 +293,12 @@ def _add_validate_command(sub) -> None:
         help="check a USD scene; list every problem",
         description="Read and validate SCENE. Prints 'ok' and exits 0 when it is valid; otherwise prints "
         "one problem per line on stderr (file: prim.attribute: what is wrong) and exits 2.",
-        epilog="Exit codes: 0 valid, 2 invalid.",
+        epilog="Exit codes: 0 valid, 2 invalid (with --strict: also when there is a warning).",
     )
     _add_scene_argument(p)
     p.add_argument("-q", "--quiet", action="store_true", help="do not print warnings")
+    p.add_argument("--strict", action="store_true",
+                   help="treat every warning (a typo'd name, an ignored feature, a default camera or light) as an error")
     p.set_defaults(func=_run_validate)
 
 
@@ -304,6 +306,10 @@ def _run_validate(args) -> int:
     from .usd import read_usd
 
     result = read_usd(args.scene)
+    if args.strict and result.warnings:
+        for warning in result.warnings:
+            print(f"error: {args.scene}: {warning}", file=sys.stderr)
+        return EXIT_SCENE
     if not args.quiet:
         _print_warnings(result.warnings)
     print(f"ok: {args.scene}")

@@ -504,3 +504,45 @@ def test_shaping_cone_on_a_point_light(tmp_path):
     assert spot.cone.cos_inner == pytest.approx(math.cos(math.radians(15)))  # smooth start θc·(1 − softness)
     assert wide.cone is None  # a hard 180° cone restricts nothing, and is not warned about
     assert not [w for w in result.warnings if "cone" in w]
+
+
+TYPOS = """
+def SphereLight "L" {
+    float inputs:intensty = 3
+}
+def Sphre "Ball" {
+}
+def Sphere "S" (prepend apiSchemas = ["MaterialBindingAPI"]) {
+    rel material:binding = </Looks/Missing>
+}
+def Material "M" {
+    token outputs:surface.connect = </M/P.outputs:surface>
+    def Shader "P" {
+        uniform token info:id = "UsdPreviewSurfce"
+        token outputs:surface
+    }
+}
+"""
+
+
+def test_typos_are_warnings_naming_prim_and_attribute_with_the_close_name(tmp_path):
+    warnings = read(tmp_path, TYPOS).warnings
+    expected = [
+        "/L.inputs:intensty: not an input of SphereLight (ignored) (did you mean inputs:intensity?)",
+        "/Ball: prim type 'Sphre' is defined by no schema (ignored) (did you mean Sphere?)",
+        "/S.material:binding: targets /Looks/Missing, which does not exist",
+        "/M/P.info:id: no shader 'UsdPreviewSurfce' is registered (did you mean UsdPreviewSurface?)",
+    ]
+    for text in expected:
+        assert any(w.startswith(text) for w in warnings), (text, warnings)
+
+
+def test_validate_strict_turns_warnings_into_errors(tmp_path, capsys):
+    from phongscene.cli import main
+
+    path = tmp_path / "typos.usda"
+    path.write_text("#usda 1.0\n" + TYPOS)
+    assert main(["validate", str(path)]) == 0
+    assert main(["validate", "--strict", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert f"error: {path}: /L.inputs:intensty: not an input of SphereLight" in err

@@ -39,7 +39,7 @@ from ..scene import (
 )
 from ..tolerances import CAMERA_ORTHOGONAL_TOLERANCE
 from ..validate import validate
-from . import geometry, names
+from . import geometry, names, typos
 from .context import ReadContext, gf_to_numpy, unit
 from .materials import MaterialReader
 from .names import INT_TYPES, PHONG_ATTRIBUTES, STRING_TYPES, in_usd_terms
@@ -78,6 +78,7 @@ def read_usd(source) -> ReadResult:
         arc = next((a for k, a in _ARC_ATTRIBUTE.items() if k in text), "")
         ctx.problem(str(site.path) if site is not None else "", arc, text)
     _check_phong_namespace(ctx)
+    typos.check_names(ctx)
     settings, camera_prim = _render_settings(ctx)
     camera, lights, ambient, spheres, meshes = None, [], [], [], []
     materials = MaterialReader(ctx)
