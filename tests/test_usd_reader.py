@@ -546,3 +546,46 @@ def test_validate_strict_turns_warnings_into_errors(tmp_path, capsys):
     assert main(["validate", "--strict", str(path)]) == 2
     err = capsys.readouterr().err
     assert f"error: {path}: /L.inputs:intensty: not an input of SphereLight" in err
+
+
+def test_geom_subset_material_bindings_split_the_mesh(tmp_path):
+    body = """
+    def Mesh "Strip" (prepend apiSchemas = ["MaterialBindingAPI"]) {
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (2, 0, 0), (2, 1, 0)]
+        int[] faceVertexCounts = [4, 4]
+        int[] faceVertexIndices = [0, 1, 2, 3, 1, 4, 5, 2]
+        uniform token subdivisionScheme = "none"
+        rel material:binding = </Grey>
+        def GeomSubset "Right" (prepend apiSchemas = ["MaterialBindingAPI"]) {
+            uniform token elementType = "face"
+            uniform token familyName = "materialBind"
+            int[] indices = [1]
+            rel material:binding = </Red>
+        }
+    }
+    def Material "Grey" { token outputs:surface.connect = </Grey/S.outputs:surface>
+        def Shader "S" { uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor = (0.5, 0.5, 0.5)
+            token outputs:surface } }
+    def Material "Red" { token outputs:surface.connect = </Red/S.outputs:surface>
+        def Shader "S" { uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor = (1, 0, 0)
+            token outputs:surface } }
+    """
+    left, right = read(tmp_path, body).scene.meshes
+    assert (left.source, right.source) == ("/Strip", "/Strip/Right")
+    assert left.material.diffuse_color == pytest.approx((0.5, 0.5, 0.5)) and right.material.diffuse_color == (1.0, 0.0, 0.0)
+    assert len(left.triangles) == len(right.triangles) == 2
+    assert set(right.triangles.ravel()) == {1, 2, 4, 5}  # the second quad's corners
+
+
+def test_an_animated_stage_renders_its_start_time_with_a_warning(tmp_path):
+    path = tmp_path / "anim.usda"
+    path.write_text(
+        "#usda 1.0\n(\n    startTimeCode = 1\n    endTimeCode = 24\n)\n"
+        'def Sphere "Ball" {\n    double3 xformOp:translate.timeSamples = {1: (0, 0, 0), 24: (5, 0, 0)}\n'
+        '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n'
+    )
+    result = read_usd(path)
+    assert result.scene.spheres[0].world_from_object[0, 3] == 0.0  # the transform at time 1
+    assert any("animated (time codes 1 to 24): rendering its start time 1" in w for w in result.warnings)

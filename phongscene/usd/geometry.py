@@ -76,8 +76,43 @@ def _winding_flipped(world: np.ndarray) -> bool:
     return bool(np.linalg.det(world[:3, :3]) < 0)
 
 
-def mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial) -> TriangleMesh | None:
-    """Fan-triangulate a UsdGeom.Mesh into world space; None (after recording problems) if broken."""
+def mesh(
+    ctx: ReadContext,
+    prim: Usd.Prim,
+    world: np.ndarray,
+    material: PhongMaterial,
+    subsets: list[tuple[str, PhongMaterial, np.ndarray]] = (),
+) -> tuple[TriangleMesh, ...]:
+    """Fan-triangulate a UsdGeom.Mesh into world space: one TriangleMesh, or one per material
+    GeomSubset (source: the subset's path; faces in no subset keep ``material``, a face in two
+    takes the first). Nothing (after recording problems) if broken."""
+    whole = _mesh(ctx, prim, world, material)
+    if whole is None:
+        return ()
+    mesh_, face_of_tri, n_faces = whole
+    if not subsets:
+        return (mesh_,)
+    part_of_face = np.full(n_faces, -1, dtype=np.int64)
+    for j, (source, _, faces) in enumerate(subsets):
+        if faces.min() < 0 or faces.max() >= n_faces:
+            ctx.problem(source, "indices", f"face indices must be in [0, {n_faces}), got {int(faces.min())}..{int(faces.max())}")
+            return ()
+        free = faces[part_of_face[faces] == -1]
+        part_of_face[free] = j
+    part_of_tri = part_of_face[face_of_tri]
+    out = []
+    for j, (source, part_material) in enumerate([(mesh_.source, material)] + [(s, m) for s, m, _ in subsets], start=-1):
+        keep = part_of_tri == j
+        if keep.any():
+            out.append(TriangleMesh(
+                mesh_.points, mesh_.triangles[keep], mesh_.normals,
+                None if mesh_.normal_indices is None else mesh_.normal_indices[keep], part_material, source,
+            ))
+    return tuple(out)
+
+
+def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial):
+    """(TriangleMesh, face index of each triangle, face count), or None (after recording problems)."""
     n_problems = len(ctx.problems)
     path = str(prim.GetPath())
     points = ctx.get(prim, "points", ("point3f[]", "point3d[]", "float3[]", "double3[]"))
@@ -141,12 +176,12 @@ def mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMat
         return None
     world_points = _to_world(p, world)
     if normals is None:
-        return TriangleMesh(world_points, triangles, material=material, source=path)
+        return TriangleMesh(world_points, triangles, material=material, source=path), face_of_tri, len(counts)
     values, normal_indices = normals
     world_normals = _normals_to_world(ctx, prim, values, world)
     if world_normals is None:
         return None
-    return TriangleMesh(world_points, triangles, world_normals, normal_indices, material, path)
+    return TriangleMesh(world_points, triangles, world_normals, normal_indices, material, path), face_of_tri, len(counts)
 
 
 def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_of_tri):

@@ -79,10 +79,24 @@ class MaterialReader:
         material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
         if not material:
             return self._display_color(prim)
+        return self.for_material(material)
+
+    def for_material(self, material: UsdShade.Material) -> PhongMaterial:
         key = str(material.GetPath())
         if key not in self.cache:
             self.cache[key] = self._material(material)
         return self.cache[key]
+
+    def face_subsets(self, prim: Usd.Prim) -> list[tuple[str, PhongMaterial, np.ndarray]]:
+        """The mesh's GeomSubsets (family materialBind) that bind a material of their own:
+        (subset prim path, material, face indices). Faces in none keep the mesh's material."""
+        parts = []
+        for subset in UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets():
+            material, _ = UsdShade.MaterialBindingAPI(subset.GetPrim()).ComputeBoundMaterial()
+            indices = subset.GetIndicesAttr().Get(self.ctx.time)
+            if material and indices is not None and len(indices):
+                parts.append((str(subset.GetPath()), self.for_material(material), np.asarray(indices, dtype=np.int64)))
+        return parts
 
     def _material(self, material: UsdShade.Material) -> PhongMaterial:
         shader, _, _ = material.ComputeSurfaceSource(PHONG_RENDER_CONTEXT)

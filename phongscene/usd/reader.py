@@ -79,6 +79,12 @@ def read_usd(source) -> ReadResult:
         ctx.problem(str(site.path) if site is not None else "", arc, text)
     _check_phong_namespace(ctx)
     typos.check_names(ctx)
+    stage = ctx.stage
+    if stage.HasAuthoredTimeCodeRange() and stage.GetEndTimeCode() > stage.GetStartTimeCode():
+        ctx.warn(
+            f"the stage is animated (time codes {stage.GetStartTimeCode():g} to {stage.GetEndTimeCode():g}): "
+            f"rendering its start time {stage.GetStartTimeCode():g}"
+        )
     settings, camera_prim = _render_settings(ctx)
     camera, lights, ambient, spheres, meshes = None, [], [], [], []
     materials = MaterialReader(ctx)
@@ -515,11 +521,14 @@ def _gprim(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, materials: Mater
         spheres.append(geometry.sphere(ctx, prim, world, material))
         ctx.nodes.append((path, "Sphere"))
         return
-    build = geometry.mesh if type_name == "Mesh" else geometry.primitive
-    mesh = build(ctx, prim, world, material)
-    if mesh is not None:
+    if type_name == "Mesh":
+        built = geometry.mesh(ctx, prim, world, material, materials.face_subsets(prim))
+    else:
+        built = geometry.primitive(ctx, prim, world, material)
+        built = () if built is None else (built,)
+    for mesh in built:
         meshes.append(mesh)
-        ctx.nodes.append((path, f"TriangleMesh ({len(mesh.triangles)} triangles)"))
+        ctx.nodes.append((mesh.source, f"TriangleMesh ({len(mesh.triangles)} triangles)"))
 
 
 def _instances(ctx: ReadContext, instancer_prim: Usd.Prim, instancer_world: np.ndarray, materials, spheres, meshes) -> None:
