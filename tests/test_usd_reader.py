@@ -589,3 +589,36 @@ def test_an_animated_stage_renders_its_start_time_with_a_warning(tmp_path):
     result = read_usd(path)
     assert result.scene.spheres[0].world_from_object[0, 3] == 0.0  # the transform at time 1
     assert any("animated (time codes 1 to 24): rendering its start time 1" in w for w in result.warnings)
+
+
+def test_a_concave_face_is_ear_clipped_not_fanned(tmp_path):
+    # An L-shaped hexagon whose fan from corner 0, (2, 1), would cover the notch (1..2 × 0..1).
+    body = """
+    def Mesh "L" {
+        point3f[] points = [(2, 1, 0), (2, 2, 0), (0, 2, 0), (0, 0, 0), (1, 0, 0), (1, 1, 0)]
+        int[] faceVertexCounts = [6]
+        int[] faceVertexIndices = [0, 1, 2, 3, 4, 5]
+        uniform token subdivisionScheme = "none" }
+    """
+    (mesh,) = read(tmp_path, body).scene.meshes
+    p = mesh.points[mesh.triangles]
+    areas = 0.5 * np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])[:, 2]
+    assert len(mesh.triangles) == 4 and np.all(areas > 0)  # counter-clockwise, none flipped
+    assert areas.sum() == pytest.approx(3.0)  # the L's area: the notch stays empty
+    centroids = p.mean(axis=1)
+    assert not np.any((centroids[:, 0] > 1) & (centroids[:, 1] < 1))
+
+
+def test_a_concave_quad_is_split_along_its_inner_diagonal(tmp_path):
+    # A dart: corner 3 is reflex, so the fan's diagonal 0-2 lies outside the quad.
+    body = """
+    def Mesh "Dart" {
+        point3f[] points = [(0, 0, 0), (2, 1, 0), (0, 2, 0), (0.5, 1, 0)]
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        uniform token subdivisionScheme = "none" }
+    """
+    (mesh,) = read(tmp_path, body).scene.meshes
+    p = mesh.points[mesh.triangles]
+    areas = 0.5 * np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])[:, 2]
+    assert np.all(areas > 0) and areas.sum() == pytest.approx(1.5)  # the dart's area, not the hull's 2

@@ -71,6 +71,82 @@ def _normals_to_world(ctx: ReadContext, prim: Usd.Prim, normals: np.ndarray, wor
     return normals
 
 
+def _ear_clip_concave_faces(fv, corners, counts, first_tri) -> None:
+    """Re-triangulate, in place in ``fv`` (the fan's face-vertex triples, ``first_tri`` the first
+    row of each face, ``counts`` its corner count), the faces whose fan is wrong, by ear clipping
+    in the face's plane. A fan from a face's first corner tiles the face exactly when every fan
+    triangle turns the same way as the face (their area vectors sum to the face's normal); a
+    concave face seen badly from that corner has a fan triangle turned against it. Convex faces
+    (nearly all) keep their fan; triangles cost nothing here."""
+    big = np.flatnonzero(counts >= 5)
+    quads = np.flatnonzero(counts == 4)
+    if quads.size:
+        # A quad's fan (0,1,2), (0,2,3) is right when both triangles turn the same way: A1·A2 >= 0.
+        row = first_tri[quads]
+        p0, p1, p2, p3 = corners[fv[row, 0]], corners[fv[row, 1]], corners[fv[row, 2]], corners[fv[row + 1, 2]]
+        d1, d2, d3 = p1 - p0, p2 - p0, p3 - p0
+        a1 = (d1[:, 1] * d2[:, 2] - d1[:, 2] * d2[:, 1], d1[:, 2] * d2[:, 0] - d1[:, 0] * d2[:, 2], d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+        a2 = (d2[:, 1] * d3[:, 2] - d2[:, 2] * d3[:, 1], d2[:, 2] * d3[:, 0] - d2[:, 0] * d3[:, 2], d2[:, 0] * d3[:, 1] - d2[:, 1] * d3[:, 0])
+        bad = quads[a1[0] * a2[0] + a1[1] * a2[1] + a1[2] * a2[2] < 0]
+        big = np.union1d(big, bad)  # those go through the general test and ear clipping below
+    if not big.size:
+        return
+    per_face = counts[big] - 2
+    rows = np.repeat(first_tri[big], per_face) + (np.arange(int(per_face.sum())) - np.repeat(np.cumsum(per_face) - per_face, per_face))
+    a, b, c = corners[fv[rows, 0]], corners[fv[rows, 1]], corners[fv[rows, 2]]
+    e1, e2 = b - a, c - a
+    area = np.empty_like(e1)  # twice the fan triangles' area vectors, e1 × e2
+    area[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+    area[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+    area[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    normal = np.add.reduceat(area, np.cumsum(per_face) - per_face, axis=0)
+    against = np.einsum("ij,ij->i", area, np.repeat(normal, per_face, axis=0)) < 0
+    for j in np.unique(np.repeat(np.arange(len(big)), per_face)[against]):
+        row = int(first_tri[big[j]])
+        ids = np.concatenate([fv[row : row + per_face[j], 0][:1], fv[row : row + per_face[j], 1], fv[row + per_face[j] - 1, 2:]])
+        triangles = _ear_clip(corners[ids], normal[j])
+        if triangles is not None:  # else degenerate or self-intersecting: keep the fan
+            fv[row : row + len(triangles)] = ids[np.asarray(triangles)]
+
+
+def _ear_clip(points: np.ndarray, normal: np.ndarray) -> list[tuple[int, int, int]] | None:
+    """Triangles (indices into ``points``, counter-clockwise about ``normal``) of a simple
+    polygon, by ear clipping; None if none is found (a degenerate or self-intersecting face)."""
+    length = float(np.linalg.norm(normal))
+    if length == 0:
+        return None
+    nz = normal / length
+    helper = np.array([1.0, 0.0, 0.0]) if abs(nz[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    ux = np.cross(helper, nz)
+    ux /= np.linalg.norm(ux)
+    uy = np.cross(nz, ux)
+    xy = np.stack([points @ ux, points @ uy], axis=1)
+
+    def cross(o, p, q):
+        return (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0])
+
+    remaining = list(range(len(points)))
+    out = []
+    while len(remaining) > 3:
+        for i in range(len(remaining)):
+            a, b, c = remaining[i - 1], remaining[i], remaining[(i + 1) % len(remaining)]
+            if cross(xy[a], xy[b], xy[c]) <= 0:
+                continue  # reflex or flat corner: not an ear
+            inside = any(
+                cross(xy[a], xy[b], xy[q]) >= 0 and cross(xy[b], xy[c], xy[q]) >= 0 and cross(xy[c], xy[a], xy[q]) >= 0
+                for q in remaining
+                if q not in (a, b, c)
+            )
+            if not inside:
+                out.append((a, b, c))
+                remaining.pop(i)
+                break
+        else:
+            return None
+    out.append(tuple(remaining))
+    return out
+
+
 def _winding_flipped(world: np.ndarray) -> bool:
     # A mirroring transform turns a counter-clockwise (front) face clockwise in world space.
     return bool(np.linalg.det(world[:3, :3]) < 0)
@@ -162,6 +238,7 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     k = np.arange(len(face_of_tri)) - np.repeat(first_tri, per_face) + 1
     s = starts[face_of_tri]
     fv = np.stack([s, s + k, s + k + 1], axis=1)  # face-vertex (corner) ids
+    _ear_clip_concave_faces(fv, p[idx], counts[faces], first_tri)
     left = ctx.get(prim, "orientation", ("token",), UsdGeom.Tokens.rightHanded) == UsdGeom.Tokens.leftHanded
     if left != _winding_flipped(world):
         fv = fv[:, [0, 2, 1]]

@@ -34,6 +34,8 @@ def check_names(ctx: ReadContext) -> None:
     type_names = None
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
     for prim in Usd.PrimRange(ctx.stage.GetPseudoRoot(), predicate):
+        if prim.IsPseudoRoot():
+            continue
         path = str(prim.GetPath())
         type_name = prim.GetTypeName()
         if type_name and not prim.GetPrimTypeInfo().GetSchemaType():
