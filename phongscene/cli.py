@@ -184,6 +184,8 @@ def _run_diff(args) -> int:
     print(f"{args.scene}: {s.width} x {s.height}, mapping {result.mapping} (native {s.specular})")
     print(f"  povray {result.timings['povray']:.3f} s, native {result.timings['native']:.3f} s")
     print(result.report.summary())
+    if result.explanation():
+        print(result.explanation())
     print(f"report: {result.outdir / 'index.html'}")
     return EXIT_OK if result.ok else EXIT_DIFFERENT
 

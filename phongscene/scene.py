@@ -39,6 +39,13 @@ RGB = tuple[float, float, float]
 
 SpecularConvention = Literal["seed", "povray-classic"]
 SamplePattern = Literal["grid", "povray-am1"]
+# The native tracer's ray tolerances: "scale-invariant" (relative to the scene's size, so a scene
+# renders the same in any units), "povray" (POV-Ray's absolute 1e-4 / 1e-3 and its mesh2 data:
+# float32, flat where a triangle's normals are equal, to reproduce POV-Ray's images; ``diff``
+# uses it) or "povray-shadow-cache" (the same with the 1e-4 window of POV-Ray's shadow cache:
+# ``diff`` explains pixels with it).
+Numerics = Literal["scale-invariant", "povray", "povray-shadow-cache"]
+NUMERICS: tuple[str, ...] = ("scale-invariant", "povray", "povray-shadow-cache")
 Projection = Literal["perspective", "orthographic"]
 # How a point, sphere or rect light's strength reaches a surface at distance d from its centre:
 # "none" is the seed's (Suffern's) light, ``color`` arrives unchanged; "inverse-square" is UsdLux's,
@@ -318,6 +325,7 @@ class RenderSettings:
     background: RGB = (0.0, 0.0, 0.0)  # colour of rays that hit nothing, linear RGB
     specular: SpecularConvention = "seed"
     source: str = ""  # the UsdRender.Settings prim, if any
+    numerics: Numerics = "scale-invariant"  # native only (POV-Ray always has its own)
 
 
 @dataclass(frozen=True, slots=True)

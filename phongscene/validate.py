@@ -14,6 +14,7 @@ import numpy as np
 
 from .errors import Problem, SceneError
 from .scene import (
+    NUMERICS,
     Camera,
     DirectionalLight,
     PhongMaterial,
@@ -184,6 +185,8 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
         c.add(s, "sample_pattern", f"must be 'grid' or 'povray-am1', got {s.sample_pattern!r}")
     if s.specular not in ("seed", "povray-classic"):
         c.add(s, "specular", f"must be 'seed' or 'povray-classic', got {s.specular!r}")
+    if s.numerics not in NUMERICS:
+        c.add(s, "numerics", f"must be one of {', '.join(NUMERICS)}, got {s.numerics!r}")
     if not isinstance(s.threads, (int, np.integer)) or s.threads < 0:
         c.add(s, "threads", f"must be an integer >= 0, got {s.threads!r}")
     c.colour(s, "background")

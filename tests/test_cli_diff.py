@@ -201,3 +201,31 @@ def test_progress_bar_draws_on_a_terminal_and_stays_quiet_in_logs():
     bar(1, 2)
     bar.done(1.25)
     assert log.getvalue() == "povray: rendered in 1.25 s\n"
+
+
+def _diff_result(explained, unexplained, failing_pixels: int = 1, size: int = 32):
+    from phongscene.comparison import compare
+    from phongscene.crossvalidation import DiffResult
+    from phongscene.scene import RenderSettings
+
+    a = np.full((size, size, 3), 0.5, np.float32)
+    b = a.copy()
+    b.reshape(-1, 3)[:failing_pixels] = 0.4
+    report = compare(a, b)
+    return DiffResult(report, None, {}, a, b, RenderSettings(), "exact", [], tuple(explained), tuple(unexplained))
+
+
+def test_diff_passes_only_when_every_failing_pixel_is_explained_and_they_are_few():
+    assert not _diff_result([], []).report.ok  # the comparison itself fails
+    assert _diff_result([(0, 0)], []).ok  # explained by POV-Ray's shadow cache
+    assert not _diff_result([(0, 0)], [(1, 0)], failing_pixels=2).ok  # one is not explained
+    # More explained pixels than the shadow-cache allowance (0.2 % of 1024 = 2) still fail.
+    many = [(i, 0) for i in range(3)]
+    assert not _diff_result(many, [], failing_pixels=3).ok
+    assert "3 failing pixels explained by POV-Ray's shadow cache" in _diff_result(many, [], 3).explanation()
+
+
+@pytest.mark.povray
+def test_diff_renders_natively_in_povray_numerics(tmp_path):
+    result = phongscene.diff(Path(__file__).resolve().parents[1] / "examples" / "seed_lobe.usda", None, width=40)
+    assert result.settings.numerics == "povray" and result.ok

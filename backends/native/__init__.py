@@ -32,6 +32,11 @@ from . import _native
 __all__ = ["build", "render", "scene_arrays", "_native"]
 
 _SAMPLE_PATTERNS = {"grid": _native.SamplePattern.grid, "povray-am1": _native.SamplePattern.povray_am1}
+_NUMERICS = {
+    "scale-invariant": _native.Numerics.scale_invariant,
+    "povray": _native.Numerics.povray,
+    "povray-shadow-cache": _native.Numerics.povray_shadow_cache,
+}
 _SPECULAR_CONVENTIONS = {
     "seed": _native.SpecularConvention.seed,
     "povray-classic": _native.SpecularConvention.povray_classic,
@@ -90,6 +95,7 @@ def _settings(s: RenderSettings) -> _native.RenderSettings:
         threads=s.threads,
         background=s.background,
         specular_convention=_SPECULAR_CONVENTIONS[s.specular],
+        numerics=_NUMERICS[s.numerics],
     )
 
 
@@ -181,9 +187,34 @@ def render(
     Raises:
         KeyboardInterrupt: on Ctrl-C, promptly (the workers stop at their next tile).
     """
-    native_scene = build(scene)
-    return native_scene.render(
-        camera=_camera(scene.camera),
-        settings=_settings(scene.settings if settings is None else settings),
-        progress=progress,
-    )
+    s = scene.settings if settings is None else settings
+    arrays = scene_arrays(scene)
+    if s.numerics != "scale-invariant":
+        arrays = _as_povray_stores(arrays)
+    return _native.Scene(**arrays).render(camera=_camera(scene.camera), settings=_settings(s), progress=progress)
+
+
+# POV-Ray's mesh2 shades a triangle smoothly only when its vertex normals differ by more than
+# this (squared distance); otherwise flat, with the geometric normal.
+POVRAY_SMOOTH_NORMAL_DIFFERENCE = 1e-10
+
+
+def _as_povray_stores(arrays: dict) -> dict:
+    """The mesh data as POV-Ray's mesh2 holds it: vertices and normals rounded to float32,
+    normals renormalised (at parse time), and triangles whose three normals are equal shaded
+    flat (normal index -1)."""
+    out = dict(arrays)
+    out["points"] = np.ascontiguousarray(arrays["points"].astype(np.float32).astype(np.float64))
+    normals = arrays["normals"].astype(np.float32).astype(np.float64)
+    if len(normals):
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        ni = arrays["normal_indices"].copy()
+        smooth = ni[:, 0] >= 0
+        n3 = normals[np.where(smooth[:, None], ni, 0)]
+        same = (((n3[:, 0] - n3[:, 1]) ** 2).sum(axis=1) <= POVRAY_SMOOTH_NORMAL_DIFFERENCE) & (
+            ((n3[:, 0] - n3[:, 2]) ** 2).sum(axis=1) <= POVRAY_SMOOTH_NORMAL_DIFFERENCE
+        )
+        ni[smooth & same] = -1
+        out["normal_indices"] = ni
+    out["normals"] = np.ascontiguousarray(normals)
+    return out

@@ -182,6 +182,10 @@ NB_MODULE(_native, m) {
     nb::enum_<phong::SpecularConvention>(m, "SpecularConvention", "Which Phong specular term (materials.hpp).")
         .value("seed", phong::SpecularConvention::kSeed)
         .value("povray_classic", phong::SpecularConvention::kPovrayClassic);
+    nb::enum_<phong::Numerics>(m, "Numerics", "Which ray tolerances (math.hpp).")
+        .value("scale_invariant", phong::Numerics::kScaleInvariant)
+        .value("povray", phong::Numerics::kPovray)
+        .value("povray_shadow_cache", phong::Numerics::kPovrayShadowCache);
 
     using phong::Material;
     nb::class_<Material>(m, "Material", "Suffern's Phong material (materials.hpp).")
@@ -251,8 +255,10 @@ NB_MODULE(_native, m) {
 
     using phong::RenderSettings;
     nb::class_<RenderSettings>(m, "RenderSettings", "Image size, sampling, threads, background, convention.")
-        .def(nb::init<int, int, int, phong::SamplePattern, int, phong::RGB, phong::SpecularConvention>(), "width"_a,
-             "height"_a, "samples"_a, "sample_pattern"_a, "threads"_a, "background"_a, "specular_convention"_a)
+        .def(nb::init<int, int, int, phong::SamplePattern, int, phong::RGB, phong::SpecularConvention, phong::Numerics>(), "width"_a,
+             "height"_a, "samples"_a, "sample_pattern"_a, "threads"_a, "background"_a, "specular_convention"_a,
+             "numerics"_a = phong::Numerics::kScaleInvariant)
+        .def_rw("numerics", &RenderSettings::numerics)
         .def_rw("width", &RenderSettings::width)
         .def_rw("height", &RenderSettings::height)
         .def_rw("samples", &RenderSettings::samples)

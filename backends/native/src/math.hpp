@@ -122,6 +122,21 @@ inline RayTolerances ray_tolerances(const Vec3& box_lo, const Vec3& box_hi) {
     return {kPrimaryNear * extent, std::fmax(kShadowWindow * extent, kSelfHitWindow * magnitude)};
 }
 
+// POV-Ray's own absolute tolerances (its MIN_ISECT_DEPTH and SHADOW_TOLERANCE), for renders that
+// must reproduce POV-Ray's images on scenes of any size (cross-validation): they make a scene's
+// shadows depend on its units, as in POV-Ray.
+constexpr double kPovrayPrimaryNear = 1e-4;
+constexpr double kPovrayShadowWindow = 1e-3;
+// POV-Ray's per-thread shadow cache retests a light's last occluder with t >= 1e-4 instead: a
+// render with this window shows what a pixel becomes when the cache decides it.
+constexpr double kPovrayShadowCacheWindow = 1e-4;
+
+enum class Numerics {
+    kScaleInvariant,     // ray_tolerances() below
+    kPovray,             // kPovrayPrimaryNear, kPovrayShadowWindow
+    kPovrayShadowCache,  // kPovrayPrimaryNear, kPovrayShadowCacheWindow
+};
+
 // POV-Ray's EPSILON gate: a light contributes only where n·l >= 1e-10 (also no shadow ray).
 constexpr double kMinCosineToLight = 1e-10;
 

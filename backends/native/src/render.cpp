@@ -96,7 +96,10 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     // The tolerances from the box of the geometry and the camera (math.hpp).
     Bounds box = scene.bounds;
     box.grow(camera.position);
-    const RayTolerances tolerances = ray_tolerances(box.lo, box.hi);
+    const RayTolerances tolerances =
+        settings.numerics == Numerics::kPovray              ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowWindow}
+        : settings.numerics == Numerics::kPovrayShadowCache ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowCacheWindow}
+                                                            : ray_tolerances(box.lo, box.hi);
 
     auto render_pixel = [&](int i, int j, std::vector<BundleCandidate>& scratch) {
         auto trace_at = [&](double sx, double sy) {

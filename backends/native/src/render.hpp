@@ -24,6 +24,7 @@ struct RenderSettings {
     int threads = 0;  // 0: all hardware threads
     RGB background;
     SpecularConvention specular_convention = SpecularConvention::kSeed;
+    Numerics numerics = Numerics::kScaleInvariant;  // which ray tolerances (math.hpp)
 };
 
 // Called on the rendering (calling) thread about every kPollInterval with (tiles done, tiles
