@@ -622,3 +622,39 @@ def test_a_concave_quad_is_split_along_its_inner_diagonal(tmp_path):
     p = mesh.points[mesh.triangles]
     areas = 0.5 * np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])[:, 2]
     assert np.all(areas > 0) and areas.sum() == pytest.approx(1.5)  # the dart's area, not the hull's 2
+
+
+SHEET = """
+def Camera "C" {
+    double3 xformOp:translate = (0, 0, 5)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Mesh "Sheet" {
+    point3f[] points = [(0, 0, 0), (0, 1, 0), (1, 1, 0), (1, 0, 0)]
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    uniform token subdivisionScheme = "none"
+    SIDED
+}
+"""
+
+
+@pytest.mark.parametrize(("sided", "warned"), [("", True), ("uniform bool doubleSided = 1", False)])
+def test_a_single_sided_mesh_whose_back_the_camera_sees_is_said(tmp_path, sided, warned):
+    # The quad is wound clockwise seen from the camera (+Z): the camera sees its back.
+    warnings = read(tmp_path, SHEET.replace("SIDED", sided)).warnings
+    assert any("single-sided meshes" in w and "/Sheet" in w for w in warnings) == warned
+
+
+def test_a_closed_single_sided_mesh_is_not_said(tmp_path):
+    # A tetrahedron (every edge shared by two faces): its back faces are hidden by its front.
+    body = SHEET.replace(
+        """    point3f[] points = [(0, 0, 0), (0, 1, 0), (1, 1, 0), (1, 0, 0)]
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]""",
+        """    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+    int[] faceVertexCounts = [3, 3, 3, 3]
+    int[] faceVertexIndices = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]""",
+    ).replace("SIDED", "")
+    assert "(0, 0, 1)" in body
+    assert not any("single-sided" in w for w in read(tmp_path, body).warnings)

@@ -125,6 +125,7 @@ def read_usd(source) -> ReadResult:
     if not lights:
         scene = replace(scene, lights=(head_light(scene.camera),))
         ctx.warn("no point, distant or area light: using a head light at the camera (phongscene.scene.head_light)")
+    _warn_single_sided(ctx, stage, scene)
     ctx.flush_unsupported()
 
     # Validation of the model, in the file's terms. The reader replaced each value it found wrong
@@ -136,6 +137,32 @@ def read_usd(source) -> ReadResult:
     if problems:
         raise SceneError(problems)
     return ReadResult(scene, ctx.warnings, ctx.nodes)
+
+
+def _warn_single_sided(ctx: ReadContext, stage: Usd.Stage, scene: Scene) -> None:
+    """phongscene shades every surface from both sides (Suffern's model, and POV-Ray, which has no
+    back-face culling for mesh2, so both backends agree); USD renderers cull the back of a mesh
+    with ``doubleSided = false`` (USD's fallback). Said once, listing the single-sided meshes whose
+    back the camera may see: open ones (a closed mesh hides its back faces) with a triangle facing
+    away from the camera."""
+    eye = np.asarray(scene.camera.position, dtype=np.float64)
+    seen = []
+    for mesh in scene.meshes:
+        prim = stage.GetPrimAtPath(mesh.source)
+        if not prim or not prim.IsA(UsdGeom.Mesh) or UsdGeom.Mesh(prim).GetDoubleSidedAttr().Get(ctx.time):
+            continue
+        tri = mesh.triangles.astype(np.int64)
+        edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+        _, uses = np.unique(edges, axis=0, return_counts=True)
+        if np.all(uses == 2):
+            continue  # closed: its back faces are hidden behind its front faces
+        p = mesh.points[tri]
+        facing = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 0] - eye)
+        if np.any(facing > 0):
+            seen.append(mesh.source)
+    if seen:
+        ctx.unsupported["single-sided meshes (doubleSided = false) whose back the camera may see, shaded from both "
+                        "sides as POV-Ray does (USD renderers would not draw the back)"].extend(seen)
 
 
 def _open(source) -> tuple[Usd.Stage, str]:
