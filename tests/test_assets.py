@@ -11,6 +11,7 @@ from pxr import Usd, UsdGeom
 
 from conftest import SHARED_ASSETS
 from phongscene.usd import read_usd
+from phongscene.usd.materials import PREVIEW_MAX_EXPONENT
 
 pytestmark = pytest.mark.shared_assets
 
@@ -76,8 +77,8 @@ def test_roughness_usdz_preview_surfaces():
     assert len(s.meshes) == 6 and s.triangle_count == file_triangles(path)
     assert len(materials(s)) == 6
     by_name = {m.material.source.split("/")[3]: m.material for m in s.meshes}
-    # roughness 0 / 0.33 / 0.66 constant → exponents (2/r⁴ − 2)/4 (r = 0 capped at 1e4)
-    assert by_name["Const000"].exponent == 1e4
-    assert by_name["Const033"].exponent == pytest.approx((2 / 0.33**4 - 2) / 4, rel=1e-5)
-    assert by_name["Const066"].exponent == pytest.approx((2 / 0.66**4 - 2) / 4, rel=1e-5)
+    # roughness 0 / 0.33 / 0.66 constant → exponents 1/(2r⁴) − 2 (r = 0 capped at PREVIEW_MAX_EXPONENT; α ≥ ½: 0)
+    assert by_name["Const000"].exponent == PREVIEW_MAX_EXPONENT
+    assert by_name["Const033"].exponent == pytest.approx(1 / (2 * 0.33**4) - 2, rel=1e-5)
+    assert by_name["Const066"].exponent == pytest.approx(max(1 / (2 * 0.66**4) - 2, 0.0), rel=1e-5)
     assert any("texture-connected" in w for w in result.warnings)

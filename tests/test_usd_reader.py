@@ -14,6 +14,7 @@ from conftest import REPO
 from phongscene.errors import SceneError
 from phongscene.scene import DEFAULT_MATERIAL, PointLight
 from phongscene.usd import preview_to_phong, read_usd
+from phongscene.usd.materials import PREVIEW_MAX_EXPONENT
 
 EXACT = 1e-12  # double-precision arithmetic on small integers and unit vectors
 FLOAT32 = 1e-6  # values stored as float in USD
@@ -297,19 +298,26 @@ def Sphere "B" (prepend apiSchemas = ["MaterialBindingAPI"]) {{ rel material:bin
 def test_preview_surface_mapping(tmp_path):
     inputs = "color3f inputs:diffuseColor = (0.5, 0.5, 0.5)\n float inputs:roughness = 0.5\n float inputs:metallic = 0"
     material = read(tmp_path, PREVIEW.format(inputs=inputs)).scene.spheres[0].material
-    # α = 0.25, n = 2/α² − 2 = 30, e = n/4 = 7.5; dielectric f0 = 0.04 → ks 0.04, cs white
-    assert material.exponent == pytest.approx(7.5)
-    assert material.ks == pytest.approx(0.04)
+    # α = 0.25: e = 1/(2α²) − 2 = 6; dielectric F0 = 0.04 → ks = F0·(e + 2)/(2π), cs white
+    assert material.exponent == pytest.approx(6.0)
+    assert material.ks == pytest.approx(0.04 * 8 / (2 * math.pi))
+    assert material.specular_color == (1.0, 1.0, 1.0)
     assert material.diffuse_color == pytest.approx((0.5, 0.5, 0.5))
     assert material.source == "/M/S"
 
 
 def test_preview_to_phong_metallic_and_specular_workflow():
+    # Metallic 1: F0 = the base colour, no diffuse; the strength F0·(e + 2)/(2π) exceeds 1, so
+    # ks = 1 and cs carries it (colours have no upper bound).
     metal = preview_to_phong((1.0, 0.5, 0.0), 0.33, metallic=1.0)
-    assert metal.diffuse_color == (0.0, 0.0, 0.0) and metal.ks == 1.0 and metal.specular_color == (1.0, 0.5, 0.0)
+    e = 1 / (2 * 0.33**4) - 2
+    assert metal.diffuse_color == (0.0, 0.0, 0.0) and metal.ks == 1.0 and metal.exponent == pytest.approx(e)
+    assert metal.specular_color == pytest.approx(tuple(c * (e + 2) / (2 * math.pi) for c in (1.0, 0.5, 0.0)))
+    # Roughness 1 (α = 1 >= ½): e = 0 and ks·cs = F0/(2πα).
     spec = preview_to_phong((0.2, 0.2, 0.2), 1.0, specular_color=(0.5, 0.25, 0.0), use_specular_workflow=1)
-    assert spec.ks == 0.5 and spec.specular_color == (1.0, 0.5, 0.0) and spec.exponent == 0.0
-    assert preview_to_phong((0.2, 0.2, 0.2), 0.0).exponent == 1e4  # capped
+    assert spec.ks == pytest.approx(0.5 / (2 * math.pi)) and spec.specular_color == pytest.approx((1.0, 0.5, 0.0))
+    assert spec.exponent == 0.0
+    assert preview_to_phong((0.2, 0.2, 0.2), 0.0).exponent == PREVIEW_MAX_EXPONENT  # capped
 
 
 def test_texture_connected_input_uses_default_with_warning(tmp_path):
@@ -483,8 +491,9 @@ def test_blender_specular_level_scales_the_preview_surface_f0(tmp_path):
     """
     (ball,) = read(tmp_path, body).scene.spheres
     assert ball.material.ks == 0.0  # Blender's "Specular IOR Level" 0: no highlight
-    assert preview_to_phong((0.8, 0.8, 0.8), 0.5).ks == pytest.approx(0.04)  # ior 1.5, level 0.5 (neutral)
-    assert preview_to_phong((0.8, 0.8, 0.8), 0.5, specular_level=1.0).ks == pytest.approx(0.08)
+    neutral = preview_to_phong((0.8, 0.8, 0.8), 0.5).ks  # ior 1.5, level 0.5: F0 = 0.04
+    assert neutral == pytest.approx(0.04 * 8 / (2 * math.pi))
+    assert preview_to_phong((0.8, 0.8, 0.8), 0.5, specular_level=1.0).ks == pytest.approx(2 * neutral)
 
 
 def test_shaping_cone_on_a_point_light(tmp_path):

@@ -6,7 +6,8 @@ Usage: .venv/bin/python benchmarks/blender/compare.py [DIR]   (default: this fol
 
 For each NAME.usda next to NAME_cycles.exr (direct light only), renders NAME.usda natively at the
 same size (3×3 anti-aliasing) and prints the ratio native / Cycles of the median luminance over
-pixels lit in both, of the centre 5×5 patch, and the median per-pixel ratio.
+pixels lit in both, of the centre 5×5 patch, and the median per-pixel ratio; and each image's
+peak / median luminance (how strong the highlights are).
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ def main() -> None:
             f"{scene_file.stem:20s} {w}x{h}  median {np.median(ours[lit]) / np.median(reference[lit]):.3f}"
             f"  centre {ours[centre].mean() / reference[centre].mean():.3f}"
             f"  per-pixel median {np.median(ours[lit] / reference[lit]):.3f}"
+            f"  peak/median: Cycles {reference.max() / np.median(reference[lit]):.1f}, native {ours.max() / np.median(ours[lit]):.1f}"
         )
 
 

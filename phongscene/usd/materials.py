@@ -13,9 +13,10 @@ from .names import COLOR_TYPES, PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER
 from .shader_defs import phong_input_defaults, phong_inputs
 
 PREVIEW_SHADER_ID = "UsdPreviewSurface"
-# Highest Phong exponent produced from a UsdPreviewSurface: roughness → 0 maps to a mirror-like
-# lobe (e → ∞); 1e4 is already a sub-pixel highlight at our resolutions.
-PREVIEW_MAX_EXPONENT = 1e4
+# Highest Phong exponent produced from a UsdPreviewSurface: e = 1/(2α²) − 2 reaches 1e6 at
+# roughness 0.026 (a lobe of ~1e-3 rad, far below a pixel at our resolutions); smoother surfaces
+# keep their albedo (the highlight's energy) with a lower, wider peak.
+PREVIEW_MAX_EXPONENT = 1e6
 # Smallest roughness used in the mapping (keeps 2/α² finite).
 PREVIEW_MIN_ROUGHNESS = 1e-3
 # Not in the UsdPreviewSurface spec: Blender writes its Principled BSDF's "Specular IOR Level" here.
@@ -33,27 +34,40 @@ def preview_to_phong(
     source: str = "",
     specular_level: float = 0.5,
 ) -> PhongMaterial:
-    """Approximate a UsdPreviewSurface by a Phong material.
+    """A Phong material with a UsdPreviewSurface's look under direct light.
 
-    roughness r → α = r² (UsdPreviewSurface), Blinn exponent n = 2/α² − 2 (Walter et al. 2007),
-    Phong exponent e ≈ n/4 (R·V ≈ cos 2θ_h). Metallic tints the specular colour and darkens the
-    diffuse one; the specular workflow uses ``specular_color`` directly. kd = 1 (the Lambert
-    BRDF cd/π). ka = 1: an untextured DomeLight of radiance La lights an unoccluded Lambert
-    surface with ∫ cd/π·La·cosθ dω = cd·La, which is exactly ka·cd·La with ka = 1.
+    The spec's specular lobe is GGX (α = roughness²) with Schlick's Fresnel (F0 from ``ior``, or
+    ``specular_color`` in the specular workflow, tinted toward the diffuse colour by
+    ``metallic``); its diffuse lobe is Lambert, diffuseColor·(1 − metallic)/π. A Phong lobe
+    ks·cs·(r·wo)^e has, at normal incidence, the peak ks·cs and the directional albedo
+    2π·ks·cs/(e + 2); GGX has the peak F0/(4πα²) and the albedo ≈ F0. Matching both:
+
+        e = 1/(2α²) − 2,      ks·cs = F0·(e + 2)/(2π)
+
+    (for α ≥ 1/2, e = 0 and the strength F0/(2πα), see below; e is capped at
+    PREVIEW_MAX_EXPONENT, with the albedo still matched). A smooth material's highlight strength exceeds 1: ks stays in
+    the seed's [0, 1] and the rest goes into cs (colours have no upper bound). kd = 1 (the
+    Lambert BRDF cd/π). ka = 1: an untextured DomeLight of radiance La lights an unoccluded
+    Lambert surface with ∫ cd/π·La·cosθ dω = cd·La, which is ka·cd·La with ka = 1. Measured
+    against the spec's BRDF in tests/test_preview_fidelity.py (README: the shading model).
     """
     cd = np.clip(np.asarray(diffuse_color, dtype=np.float64), 0.0, None)
     alpha = max(float(roughness), PREVIEW_MIN_ROUGHNESS) ** 2
-    exponent = min(max((2.0 / alpha**2 - 2.0) / 4.0, 0.0), PREVIEW_MAX_EXPONENT)
+    exponent = min(max(1.0 / (2.0 * alpha**2) - 2.0, 0.0), PREVIEW_MAX_EXPONENT)
     if use_specular_workflow:
-        cs, kd_colour = np.clip(np.asarray(specular_color, dtype=np.float64), 0.0, None), cd
+        f0, kd_colour = np.clip(np.asarray(specular_color, dtype=np.float64), 0.0, None), cd
     else:
         m = float(np.clip(metallic, 0.0, 1.0))
         # 0.04 at ior 1.5 (UsdPreviewSurface spec), scaled by Blender's "Specular IOR Level"
         # (exported as the non-standard inputs:specular; 0.5 leaves F0 as the IOR gives it, 0 removes it).
-        f0 = ((1.0 - ior) / (1.0 + ior)) ** 2 * (2.0 * float(np.clip(specular_level, 0.0, 1.0)))
-        cs, kd_colour = (1.0 - m) * f0 + m * cd, cd * (1.0 - m)
-    ks = float(np.clip(cs.max(), 0.0, 1.0))
-    cs = cs / cs.max() if cs.max() > 0 else np.ones(3)
+        dielectric = ((1.0 - ior) / (1.0 + ior)) ** 2 * (2.0 * float(np.clip(specular_level, 0.0, 1.0)))
+        f0, kd_colour = (1.0 - m) * dielectric + m * cd, cd * (1.0 - m)
+    # α < ½: the albedo (and so the peak) matched; α ≥ ½ (e = 0, a flat lobe): F0/(2πα), which
+    # meets the first form at α = ½ and follows the reference's falling albedo (Smith shadowing),
+    # measured in tests/preview_reference.py.
+    strength = f0 * (exponent + 2.0) / (2.0 * np.pi) if alpha < 0.5 else f0 / (2.0 * np.pi * alpha)
+    ks = float(min(1.0, strength.max()))
+    cs = strength / ks if ks > 0 else np.ones(3)
     return PhongMaterial(
         ka=1.0,
         kd=1.0,

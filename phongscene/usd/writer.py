@@ -84,13 +84,15 @@ def define_phong_material(stage: Usd.Stage, path: str, material: PhongMaterial =
         phong.CreateInput(name, sdf_type).Set(Gf.Vec3f(*map(float, value)) if isinstance(value, tuple) else float(value))
     mat.CreateSurfaceOutput(PHONG_RENDER_CONTEXT).ConnectToSource(phong.ConnectableAPI(), "surface")
 
-    # Preview fallback: Lambert albedo kd·cd, specular ks·cs, roughness inverting the reader's
-    # mapping e = (2/α² − 2)/4 with α = r².
+    # Preview fallback (for other tools): Lambert albedo kd·cd, and the reader's mapping
+    # (materials.preview_to_phong) inverted: α² = 1/(2(e + 2)), F0 = ks·cs·2π/(e + 2), α = r².
     preview = UsdShade.Shader.Define(stage, f"{path}/Preview")
     preview.SetShaderId("UsdPreviewSurface")
+    exponent = max(material.exponent, 0.0)
     albedo = np.clip(np.asarray(material.diffuse_color, dtype=np.float64) * material.kd, 0.0, 1.0)
-    specular = np.clip(np.asarray(material.specular_color, dtype=np.float64) * material.ks, 0.0, 1.0)
-    alpha = math.sqrt(2.0 / (4.0 * max(material.exponent, 0.0) + 2.0))
+    f0 = np.asarray(material.specular_color, dtype=np.float64) * material.ks * (2.0 * math.pi / (exponent + 2.0))
+    specular = np.clip(f0, 0.0, 1.0)
+    alpha = math.sqrt(1.0 / (2.0 * (exponent + 2.0)))
     preview.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*map(float, albedo)))
     preview.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
     preview.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*map(float, specular)))
