@@ -27,8 +27,7 @@ def expected(path):
 
 def test_there_is_an_invalid_scene_for_each_required_error():
     names = {p.stem for p in INVALID}
-    for required in ("nan_kd", "negative_ks", "negative_exponent", "wrong_type_normals", "index_out_of_range",
-                     "unknown_phong_attribute", "missing_reference"):
+    for required in ("nan_kd", "negative_ks", "negative_exponent", "index_out_of_range", "unknown_phong_attribute"):
         assert required in names
 
 
@@ -65,3 +64,31 @@ def test_missing_scene_file(tmp_path, capsys):
         load_usd(missing)
     assert main(["validate", str(missing)]) == 2
     assert capsys.readouterr().err.strip() == f"error: {missing}: file not found"
+
+
+# Scenes that USD and usdview draw with a warning (a reference that does not resolve, normals of
+# the wrong type): phongscene warns and draws the rest too; `validate --strict` rejects them.
+WARNED = sorted((REPO / "tests" / "scenes" / "warned").glob("*.usda"))
+
+
+def _warned_expectation(path):
+    header = path.read_text().split("(", 1)[0]
+    fields = dict(re.findall(r"expected-(warning|drawn): (.*)", header))
+    return fields["warning"].strip(), fields["drawn"].strip()
+
+
+def test_there_is_a_warned_scene_for_each_required_case():
+    assert {p.stem for p in WARNED} >= {"missing_reference", "wrong_type_normals"}
+
+
+@pytest.mark.parametrize("path", WARNED, ids=lambda p: p.stem)
+def test_warned_scene_is_drawn_with_its_warning(path, capsys):
+    from phongscene.usd import read_usd
+
+    warning, drawn = _warned_expectation(path)
+    result = read_usd(path)
+    assert any(w.startswith(warning) for w in result.warnings), result.warnings
+    assert drawn in {node.source for node in (*result.scene.spheres, *result.scene.meshes)}
+    assert main(["validate", str(path)]) == 0
+    assert main(["validate", "--strict", str(path)]) == 2
+    assert warning in capsys.readouterr().err

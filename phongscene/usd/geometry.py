@@ -5,8 +5,8 @@
 * ``Mesh`` is fan-triangulated with numpy (no per-face Python loop; exact for convex faces),
   honours ``holeIndices`` and ``orientation`` and keeps authored normals of every
   interpolation, ``primvars:normals`` (indexed or not) taking precedence over ``normals``.
-  Normals of the wrong type or count, non-finite or zero-length are *problems* (errors), not
-  silently replaced: a file that says it has normals and does not is broken.
+  Normals of the wrong type are ignored with a warning (as USD renderers draw such a mesh); of the
+  wrong count, non-finite or zero-length they are *problems* (errors), not silently replaced.
 * ``Cube`` and ``Plane`` become flat triangles; ``Cylinder``, ``Cone`` and ``Capsule`` are
   tessellated by ``trimesh.creation`` with ``SEGMENTS`` segments around the axis (capsule:
   ``SEGMENTS`` × ``SEGMENTS // 2`` rings) and analytic smooth normals on the curved surface
@@ -275,7 +275,8 @@ def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_o
         name, interpolation, element_indices = "normals", UsdGeom.Mesh(prim).GetNormalsInterpolation(), None
     type_name = authored_type(attr)
     if type_name not in NORMAL_TYPES:
-        ctx.problem(prim, name, f"has type {type_name}, expected normal3f[]")
+        # As USD renderers do: the mesh is drawn, without the normals it cannot read.
+        ctx.warn(f"{prim.GetPath()}.{name}: has type {type_name}, expected normal3f[] (ignored: the mesh is flat-shaded)")
         return None
     values = np.asarray(attr.Get(ctx.time), dtype=np.float64).reshape(-1, 3)
     expected = {

@@ -73,10 +73,13 @@ def read_usd(source) -> ReadResult:
     stage, file = _open(source)
     ctx = ReadContext(stage, file)
     for error in stage.GetCompositionErrors():
+        # As USD and usdview do: a reference, payload or sublayer that cannot be composed (a
+        # missing file, a .mtlx without USD's MaterialX plugin) is said, and the rest is drawn.
         site = getattr(error, "rootSite", None)
         text = str(error)
         arc = next((a for k, a in _ARC_ATTRIBUTE.items() if k in text), "")
-        ctx.problem(str(site.path) if site is not None else "", arc, text)
+        where = (str(site.path) if site is not None else "") + (f".{arc}" if arc else "")
+        ctx.warn(f"{where}: {text} (not composed; the rest of the stage is drawn)")
     _check_phong_namespace(ctx)
     typos.check_names(ctx)
     stage = ctx.stage
