@@ -667,3 +667,18 @@ def test_a_closed_single_sided_mesh_is_not_said(tmp_path):
     ).replace("SIDED", "")
     assert "(0, 0, 1)" in body
     assert not any("single-sided" in w for w in read(tmp_path, body).warnings)
+
+
+def test_a_light_that_clips_most_of_the_scene_to_white_is_said_with_the_exposure_that_fits(tmp_path):
+    body = """
+    def DistantLight "Sun" { float inputs:intensity = 50
+        bool inputs:normalize = 1 }
+    def Sphere "Ball" {
+    }
+    """
+    warnings = read(tmp_path, body).warnings
+    radiance = 50 / math.pi  # a white Lambert surface under irradiance 50
+    (said,) = [w for w in warnings if w.startswith("/Sun: lights a white surface")]
+    assert f"radiance {radiance:.3g}" in said and f"inputs:exposure {-math.log2(radiance):+.2f}" in said
+    dim = read(tmp_path, body.replace("= 50", "= 3")).warnings  # radiance 0.95: nothing to say
+    assert not [w for w in dim if "lights a white surface" in w]

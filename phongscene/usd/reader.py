@@ -129,6 +129,7 @@ def read_usd(source) -> ReadResult:
         scene = replace(scene, lights=(head_light(scene.camera),))
         ctx.warn("no point, distant or area light: using a head light at the camera (phongscene.scene.head_light)")
     _warn_single_sided(ctx, stage, scene)
+    _warn_clipping_lights(ctx, scene)
     ctx.flush_unsupported()
 
     # Validation of the model, in the file's terms. The reader replaced each value it found wrong
@@ -140,6 +141,41 @@ def read_usd(source) -> ReadResult:
     if problems:
         raise SceneError(problems)
     return ReadResult(scene, ctx.warnings, ctx.nodes)
+
+
+# A light is said to clip when the median radiance it gives a white surface exceeds this: one
+# stop above what an sRGB image holds (1), so a light that brings white to exactly white (our
+# head light and seed examples) or a little above is left alone.
+CLIP_RADIANCE = 2.0
+# Points of the geometry sampled to judge how bright a light makes the scene (a fixed, evenly
+# spaced selection: deterministic).
+CLIP_SAMPLE_POINTS = 1024
+
+
+def _warn_clipping_lights(ctx: ReadContext, scene: Scene) -> None:
+    """A light alone brighter than an sRGB image holds: where the median of the radiance it gives a
+    white Lambert surface facing it, over points of the geometry (shadows ignored), exceeds
+    CLIP_RADIANCE, a PNG clips most of what it lights to white. Said per light, with the exposure change that
+    brings that median to 1 (UsdLux ``inputs:exposure``)."""
+    points = [m.points[:: max(1, len(m.points) * max(1, len(scene.meshes)) // CLIP_SAMPLE_POINTS)] for m in scene.meshes]
+    points += [s.world_from_object[:3, 3][None, :] for s in scene.spheres]
+    if not points:
+        return
+    p = np.concatenate(points)
+    for light in scene.lights:
+        colour = float(np.max(light.color))
+        if isinstance(light, DirectionalLight) or light.falloff == "none":
+            irradiance = np.full(len(p), colour)
+        else:
+            centre = np.asarray(getattr(light, "position", getattr(light, "center", None)), dtype=np.float64)
+            d2 = np.maximum(((p - centre) ** 2).sum(axis=1), 1e-300)
+            irradiance = colour / d2
+        radiance = float(np.median(irradiance)) / math.pi
+        if radiance > CLIP_RADIANCE:
+            ctx.warn(
+                f"{light.source}: lights a white surface to radiance {radiance:.3g} at the median point of the "
+                f"geometry, which an sRGB image clips to white; inputs:exposure {-math.log2(radiance):+.2f} would bring it to 1"
+            )
 
 
 def _warn_single_sided(ctx: ReadContext, stage: Usd.Stage, scene: Scene) -> None:
