@@ -291,6 +291,19 @@ class TriangleMesh:
             object.__setattr__(self, "normals", _readonly(self.normals, np.float64, (3,)))
             object.__setattr__(self, "normal_indices", _readonly(self.normal_indices, np.int32, (3,)))
 
+    def local_origin(self) -> np.ndarray:
+        """The origin of a frame in which a float32 copy of the mesh (POV-Ray's mesh2 storage)
+        keeps its precision: the centre of the mesh's bounds when the mesh lies farther from the
+        world origin than its own size (float32 world coordinates would then round its features
+        away), else the world origin, so that meshes near the origin are stored as they are."""
+        if not len(self.points):
+            return np.zeros(3)
+        lo, hi = self.points.min(axis=0), self.points.max(axis=0)
+        with np.errstate(over="ignore", invalid="ignore"):  # coordinates near 1e308: no local frame helps
+            centre = (lo + hi) / 2
+            far = bool(np.linalg.norm(centre) > np.linalg.norm(hi - lo))
+        return centre if far else np.zeros(3)
+
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, TriangleMesh):
             return NotImplemented

@@ -266,6 +266,25 @@ def smooth_mesh() -> Scene:
     )
 
 
+FAR_OFFSET = (5.0e4, 0.0, 0.0)  # float32 world coordinates there round by 4e-3: features vanish
+
+
+def far_from_origin() -> Scene:
+    """The smooth-mesh scene moved 5e4 units along x (camera and light too): POV-Ray's float32
+    mesh2 keeps its precision only in the mesh's local frame, which the compiler writes."""
+    scene = smooth_mesh()
+    offset = np.array(FAR_OFFSET)
+    camera = dataclasses.replace(scene.camera, position=_vec(np.asarray(scene.camera.position) + offset))
+    lights = tuple(dataclasses.replace(l, position=_vec(np.asarray(l.position) + offset)) for l in scene.lights)
+    ground = scene.meshes[1]
+    meshes = (
+        dataclasses.replace(scene.meshes[0], points=scene.meshes[0].points + offset),
+        # The ground is kept small (±8) so that the mesh, not the ground, sets the scene's size.
+        dataclasses.replace(ground, points=np.clip(ground.points, -8.0, 8.0) + offset),
+    )
+    return dataclasses.replace(scene, camera=camera, lights=lights, meshes=meshes)
+
+
 def flat_mesh() -> Scene:
     """A 20-triangle icosahedron, flat shaded, every other triangle wound the other way (the
     normal flip makes winding irrelevant), next to an 80-triangle one."""
@@ -439,6 +458,7 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "ambient_only": ambient_only,
     "transformed_spheres": transformed_spheres,
     "smooth_mesh": smooth_mesh,
+    "far_from_origin": far_from_origin,
     "flat_mesh": flat_mesh,
     "back_faces": back_faces,
     "shadows_two_lights": shadows_two_lights,

@@ -190,7 +190,7 @@ def render(
     s = scene.settings if settings is None else settings
     arrays = scene_arrays(scene)
     if s.numerics != "scale-invariant":
-        arrays = _as_povray_stores(arrays)
+        arrays = _as_povray_stores(arrays, scene)
     return _native.Scene(**arrays).render(camera=_camera(scene.camera), settings=_settings(s), progress=progress)
 
 
@@ -199,12 +199,14 @@ def render(
 POVRAY_SMOOTH_NORMAL_DIFFERENCE = 1e-10
 
 
-def _as_povray_stores(arrays: dict) -> dict:
-    """The mesh data as POV-Ray's mesh2 holds it: vertices and normals rounded to float32,
-    normals renormalised (at parse time), and triangles whose three normals are equal shaded
-    flat (normal index -1)."""
+def _as_povray_stores(arrays: dict, scene: Scene) -> dict:
+    """The mesh data as POV-Ray's mesh2 holds it (the compiler writes it so): vertices rounded to
+    float32 in each mesh's local frame (``TriangleMesh.local_origin``), normals rounded to float32
+    and renormalised (at parse time), and triangles whose three normals are equal shaded flat
+    (normal index -1)."""
     out = dict(arrays)
-    out["points"] = np.ascontiguousarray(arrays["points"].astype(np.float32).astype(np.float64))
+    origins = np.concatenate([np.broadcast_to(m.local_origin(), m.points.shape) for m in scene.meshes]) if scene.meshes else 0.0
+    out["points"] = np.ascontiguousarray((arrays["points"] - origins).astype(np.float32).astype(np.float64) + origins)
     normals = arrays["normals"].astype(np.float32).astype(np.float64)
     if len(normals):
         normals /= np.linalg.norm(normals, axis=1, keepdims=True)

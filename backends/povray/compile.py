@@ -441,7 +441,8 @@ class _Compiler:
         if len(mesh.triangles) == 0:
             self.lines.append("// (no triangles)")
             return
-        vertices = self.float32_block(mesh, "points", mesh.points)
+        origin = mesh.local_origin()
+        vertices = self.float32_block(mesh, "points", mesh.points - origin if origin.any() else mesh.points)
         normals = self.float32_block(mesh, "normals", mesh.normals) if mesh.normals is not None else None
         out = self.lines
         out.append("mesh2 {")
@@ -455,5 +456,9 @@ class _Compiler:
         if normals is not None and not same_indices:
             # Without normal_indices POV uses the face indices (ref §7); only write them when they differ.
             out.append(f"  normal_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.normal_indices)}\n  }}")
+        if origin.any():
+            # Local coordinates keep float32 precision far from the origin; the translate comes
+            # before the texture, so the texture (the exact mapping's slope) stays in world space.
+            out.append(f"  translate {self.vec(origin, mesh, 'points')}")
         out.append(f"  texture {{ {self.materials[mesh.material]} }}")
         out.append("}")
