@@ -211,7 +211,7 @@ def test_lights(tmp_path):
     result = read(tmp_path, LIGHTS)
     scene = result.scene
     assert scene.ambient.color == pytest.approx((0.6, 0.7, 0.8), abs=FLOAT32)  # DomeLights add up
-    point, ball, sun, panel = scene.lights
+    point, ball, sun, panel, disk = scene.lights
     assert point.position == (1, 2, 3) and point.color == (4.0, 2.0, 1.0)  # 2·2^1·color
     assert (point.fade_distance, point.fade_power) == (4.0, 2.0)
     assert ball.center == (0, 5, 0) and ball.radius == 1.0 and ball.samples == 5  # radius × scale
@@ -220,8 +220,12 @@ def test_lights(tmp_path):
     assert sun.color == (3.0, 3.0, 3.0)
     assert np.allclose(panel.axis_u, (2, 0, 0), atol=1e-7) and np.allclose(panel.axis_v, (0, 0, 4), atol=1e-6)
     assert panel.samples == 9
+    # A DiskLight of radius r is lit as the square of its area (side r·√π), UsdLux units.
+    side = 0.5 * math.sqrt(math.pi)
+    assert np.linalg.norm(disk.axis_u) == pytest.approx(side) and np.linalg.norm(disk.axis_v) == pytest.approx(side)
+    assert disk.falloff == "inverse-square" and any("DiskLights" in w and "/Disk" in w for w in result.warnings)
     unsupported = [w for w in result.warnings if "unsupported lights" in w]
-    assert len(unsupported) == 1 and "/Disk" in unsupported[0] and "/Tube" in unsupported[0]
+    assert len(unsupported) == 1 and "/Disk" not in unsupported[0] and "/Tube" in unsupported[0]
 
 
 def test_z_up_light_and_camera(tmp_path):

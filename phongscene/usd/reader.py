@@ -471,7 +471,8 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
     centre = tuple(float(c) for c in world[:3, 3])
     type_name = prim.GetTypeName()
     dome = prim.IsA(UsdLux.DomeLight) or type_name == "DomeLight_1"
-    if not (dome or prim.IsA(UsdLux.SphereLight) or prim.IsA(UsdLux.DistantLight) or prim.IsA(UsdLux.RectLight)):
+    known = (UsdLux.SphereLight, UsdLux.DistantLight, UsdLux.RectLight, UsdLux.DiskLight)
+    if not (dome or any(prim.IsA(kind) for kind in known)):
         ctx.unsupported["unsupported lights (ignored)"].append(f"{path} ({type_name})")
         return
     seed = _seed_light(ctx, prim)
@@ -533,11 +534,17 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
                                 "as Cycles renders them)"].append(path)
         lights.append(DirectionalLight(tuple(float(c) for c in direction), _rgb(irradiance), path))
         ctx.nodes.append((path, "DirectionalLight"))
-    else:  # RectLight
+    else:  # RectLight, or a DiskLight as the square of its area
         if _shaping(ctx, prim) is not None:
             ctx.unsupported["spherical or rect lights with a UsdLuxShapingAPI cone (ignored)"].append(path)
-        width = ctx.number(prim, "inputs:width", 1.0, minimum=0.0, strict=True)
-        height = ctx.number(prim, "inputs:height", 1.0, minimum=0.0, strict=True)
+        if prim.IsA(UsdLux.DiskLight):
+            # Same area, emission and falloff; only its shadows' outline (and grid) differ.
+            radius = ctx.number(prim, "inputs:radius", 0.5, minimum=0.0, strict=True)
+            width = height = radius * math.sqrt(math.pi)
+            ctx.unsupported["DiskLights (each lit as the square of its area, facing the same way)"].append(path)
+        else:
+            width = ctx.number(prim, "inputs:width", 1.0, minimum=0.0, strict=True)
+            height = ctx.number(prim, "inputs:height", 1.0, minimum=0.0, strict=True)
         axis_u = world[:3, :3] @ np.array([width, 0.0, 0.0])
         axis_v = world[:3, :3] @ np.array([0.0, height, 0.0])
         if seed or _normalized(ctx, prim):
