@@ -29,6 +29,10 @@ from .scene import (
 from .tolerances import SINGULAR_RELATIVE_DET, UNIT_TOLERANCE, is_singular
 
 MAX_SAMPLES = 9  # anti-aliasing grid per axis (RenderSettings.samples)
+# Positions the tracer can represent: every coordinate within ±1e150, so that differences stay
+# finite and squared distances (inverse-square falloff, sphere tests, box areas) stay below
+# 1e300 < the largest double; beyond that, bounds and extents overflow to inf.
+MAX_COORDINATE = 1e150
 
 
 class _Collector:
@@ -46,6 +50,17 @@ class _Collector:
         arr = np.asarray(value, dtype=np.float64)
         if arr.size and not np.all(np.isfinite(arr)):
             self.add(node, field, f"must be finite, got {_show(value)}")
+            return False
+        return True
+
+    def position(self, node, field: str, value) -> bool:
+        """Finite, and within ±MAX_COORDINATE."""
+        if not self.finite(node, field, value):
+            return False
+        arr = np.asarray(value, dtype=np.float64)
+        if arr.size and float(np.max(np.abs(arr))) > MAX_COORDINATE:
+            self.add(node, field, f"coordinates must be within ±{MAX_COORDINATE:g} (so that distances and their "
+                     f"squares stay finite), got {float(np.max(np.abs(arr))):.3g}")
             return False
         return True
 
@@ -158,7 +173,7 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
 
 
 def _check_camera(c: _Collector, cam: Camera) -> None:
-    c.finite(cam, "position", cam.position)
+    c.position(cam, "position", cam.position)
     forward = c.vector(cam, "forward", unit=True)
     up = c.vector(cam, "up", unit=True)
     if forward is not None and up is not None and abs(float(forward @ up)) > UNIT_TOLERANCE:
@@ -203,7 +218,7 @@ def _check_light(c: _Collector, light) -> None:
     elif falloff != "none" and getattr(light, "fade_power", 0.0) > 0:
         c.add(light, "fade_power", "must be 0 with falloff 'inverse-square' (the fade is POV-Ray's alternative)")
     if isinstance(light, PointLight):
-        c.finite(light, "position", light.position)
+        c.position(light, "position", light.position)
         cone = light.cone
         if cone is not None:
             axis = np.asarray(cone.axis, dtype=np.float64)
@@ -220,7 +235,7 @@ def _check_light(c: _Collector, light) -> None:
     elif isinstance(light, DirectionalLight):
         c.vector(light, "direction", unit=True)
     elif isinstance(light, RectAreaLight):
-        c.finite(light, "center", light.center)
+        c.position(light, "center", light.center)
         u = c.vector(light, "axis_u", unit=False)
         v = c.vector(light, "axis_v", unit=False)
         if u is not None and v is not None:
@@ -229,7 +244,7 @@ def _check_light(c: _Collector, light) -> None:
                 c.add(light, "axis_v", "must not be parallel to axis_u (the rectangle has no area)")
         c.samples_2k1(light)
     elif isinstance(light, SphereAreaLight):
-        c.finite(light, "center", light.center)
+        c.position(light, "center", light.center)
         if c.finite(light, "radius", light.radius) and light.radius <= 0:
             c.add(light, "radius", f"must be > 0, got {light.radius!r}")
         c.samples_2k1(light)
@@ -245,10 +260,17 @@ def _check_sphere(c: _Collector, s: Sphere) -> None:
         c.add(s, "world_from_object", f"must be affine (last row 0 0 0 1), got {_show(tuple(m[3]))}")
     if is_singular(m[:3, :3]):
         c.add(s, "world_from_object", "is singular (zero radius or a zero/degenerate scale)")
+    else:
+        # Its bounds (centre ± the row norms of the 3×3 part) must be representable too.
+        with np.errstate(over="ignore"):
+            reach = float(np.max(np.abs(m[:3, 3]) + np.sqrt((m[:3, :3] ** 2).sum(axis=1))))
+        if not reach <= MAX_COORDINATE:
+            c.add(s, "world_from_object", f"the sphere must lie within ±{MAX_COORDINATE:g} (so that distances and "
+                  f"their squares stay finite), it reaches {reach:.3g}")
 
 
 def _check_mesh(c: _Collector, mesh: TriangleMesh) -> None:
-    c.finite(mesh, "points", mesh.points)
+    c.position(mesh, "points", mesh.points)
     n_points = len(mesh.points)
     tri = mesh.triangles
     if tri.size and (tri.min() < 0 or tri.max() >= n_points):

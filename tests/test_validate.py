@@ -173,3 +173,24 @@ def test_a_shared_material_is_reported_once_in_order_of_first_use():
     materials = [bad_ks, bad_ka, replace(MAT, ks=-0.5), unhashable, bad_ka, replace(MAT, diffuse_color=[0.5, -1.0, 0.5])]
     scene = replace(base(), spheres=tuple(Sphere.at((i, 0, 0), 0.4, m) for i, m in enumerate(materials)))
     assert [p.attribute for p in validate(scene)] == ["ks", "ka", "diffuse_color"]
+
+
+def test_positions_the_tracer_cannot_represent_are_problems():
+    # ±1e308 is finite, but the extent between two such spheres is not (it crashed the BVH build).
+    far = replace(base(), spheres=(Sphere.at((1e308, 0, 0), 1.0, source="/A"), Sphere.at((-1e308, 0, 0), 1.0, source="/B")))
+    found = {(p.prim, p.attribute) for p in validate(far)}
+    assert found == {("/A", "world_from_object"), ("/B", "world_from_object")}
+    mesh = TriangleMesh([[1.5e308, 0, 0], [-1.5e308, 0, 0], [0, 1, 0]], [[0, 1, 2]], source="/T")
+    (problem,) = validate(replace(base(), meshes=(mesh,)))
+    assert (problem.prim, problem.attribute) == ("/T", "points") and "within ±1e+150" in problem.message
+    assert not validate(replace(base(), spheres=(Sphere.at((1e149, 0, 0), 1.0),)))  # inside the limit
+
+
+def test_native_tracer_survives_infinite_extents():
+    # What validation rejects must still not crash the C++ (bins clamp whatever slips through).
+    from phongscene.backends import native
+
+    far = replace(base(), spheres=(Sphere.at((1e308, 0, 0), 1.0), Sphere.at((-1e308, 0, 0), 1.0)),
+                  settings=RenderSettings(width=8, height=6))
+    image = native.render(far)
+    assert image.shape == (6, 8, 3)

@@ -42,6 +42,16 @@ namespace {
 // SAH constants: a node visit costs about as much as one primitive test (both are a few
 // dozen flops on data that is already in cache); leaves stop at kMaxLeafSize primitives.
 constexpr int kBins = 16;
+
+// The bin of a centroid coordinate c along an axis whose centroids start at lo, with
+// scale = kBins / extent. Validated scenes have finite, representable bounds; this stays in
+// range whatever slips through (an infinite extent gives scale 0 and inf·0 = NaN; a NaN or a
+// negative offset goes to bin 0, anything past the end to the last bin), never out of bounds.
+inline int bin_of(double c, double lo, double scale) {
+    const double f = (c - lo) * scale;
+    if (!(f > 0.0)) return 0;
+    return f >= double(kBins - 1) ? kBins - 1 : int(f);
+}
 constexpr int kMaxLeafSize = 4;
 constexpr double kTraversalCost = 1.0;
 constexpr double kIntersectionCost = 1.0;
@@ -115,7 +125,7 @@ struct Builder {
                 const double cs[3] = {c.x, c.y, c.z};
                 for (int axis = 0; axis < 3; ++axis) {
                     if (!binned[axis]) continue;
-                    Bin& bin = bins[axis][std::min(kBins - 1, int((cs[axis] - lo[axis]) * scale[axis]))];
+                    Bin& bin = bins[axis][bin_of(cs[axis], lo[axis], scale[axis])];
                     bin.count++;
                     bin.bounds.grow(prim_bounds[prim]);
                     bin.centres.grow(c);
@@ -131,7 +141,7 @@ struct Builder {
             Bin* bin = bins[axis];
             if (!one_pass) {
                 for (uint32_t i = begin; i < end; ++i) {
-                    Bin& b = bin[std::min(kBins - 1, int((centroids[order[i]][axis] - lo[axis]) * scale[axis]))];
+                    Bin& b = bin[bin_of(centroids[order[i]][axis], lo[axis], scale[axis])];
                     b.count++;
                     b.bounds.grow(prim_bounds[order[i]]);
                 }
@@ -182,7 +192,7 @@ struct Builder {
             const int axis = best_axis, split = best_split;
             const double axis_lo = lo[axis], axis_scale = scale[axis];
             auto it = std::partition(order.begin() + begin, order.begin() + end, [&](uint32_t p) {
-                return std::min(kBins - 1, int((centroids[p][axis] - axis_lo) * axis_scale)) < split;
+                return bin_of(centroids[p][axis], axis_lo, axis_scale) < split;
             });
             mid = uint32_t(it - order.begin());
             if (mid == begin || mid == end) {
