@@ -168,3 +168,28 @@ def test_interrupt_removes_the_temporary_directory(monkeypatch, tmp_path):
     with pytest.raises(KeyboardInterrupt):
         povray.render(_two_light_scene())
     assert list(tmp_path.iterdir()) == []
+
+
+def _light_on_the_surface() -> Scene:
+    from phongscene.scene import Camera, TriangleMesh
+
+    quad = TriangleMesh([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]],
+                        material=PhongMaterial(ka=0.5, diffuse_color=(1, 1, 1)))
+    return Scene(camera=Camera((0, 0, 5), (0, 0, -1), (0, 1, 0), horizontal_fov_deg=20),
+                 ambient=dataclasses.replace(Scene().ambient, color=(0.2, 0.2, 0.2)),
+                 lights=(PointLight((0.0, 0.0, 0.0), (1, 1, 1)),), meshes=(quad,),
+                 settings=RenderSettings(width=9, height=9))
+
+
+def test_native_light_exactly_on_a_surface_point_gives_the_ambient_term():
+    from phongscene.backends import native
+
+    image = native.render(_light_on_the_surface())
+    assert np.isfinite(image).all()
+    np.testing.assert_allclose(image[4, 4], 0.5 * 0.2, rtol=1e-6)  # ka·cd·La only
+
+
+@pytest.mark.povray
+def test_povray_non_finite_pixels_are_an_error_not_an_image():
+    with pytest.raises(BackendError, match=r"non-finite pixels, e.g. \(4, 4\)"):
+        povray.render(_light_on_the_surface())

@@ -32,6 +32,9 @@ from phongscene.scene import RenderSettings, Scene
 
 from .compile import compile_body, compile_pov, pass_count, resolve_mapping
 
+# The largest value of POV-Ray's half-float EXR output; brighter pixels are written as inf.
+HALF_MAX = 65504.0
+
 POVRAY = "povray"
 INSTALL_HINT = "POV-Ray 3.7 is not installed ('povray' is not on PATH); install it with: apt-get install povray"
 # The user configuration POV-Ray reads from $HOME: file I/O only where the system configuration
@@ -273,6 +276,13 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
     for f, image in zip(files, frames):
         if image.shape != (job.height, job.width, 3):
             raise fail(f"{f.name}: expected {job.width}x{job.height} pixels, got {image.shape[1]}x{image.shape[0]}")
+        bad = ~np.isfinite(image).all(axis=2)
+        if bad.any():
+            y, x = (int(v) for v in np.argwhere(bad)[0])
+            raise fail(
+                f"{f.name}: POV-Ray wrote {int(bad.sum())} non-finite pixels, e.g. ({x}, {y}): a light exactly on a "
+                f"surface, or a value beyond its half-float EXR's range ({HALF_MAX:g}: lower the light's intensity)"
+            )
     frame_done(job.frames)
     return frames
 

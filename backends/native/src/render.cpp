@@ -72,7 +72,9 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
     for (const Light& light : scene.lights) {
         const LightSample centre = sample_light_centre(light, p);
         const double n_dot_l = dot(n, centre.l);
-        if (n_dot_l < kMinCosineToLight) continue;  // no contribution and no shadow ray
+        // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at the point
+        // (d = 0: the model's answer there is the ambient term only).
+        if (!(n_dot_l >= kMinCosineToLight)) continue;
         const double fraction = visible_fraction(light, p, centre, ShadowQuery{scene, p, window, candidates});
         if (fraction == 0.0) continue;
         color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l,
