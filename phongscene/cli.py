@@ -16,7 +16,7 @@ from pathlib import Path
 from . import __version__
 from .errors import BackendError, PhongSceneError, SceneError
 from .rendering import BACKENDS, in_file_terms
-from .validate import MAX_SAMPLES
+from .validate import MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_THREADS
 
 EXIT_OK, EXIT_DIFFERENT, EXIT_SCENE, EXIT_BACKEND, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -88,8 +88,8 @@ def _int_in(low: int, high: int | None = None):
     return parse
 
 
-_positive_int = _int_in(1)
-_thread_count = _int_in(0)  # 0 = all cores
+_image_side = _int_in(1, MAX_IMAGE_SIDE)
+_thread_count = _int_in(0, MAX_THREADS)  # 0 = all cores
 _samples_per_axis = _int_in(1, MAX_SAMPLES)  # the model's anti-aliasing range (RenderSettings.samples)
 
 
@@ -102,8 +102,8 @@ def _add_mapping_option(p: argparse.ArgumentParser, help: str, default: str | No
 
 
 def _add_size_options(p: argparse.ArgumentParser, spp_help: str = SPP_HELP) -> None:
-    p.add_argument("--width", type=_positive_int, metavar="W", help="image width (alone: keeps the aspect ratio)")
-    p.add_argument("--height", type=_positive_int, metavar="H", help="image height (alone: keeps the aspect ratio)")
+    p.add_argument("--width", type=_image_side, metavar="W", help="image width (alone: keeps the aspect ratio)")
+    p.add_argument("--height", type=_image_side, metavar="H", help="image height (alone: keeps the aspect ratio)")
     p.add_argument("--spp", type=_samples_per_axis, metavar="N", help=spp_help)
 
 

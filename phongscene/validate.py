@@ -33,6 +33,13 @@ MAX_SAMPLES = 9  # anti-aliasing grid per axis (RenderSettings.samples)
 # finite and squared distances (inverse-square falloff, sphere tests, box areas) stay below
 # 1e300 < the largest double; beyond that, bounds and extents overflow to inf.
 MAX_COORDINATE = 1e150
+# An image side: 16384 px (a 16K render); the pixel count: 2^28 (16384², 3.2 GB of float32 RGB):
+# beyond these a render would not fit this machine's memory (and C++ takes int sizes).
+MAX_IMAGE_SIDE = 16384
+MAX_PIXELS = 2**28
+MAX_THREADS = 1024  # worker threads (C++ int; far more than any machine here has cores)
+# An area light's shadow grid per axis: 257 = 2^8 + 1 (66 049 shadow rays per light and point).
+MAX_SHADOW_SAMPLES = 257
 
 
 class _Collector:
@@ -95,8 +102,8 @@ class _Collector:
 
     def samples_2k1(self, node) -> None:
         n = node.samples
-        if not isinstance(n, (int, np.integer)) or n < 3 or (n - 1) & (n - 2):
-            self.add(node, "samples", f"must be 2^k + 1 with k >= 1 (3, 5, 9, 17, ...), got {n!r}")
+        if not isinstance(n, (int, np.integer)) or n < 3 or n > MAX_SHADOW_SAMPLES or (n - 1) & (n - 2):
+            self.add(node, "samples", f"must be 2^k + 1 with 1 <= k <= 8 (3, 5, 9, 17, ..., {MAX_SHADOW_SAMPLES}), got {n!r}")
 
 
 def _show(value) -> str:
@@ -190,10 +197,14 @@ def _check_camera(c: _Collector, cam: Camera) -> None:
 
 
 def _check_settings(c: _Collector, s: RenderSettings) -> None:
+    sides_ok = True
     for field in ("width", "height"):
         value = getattr(s, field)
-        if not isinstance(value, (int, np.integer)) or value < 1:
-            c.add(s, field, f"must be an integer >= 1, got {value!r}")
+        if not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_IMAGE_SIDE:
+            c.add(s, field, f"must be an integer in 1..{MAX_IMAGE_SIDE}, got {value!r}")
+            sides_ok = False
+    if sides_ok and s.width * s.height > MAX_PIXELS:
+        c.add(s, "width", f"width × height must be at most {MAX_PIXELS} pixels, got {s.width} × {s.height}")
     if not isinstance(s.samples, (int, np.integer)) or not 1 <= s.samples <= MAX_SAMPLES:
         c.add(s, "samples", f"must be an integer in 1..{MAX_SAMPLES}, got {s.samples!r}")
     if s.sample_pattern not in ("grid", "povray-am1"):
@@ -202,8 +213,8 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
         c.add(s, "specular", f"must be 'seed' or 'povray-classic', got {s.specular!r}")
     if s.numerics not in NUMERICS:
         c.add(s, "numerics", f"must be one of {', '.join(NUMERICS)}, got {s.numerics!r}")
-    if not isinstance(s.threads, (int, np.integer)) or s.threads < 0:
-        c.add(s, "threads", f"must be an integer >= 0, got {s.threads!r}")
+    if not isinstance(s.threads, (int, np.integer)) or not 0 <= s.threads <= MAX_THREADS:
+        c.add(s, "threads", f"must be an integer in 0..{MAX_THREADS}, got {s.threads!r}")
     c.colour(s, "background")
 
 

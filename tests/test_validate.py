@@ -194,3 +194,29 @@ def test_native_tracer_survives_infinite_extents():
                   settings=RenderSettings(width=8, height=6))
     image = native.render(far)
     assert image.shape == (6, 8, 3)
+
+
+def test_sizes_threads_and_grids_beyond_what_a_render_can_hold_are_problems():
+    from phongscene.validate import MAX_IMAGE_SIDE, MAX_SHADOW_SAMPLES, MAX_THREADS
+
+    def settings_problems(**kw):
+        return {p.attribute for p in validate(replace(base(), settings=RenderSettings(**kw)))}
+
+    assert settings_problems(width=MAX_IMAGE_SIDE + 1) == {"width"}
+    assert settings_problems(width=MAX_IMAGE_SIDE, height=MAX_IMAGE_SIDE) == set()  # 2^28 px: the limit
+    assert settings_problems(threads=MAX_THREADS + 1) == {"threads"}
+    assert settings_problems(threads=2**32 + 1) == {"threads"}
+    rect = RectAreaLight((0, 5, 0), (1, 0, 0), (0, 0, 1), (1, 1, 1), samples=2**32 + 1)
+    assert {p.attribute for p in validate(replace(base(), lights=(rect,)))} == {"samples"}
+    assert not validate(replace(base(), lights=(replace(rect, samples=MAX_SHADOW_SAMPLES),)))
+
+
+def test_cli_rejects_sizes_and_threads_out_of_range(capsys):
+    from phongscene.cli import main
+
+    for argv in (["render", "x.usda", "-o", "x.png", "--width", "1000000"],
+                 ["render", "x.usda", "-o", "x.png", "--threads", "3000000000"]):
+        with pytest.raises(SystemExit) as e:
+            main(argv)
+        assert e.value.code == 2
+    assert "expected a number in" in capsys.readouterr().err
