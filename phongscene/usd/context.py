@@ -4,10 +4,11 @@
 
 from __future__ import annotations
 
+import re
 from collections import defaultdict
 
 import numpy as np
-from pxr import Gf, Usd, UsdGeom
+from pxr import Gf, Tf, Usd, UsdGeom
 
 from ..errors import Problem
 from ..tolerances import KEEP_UNIT
@@ -17,6 +18,16 @@ from .names import COLOR_TYPES, FLOAT_TYPES
 Z_UP_TO_Y_UP = np.array(
     [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
 )
+
+
+def tf_error_text(error: Exception) -> str:
+    """The message of a USD (Tf) error without its C++ source location."""
+    try:
+        text = str(error)
+    except UnicodeDecodeError:
+        return "(USD's message could not be decoded)"
+    found = re.findall(r" : '(.*)'", text)
+    return found[-1] if found else text.strip()
 
 
 def unit(v: np.ndarray) -> np.ndarray | None:
@@ -74,8 +85,13 @@ class ReadContext:
         return Z_UP_TO_Y_UP @ m if self.z_up else m
 
     def world(self, prim: Usd.Prim) -> np.ndarray:
-        """The prim's local-to-world matrix in model space (column vectors, Y-up)."""
-        return self.to_model(gf_to_numpy(self.xforms.GetLocalToWorldTransform(prim)))
+        """The prim's local-to-world matrix in model space (column vectors, Y-up). An xformOp USD
+        cannot evaluate (``xformOp:tranlate``) is a problem naming the prim; identity is used."""
+        try:
+            return self.to_model(gf_to_numpy(self.xforms.GetLocalToWorldTransform(prim)))
+        except Tf.ErrorException as e:
+            self.problem(prim, "xformOpOrder", f"USD cannot evaluate the transform: {tf_error_text(e)}")
+            return np.eye(4)
 
     # -- attributes -----------------------------------------------------------------------------
 

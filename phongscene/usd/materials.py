@@ -170,11 +170,23 @@ class MaterialReader:
         prim = shader.GetPrim()
         values = {}
         for name in PREVIEW_INPUTS:
-            value = self._input_value(shader, name, self.preview_defaults[name])
-            arr = np.asarray(value, dtype=np.float64)
-            if not np.all(np.isfinite(arr)):
+            default = self.preview_defaults[name]
+            value = self._input_value(shader, name, default)
+            shape = np.shape(default)
+            try:
+                arr = np.asarray(value, dtype=np.float64)
+            except (TypeError, ValueError):
+                arr = None
+            if arr is None or arr.shape != shape:
+                kind = f"{shape[0]} numbers (a color3f)" if shape else "a number"
+                self.ctx.problem(prim, f"inputs:{name}", f"must be {kind}, got {value!r}")
+                value = default
+            elif not np.all(np.isfinite(arr)):
                 self.ctx.problem(prim, f"inputs:{name}", f"must be finite, got {value}")
-                value = self.preview_defaults[name]
+                value = default
+            elif name == "ior" and not float(arr) > 0:
+                self.ctx.problem(prim, "inputs:ior", f"must be > 0, got {float(arr)!r}")
+                value = default
             values[name] = value
         # Inputs the classic model has no term for: say so instead of dropping them silently.
         for name, neutral in (("opacity", 1.0), ("emissiveColor", (0.0, 0.0, 0.0))):

@@ -223,9 +223,13 @@ def _open(source) -> tuple[Usd.Stage, str]:
 def _usd_error_text(error: Exception) -> str:
     """The informative part of a Tf error: the parser's message (with line:column), without the
     C++ source location and the generic "Failed to open layer" line."""
-    messages = [m.group(1) for m in re.finditer(r"Error in '[^']*' at line \d+ in file \S+ : '(.*)'", str(error))]
+    try:
+        text = str(error)
+    except UnicodeDecodeError:  # USD quotes the offending bytes, and Python cannot decode them
+        return "the file is not valid UTF-8 text (USD's message could not be decoded)"
+    messages = [m.group(1) for m in re.finditer(r"Error in '[^']*' at line \d+ in file \S+ : '(.*)'", text)]
     specific = [m for m in messages if not m.startswith("Failed to open layer")]
-    return (specific or messages or [str(error).strip()])[-1]
+    return (specific or messages or [text.strip()])[-1]
 
 
 def _renderable(ctx: ReadContext, prim: Usd.Prim) -> bool:
@@ -604,11 +608,20 @@ def _gprim(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, materials: Mater
         ctx.nodes.append((mesh.source, f"TriangleMesh ({len(mesh.triangles)} triangles)"))
 
 
-def _instances(ctx: ReadContext, instancer_prim: Usd.Prim, instancer_world: np.ndarray, materials, spheres, meshes) -> None:
+def _instances(
+    ctx: ReadContext, instancer_prim: Usd.Prim, instancer_world: np.ndarray, materials, spheres, meshes, expanding=()
+) -> None:
     """Expand a PointInstancer: each instance's prototype subtree, placed by the instance's
-    transform (which includes the prototype root's own transform) and the instancer's."""
+    transform (which includes the prototype root's own transform) and the instancer's.
+    ``expanding`` are the instancers being expanded around this one: a prototype that contains
+    one of them (or this one) would recurse forever, and is a problem."""
     instancer = UsdGeom.PointInstancer(instancer_prim)
     prototypes = instancer.GetPrototypesRel().GetForwardedTargets()
+    expanding = (*expanding, instancer_prim.GetPath())
+    for target in prototypes:
+        if any(path.HasPrefix(target) for path in expanding):
+            ctx.problem(instancer_prim, "prototypes", f"the prototype {target} contains this instancer (a cycle)")
+            return
     proto_indices = instancer.GetProtoIndicesAttr().Get(ctx.time)
     if proto_indices is None or not prototypes:
         return
@@ -637,7 +650,7 @@ def _instances(ctx: ReadContext, instancer_prim: Usd.Prim, instancer_world: np.n
             local = gf_to_numpy(relative) if prim != proto else np.eye(4)
             if prim.IsA(UsdGeom.PointInstancer):
                 it.PruneChildren()
-                _instances(ctx, prim, placed @ local, materials, spheres, meshes)
+                _instances(ctx, prim, placed @ local, materials, spheres, meshes, expanding)
             elif prim.IsA(UsdGeom.Gprim):
                 _gprim(ctx, prim, placed @ local, materials, spheres, meshes)
             elif prim.HasAPI(UsdLux.LightAPI):
