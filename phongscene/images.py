@@ -74,4 +74,20 @@ def write_imagebuf(path: str | os.PathLike, buf: ImageBuf, fmt: str) -> Path:
     with atomic_path(path) as tmp:
         if not buf.write(str(tmp), fmt) or buf.has_error:
             raise PhongSceneError(f"{path}: cannot write image: {buf.geterror()}")
+        _check_written(path, tmp, buf.spec())
     return path
+
+
+def _check_written(path: Path, tmp: Path, spec) -> None:
+    """Read the written file back whole before it replaces ``path``: OpenImageIO's PNG writer
+    does not report a full disk, and a truncated file must not be renamed into place."""
+    back = ImageBuf(str(tmp))
+    ok = back.read(force=True) and not back.has_error
+    error = back.geterror()  # retrieved either way, so OpenImageIO does not print it
+    if ok:
+        got = back.spec()
+        ok = (got.width, got.height, got.nchannels) == (spec.width, spec.height, spec.nchannels)
+    back.clear()
+    if not ok:
+        detail = f": {error.strip().splitlines()[0]}" if error.strip() else ""
+        raise PhongSceneError(f"{path}: the written image does not read back whole (is the disk full?){detail}")

@@ -58,3 +58,39 @@ def test_the_temporary_keeps_the_suffix_for_format_detection(tmp_path):
         assert tmp.parent == tmp_path and tmp.suffix == ".usdc" and tmp.exists()
         tmp.write_bytes(b"x")
     assert (tmp_path / "scene.usdc").read_bytes() == b"x"
+
+
+def test_an_image_that_does_not_read_back_whole_is_not_renamed_into_place(tmp_path):
+    # A writer that reports success but leaves a truncated file (OpenImageIO's PNG writer on a
+    # full disk): the target keeps its old content and no temporary file is left.
+    import numpy as np
+    from OpenImageIO import ImageBuf
+
+    from phongscene.errors import PhongSceneError
+    from phongscene.images import as_image, write_image, write_imagebuf
+
+    target = tmp_path / "out.png"
+    write_image(target, np.full((4, 6, 3), 0.5, np.float32))
+    before = target.read_bytes()
+    real = ImageBuf(as_image(np.zeros((4, 6, 3), np.float32)))
+
+    class Truncating:
+        has_error = False
+
+        def write(self, name, fmt):
+            real.write(name, fmt)
+            with open(name, "rb") as f:
+                data = f.read()
+            with open(name, "wb") as f:
+                f.write(data[: len(data) // 2])
+            return True
+
+        def spec(self):
+            return real.spec()
+
+        def geterror(self):
+            return ""
+
+    with pytest.raises(PhongSceneError, match="does not read back whole"):
+        write_imagebuf(target, Truncating(), "uint8")
+    assert target.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["out.png"]
