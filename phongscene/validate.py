@@ -98,12 +98,12 @@ class _Collector:
     def unit_interval(self, node, field: str) -> None:
         value = getattr(node, field)
         if self.finite(node, field, value) and not 0 <= value <= 1:
-            self.add(node, field, f"must be in [0, 1], got {value!r}")
+            self.add(node, field, f"must be in [0, 1], got {_show(value)}")
 
     def samples_2k1(self, node) -> None:
         n = node.samples
         if not isinstance(n, (int, np.integer)) or n < 3 or n > MAX_SHADOW_SAMPLES or (n - 1) & (n - 2):
-            self.add(node, "samples", f"must be 2^k + 1 with 1 <= k <= 8 (3, 5, 9, 17, ..., {MAX_SHADOW_SAMPLES}), got {n!r}")
+            self.add(node, "samples", f"must be 2^k + 1 with 1 <= k <= 8 (3, 5, 9, 17, ..., {MAX_SHADOW_SAMPLES}), got {_show(n)}")
 
 
 def _show(value) -> str:
@@ -111,6 +111,8 @@ def _show(value) -> str:
         return "(" + ", ".join(f"{float(v):.9g}" for v in value) + ")"
     if isinstance(value, np.ndarray):
         return f"array of shape {value.shape}"
+    if isinstance(value, np.generic):  # a numpy scalar: its Python value, not "np.float64(...)"
+        return repr(value.item())
     return repr(value)
 
 
@@ -174,7 +176,7 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
     for field in ("ka", "kd", "ks"):
         c.unit_interval(m, field)
     if c.finite(m, "exponent", m.exponent) and m.exponent < 0:
-        c.add(m, "exponent", f"must be >= 0, got {m.exponent!r}")
+        c.add(m, "exponent", f"must be >= 0, got {_show(m.exponent)}")
     c.colour(m, "diffuse_color")
     c.colour(m, "specular_color")
 
@@ -188,12 +190,12 @@ def _check_camera(c: _Collector, cam: Camera) -> None:
     if cam.projection == "perspective":
         fov = cam.horizontal_fov_deg
         if c.finite(cam, "horizontal_fov_deg", fov) and not 0 < fov < 180:
-            c.add(cam, "horizontal_fov_deg", f"must be in (0, 180) degrees, got {fov!r}")
+            c.add(cam, "horizontal_fov_deg", f"must be in (0, 180) degrees, got {_show(fov)}")
     elif cam.projection == "orthographic":
         if c.finite(cam, "ortho_width", cam.ortho_width) and cam.ortho_width <= 0:
-            c.add(cam, "ortho_width", f"must be > 0, got {cam.ortho_width!r}")
+            c.add(cam, "ortho_width", f"must be > 0, got {_show(cam.ortho_width)}")
     else:
-        c.add(cam, "projection", f"must be 'perspective' or 'orthographic', got {cam.projection!r}")
+        c.add(cam, "projection", f"must be 'perspective' or 'orthographic', got {_show(cam.projection)}")
 
 
 def _check_settings(c: _Collector, s: RenderSettings) -> None:
@@ -201,20 +203,20 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
     for field in ("width", "height"):
         value = getattr(s, field)
         if not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_IMAGE_SIDE:
-            c.add(s, field, f"must be an integer in 1..{MAX_IMAGE_SIDE}, got {value!r}")
+            c.add(s, field, f"must be an integer in 1..{MAX_IMAGE_SIDE}, got {_show(value)}")
             sides_ok = False
     if sides_ok and s.width * s.height > MAX_PIXELS:
         c.add(s, "width", f"width × height must be at most {MAX_PIXELS} pixels, got {s.width} × {s.height}")
     if not isinstance(s.samples, (int, np.integer)) or not 1 <= s.samples <= MAX_SAMPLES:
-        c.add(s, "samples", f"must be an integer in 1..{MAX_SAMPLES}, got {s.samples!r}")
+        c.add(s, "samples", f"must be an integer in 1..{MAX_SAMPLES}, got {_show(s.samples)}")
     if s.sample_pattern not in ("grid", "povray-am1"):
-        c.add(s, "sample_pattern", f"must be 'grid' or 'povray-am1', got {s.sample_pattern!r}")
+        c.add(s, "sample_pattern", f"must be 'grid' or 'povray-am1', got {_show(s.sample_pattern)}")
     if s.specular not in ("seed", "povray-classic"):
-        c.add(s, "specular", f"must be 'seed' or 'povray-classic', got {s.specular!r}")
+        c.add(s, "specular", f"must be 'seed' or 'povray-classic', got {_show(s.specular)}")
     if s.numerics not in NUMERICS:
-        c.add(s, "numerics", f"must be one of {', '.join(NUMERICS)}, got {s.numerics!r}")
+        c.add(s, "numerics", f"must be one of {', '.join(NUMERICS)}, got {_show(s.numerics)}")
     if not isinstance(s.threads, (int, np.integer)) or not 0 <= s.threads <= MAX_THREADS:
-        c.add(s, "threads", f"must be an integer in 0..{MAX_THREADS}, got {s.threads!r}")
+        c.add(s, "threads", f"must be an integer in 0..{MAX_THREADS}, got {_show(s.threads)}")
     c.colour(s, "background")
 
 
@@ -225,7 +227,7 @@ def _check_light(c: _Collector, light) -> None:
     c.colour(light, "color")
     falloff = getattr(light, "falloff", "none")
     if falloff not in FALLOFFS:
-        c.add(light, "falloff", f"must be one of {', '.join(FALLOFFS)}, got {falloff!r}")
+        c.add(light, "falloff", f"must be one of {', '.join(FALLOFFS)}, got {_show(falloff)}")
     elif falloff != "none" and getattr(light, "fade_power", 0.0) > 0:
         c.add(light, "fade_power", "must be 0 with falloff 'inverse-square' (the fade is POV-Ray's alternative)")
     if isinstance(light, PointLight):
@@ -236,13 +238,13 @@ def _check_light(c: _Collector, light) -> None:
             if axis.shape != (3,) or not np.all(np.isfinite(axis)) or abs(float(np.linalg.norm(axis)) - 1) > UNIT_TOLERANCE:
                 c.add(light, "cone", f"the cone's axis must be a finite unit vector, got {_show(tuple(cone.axis))}")
             if not (np.isfinite(cone.cos_outer) and np.isfinite(cone.cos_inner) and 0 < cone.cos_outer <= cone.cos_inner <= 1):
-                c.add(light, "cone", f"must have 0 < cos_outer <= cos_inner <= 1, got {cone.cos_outer!r}, {cone.cos_inner!r}")
+                c.add(light, "cone", f"must have 0 < cos_outer <= cos_inner <= 1, got {_show(cone.cos_outer)}, {_show(cone.cos_inner)}")
         fd_ok = c.finite(light, "fade_distance", light.fade_distance)
         if c.finite(light, "fade_power", light.fade_power):
             if light.fade_power < 0:
-                c.add(light, "fade_power", f"must be >= 0, got {light.fade_power!r}")
+                c.add(light, "fade_power", f"must be >= 0, got {_show(light.fade_power)}")
             elif light.fade_power > 0 and fd_ok and light.fade_distance <= 0:
-                c.add(light, "fade_distance", f"must be > 0 when fade_power > 0, got {light.fade_distance!r}")
+                c.add(light, "fade_distance", f"must be > 0 when fade_power > 0, got {_show(light.fade_distance)}")
     elif isinstance(light, DirectionalLight):
         c.vector(light, "direction", unit=True)
     elif isinstance(light, RectAreaLight):
@@ -257,7 +259,7 @@ def _check_light(c: _Collector, light) -> None:
     elif isinstance(light, SphereAreaLight):
         c.position(light, "center", light.center)
         if c.finite(light, "radius", light.radius) and light.radius <= 0:
-            c.add(light, "radius", f"must be > 0, got {light.radius!r}")
+            c.add(light, "radius", f"must be > 0, got {_show(light.radius)}")
         c.samples_2k1(light)
     else:
         c.add(light, "lights", f"unknown light type {type(light).__name__}")

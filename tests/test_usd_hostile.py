@@ -57,3 +57,17 @@ def test_a_file_that_is_not_utf8_is_a_clear_error(tmp_path, capsys):
     assert main(["validate", str(path)]) == 2
     err = capsys.readouterr().err
     assert "not valid UTF-8" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    ("op", "message"),
+    [("double3 xformOp:translate = (nan, 0, 0)", "not finite"), ("double3 xformOp:scale = (0, 1, 1)", "singular")],
+)
+def test_a_sphere_transform_fault_names_the_xform_ops(tmp_path, op, message):
+    kind = op.split()[1].split(":")[1]
+    path = tmp_path / "ball.usda"
+    path.write_text(f'#usda 1.0\ndef Sphere "Ball" {{\n    {op}\n    uniform token[] xformOpOrder = ["xformOp:{kind}"]\n}}\n')
+    with pytest.raises(SceneError) as info:
+        read_usd(path)
+    (problem,) = info.value.problems
+    assert (problem.prim, problem.attribute) == ("/Ball", "xformOpOrder") and message in problem.message

@@ -42,6 +42,14 @@ AXIS_FROM_Z = {
 
 def sphere(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial) -> Sphere:
     radius = ctx.number(prim, "radius", 1.0, minimum=0.0, strict=True)
+    # The transform's faults are the xformOps' (the model would blame its matrix, i.e. the radius);
+    # reported here once, with identity in its place.
+    if not np.all(np.isfinite(world)):
+        ctx.problem(prim, "xformOpOrder", "the transform is not finite (a NaN or infinite xformOp value)")
+        world = np.eye(4)
+    elif is_singular(world[:3, :3]):
+        ctx.problem(prim, "xformOpOrder", "the transform is singular (a zero or degenerate scale)")
+        world = np.eye(4)
     return Sphere(world @ np.diag([radius, radius, radius, 1.0]), material, str(prim.GetPath()))
 
 

@@ -40,7 +40,7 @@ from ..scene import (
 from ..tolerances import CAMERA_ORTHOGONAL_TOLERANCE
 from ..validate import validate
 from . import geometry, names, typos
-from .context import ReadContext, gf_to_numpy, unit
+from .context import ReadContext, gf_to_numpy, tf_error_text, unit
 from .materials import MaterialReader
 from .names import INT_TYPES, PHONG_ATTRIBUTES, STRING_TYPES, in_usd_terms
 
@@ -71,6 +71,15 @@ def load_usd(source) -> Scene:
 def read_usd(source) -> ReadResult:
     """Like ``load_usd`` but also returns the warnings and the prim → node mapping."""
     stage, file = _open(source)
+    try:
+        return _read(stage, file)
+    except Tf.ErrorException as e:
+        # A value USD itself cannot produce while we read it (where no prim-level check caught it
+        # first): one error naming the file, not a traceback.
+        raise SceneError(Problem(f"USD could not read a value: {tf_error_text(e)}", file=file)) from None
+
+
+def _read(stage: Usd.Stage, file: str) -> ReadResult:
     ctx = ReadContext(stage, file)
     for error in stage.GetCompositionErrors():
         # As USD and usdview do: a reference, payload or sublayer that cannot be composed (a
