@@ -164,3 +164,14 @@ def test_import_mesh_gives_every_vertex_a_unit_normal(tmp_path):
     # Where the sheet's faces meet, the normal is the sheet's (±Y), not an arbitrary axis.
     sheet = np.unique(mesh.triangles[:2])
     assert np.allclose(np.abs(mesh.normals[sheet, 1]), 1.0)
+
+
+def test_write_usd_refuses_an_invalid_scene_and_writes_nothing(tmp_path):
+    from phongscene.errors import SceneError
+    from phongscene.scene import PhongMaterial, Scene, Sphere
+    from phongscene.usd import write_usd
+
+    scene = Scene(spheres=(Sphere.at((0, 0, 0), 1.0, PhongMaterial(kd=float("nan"))),))
+    with pytest.raises(SceneError, match="kd: must be finite"):
+        write_usd(scene, tmp_path / "bad.usda")
+    assert not list(tmp_path.iterdir())

@@ -37,6 +37,7 @@ from ..scene import (
     TriangleMesh,
 )
 from ..tolerances import UNIT_TOLERANCE
+from ..validate import check
 from . import names
 from .names import PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
 from .shader_defs import phong_inputs
@@ -340,11 +341,15 @@ def scene_to_stage(scene: Scene) -> Usd.Stage:
 
 
 def write_usd(scene: Scene, path) -> Path:
-    """Write ``scene`` to a .usda/.usdc/.usd file, atomically.
+    """Validate ``scene`` and write it to a .usda/.usdc/.usd file, atomically.
 
     Returns:
         The path written.
+
+    Raises:
+        SceneError: the scene is invalid (nothing is written: a file with a NaN would not read back).
     """
+    check(scene)
     return save_stage(scene_to_stage(scene), path)
 
 
