@@ -40,6 +40,7 @@ from ..scene import (
 from ..tolerances import CAMERA_ORTHOGONAL_TOLERANCE
 from ..validate import validate
 from . import geometry, names, typos
+from .layers import not_regular, preflight
 from .context import ReadContext, gf_to_numpy, tf_error_text, unit
 from .materials import MaterialReader
 from .names import INT_TYPES, PHONG_ATTRIBUTES, STRING_TYPES, in_usd_terms
@@ -102,10 +103,12 @@ def _read(stage: Usd.Stage, file: str) -> ReadResult:
     materials = MaterialReader(ctx)
 
     it = iter(Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
+    renderable = _Renderable(ctx)
     for prim in it:
-        if not _renderable(ctx, prim):
+        if not renderable(prim):
             it.PruneChildren()
             continue
+        _warm_transform(ctx, prim)
         if prim.IsA(UsdGeom.Camera):
             if camera_prim is None:
                 camera_prim = prim
@@ -221,6 +224,7 @@ def _open(source) -> tuple[Usd.Stage, str]:
     if not os.path.isfile(path):
         raise SceneError(Problem("file not found" if not os.path.exists(path) else "not a file", file=path))
     try:
+        layers = preflight(path)  # noqa: F841 (kept open: the stage reuses them)
         stage = Usd.Stage.Open(path)
     except Tf.ErrorException as e:
         raise SceneError(Problem(f"cannot read USD: {_usd_error_text(e)}", file=path)) from None
@@ -241,14 +245,45 @@ def _usd_error_text(error: Exception) -> str:
     return (specific or messages or [text.strip()])[-1]
 
 
-def _renderable(ctx: ReadContext, prim: Usd.Prim) -> bool:
-    """Visibility and purpose: only visible prims of purpose default or render."""
-    img = UsdGeom.Imageable(prim)
-    if not img:
+def _warm_transform(ctx: ReadContext, prim: Usd.Prim) -> None:
+    """Cache the prim's world transform while its parent's is cached (the traversal is top-down):
+    ``XformCache`` computes an uncached transform by recursing through every ancestor, which
+    overflows the C stack (a segfault) at ~30 000 levels of nesting. A transform USD cannot
+    evaluate is a problem naming this prim (USD raises only on the first request)."""
+    if prim.IsA(UsdGeom.Xformable):
+        ctx.world(prim)
+
+
+class _Renderable:
+    """Visibility and purpose (only visible prims of purpose default or render) along one pruned
+    depth-first traversal, in time linear in its prims. ``ComputeVisibility`` and
+    ``ComputePurpose`` walk every ancestor, which is quadratic in nesting depth (30 000 nested
+    Xforms took over 60 s; USD opens them in 0.04 s). Below a prim this accepted, only the prim's
+    own visibility can hide it (an invisible ancestor was pruned), and its purpose follows from
+    its parent's (``ComputePurposeInfo(parent)``); the first prim of a traversal, and a prim under
+    a non-imageable one, are computed in full. One instance per traversal."""
+
+    def __init__(self, ctx: ReadContext):
+        self.ctx = ctx
+        self.purposes: dict = {}  # prim path -> PurposeInfo, for the accepted imageable prims
+
+    def __call__(self, prim: Usd.Prim) -> bool:
+        img = UsdGeom.Imageable(prim)
+        if not img:
+            return True
+        parent = self.purposes.get(prim.GetPath().GetParentPath())
+        if parent is None:
+            if img.ComputeVisibility(self.ctx.time) == UsdGeom.Tokens.invisible:
+                return False
+            info = img.ComputePurposeInfo()
+        else:
+            if img.GetVisibilityAttr().Get(self.ctx.time) == UsdGeom.Tokens.invisible:
+                return False
+            info = img.ComputePurposeInfo(parent)
+        if info.purpose not in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render):
+            return False
+        self.purposes[prim.GetPath()] = info
         return True
-    if img.ComputeVisibility(ctx.time) == UsdGeom.Tokens.invisible:
-        return False
-    return img.ComputePurpose() in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)
 
 
 def _check_phong_namespace(ctx: ReadContext) -> None:
@@ -578,6 +613,10 @@ def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
     from ..images import read_image  # OpenImageIO: only for a scene with a textured dome
 
     path = asset.resolvedPath or asset.path
+    why = not_regular(path)
+    if why is not None:
+        ctx.problem(prim, "inputs:texture:file", f"{path} {why}")
+        return None
     try:
         image = read_image(path)
     except PhongSceneError as e:
@@ -651,8 +690,9 @@ def _instances(
         # instancer-world ← instance ← prototype-root-relative
         placed = instancer_world @ gf_to_numpy(instance)
         it = iter(Usd.PrimRange(proto, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
+        renderable = _Renderable(ctx)
         for prim in it:
-            if not _renderable(ctx, prim):
+            if not renderable(prim):
                 it.PruneChildren()
                 continue
             relative, _ = ctx.xforms.ComputeRelativeTransform(prim, proto)

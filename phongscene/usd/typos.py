@@ -36,7 +36,7 @@ def check_names(ctx: ReadContext) -> None:
     for prim in Usd.PrimRange(ctx.stage.GetPseudoRoot(), predicate):
         if prim.IsPseudoRoot():
             continue
-        path = str(prim.GetPath())
+        path = prim.GetPath()  # formatted only in a warning: a path's text grows with nesting depth
         type_name = prim.GetTypeName()
         if type_name and not prim.GetPrimTypeInfo().GetSchemaType():
             type_names = type_names or _schema_type_names()

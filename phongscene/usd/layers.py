@@ -1,0 +1,91 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Every layer a stage would compose, checked before USD composes it: a sublayer, reference or
+payload that names a FIFO (or a device) blocks USD's reader forever, so each one must be a
+regular file (or a file inside a package that is one) before ``Usd.Stage.Open`` reads it.
+
+``preflight`` opens the layers itself (``Sdf.Layer.FindOrOpen``), and the caller keeps them
+alive while it opens the stage, so USD finds them in its layer registry and reads nothing twice.
+A dependency that is missing or does not parse is left to USD's own composition errors (the
+reader warns about them and draws the rest)."""
+
+from __future__ import annotations
+
+import os
+import stat
+from collections.abc import Iterator
+
+from pxr import Ar, Sdf, Tf
+
+from ..errors import Problem, SceneError
+
+
+def not_regular(path: str) -> str | None:
+    """Why reading ``path`` could block or is not a file read (a FIFO, a device, a folder);
+    None for a regular file, or a path that does not exist (the reader reports that)."""
+    if Ar.IsPackageRelativePath(path):  # pkg.usdz[inner.usda]: the package is the file read
+        path = Ar.SplitPackageRelativePathOuter(path)[0]
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    kind = "a FIFO" if stat.S_ISFIFO(mode) else "a folder" if stat.S_ISDIR(mode) else "a device or socket"
+    return f"is {kind}, not a regular file (reading it could block forever)"
+
+
+def preflight(path: str) -> list[Sdf.Layer]:
+    """Open the root layer ``path`` and every layer it depends on (sublayers, references,
+    payloads, also inside variants, recursively) after checking each is a regular file. Returns
+    the open layers (keep them while opening the stage).
+
+    The specs are walked here, iteratively: USD's ``GetCompositionAssetDependencies`` recurses
+    once per nesting level and overflows the C stack (a segfault) at ~30 000 levels.
+
+    Raises:
+        SceneError: a dependency is a FIFO, device or folder, naming the layer that names it,
+            the prim and the arc (``subLayers``, ``references``, ``payload``).
+    """
+    resolver = Ar.GetResolver()
+    opened: list[Sdf.Layer] = []
+    seen: set[str] = set()
+    pending = [path]
+    while pending:
+        layer = _open_layer(pending.pop())
+        if layer is None or layer.identifier in seen:
+            continue
+        seen.add(layer.identifier)
+        opened.append(layer)
+        for dependency, spec, arc in _dependencies(layer):
+            anchored = Sdf.ComputeAssetPathRelativeToLayer(layer, dependency)
+            resolved = str(resolver.Resolve(anchored)) or anchored
+            why = not_regular(resolved)
+            if why is not None:
+                raise SceneError(Problem(f"@{dependency}@ ({resolved}) {why}", prim=str(spec.path) if spec else "",
+                                         attribute=arc, file=layer.realPath or layer.identifier))
+            pending.append(resolved)
+    return opened
+
+
+def _open_layer(path: str) -> Sdf.Layer | None:
+    try:
+        return Sdf.Layer.FindOrOpen(path)
+    except Tf.ErrorException:  # missing or corrupt: USD's composition errors say so later
+        return None
+
+
+def _dependencies(layer: Sdf.Layer) -> Iterator[tuple[str, Sdf.PrimSpec | None, str]]:
+    """(asset path, prim spec or None for the layer itself, arc) of every external composition
+    arc in ``layer``: its sublayers, and each prim's (and variant's) references and payloads."""
+    for sublayer in layer.subLayerPaths:
+        yield sublayer, None, "subLayers"
+    stack = list(layer.rootPrims)
+    while stack:
+        spec = stack.pop()
+        for arc, items in (("references", spec.referenceList), ("payload", spec.payloadList)):
+            for item in items.GetAddedOrExplicitItems():
+                if item.assetPath:  # an internal reference (</Prim>) names no file
+                    yield item.assetPath, spec, arc
+        stack.extend(spec.nameChildren)
+        for variant_set in spec.variantSets.values():
+            stack.extend(variant.primSpec for variant in variant_set.variants.values())
