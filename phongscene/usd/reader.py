@@ -40,6 +40,7 @@ from ..scene import (
 from ..tolerances import CAMERA_ORTHOGONAL_TOLERANCE
 from ..validate import validate
 from . import geometry, names, typos
+from .diagnostics import usd_diagnostics
 from .layers import not_regular, preflight
 from .context import ReadContext, gf_to_numpy, tf_error_text, unit
 from .materials import MaterialReader
@@ -71,13 +72,17 @@ def load_usd(source) -> Scene:
 
 def read_usd(source) -> ReadResult:
     """Like ``load_usd`` but also returns the warnings and the prim → node mapping."""
-    stage, file = _open(source)
-    try:
-        return _read(stage, file)
-    except Tf.ErrorException as e:
-        # A value USD itself cannot produce while we read it (where no prim-level check caught it
-        # first): one error naming the file, not a traceback.
-        raise SceneError(Problem(f"USD could not read a value: {tf_error_text(e)}", file=file)) from None
+    usd_warnings: list[str] = []
+    with usd_diagnostics(usd_warnings):  # USD's own "Warning: in ..." lines become warnings
+        stage, file = _open(source)
+        try:
+            result = _read(stage, file)
+        except Tf.ErrorException as e:
+            # A value USD itself cannot produce while we read it (where no prim-level check caught
+            # it first): one error naming the file, not a traceback.
+            raise SceneError(Problem(f"USD could not read a value: {tf_error_text(e)}", file=file)) from None
+    result.warnings.extend(usd_warnings)
+    return result
 
 
 def _read(stage: Usd.Stage, file: str) -> ReadResult:
