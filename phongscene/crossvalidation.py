@@ -91,6 +91,7 @@ def diff(
     thresholds: Thresholds = HALF_FLOAT,
     progress: TextIO | None = None,
     timeout: float | None = None,
+    sandbox: bool = False,
 ) -> DiffResult:
     """Render a scene with both backends, compare, and write the report if ``outdir`` is given.
 
@@ -105,6 +106,7 @@ def diff(
         thresholds: when the images agree (default: half-float precision at every pixel).
         progress: stream for progress bars (e.g. ``sys.stderr``); None shows none.
         timeout: seconds before POV-Ray is abandoned.
+        sandbox: read a USD file in a child process with a memory limit (``phongscene.sandbox``).
 
     Returns:
         A ``DiffResult``: the report, the folder, both timings and both images.
@@ -117,7 +119,7 @@ def diff(
     from .backends.povray import check_mapping
 
     check_mapping(mapping)  # before the scene is read
-    scene, warnings = load_scene(scene_or_path)
+    scene, warnings = load_scene(scene_or_path, sandbox=sandbox)
     if progress is not None:
         for w in warnings:
             progress.write(f"warning: {w}\n")
@@ -142,29 +144,31 @@ def diff(
 
     written = None
     if outdir is not None:
+        from .files import atomic_folder
         from .report import write_report
 
         source = scene.source_file or (os.fspath(scene_or_path) if not isinstance(scene_or_path, Scene) else "")
-        index = write_report(
-            outdir,
-            images["povray"],
-            images["native"],
-            report,
-            labels=LABELS,
-            title=f"phongscene diff: {Path(source).name if source else 'scene'} ({mapping} mapping)",
-            timings=timings,
-            meta={
-                "scene": source,
-                "mapping": mapping,
-                "native_specular": settings.specular,
-                "settings": _settings_dict(settings),
-                "scene_warnings": warnings,
-                "explained_by_povray_shadow_cache": [list(p) for p in explained],
-                "unexplained_failing_pixels": [list(p) for p in unexplained],
-                "native_numerics_differ_pixels": numerics_differ,
-            },
-        )
-        written = index.parent
+        with atomic_folder(outdir) as tmp:  # the whole report, or none of it (a full disk)
+            index = write_report(
+                tmp,
+                images["povray"],
+                images["native"],
+                report,
+                labels=LABELS,
+                title=f"phongscene diff: {Path(source).name if source else 'scene'} ({mapping} mapping)",
+                timings=timings,
+                meta={
+                    "scene": source,
+                    "mapping": mapping,
+                    "native_specular": settings.specular,
+                    "settings": _settings_dict(settings),
+                    "scene_warnings": warnings,
+                    "explained_by_povray_shadow_cache": [list(p) for p in explained],
+                    "unexplained_failing_pixels": [list(p) for p in unexplained],
+                    "native_numerics_differ_pixels": numerics_differ,
+                },
+            )
+        written = Path(outdir)
     return DiffResult(report, written, timings, images["povray"], images["native"], settings, mapping, warnings,
                       explained, unexplained, numerics_differ)
 

@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import os
 import secrets
+import shutil
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
+
+from .errors import PhongSceneError
 
 # Permissions before the umask, as for open(path, "w"): outputs are meant to be shared
 # (reports are served as web pages, SDL is handed to povray), not private.
@@ -26,7 +29,7 @@ TEMP_NAME_ATTEMPTS = 100
 @contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """A temporary path to write ``path`` through, for libraries that write by file name
-    (OpenImageIO, USD's ``Export``). It sits in ``path``'s folder (created if needed) and keeps
+    (OpenImageIO, USD's ``Export``). It sits in ``path``'s folder (which must exist) and keeps
     its suffix, so format detection by extension works; the file exists and is empty. When the
     block finishes it is renamed onto ``path``; when it raises, it is deleted.
 
@@ -36,15 +39,81 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
             buf.write(str(tmp))
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp, mode = _create_temporary(path)
+    check_output(path)
+    try:
+        tmp, mode = _create_temporary(path)
+    except OSError as e:
+        raise PhongSceneError(f"{path}: cannot write: {e.strerror or e}") from None
     try:
         yield tmp
         os.chmod(tmp, mode)  # the writer may have replaced the file with one of its own
         os.replace(tmp, path)
+    except OSError as e:
+        # Name the user's file, not the hidden temporary one (a full disk, a lost folder).
+        if e.filename is not None and os.fspath(e.filename) == os.fspath(tmp):
+            raise PhongSceneError(f"{path}: cannot write: {e.strerror or e}") from None
+        raise
+    except PhongSceneError as e:
+        text = str(e)
+        if str(tmp) in text:
+            raise PhongSceneError(text.replace(str(tmp), str(path))) from None
+        raise
     finally:
         if os.path.lexists(tmp):
             os.unlink(tmp)
+
+
+def check_output(path: str | os.PathLike) -> None:
+    """Raise PhongSceneError unless a file can be created at ``path``: its folder exists (it is
+    not created: a typo in a folder name should not silently make a new tree), is a folder, and
+    is writable; and ``path`` is not a folder. Commands call it before they render, so a bad
+    output is found in a second, not after the render."""
+    path = Path(path)
+    parent = path.parent
+    if path.is_dir():
+        raise PhongSceneError(f"{path}: is a folder, expected a file name")
+    if not parent.exists():
+        raise PhongSceneError(f"{path}: the folder {parent} does not exist (create it first)")
+    if not parent.is_dir():
+        raise PhongSceneError(f"{path}: {parent} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise PhongSceneError(f"{path}: the folder {parent} is not writable")
+
+
+def check_output_folder(outdir: str | os.PathLike) -> None:
+    """Raise PhongSceneError unless ``outdir`` is a folder files can be written into, or can be
+    created as one (its parent exists and is writable)."""
+    outdir = Path(outdir)
+    if outdir.exists() and not outdir.is_dir():
+        raise PhongSceneError(f"{outdir}: exists and is not a folder")
+    check_output(outdir / "index.html" if outdir.is_dir() else outdir)
+
+
+@contextmanager
+def atomic_files(*paths: str | os.PathLike) -> Iterator[tuple[Path, ...]]:
+    """Temporary paths for several files that must appear together or not at all (an .pov and
+    its .ini): all are renamed into place only when the block succeeds."""
+    with ExitStack() as stack:
+        yield tuple(stack.enter_context(atomic_path(p)) for p in paths)
+
+
+@contextmanager
+def atomic_folder(outdir: str | os.PathLike) -> Iterator[Path]:
+    """A temporary folder beside ``outdir`` to write a set of files into (a report); when the
+    block succeeds each file is renamed into ``outdir`` (created if missing; files already there
+    and not rewritten stay), and when it fails (a full disk) none is, and the temporary folder
+    is removed: no half-written report."""
+    outdir = Path(outdir)
+    check_output_folder(outdir)
+    tmp = outdir.parent / f".{outdir.name}.{secrets.token_hex(TEMP_NAME_BYTES)}"
+    tmp.mkdir()
+    try:
+        yield tmp
+        outdir.mkdir(exist_ok=True)
+        for item in sorted(tmp.iterdir()):
+            os.replace(item, outdir / item.name)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def write_text_atomic(path: str | os.PathLike, text: str, encoding: str = "utf-8") -> Path:

@@ -54,11 +54,17 @@ def settings_with(
     return replace(s, **{k: v for k, v in changes.items() if v is not None})
 
 
-def load_scene(scene_or_path: Scene | str | os.PathLike) -> tuple[Scene, list[str]]:
+def load_scene(scene_or_path: Scene | str | os.PathLike, *, sandbox: bool = False) -> tuple[Scene, list[str]]:
     """A Scene as given, or read from a USD file, with the reader's warnings (raises
-    SceneError for a bad file)."""
+    SceneError for a bad file). ``sandbox``: read the file in a child process with a memory
+    limit (``phongscene.sandbox``), so a crash inside USD is a SceneError."""
     if isinstance(scene_or_path, Scene):
         return scene_or_path, []
+    if sandbox:
+        from .sandbox import read_usd_sandboxed
+
+        result = read_usd_sandboxed(scene_or_path)
+        return result.scene, list(result.warnings)
     from .usd import read_usd  # lazily: the USD reader imports pxr
 
     result = read_usd(os.fspath(scene_or_path))

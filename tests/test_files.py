@@ -31,7 +31,7 @@ def _mode(path) -> int:
 
 
 def test_text_gets_the_normal_mode(tmp_path, umask):
-    path = write_text_atomic(tmp_path / "sub" / "a.txt", "hello")
+    path = write_text_atomic(tmp_path / "a.txt", "hello")
     assert path.read_text() == "hello"
     assert _mode(path) == 0o666 & ~umask
 

@@ -17,6 +17,7 @@ from phongscene.usd import load_usd, write_usd
 def test_render_writes_the_native_image_as_float_exr(tmp_path, capsys):
     scene_path = write_usd(calibration.SCENES["point_light"](), tmp_path / "scene.usda")
     out = tmp_path / "out" / "image.exr"
+    out.parent.mkdir()  # phongscene creates no missing folder (issue 10)
     assert main(["render", str(scene_path), "-o", str(out), "--width", "32", "--threads", "1"]) == EXIT_OK
     image = read_image(out)
     scene = load_usd(scene_path)

@@ -402,6 +402,7 @@ def test_compile_cli_on_a_usd_example(tmp_path, capsys):
 
     usda = EXAMPLES / "seed_specular_color.usda"
     out = tmp_path / "sub" / "scene.pov"
+    out.parent.mkdir()  # phongscene creates no missing folder (issue 10)
     assert cli.main(["compile", str(usda), "-o", str(out), "--width", "48", "--spp", "2"]) == 0
     scene = load_usd(usda)
     settings = dataclasses.replace(scene.settings, width=48, height=round(48 * scene.settings.height / scene.settings.width), samples=2)

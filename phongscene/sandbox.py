@@ -1,0 +1,106 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Read an untrusted USD file in a child process with a memory limit.
+
+USD itself can crash on a corrupt ``.usdc`` / ``.usdz`` (a segfault), or allocate what a corrupt
+header claims (6.6 GB for one fuzzed file). Read in a child (``python -m phongscene.sandbox``),
+such a file kills or stops only the child, and the caller gets a ``SceneError`` naming the
+file; otherwise the child pickles the ``ReadResult`` (scene, warnings, prim → node map) back.
+The child's address space is capped (``resource.setrlimit(RLIMIT_AS)``) at
+``default_memory_limit()``, and it writes no core dump.
+
+It protects against crashes and runaway allocations while reading; not against a file that is
+slow to read (that is what ``--timeout`` on the CLI is for), nor against the renderers. Cost:
+one interpreter start-up with pxr (~0.5 s on this machine) plus pickling the scene; measured by
+``benchmarks/sandbox.py``.
+
+This module does not import pxr: the parent of a sandboxed read never loads USD."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import signal
+import subprocess
+import sys
+
+from .errors import Problem, SceneError
+
+# Half the machine's memory: a legitimate scene needs far less (a 1M-triangle mesh is ~100 MB in
+# the model), and a runaway allocation is stopped before the machine starts swapping.
+MEMORY_FRACTION = 0.5
+# Never below this, so small machines still read ordinary scenes (python + pxr alone reserve
+# ~1.5 GB of address space).
+MIN_MEMORY_LIMIT = 4 << 30
+# The child's exit status when an allocation failed under the limit (any other failure is a
+# SceneError it pickles back, or a signal).
+EXIT_OUT_OF_MEMORY = 86
+EXIT_UNEXPECTED = 87
+
+
+def default_memory_limit() -> int:
+    """Bytes of address space the child may use."""
+    try:
+        physical = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError):
+        return MIN_MEMORY_LIMIT
+    return max(MIN_MEMORY_LIMIT, int(physical * MEMORY_FRACTION))
+
+
+def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None):
+    """``phongscene.usd.read_usd(path)`` in a child process (see the module's doc).
+
+    Raises:
+        SceneError: the file is invalid, or reading it crashed USD or exceeded ``memory_limit``
+            bytes (default ``default_memory_limit()``).
+    """
+    path = os.fspath(path)
+    limit = default_memory_limit() if memory_limit is None else int(memory_limit)
+    proc = subprocess.run(
+        [sys.executable, "-m", "phongscene.sandbox", path, str(limit)],
+        stdin=subprocess.DEVNULL, capture_output=True,
+    )
+    if proc.returncode == 0:
+        kind, payload = pickle.loads(proc.stdout)
+        if kind == "error":
+            raise SceneError(payload)
+        return payload
+    if proc.returncode < 0:
+        name = signal.Signals(-proc.returncode).name
+        raise SceneError(Problem(
+            f"USD crashed reading this file ({name}); it was read in a sandboxed child process, which alone "
+            "died: the file is corrupt or triggers a bug in USD", file=path))
+    if proc.returncode == EXIT_OUT_OF_MEMORY:
+        raise SceneError(Problem(
+            f"reading this file needs more than the sandbox's memory limit ({limit / 2**30:.1f} GiB): a corrupt file "
+            "(USD allocates what its header claims) or a scene too big to read sandboxed", file=path))
+    last = (proc.stderr.decode("utf-8", "replace").strip().splitlines() or ["no message"])[-1]
+    raise SceneError(Problem(f"the sandboxed reader failed (exit {proc.returncode}): {last}", file=path))
+
+
+def _child(path: str, limit: int) -> int:
+    import resource
+
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    out = sys.stdout.buffer
+    try:
+        from .usd import read_usd
+
+        payload = ("ok", read_usd(path))
+    except SceneError as e:
+        payload = ("error", e.problems)
+    except MemoryError:
+        return EXIT_OUT_OF_MEMORY
+    except Exception as e:  # noqa: BLE001 - reported by the parent as one line naming the file
+        print(f"{type(e).__name__}: {e}", file=sys.stderr)
+        return EXIT_UNEXPECTED
+    try:
+        out.write(pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL))
+    except MemoryError:
+        return EXIT_OUT_OF_MEMORY
+    out.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(_child(sys.argv[1], int(sys.argv[2])))
