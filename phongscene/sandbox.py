@@ -6,7 +6,7 @@ header claims (6.6 GB for one fuzzed file). Read in a child (``python -m phongsc
 such a file kills or stops only the child, and the caller gets a ``SceneError`` naming the
 file; otherwise the child pickles the ``ReadResult`` (scene, warnings, prim → node map) back.
 The child's address space is capped (``resource.setrlimit(RLIMIT_AS)``) at
-``default_memory_limit()``, and it writes no core dump.
+``memory_limit_for(path)``, and it writes no core dump.
 
 It protects against crashes and runaway allocations while reading; not against a file that is
 slow to read (that is what ``--timeout`` on the CLI is for), nor against the renderers. Cost:
@@ -25,12 +25,17 @@ import sys
 
 from .errors import Problem, SceneError
 
-# Half the machine's memory: a legitimate scene needs far less (a 1M-triangle mesh is ~100 MB in
-# the model), and a runaway allocation is stopped before the machine starts swapping.
-MEMORY_FRACTION = 0.5
-# Never below this, so small machines still read ordinary scenes (python + pxr alone reserve
-# ~1.5 GB of address space).
-MIN_MEMORY_LIMIT = 4 << 30
+# The limit never exceeds half the machine's memory: a runaway allocation (a corrupt .usdc grew
+# to 10 GB resident in 20 s on this 24 GB machine) is stopped before the machine swaps or other
+# processes are killed.
+MEMORY_CAP_FRACTION = 0.5
+# Address space python + numpy + pxr reserve before reading anything (VmPeak 1.4 GB measured),
+# with room to spare.
+BASE_MEMORY = 2 << 30
+# Address space per byte of the file on top of that: a crate file's compressed arrays expand,
+# USD keeps them and the model copies them as float64 / int32 (measured by
+# benchmarks/sandbox.py: a 1M-triangle .usdc of 17 MiB peaks at ~0.5 GiB resident).
+MEMORY_PER_FILE_BYTE = 64
 # The child's exit status when an allocation failed under the limit (any other failure is a
 # SceneError it pickles back, or a signal).
 EXIT_OUT_OF_MEMORY = 86
@@ -38,12 +43,22 @@ EXIT_UNEXPECTED = 87
 
 
 def default_memory_limit() -> int:
-    """Bytes of address space the child may use."""
+    """The most address space a sandboxed read may get: half the machine's memory."""
     try:
         physical = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (ValueError, OSError):
-        return MIN_MEMORY_LIMIT
-    return max(MIN_MEMORY_LIMIT, int(physical * MEMORY_FRACTION))
+        return BASE_MEMORY * 2
+    return max(BASE_MEMORY, int(physical * MEMORY_CAP_FRACTION))
+
+
+def memory_limit_for(path: str | os.PathLike) -> int:
+    """Bytes of address space the child reading ``path`` may use: ``BASE_MEMORY`` plus
+    ``MEMORY_PER_FILE_BYTE`` per byte of the file, at most ``default_memory_limit()``."""
+    try:
+        size = os.path.getsize(path)
+    except OSError:
+        size = 0
+    return min(BASE_MEMORY + MEMORY_PER_FILE_BYTE * size, default_memory_limit())
 
 
 def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None):
@@ -51,10 +66,10 @@ def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None)
 
     Raises:
         SceneError: the file is invalid, or reading it crashed USD or exceeded ``memory_limit``
-            bytes (default ``default_memory_limit()``).
+            bytes (default ``memory_limit_for(path)``).
     """
     path = os.fspath(path)
-    limit = default_memory_limit() if memory_limit is None else int(memory_limit)
+    limit = memory_limit_for(path) if memory_limit is None else int(memory_limit)
     proc = subprocess.run(
         [sys.executable, "-m", "phongscene.sandbox", path, str(limit)],
         stdin=subprocess.DEVNULL, capture_output=True,
@@ -66,13 +81,16 @@ def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None)
         return payload
     if proc.returncode < 0:
         name = signal.Signals(-proc.returncode).name
+        # USD aborts when an allocation fails in C++ (std::bad_alloc is not turned into MemoryError).
+        memory = f" or ran out of its {limit / 2**30:.1f} GiB memory limit" if name == "SIGABRT" else ""
         raise SceneError(Problem(
-            f"USD crashed reading this file ({name}); it was read in a sandboxed child process, which alone "
-            "died: the file is corrupt or triggers a bug in USD", file=path))
+            f"USD crashed reading this file ({name}){memory}; it was read in a sandboxed child process, which "
+            "alone died: the file is corrupt or triggers a bug in USD", file=path))
     if proc.returncode == EXIT_OUT_OF_MEMORY:
         raise SceneError(Problem(
             f"reading this file needs more than the sandbox's memory limit ({limit / 2**30:.1f} GiB): a corrupt file "
-            "(USD allocates what its header claims) or a scene too big to read sandboxed", file=path))
+            "(USD allocates what its header claims), or a scene too big to read sandboxed (--no-sandbox reads it in "
+            "process)", file=path))
     last = (proc.stderr.decode("utf-8", "replace").strip().splitlines() or ["no message"])[-1]
     raise SceneError(Problem(f"the sandboxed reader failed (exit {proc.returncode}): {last}", file=path))
 
