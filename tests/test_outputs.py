@@ -15,6 +15,7 @@ import sys
 
 import pytest
 
+import phongscene.crossvalidation
 import phongscene.rendering
 from conftest import EXAMPLES
 from phongscene.cli import main
@@ -33,6 +34,7 @@ def _refuse_to_render(*args, **kwargs):
 def test_a_missing_output_folder_is_found_before_rendering_and_not_created(command, name, tmp_path, capsys,
                                                                            monkeypatch):
     monkeypatch.setattr(phongscene.rendering, "render", _refuse_to_render)
+    monkeypatch.setattr(phongscene.crossvalidation, "render", _refuse_to_render)
     missing = tmp_path / "no-such-folder"
     assert main([command, str(SCENE), "-o", str(missing / name), "--width", "8"]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
@@ -63,12 +65,24 @@ def test_a_full_disk_names_the_users_file_and_leaves_nothing(tmp_path):
 
 
 @pytest.mark.povray
-def test_a_full_disk_during_diff_leaves_no_report(tmp_path):
+def test_a_full_disk_during_diff_leaves_no_report(tmp_path, capsys, monkeypatch):
+    import phongscene.report
+    from phongscene.errors import PhongSceneError
+
+    written = []
+    real = phongscene.report.write_image
+
+    def fill_up(path, *args, **kwargs):  # the disk is full after three images
+        if len(written) == 3:
+            raise PhongSceneError(f"{path}: cannot write image: no space left on device")
+        written.append(path)
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(phongscene.report, "write_image", fill_up)
     outdir = tmp_path / "report"
-    result = _child(["diff", str(SCENE), "-o", str(outdir), "--width", "32", "--no-sandbox"], tmp_path)
-    assert result.returncode == 2, result.stderr
-    assert "Traceback" not in result.stderr and result.stderr.strip().splitlines()[-1].startswith("error: ")
-    assert not outdir.exists() and list(tmp_path.iterdir()) == []
+    assert main(["diff", str(SCENE), "-o", str(outdir), "--width", "16", "--no-sandbox"]) == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].endswith("no space left on device")
+    assert len(written) == 3 and list(tmp_path.iterdir()) == []  # no report folder, no temporary one
 
 
 def test_compile_writes_pov_and_ini_together_or_neither(tmp_path, capsys):

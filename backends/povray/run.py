@@ -220,8 +220,11 @@ def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, fr
 def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_done) -> list[np.ndarray]:
     workdir.mkdir(parents=True, exist_ok=True)
     pov, output, log = workdir / f"{stem}.pov", workdir / f"{stem}.exr", workdir / f"{stem}.log"
-    pov.write_text(job.sdl, encoding="ascii")
-    (workdir / f"{stem}.ini").write_text(job.ini(pov.name, output.name), encoding="ascii")
+    try:
+        pov.write_text(job.sdl, encoding="ascii")
+        (workdir / f"{stem}.ini").write_text(job.ini(pov.name, output.name), encoding="ascii")
+    except OSError as e:  # a full disk: say where (Python's write error names no file)
+        raise BackendError(f"cannot write the POV-Ray scene into {workdir}: {e.strerror or e}") from None
     home = workdir / "home"
     (home / ".povray" / "3.7").mkdir(parents=True, exist_ok=True)
     (home / ".povray" / "3.7" / "povray.conf").write_text(POVRAY_CONF, encoding="ascii")
