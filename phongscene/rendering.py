@@ -90,7 +90,12 @@ def check_settings(scene: Scene, settings: RenderSettings | None = None) -> Rend
     Raises:
         SceneError: every problem, in the terms of the file the scene came from.
     """
+    if not isinstance(scene, Scene):  # a path or a stage given where the model is expected
+        raise TypeError(f"expected a phongscene Scene (phongscene.load_usd(path) reads a USD file), got "
+                        f"{type(scene).__name__} {scene!r:.80}")
     settings = scene.settings if settings is None else settings
+    if not isinstance(settings, RenderSettings):
+        raise TypeError(f"settings: expected a RenderSettings, got {type(settings).__name__}")
     try:
         check(replace(scene, settings=settings))
     except SceneError as e:

@@ -55,7 +55,22 @@ Falloff = Literal["none", "inverse-square"]
 
 
 def _readonly(array, dtype, shape_tail: tuple[int, ...]) -> np.ndarray:
-    """Copy ``array`` into a read-only C-contiguous array of ``dtype`` shaped (N, *shape_tail)."""
+    """Copy ``array`` into a read-only C-contiguous array of ``dtype`` shaped (N, *shape_tail).
+    Into an integer dtype only whole numbers that fit go: numpy's cast would wrap an int64
+    index >= 2^31 (2^32 + 2 becomes 2) and truncate 1.5 to 1 without a word."""
+    if np.issubdtype(dtype, np.integer):
+        source = np.asarray(array)
+        if source.size and not (np.issubdtype(source.dtype, np.integer) or np.issubdtype(source.dtype, np.floating)):
+            raise TypeError(f"expected integer indices, got an array of {source.dtype}")
+        if source.size and np.issubdtype(source.dtype, np.floating):
+            if not np.all(np.isfinite(source)) or np.any(source != np.round(source)):
+                raise ValueError("expected whole-number indices, got fractional or non-finite values")
+        info = np.iinfo(dtype)
+        if source.size and (source.min() < info.min or source.max() > info.max):
+            bad = source.max() if source.max() > info.max else source.min()
+            raise ValueError(f"index {int(bad)} does not fit the model's {np.dtype(dtype).name} indices "
+                             f"({info.min}..{info.max})")
+        array = source
     out = np.array(array, dtype=dtype, order="C", copy=True)
     if out.ndim != 1 + len(shape_tail) or out.shape[1:] != shape_tail:
         raise ValueError(f"expected an array of shape (N, {', '.join(map(str, shape_tail))}), got {out.shape}")

@@ -15,6 +15,7 @@ import numpy as np
 from .errors import Problem, SceneError
 from .scene import (
     NUMERICS,
+    AmbientLight,
     Camera,
     DirectionalLight,
     PhongMaterial,
@@ -54,7 +55,11 @@ class _Collector:
     # -- generic checks --------------------------------------------------------------------
 
     def finite(self, node, field: str, value) -> bool:
-        arr = np.asarray(value, dtype=np.float64)
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):  # a string, None, a ragged list: a Python API mistake
+            self.add(node, field, f"must be a number or numbers, got {value!r:.80}")
+            return False
         if arr.size and not np.all(np.isfinite(arr)):
             self.add(node, field, f"must be finite, got {_show(value)}")
             return False
@@ -73,13 +78,18 @@ class _Collector:
 
     def colour(self, node, field: str) -> None:
         value = getattr(node, field)
-        if len(value) != 3:
+        if not _is_triple(value):
+            self.add(node, field, f"must be 3 numbers, got {value!r:.80}")
+        elif len(value) != 3:
             self.add(node, field, f"must have 3 components, got {len(value)}")
         elif self.finite(node, field, value) and min(value) < 0:
             self.add(node, field, f"must be >= 0 in every channel, got {_show(value)}")
 
     def vector(self, node, field: str, unit: bool) -> np.ndarray | None:
         value = getattr(node, field)
+        if not _is_triple(value):
+            self.add(node, field, f"must be 3 numbers, got {value!r:.80}")
+            return None
         if len(value) != 3:
             self.add(node, field, f"must have 3 components, got {len(value)}")
             return None
@@ -106,6 +116,54 @@ class _Collector:
             self.add(node, "samples", f"must be 2^k + 1 with 1 <= k <= 8 (3, 5, 9, 17, ..., {MAX_SHADOW_SAMPLES}), got {_show(n)}")
 
 
+def _is_triple(value) -> bool:
+    """A sequence of length 3 (of anything: ``finite`` then checks the numbers)."""
+    return not isinstance(value, (str, bytes)) and hasattr(value, "__len__") and len(value) == 3
+
+
+# The node types each field of a Scene holds: a scene built in Python with something else (a
+# light that is a tuple, a mesh that is a dict) is one problem naming the field, not an
+# AttributeError deep in a check or a backend.
+_NODE_TYPES = {
+    "camera": Camera,
+    "ambient": AmbientLight,
+    "settings": RenderSettings,
+}
+_ITEM_TYPES = {
+    "lights": (PointLight, DirectionalLight, RectAreaLight, SphereAreaLight),
+    "spheres": (Sphere,),
+    "meshes": (TriangleMesh,),
+}
+
+
+def _wrong_types(scene: Scene) -> list[Problem]:
+    """A problem for every field of ``scene`` that holds the wrong kind of node."""
+    out = []
+    for name, kind in _NODE_TYPES.items():
+        value = getattr(scene, name)
+        if not isinstance(value, kind):
+            out.append(Problem(f"must be {_a(kind.__name__)}, got {type(value).__name__}", attribute=name,
+                               file=scene.source_file))
+    for name, kinds in _ITEM_TYPES.items():
+        items = getattr(scene, name)
+        if not isinstance(items, (tuple, list)):
+            out.append(Problem(f"must be a tuple, got {type(items).__name__}", attribute=name, file=scene.source_file))
+            continue
+        expected = " or ".join(_a(k.__name__) for k in kinds)
+        for i, item in enumerate(items):
+            if not isinstance(item, kinds):
+                out.append(Problem(f"must be {expected}, got {type(item).__name__}", attribute=f"{name}[{i}]",
+                                   file=scene.source_file))
+            elif name != "lights" and not isinstance(item.material, PhongMaterial):
+                out.append(Problem(f"must be a PhongMaterial, got {type(item.material).__name__}",
+                                   prim=item.source, attribute="material", file=scene.source_file))
+    return out
+
+
+def _a(name: str) -> str:
+    return ("an " if name[0] in "AEIOU" else "a ") + name
+
+
 def _show(value) -> str:
     if isinstance(value, (tuple, list)):
         return "(" + ", ".join(f"{float(v):.9g}" for v in value) + ")"
@@ -126,6 +184,11 @@ def validate(scene: Scene) -> list[Problem]:
         The problems found (empty when the scene is valid), each naming the node's prim
         (``source``), the attribute and ``scene.source_file``.
     """
+    if not isinstance(scene, Scene):
+        raise TypeError(f"expected a phongscene Scene (phongscene.load_usd reads a file), got {type(scene).__name__}")
+    wrong = _wrong_types(scene)
+    if wrong:  # the checks below assume the node types
+        return wrong
     c = _Collector(scene.source_file)
     _check_camera(c, scene.camera)
     _check_settings(c, scene.settings)
