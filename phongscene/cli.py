@@ -247,11 +247,22 @@ def _add_info_command(sub) -> None:
         "(unsupported prims, defaults used).",
         epilog="Exit codes: 0 ok, 2 the scene is invalid (one problem per line on stderr).",
     )
-    _add_scene_argument(p)
+    p.add_argument("scene", metavar="SCENE", nargs="?", help=SCENE_HELP)
+    p.add_argument("--usd-plugin-path", action="store_true",
+                   help="print the folder of the Phong shader's Sdr definition and exit: other USD tools know the "
+                   "shader with PXR_SDR_FS_PLUGIN_SEARCH_PATHS=<it> PXR_SDR_FS_PLUGIN_ALLOWED_EXTS=usda")
     p.set_defaults(func=_run_info)
 
 
 def _run_info(args) -> int:
+    if args.usd_plugin_path:
+        from .schemas import folder
+
+        print(folder())
+        return EXIT_OK
+    if args.scene is None:
+        print("error: info needs SCENE (or --usd-plugin-path)", file=sys.stderr)
+        return EXIT_SCENE
     from .usd import read_usd
 
     result = read_usd(args.scene)
