@@ -19,6 +19,22 @@ from .files import atomic_path
 WRITABLE = (".exr", ".png")
 
 
+class Image(np.ndarray):
+    """A rendered image: a numpy array in the image convention (linear float32 (H, W, 3), row 0
+    at the top) that Jupyter displays (``_repr_png_``: sRGB 8-bit, clipped to [0, 1], as
+    ``write_image`` writes a PNG). Any numpy operation works on it; ``np.asarray`` gives the plain
+    array."""
+
+    def _repr_png_(self) -> bytes | None:
+        if self.ndim != 3 or self.shape[2] != 3 or self.dtype != np.float32:
+            return None  # a slice or a derived array is no longer an image
+        import tempfile
+
+        with tempfile.TemporaryDirectory(prefix="phongscene-") as folder:
+            path = write_image(Path(folder) / "image.png", np.asarray(self))
+            return path.read_bytes()
+
+
 def as_image(pixels) -> np.ndarray:
     """Check and convert to the image convention: float32, (H, W, 3), C-contiguous."""
     a = np.ascontiguousarray(pixels, dtype=np.float32)

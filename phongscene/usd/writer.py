@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
-from ..errors import SceneError
+from ..errors import SceneError, SceneFileNotFoundError
 from ..files import atomic_path
 from ..scene import (
     DEFAULT_MATERIAL,
@@ -360,8 +360,10 @@ def import_mesh(mesh_file, output, material: PhongMaterial = DEFAULT_MATERIAL) -
     import trimesh
 
     mesh_file = Path(mesh_file)
+    if not mesh_file.exists():
+        raise SceneFileNotFoundError(str(mesh_file))
     if not mesh_file.is_file():
-        raise SceneError(f"{mesh_file}: file not found")
+        raise SceneError(f"{mesh_file}: not a file")
     try:
         tm = trimesh.load(mesh_file, force="mesh")
     except Exception as e:  # trimesh raises many types for unreadable files
