@@ -53,6 +53,10 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     spec = buf.spec()
     space = spec.get_string_attribute("oiio:ColorSpace").lower()
     if "srgb" in space:
+        # Decoded into float first: colorconvert keeps the buffer's pixel type, and linear values
+        # stored back in 8 bits lose most of the dark codes (codes 51 and 52 both became ~8/255).
+        if not buf.read(0, 0, True, oiio.TypeFloat):
+            raise PhongSceneError(f"{path}: cannot decode image: {buf.geterror()}")
         buf = ImageBufAlgo.colorconvert(buf, "sRGB", "linear")
     pixels = buf.get_pixels(oiio.TypeFloat)
     if pixels is None or buf.has_error:
