@@ -25,6 +25,15 @@ class Image(np.ndarray):
     ``write_image`` writes a PNG). Any numpy operation works on it; ``np.asarray`` gives the plain
     array."""
 
+    def __array_wrap__(self, obj, context=None, return_scalar=False):
+        # numpy ufuncs and reductions: what is still (H, W, 3) stays an Image; a reduction
+        # (image.max(), image.mean(axis=2)) is a plain array or scalar, as for any ndarray.
+        if obj.ndim == 3 and obj.shape[2] == 3:
+            return super().__array_wrap__(obj, context, return_scalar) if return_scalar else \
+                super().__array_wrap__(obj, context)
+        out = np.asarray(obj)
+        return out[()] if return_scalar else out
+
     def _repr_png_(self) -> bytes | None:
         if self.ndim != 3 or self.shape[2] != 3 or self.dtype != np.float32:
             return None  # a slice or a derived array is no longer an image

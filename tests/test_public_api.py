@@ -83,6 +83,9 @@ def test_an_image_displays_in_jupyter_as_the_png_write_image_writes(tmp_path):
     assert png == (tmp_path / "same.png").read_bytes()
     assert phongscene.read_image(tmp_path / "same.png").shape == image.shape
     assert image[0, 0]._repr_png_() is None  # a pixel is not an image
+    # numpy works as on any array: an image stays an Image, a reduction is a plain number/array.
+    assert isinstance(image * 2, phongscene.Image) and isinstance(np.sqrt(image), phongscene.Image)
+    assert type(image.max()) is np.float32 and type(image.mean(axis=2)) is np.ndarray
 
 
 def test_look_at_is_public_and_builds_a_camera():
