@@ -32,7 +32,7 @@ _LAZY_EXPORTS = {
     "Image": (".images", "Image"),
     "Thresholds": (".comparison", "Thresholds"),
     "compare": (".comparison", "compare"),
-    "compile_pov": (".backends.povray", "compile_pov"),
+    "compile_pov": (".rendering", "compile_pov"),
     "diff": (".crossvalidation", "diff"),
     "load_usd": (".usd", "load_usd"),
     "read_usd": (".usd", "read_usd"),
@@ -43,11 +43,10 @@ _LAZY_EXPORTS = {
 }
 
 if TYPE_CHECKING:  # the lazy names, for type checkers and IDEs
-    from .backends.povray import compile_pov
     from .comparison import Thresholds, compare
     from .crossvalidation import diff
     from .images import Image, read_image, write_image
-    from .rendering import render
+    from .rendering import compile_pov, render
     from .usd import load_usd, read_usd, write_usd
 
 

@@ -109,3 +109,13 @@ def test_render_of_a_path_issues_the_readers_warnings(tmp_path):
     phongscene.write_usd(replace(scene, lights=(), ambient=phongscene.AmbientLight((0.0, 0.0, 0.0))), lonely)
     with pytest.warns(phongscene.SceneWarning, match="head light"):
         phongscene.render(lonely, width=8)
+
+
+def test_public_compile_pov_validates_first():
+    """An invalid scene is a SceneError naming the problem, not an arithmetic error in the compiler."""
+    scene = phongscene.Scene(
+        camera=phongscene.look_at((0.0, 0.0, 5.0), (0.0, 0.0, 0.0)),
+        spheres=(phongscene.Sphere(world_from_object=np.diag([0.0, 1.0, 1.0, 1.0])),),
+    )
+    with pytest.raises(phongscene.SceneError, match="singular"):
+        phongscene.compile_pov(scene)
