@@ -346,7 +346,7 @@ def test_phong_shader_unauthored_inputs_take_sdr_defaults(tmp_path):
     """
     m = read(tmp_path, body).scene.spheres[0].material
     assert m.ks == pytest.approx(0.7)
-    assert (m.ka, m.kd, m.exponent) == pytest.approx((0.1, 0.6, 32.0))  # schemas/phongShaderDefs.usda
+    assert (m.ka, m.kd, m.exponent) == pytest.approx((0.1, 0.6, 32.0))  # schemas/phongscene_PhongSurface.usda
     assert m.diffuse_color == pytest.approx((0.8, 0.8, 0.8)) and m.specular_color == (1.0, 1.0, 1.0)
 
 
@@ -452,6 +452,32 @@ def test_usdlux_lights_in_usdlux_units(tmp_path):
     # A distant light's irradiance is L·π·sin²(angle/2) (angle 0.53° by default), L when normalized.
     assert sun.color == pytest.approx((50000 * math.pi * math.sin(math.radians(0.53) / 2) ** 2,) * 3)
     assert lux.color == (7.0, 7.0, 7.0)
+
+
+def test_light_diffuse_and_specular_multipliers(tmp_path):
+    body = """
+    def DistantLight "Even" { float inputs:intensity = 2
+        bool inputs:normalize = 1
+        float inputs:diffuse = 0.5
+        float inputs:specular = 0.5 }
+    def DistantLight "Split" { float inputs:intensity = 2
+        bool inputs:normalize = 1
+        float inputs:diffuse = 0.7
+        float inputs:specular = 0.25 }
+    """
+    result = read(tmp_path, body)
+    even, split = result.scene.lights
+    # Equal multipliers scale the light: exact for both terms.
+    assert even.color == (1.0, 1.0, 1.0)
+    # Unequal: the diffuse one scales the light (a surface stays as bright as authored); warned.
+    assert split.color == pytest.approx((1.4, 1.4, 1.4))
+    warned = [w for w in result.warnings if "inputs:specular != inputs:diffuse" in w]
+    assert len(warned) == 1 and "/Split (diffuse 0.7, specular 0.25)" in warned[0] and "/Even" not in warned[0]
+
+
+def test_negative_light_multiplier_is_an_error(tmp_path):
+    with pytest.raises(SceneError, match=r"/L\.inputs:diffuse: must be >= 0, got -1"):
+        read(tmp_path, 'def SphereLight "L" { float inputs:diffuse = -1 }')
 
 
 def test_unknown_light_model_is_an_error(tmp_path):
