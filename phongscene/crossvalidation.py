@@ -117,7 +117,14 @@ def diff(
     from .backends.povray import check_mapping
 
     check_mapping(mapping)  # before the scene is read
+    reading = None
+    if progress is not None and not isinstance(scene_or_path, Scene):
+        reading = ProgressBar("scene", progress)
+        reading.phase(f"reading {Path(scene_or_path).name}")  # a big USD file takes seconds
+    start = time.perf_counter()
     scene, warnings = load_scene(scene_or_path)
+    if reading is not None:
+        reading.done(time.perf_counter() - start, "read")
     if progress is not None:
         for w in warnings:
             progress.write(f"warning: {w}\n")
