@@ -17,6 +17,7 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import subprocess
 import tempfile
 import time
@@ -41,6 +42,8 @@ INSTALL_HINT = "POV-Ray 3.7 is not installed ('povray' is not on PATH); install 
 # allows it (its own include and /tmp paths, and the working directory), no shell-outs.
 POVRAY_CONF = "[File I/O Security]\nrestricted\n[Shellout Security]\nforbidden\n[Permitted Paths]\nread+write = .\n"
 OUTPUT_TAIL_LINES = 25  # lines of POV-Ray's output quoted in an error
+# Held back while POV-Ray starts (see _run_in): the signals phongscene's CLI turns into exceptions.
+HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
 POLL_SECONDS = 0.05  # how often a running render is checked for finished frames and the timeout
 
 
@@ -244,15 +247,25 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
         return BackendError(message, detail=_tail(log), kept=str(pov))
 
     with open(log, "wb") as log_file:
-        proc = subprocess.Popen(
-            job.command(pov.name, output.name),
-            cwd=workdir,
-            env=env,
-            stdin=subprocess.DEVNULL,
-            stdout=log_file,
-            stderr=subprocess.STDOUT,
-        )
+        # The signals the CLI turns into exceptions (Ctrl-C, SIGTERM, SIGHUP) are held back while
+        # POV-Ray starts: one handled inside Popen, after the fork but before Popen stored the pid,
+        # would leave POV-Ray running with nothing to kill it (measured: the SIGTERM test hit it).
+        # POV-Ray inherits the mask, and still stops on SIGINT/SIGTERM: it sigwait()s for them.
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, HELD_SIGNALS)
         try:
+            proc = subprocess.Popen(
+                job.command(pov.name, output.name),
+                cwd=workdir,
+                env=env,
+                stdin=subprocess.DEVNULL,
+                stdout=log_file,
+                stderr=subprocess.STDOUT,
+            )
+        except BaseException:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)
+            raise
+        try:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)  # a pending signal is handled here, in the try
             deadline = None if timeout is None else time.monotonic() + timeout
             parser = PovLogParser()
             with open(log, "r", encoding="utf-8", errors="replace", newline="") as console:
@@ -272,9 +285,7 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
                         proc.wait()
                         raise fail(f"POV-Ray timed out after {timeout:g} s")
         finally:
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
+            _stop(proc)
     if rc != 0:
         raise fail(f"POV-Ray failed (exit code {rc})")
     files = _frame_files(workdir, stem)
@@ -296,6 +307,13 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
             )
     frame_done(job.frames)
     return frames
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    """Kill and reap POV-Ray if it still runs (SIGKILL: it also ends a stopped process)."""
+    if proc.poll() is None:
+        proc.kill()
+        proc.wait()
 
 
 @dataclass(slots=True)
