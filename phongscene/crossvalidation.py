@@ -30,6 +30,7 @@ from .rendering import load_scene, render, settings_with
 from .scene import RenderSettings, Scene
 
 LABELS = ("povray", "native")
+SHADOW_CACHE_CAUSE = "POV-Ray's shadow cache"  # what explains a failing pixel (see _explain)
 
 
 @dataclass(frozen=True)
@@ -147,7 +148,8 @@ def diff(
     plain = render(scene, "native", replace(settings, numerics="scale-invariant"))
     numerics_differ = int(failing_mask(images["native"], plain, thresholds).sum())
 
-    written = None
+    result = DiffResult(report, None, timings, images["povray"], images["native"], settings, mapping, warnings,
+                        explained, unexplained, numerics_differ)
     if outdir is not None:
         from .report import write_report
 
@@ -160,6 +162,10 @@ def diff(
             labels=LABELS,
             title=f"phongscene diff: {Path(source).name if source else 'scene'} ({mapping} mapping)",
             timings=timings,
+            # Failing pixels are classified only when the comparison fails (_explain).
+            explained=None if report.ok else explained,
+            cause=SHADOW_CACHE_CAUSE,
+            ok=result.ok,
             meta={
                 "scene": source,
                 "mapping": mapping,
@@ -171,9 +177,8 @@ def diff(
                 "native_numerics_differ_pixels": numerics_differ,
             },
         )
-        written = index.parent
-    return DiffResult(report, written, timings, images["povray"], images["native"], settings, mapping, warnings,
-                      explained, unexplained, numerics_differ)
+        result = replace(result, outdir=index.parent)
+    return result
 
 
 def _explain(scene: Scene, settings: RenderSettings, images: dict, report: Report, thresholds: Thresholds):
