@@ -102,10 +102,13 @@ def test_a_terminating_signal_kills_povray_and_removes_its_folder(tmp_path, comm
 
 
 @pytest.mark.povray
-def test_timeout_abandons_a_stopped_povray_with_exit_3(tmp_path):
-    args = ["render", str(SCENE), "-o", str(tmp_path / "out.exr"), "--backend", "povray", "--width", BUSY_WIDTH,
-            "--timeout", "2"]
-    proc, povray, tmp = _start(tmp_path, args)
+@pytest.mark.parametrize("command", ["render", "diff"])
+def test_timeout_abandons_a_stopped_povray_with_exit_3(tmp_path, command):
+    if command == "render":
+        args = ["render", str(SCENE), "-o", str(tmp_path / "out.exr"), "--backend", "povray", "--width", BUSY_WIDTH]
+    else:
+        args = ["diff", str(SCENE), "-o", str(tmp_path / "report"), "--width", BUSY_WIDTH]
+    proc, povray, tmp = _start(tmp_path, [*args, "--timeout", "2"])
     os.kill(povray, signal.SIGSTOP)  # a stopped POV-Ray never exits by itself
     try:
         rc, err = _finish(proc)
