@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from OpenImageIO import ImageBuf, ImageBufAlgo
 
-from .comparison import CHANNEL_NAMES, Report, Thresholds, failing_mask
+from .comparison import CHANNEL_NAMES, Report, Thresholds, failing_mask, in_space
 from .errors import PhongSceneError
 from .files import write_text_atomic
 from .images import as_image, write_imagebuf, write_image
@@ -58,9 +58,11 @@ def display_scale(width: int) -> int:
 
 def error_ratio(a: np.ndarray, b: np.ndarray, thresholds: Thresholds) -> np.ndarray:
     """Each pixel's error as a multiple of the error ``thresholds`` allow there: (H, W) float64,
-    the worst channel of |a − b| / max(fail, fail_relative · mean(|a|, |b|)). Above 1 exactly
-    where ``failing_mask`` says a pixel fails (for finite values); a non-finite value that does
-    not agree gives inf. 0 where both are exactly equal, also when nothing is allowed."""
+    the worst channel of |a − b| / max(fail, fail_relative · mean(|a|, |b|)), in the thresholds'
+    space (linear, or the sRGB-encoded values). Above 1 exactly where ``failing_mask`` says a
+    pixel fails (for finite values); a non-finite value that does not agree gives inf. 0 where
+    both are exactly equal, also when nothing is allowed."""
+    a, b = in_space(as_image(a), thresholds.space), in_space(as_image(b), thresholds.space)
     a64, b64 = a.astype(np.float64), b.astype(np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
         err = np.abs(a64 - b64)
@@ -134,7 +136,8 @@ def write_report(
     files["heat_png"] = FILE_NAMES["heat"]
     files["metrics"] = FILE_NAMES["metrics"]
 
-    pixels = _failing_pixels(a, b, ratio, failing, thresholds, explained_set, cause)
+    space = thresholds.space
+    pixels = _failing_pixels(in_space(a, space), in_space(b, space), ratio, failing, thresholds, explained_set, cause)
     verdict = report.ok if ok is None else bool(ok)
     metrics = {
         "title": title,
@@ -357,6 +360,7 @@ def _html_page(title, labels, files, report: Report, verdict: bool, metrics: dic
         ("hard_fail: any error above it fails", "none (no limit)" if math.isinf(t.hard_fail) else t.hard_fail),
     ]
     listed = metrics["failing_pixels_listed"]
+    space_note = "" if t.space == "linear" else f", {e(t.space)}-encoded"
     classify = explained is not None
     pixel_rows = "\n".join(
         f"<tr><td class=num>{p['x']}</td><td class=num>{p['y']}</td><td>{p['channel']}</td>"
@@ -370,7 +374,8 @@ def _html_page(title, labels, files, report: Report, verdict: bool, metrics: dic
         failing_section = (
             f"<p class=note>Worst first (by error / allowed error); the worst channel's error and allowance."
             + (f" {more} more not listed." if more > 0 else "") + "</p>\n<table>\n"
-            f"<tr><th>x</th><th>y</th><th>channel</th><th>{e(labels[0])} (R, G, B)</th><th>{e(labels[1])} (R, G, B)</th>"
+            f"<tr><th>x</th><th>y</th><th>channel</th><th>{e(labels[0])} (R, G, B{space_note})</th>"
+            f"<th>{e(labels[1])} (R, G, B{space_note})</th>"
             "<th>|a − b|</th><th>allowed</th><th>× allowed</th>" + ("<th>cause</th>" if classify else "") + "</tr>\n"
             f"{pixel_rows}\n</table>"
         )

@@ -346,7 +346,7 @@ def test_phong_shader_unauthored_inputs_take_sdr_defaults(tmp_path):
     """
     m = read(tmp_path, body).scene.spheres[0].material
     assert m.ks == pytest.approx(0.7)
-    assert (m.ka, m.kd, m.exponent) == pytest.approx((0.1, 0.6, 32.0))  # schemas/phongShaderDefs.usda
+    assert (m.ka, m.kd, m.exponent) == pytest.approx((0.1, 0.6, 32.0))  # schemas/phongscene_PhongSurface.usda
     assert m.diffuse_color == pytest.approx((0.8, 0.8, 0.8)) and m.specular_color == (1.0, 1.0, 1.0)
 
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux, UsdRender
 
-from ..errors import Problem, SceneError
+from ..errors import Problem, SceneError, SceneFileNotFoundError
 from ..scene import (
     AmbientLight,
     Camera,
@@ -218,8 +218,10 @@ def _open(source) -> tuple[Usd.Stage, str]:
         layer = source.GetRootLayer()
         return source, layer.realPath or layer.identifier
     path = os.fspath(source)
+    if not os.path.exists(path):
+        raise SceneFileNotFoundError(path)
     if not os.path.isfile(path):
-        raise SceneError(Problem("file not found" if not os.path.exists(path) else "not a file", file=path))
+        raise SceneError(Problem("not a file", file=path))
     try:
         stage = Usd.Stage.Open(path)
     except Tf.ErrorException as e:
