@@ -20,6 +20,7 @@ import shutil
 import signal
 import subprocess
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -42,7 +43,7 @@ INSTALL_HINT = "POV-Ray 3.7 is not installed ('povray' is not on PATH); install 
 # allows it (its own include and /tmp paths, and the working directory), no shell-outs.
 POVRAY_CONF = "[File I/O Security]\nrestricted\n[Shellout Security]\nforbidden\n[Permitted Paths]\nread+write = .\n"
 OUTPUT_TAIL_LINES = 25  # lines of POV-Ray's output quoted in an error
-# Held back while POV-Ray starts (see _run_in): the signals phongscene's CLI turns into exceptions.
+# Held back while POV-Ray starts (see _run_in): Ctrl-C, and what phongscene's CLI turns into exceptions.
 HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
 POLL_SECONDS = 0.05  # how often a running render is checked for finished frames and the timeout
 
@@ -247,11 +248,11 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
         return BackendError(message, detail=_tail(log), kept=str(pov))
 
     with open(log, "wb") as log_file:
-        # The signals the CLI turns into exceptions (Ctrl-C, SIGTERM, SIGHUP) are held back while
-        # POV-Ray starts: one handled inside Popen, after the fork but before Popen stored the pid,
-        # would leave POV-Ray running with nothing to kill it (measured: the SIGTERM test hit it).
-        # POV-Ray inherits the mask, and still stops on SIGINT/SIGTERM: it sigwait()s for them.
-        held = signal.pthread_sigmask(signal.SIG_BLOCK, HELD_SIGNALS)
+        # Signals whose handlers raise (Ctrl-C; SIGTERM, SIGHUP in the CLI) are held back while
+        # POV-Ray starts: one handled inside Popen, after the fork but before it returns, would
+        # leave POV-Ray running with nothing to kill it (the SIGTERM test hit it, and a blocked
+        # signal mask alone did not help: another thread can take the signal).
+        held = _hold_signals()
         try:
             proc = subprocess.Popen(
                 job.command(pov.name, output.name),
@@ -262,10 +263,10 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
                 stderr=subprocess.STDOUT,
             )
         except BaseException:
-            signal.pthread_sigmask(signal.SIG_SETMASK, held)
+            _release_signals(held)
             raise
         try:
-            signal.pthread_sigmask(signal.SIG_SETMASK, held)  # a pending signal is handled here, in the try
+            _release_signals(held)  # a held signal's handler runs here, where POV-Ray gets killed
             deadline = None if timeout is None else time.monotonic() + timeout
             parser = PovLogParser()
             with open(log, "r", encoding="utf-8", errors="replace", newline="") as console:
@@ -307,6 +308,29 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
             )
     frame_done(job.frames)
     return frames
+
+
+def _hold_signals() -> tuple[dict, list[int]]:
+    """Replace the Python handlers of HELD_SIGNALS by ones that only record the signal (main
+    thread only: Python runs handlers there alone). Returns (previous handlers, recorded)."""
+    recorded: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        return {}, recorded
+    previous = {}
+    for signum in HELD_SIGNALS:
+        handler = signal.getsignal(signum)
+        if callable(handler):  # SIG_DFL and SIG_IGN raise nothing: leave them
+            previous[signum] = signal.signal(signum, lambda n, frame: recorded.append(n))
+    return previous, recorded
+
+
+def _release_signals(held: tuple[dict, list[int]]) -> None:
+    """Put the handlers back, then deliver what was recorded meanwhile (their handlers run now)."""
+    previous, recorded = held
+    for signum, handler in previous.items():
+        signal.signal(signum, handler)
+    for signum in dict.fromkeys(recorded):
+        signal.raise_signal(signum)
 
 
 def _stop(proc: subprocess.Popen) -> None:
