@@ -456,23 +456,24 @@ def test_usdlux_lights_in_usdlux_units(tmp_path):
 
 def test_light_diffuse_and_specular_multipliers(tmp_path):
     body = """
-    def DistantLight "Even" { float inputs:intensity = 2
-        bool inputs:normalize = 1
-        float inputs:diffuse = 0.5
-        float inputs:specular = 0.5 }
+    def DistantLight "Plain" { float inputs:intensity = 2
+        bool inputs:normalize = 1 }
     def DistantLight "Split" { float inputs:intensity = 2
         bool inputs:normalize = 1
         float inputs:diffuse = 0.7
         float inputs:specular = 0.25 }
+    def DomeLight "Sky" { float inputs:intensity = 0.5
+        float inputs:diffuse = 0.5 }
     """
     result = read(tmp_path, body)
-    even, split = result.scene.lights
-    # Equal multipliers scale the light: exact for both terms.
-    assert even.color == (1.0, 1.0, 1.0)
-    # Unequal: the diffuse one scales the light (a surface stays as bright as authored); warned.
-    assert split.color == pytest.approx((1.4, 1.4, 1.4))
-    warned = [w for w in result.warnings if "inputs:specular != inputs:diffuse" in w]
-    assert len(warned) == 1 and "/Split (diffuse 0.7, specular 0.25)" in warned[0] and "/Even" not in warned[0]
+    plain, split = result.scene.lights
+    assert (plain.diffuse, plain.specular) == (1.0, 1.0)
+    # The multipliers are the light's own fields; its strength stays as authored.
+    assert split.color == (2.0, 2.0, 2.0)
+    assert split.diffuse == pytest.approx(0.7) and split.specular == 0.25
+    assert not [w for w in result.warnings if "inputs:diffuse" in w or "inputs:specular" in w]
+    # The ambient term is diffuse light: a dome's diffuse multiplier scales it.
+    assert result.scene.ambient.color == (0.25, 0.25, 0.25)
 
 
 def test_negative_light_multiplier_is_an_error(tmp_path):

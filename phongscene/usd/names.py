@@ -91,8 +91,15 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "fade_distance": FADE_DISTANCE,
         "fade_power": FADE_POWER,
         "falloff": LIGHT_MODEL,
+        "diffuse": "inputs:diffuse",
+        "specular": "inputs:specular",
     },
-    "DirectionalLight": {"direction": "xformOp", "color": "inputs:color"},
+    "DirectionalLight": {
+        "direction": "xformOp",
+        "color": "inputs:color",
+        "diffuse": "inputs:diffuse",
+        "specular": "inputs:specular",
+    },
     "RectAreaLight": {
         "center": "xformOp",
         "axis_u": "inputs:width",
@@ -100,6 +107,8 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "color": "inputs:color",
         "samples": SHADOW_SAMPLES,
         "falloff": LIGHT_MODEL,
+        "diffuse": "inputs:diffuse",
+        "specular": "inputs:specular",
     },
     "SphereAreaLight": {
         "center": "xformOp",
@@ -107,6 +116,8 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "color": "inputs:color",
         "samples": SHADOW_SAMPLES,
         "falloff": LIGHT_MODEL,
+        "diffuse": "inputs:diffuse",
+        "specular": "inputs:specular",
     },
     "Sphere": {"world_from_object": "radius"},
     "TriangleMesh": {
