@@ -491,7 +491,7 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
     centre = tuple(float(c) for c in world[:3, 3])
     type_name = prim.GetTypeName()
     dome = prim.IsA(UsdLux.DomeLight) or type_name == "DomeLight_1"
-    known = (UsdLux.SphereLight, UsdLux.DistantLight, UsdLux.RectLight, UsdLux.DiskLight)
+    known = (UsdLux.SphereLight, UsdLux.DistantLight, UsdLux.RectLight, UsdLux.DiskLight, UsdLux.CylinderLight)
     if not (dome or any(prim.IsA(kind) for kind in known)):
         ctx.unsupported["unsupported lights (ignored)"].append(f"{path} ({type_name})")
         return
@@ -539,6 +539,22 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
                     ctx.problem(prim, name, "applies to point lights only (treatAsPoint or radius 0)")
             lights.append(SphereAreaLight(centre, radius_world, _rgb(colour), _shadow_samples(ctx, prim), path, falloff, **terms))
             ctx.nodes.append((path, "SphereAreaLight" + ("" if seed else " (UsdLux)")))
+    elif prim.IsA(UsdLux.CylinderLight):
+        # A tube of radius r and length l along its X axis, emitting luminance L from its side:
+        # intensity L·2rl·sin θ off the axis, power π²·L·r·l. Lit as a point light of the same
+        # power at its centre (I = L·π·r·l/2; normalized, L/(2πrl): I = L/4, as a sphere light).
+        radius = ctx.number(prim, "inputs:radius", 0.5, minimum=0.0)
+        length = ctx.number(prim, "inputs:length", 1.0, minimum=0.0)
+        scales = np.linalg.norm(world[:3, :3], axis=0)
+        if seed:
+            colour = luminance
+        elif _normalized(ctx, prim):
+            colour = luminance / 4.0
+        else:
+            colour = luminance * (math.pi / 2 * radius * float(np.mean(scales[1:])) * length * float(scales[0]))
+        ctx.unsupported["CylinderLights (each lit as a point light of the same power at its centre)"].append(path)
+        lights.append(PointLight(centre, _rgb(colour), 0.0, 0.0, path, falloff, None, **terms))
+        ctx.nodes.append((path, "PointLight (UsdLux CylinderLight)"))
     elif prim.IsA(UsdLux.DistantLight):
         direction = unit(world[:3, :3] @ np.array([0.0, 0.0, -1.0]))
         if direction is None:
