@@ -39,6 +39,7 @@ appear in ``//`` comments after ``sanitize_comment``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -186,6 +187,9 @@ class _Compiler:
         self.exact = mapping == "exact"
         self.lines: list[str] = []
         self.materials: dict[PhongMaterial, str] = {}
+        # Lights with diffuse/specular multipliers other than 1: the exact mapping declares them
+        # per pass (Light_Diffuse, Light_Specular) and every finish scales its terms by them.
+        self.light_terms = self.exact and any((l.diffuse, l.specular) != (1.0, 1.0) for l in scene.lights)
         # The geometry's bounds (a pass over every mesh point), for placing parallel lights and
         # scaling the inverse-square fade: computed once, not once per light and pass.
         with np.errstate(over="ignore", invalid="ignore"):
@@ -284,6 +288,14 @@ class _Compiler:
         return self.rgb(scaled, light, "color"), f" fade_distance {self.num(fd, light, 'falloff')} fade_power 2"
 
     def light_source(self, light) -> str:
+        if not self.exact and (light.diffuse, light.specular) != (1.0, 1.0):
+            # Classic: one finish per material, so a light has one strength for both terms.
+            if light.specular != light.diffuse:
+                raise self._error(
+                    light, "specular", "differs from the diffuse multiplier, which the classic mapping cannot express "
+                    "(a POV-Ray light has one strength): use the exact mapping"
+                )
+            light = dataclasses.replace(light, color=tuple(c * light.diffuse for c in light.color), diffuse=1.0, specular=1.0)
         colour = self.rgb(light.color, light, "color")
         fade = ""
         if getattr(light, "falloff", "none") == "inverse-square":
@@ -384,6 +396,11 @@ class _Compiler:
                 self.lines.append("  " + self.comment_text(light, "light", i))
                 self.lines.append("  " + self.light_source(light))
                 self.lines.append("  " + self.ndotl_pigment(light))
+                if self.light_terms:
+                    self.lines.append(
+                        f"  #declare Light_Diffuse = {self.coef(light.diffuse, light, 'diffuse')};"
+                        f" #declare Light_Specular = {self.coef(light.specular, light, 'specular')};"
+                    )
             self.lines.append("#break")
         self.lines.append("#end")
 
@@ -404,6 +421,10 @@ class _Compiler:
             texture = self.texture(m, name)
             self.lines.append(f"#declare {name} = {texture}")
 
+    @property
+    def diffuse_term(self) -> str:
+        return " * Light_Diffuse" if self.light_terms else ""
+
     def texture(self, m: PhongMaterial, name: str) -> str:
         cd = self.rgb(m.diffuse_color, m, "diffuse_color")
         e = self.coef(m.exponent, m, "exponent")
@@ -413,11 +434,12 @@ class _Compiler:
             phong = f" phong {ks} phong_size {e}" if m.ks > 0 else ""
             return (
                 f"texture {{ pigment {{ rgb {cd} }} finish {{ ambient {self.coef(m.ka, m, 'ka')}"
-                f" diffuse {self.coef(m.kd / math.pi, m, 'kd')}{phong} }} }}"
+                f" diffuse {self.coef(m.kd / math.pi, m, 'kd')}{self.diffuse_term}{phong} }} }}"
             )
         # (A) the average of a diffuse texture and a layered specular texture, each doubled.
         # (A texture_map entry cannot hold a layered texture inline: it is declared first.)
-        layers = [f"texture {{ pigment {{ rgb 0 }} finish {{ ambient 0 diffuse 0 phong {self.coef(2 * m.ks, m, 'ks')} phong_size {e} }} }}"]
+        phong = self.coef(2 * m.ks, m, "ks") + (" * Light_Specular" if self.light_terms else "")
+        layers = [f"texture {{ pigment {{ rgb 0 }} finish {{ ambient 0 diffuse 0 phong {phong} phong_size {e} }} }}"]
         if tuple(m.specular_color) != (1.0, 1.0, 1.0):
             cs = self.rgb(m.specular_color, m, "specular_color")
             layers.append(f"texture {{ pigment {{ rgbf <{cs[1:-1]}, 1> }} finish {{ ambient 0 diffuse 0 }} }}")
@@ -427,7 +449,7 @@ class _Compiler:
         # (A texture_map entry holds a texture body without the 'texture' keyword.)
         diffuse = (
             f"pigment {{ rgb {cd} }} finish {{ ambient {self.coef(2 * m.ka, m, 'ka')}"
-            f" diffuse {self.coef(2 * m.kd / math.pi, m, 'kd')} }}"
+            f" diffuse {self.coef(2 * m.kd / math.pi, m, 'kd')}{self.diffuse_term} }}"
         )
         return f"texture {{ average texture_map {{\n  [1 {diffuse}]\n  [1 {name}_Specular]\n}} }}"
 

@@ -216,6 +216,10 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
     elif not isinstance(light, AmbientLight):
         api.CreateNormalizeAttr(True)
     _set_light_color(api, strength)
+    if getattr(light, "diffuse", 1.0) != 1.0:
+        api.CreateDiffuseAttr(float(light.diffuse))
+    if getattr(light, "specular", 1.0) != 1.0:
+        api.CreateSpecularAttr(float(light.specular))
     return prim.GetPrim()
 
 
