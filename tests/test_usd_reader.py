@@ -559,6 +559,30 @@ def test_shaping_cone_on_a_point_light(tmp_path):
     assert not [w for w in result.warnings if "cone" in w]
 
 
+
+def test_shaping_focus_is_a_cosine_power_inside_the_cone(tmp_path):
+    body = """
+    def SphereLight "Focused" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 40
+        float inputs:shaping:focus = 6 }
+    def SphereLight "Tinted" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 40
+        float inputs:shaping:focus = 2
+        color3f inputs:shaping:focusTint = (0.2, 0.1, 0) }
+    def SphereLight "Everywhere" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 180
+        float inputs:shaping:focus = 3 }
+    """
+    result = read(tmp_path, body)
+    focused, tinted, everywhere = result.scene.lights
+    assert focused.cone.focus == 6.0 and tinted.cone.focus == 2.0
+    assert everywhere.cone is None
+    assert any("focusTint" in w and "/Tinted" in w and "/Focused" not in w for w in result.warnings)
+    assert any("focus but no cone" in w and "/Everywhere" in w for w in result.warnings)
+
 TYPOS = """
 def SphereLight "L" {
     float inputs:intensty = 3
