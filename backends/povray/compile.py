@@ -39,6 +39,7 @@ appear in ``//`` comments after ``sanitize_comment``.
 
 from __future__ import annotations
 
+import hashlib
 import math
 
 import numpy as np
@@ -53,6 +54,7 @@ from phongscene.scene import (
     Scene,
     Sphere,
     SphereAreaLight,
+    Texture,
     TriangleMesh,
 )
 
@@ -80,6 +82,25 @@ LAMBERT_SPOTLIGHT = "spotlight radius 90 falloff 90 tightness 1"
 # '#', '"', '*', '\\' and all control characters are escaped, so a comment can neither end early
 # nor carry a directive.
 _COMMENT_SAFE = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789/_.:-[]<>(), =+@")
+
+
+def texture_file_name(texture: Texture) -> str:
+    """The file name a texture's image is written to beside the SDL: from a hash of its texels,
+    so that it is deterministic, and scenes batched into one run share equal images."""
+    digest = hashlib.sha1(np.ascontiguousarray(texture.image).tobytes())
+    digest.update(repr(texture.image.shape).encode("ascii"))
+    return f"phongscene-texture-{digest.hexdigest()[:16]}.exr"
+
+
+def texture_files(scene: Scene) -> dict[str, Texture]:
+    """The image files the SDL of ``scene`` reads (``image_map``), by file name: write each
+    texture's image there as a half-float EXR (``write_texture_files``) before rendering."""
+    out: dict[str, Texture] = {}
+    for obj in (*scene.spheres, *scene.meshes):
+        t = obj.material.diffuse_texture
+        if t is not None:
+            out.setdefault(texture_file_name(t), t)
+    return out
 
 
 def sanitize_comment(text: str) -> str:
@@ -389,15 +410,29 @@ class _Compiler:
             texture = self.texture(m, name)
             self.lines.append(f"#declare {name} = {texture}")
 
+    def diffuse_pigment(self, m: PhongMaterial) -> str:
+        """cd as a pigment: a colour, or the texture as an ``image_map`` on the mesh's uvs. The
+        image is a half-float EXR (linear: POV-Ray applies no gamma to EXR; it holds EXR maps
+        as half floats anyway), looked up bilinearly between texel centres (interpolate 2)
+        with wrap (ref §16). POV-Ray has one switch for leaving the image, ``once``, for both
+        axes: outside [0, 1] it is transparent, inside it clamps to the edge texels, which is
+        "clamp" and "mirror" exactly there; "repeat" is POV-Ray's default."""
+        t = m.diffuse_texture
+        if t is None:
+            return f"pigment {{ rgb {self.vec(m.diffuse_color, m, 'diffuse_color')} }}"
+        once = "" if (t.wrap_s, t.wrap_t) == ("repeat", "repeat") else " once"
+        return f'pigment {{ uv_mapping image_map {{ exr "{texture_file_name(t)}" interpolate 2{once} }} }}'
+
     def texture(self, m: PhongMaterial, name: str) -> str:
-        cd = self.vec(m.diffuse_color, m, "diffuse_color")
+        self.vec(m.diffuse_color, m, "diffuse_color")  # checked also when a texture replaces it
+        pigment = self.diffuse_pigment(m)
         e = self.num(m.exponent, m, "exponent")
         ks = self.num(m.ks, m, "ks")  # checked even where no highlight is written
         if not self.exact or m.ks <= 0:
             # Classic: one idiomatic finish. Exact without a highlight: one plain texture is exact.
             phong = f" phong {ks} phong_size {e}" if m.ks > 0 else ""
             return (
-                f"texture {{ pigment {{ rgb {cd} }} finish {{ ambient {self.num(m.ka, m, 'ka')}"
+                f"texture {{ {pigment} finish {{ ambient {self.num(m.ka, m, 'ka')}"
                 f" diffuse {self.num(m.kd / math.pi, m, 'kd')}{phong} }} }}"
             )
         # (A) the average of a diffuse texture and a layered specular texture, each doubled.
@@ -411,7 +446,7 @@ class _Compiler:
         self.lines.append(f"#declare {name}_Specular =\n  " + "\n  ".join(layers))
         # (A texture_map entry holds a texture body without the 'texture' keyword.)
         diffuse = (
-            f"pigment {{ rgb {cd} }} finish {{ ambient {self.num(2 * m.ka, m, 'ka')}"
+            f"{pigment} finish {{ ambient {self.num(2 * m.ka, m, 'ka')}"
             f" diffuse {self.num(2 * m.kd / math.pi, m, 'kd')} }}"
         )
         return f"texture {{ average texture_map {{\n  [1 {diffuse}]\n  [1 {name}_Specular]\n}} }}"
@@ -452,10 +487,18 @@ class _Compiler:
         )
         if normals is not None:
             out.append(f"  normal_vectors {{ {len(mesh.normals)},\n{normals}\n  }}")
+        if mesh.uvs is not None:
+            try:
+                uvs = ",\n".join(f"<{sdl_float(u)}, {sdl_float(v)}>" for u, v in mesh.uvs)
+            except NonFiniteNumber as e:
+                raise self._error(mesh, "uvs", f"cannot be written to mesh2: {e}") from None
+            out.append(f"  uv_vectors {{ {len(mesh.uvs)},\n{uvs}\n  }}")
         out.append(f"  face_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.triangles)}\n  }}")
         if normals is not None and not same_indices:
             # Without normal_indices POV uses the face indices (ref §7); only write them when they differ.
             out.append(f"  normal_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.normal_indices)}\n  }}")
+        if mesh.uvs is not None:
+            out.append(f"  uv_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.uv_indices)}\n  }}")
         if origin.any():
             # Local coordinates keep float32 precision far from the origin; the translate comes
             # before the texture, so the texture (the exact mapping's slope) stays in world space.

@@ -88,6 +88,34 @@ std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_objec
 }
 
 using Image = nb::ndarray<nb::numpy, float, nb::shape<-1, -1, 3>>;
+using TextureImage = In<float, nb::shape<-1, -1, 3>>;
+using CornerUv = In<double, nb::shape<-1, 3, 2>>;
+
+// Copies the textures and the per-corner uvs into the scene, checking what C++ indexes with.
+void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, const std::vector<phong::Wrap>& wrap_s,
+                  const std::vector<phong::Wrap>& wrap_t, const CornerUv& corner_uv) {
+    if (wrap_s.size() != images.size() || wrap_t.size() != images.size())
+        throw std::invalid_argument("one wrap_s and wrap_t per texture");
+    for (const phong::Material& m : scene.materials)
+        if (m.diffuse_texture >= int64_t(images.size()))
+            throw std::invalid_argument("a material's diffuse_texture is out of range");
+    bool textured = false;
+    for (const phong::Material& m : scene.materials) textured |= m.diffuse_texture >= 0;
+    if (textured && corner_uv.shape(0) != scene.triangles.size())
+        throw std::invalid_argument("corner_uv needs one row per triangle");
+    std::vector<phong::Texture> textures(images.size());
+    for (size_t i = 0; i < images.size(); ++i) {
+        const TextureImage& image = images[i];
+        if (image.shape(0) < 1 || image.shape(1) < 1) throw std::invalid_argument("a texture has no texels");
+        textures[i].height = int(image.shape(0));
+        textures[i].width = int(image.shape(1));
+        textures[i].texels.assign(image.data(), image.data() + image.size());
+        textures[i].wrap_s = wrap_s[i];
+        textures[i].wrap_t = wrap_t[i];
+    }
+    scene.textures = std::move(textures);
+    scene.corner_uv.assign(corner_uv.data(), corner_uv.data() + corner_uv.size());
+}
 
 Image render(const phong::Scene& scene, const phong::CameraDescription& camera_description,
              const phong::RenderSettings& settings, nb::object progress) {
@@ -196,7 +224,14 @@ NB_MODULE(_native, m) {
         .def_rw("ks", &Material::ks)
         .def_rw("exponent", &Material::exponent)
         .def_rw("diffuse_color", &Material::diffuse_color)
-        .def_rw("specular_color", &Material::specular_color);
+        .def_rw("specular_color", &Material::specular_color)
+        .def_rw("diffuse_texture", &Material::diffuse_texture);
+
+    nb::enum_<phong::Wrap>(m, "Wrap", "How a texture continues outside [0, 1] (textures.hpp).")
+        .value("repeat", phong::Wrap::kRepeat)
+        .value("clamp", phong::Wrap::kClamp)
+        .value("mirror", phong::Wrap::kMirror)
+        .value("black", phong::Wrap::kBlack);
 
     using phong::PointLight;
     nb::class_<PointLight>(m, "PointLight", "A point light, with POV-Ray's fade when fade_power > 0.")
@@ -281,6 +316,9 @@ NB_MODULE(_native, m) {
              "triangles"_a, "triangle_material"_a, "normals"_a, "normal_indices"_a, "materials"_a, "lights"_a,
              "ambient"_a,
              "Materials are indexed by sphere_material and triangle_material; lights are summed in list order.")
+        .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
+             "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture, and the (u, v) "
+             "of each triangle corner, (T, 3, 2) in input order.")
         .def_prop_ro("magnitude", [](const phong::Scene& s) { return s.magnitude; })
         .def("render", &render, "camera"_a, "settings"_a, "progress"_a = nb::none(),
              "The image, float32 (height, width, 3), row 0 at the top. progress(done, total) is called from this "

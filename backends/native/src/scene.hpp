@@ -13,6 +13,7 @@
 #include "materials.hpp"
 #include "math.hpp"
 #include "shapes.hpp"
+#include "textures.hpp"
 
 namespace phong {
 
@@ -87,6 +88,10 @@ class Scene {
     std::vector<Material> materials;
     std::vector<Light> lights;
     RGB ambient;
+    // Textures (Material::diffuse_texture) and the (u, v) of each triangle corner, by input
+    // triangle row (triangle_source): 6 numbers per triangle; empty without textures.
+    std::vector<Texture> textures;
+    std::vector<double> corner_uv;
     Bounds bounds;           // of the geometry (empty without primitives)
     double magnitude = 0.0;  // largest absolute coordinate of the geometry bounds
 
