@@ -16,6 +16,7 @@ POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import Callable
 
@@ -443,9 +444,11 @@ def povray_golden() -> Scene:
     )
 
 
+@functools.cache
 def checker_texture(wrap_s: str = "repeat", wrap_t: str = "repeat", seed: int = 7) -> Texture:
     """A 5 × 3 texture of distinct random colours (a non-square, non-power-of-two image, so
-    that a swapped axis, a flipped row order or a half-texel shift all show)."""
+    that a swapped axis, a flipped row order or a half-texel shift all show). Cached: textures
+    compare by identity, and a calibration scene built twice must be equal."""
     rng = np.random.default_rng(seed)
     return Texture(rng.uniform(0.05, 1.0, (3, 5, 3)).astype(np.float32), wrap_s, wrap_t, source="/Looks/Checker/Texture")
 

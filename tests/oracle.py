@@ -625,3 +625,23 @@ def render(scene: Scene, settings: RenderSettings | None = None) -> np.ndarray:
     origins, directions = camera_rays(scene.camera, width, height, sx, sy)
     radiance = _trace(_prepare(scene), scene, settings, origins, directions)
     return np.einsum("hwkc,k->hwc", radiance.reshape(height, width, len(weights), 3), weights)
+
+
+def with_half_texels(scene: Scene) -> Scene:
+    """``scene`` with every texture's texels rounded to half floats: what POV-Ray samples, as it
+    holds an EXR image map as half floats (docs/povray-3.7-semantics.md §16). Compare POV-Ray
+    images with the oracle of this scene."""
+    import dataclasses
+
+    def half(material):
+        t = material.diffuse_texture
+        if t is None:
+            return material
+        image = np.asarray(t.image, dtype=np.float16).astype(np.float32)
+        return dataclasses.replace(material, diffuse_texture=dataclasses.replace(t, image=image))
+
+    return dataclasses.replace(
+        scene,
+        spheres=tuple(dataclasses.replace(s, material=half(s.material)) for s in scene.spheres),
+        meshes=tuple(dataclasses.replace(m, material=half(m.material)) for m in scene.meshes),
+    )

@@ -4,6 +4,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from pxr import Sdf, Sdr, Usd, UsdGeom, UsdShade
 
@@ -11,6 +13,7 @@ from ..scene import DEFAULT_MATERIAL, PhongMaterial
 from .context import ReadContext, authored_type
 from .names import COLOR_TYPES, PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
 from .shader_defs import phong_input_defaults, phong_inputs
+from .textures import StSource, TextureReader
 
 PREVIEW_SHADER_ID = "UsdPreviewSurface"
 # Highest Phong exponent produced from a UsdPreviewSurface: e = 1/(2α²) − 2 reaches 1e6 at
@@ -85,6 +88,9 @@ class MaterialReader:
     def __init__(self, ctx: ReadContext):
         self.ctx = ctx
         self.cache: dict[str, PhongMaterial] = {}
+        self.textures = TextureReader(ctx)
+        # Where each textured material's st comes from (the mesh reader reads that primvar).
+        self.st_of: dict[PhongMaterial, StSource] = {}
         self.phong_defaults = phong_input_defaults()
         preview = Sdr.Registry().GetShaderNodeByIdentifier(PREVIEW_SHADER_ID)
         self.preview_defaults = {n: preview.GetShaderInput(n).GetDefaultValue() for n in PREVIEW_INPUTS}
@@ -146,11 +152,23 @@ class MaterialReader:
             return default if value is None else value
         return default
 
+    def _textured(self, material: PhongMaterial, connected) -> PhongMaterial:
+        """``material`` with the diffuse texture of ``connected`` (when its image was read)."""
+        if connected is None or connected.texture is None:
+            return material
+        textured = dataclasses.replace(material, diffuse_texture=connected.texture)
+        self.st_of[textured] = connected.st
+        return textured
+
     def _phong(self, shader: UsdShade.Shader) -> PhongMaterial:
         prim = shader.GetPrim()
         values = {}
+        diffuse_texture = self.textures.connected(shader, "diffuseColor")
         for name, (field, sdf_type) in phong_inputs().items():
             default = self.phong_defaults[name]
+            if name == "diffuseColor" and diffuse_texture is not None:
+                values[field] = diffuse_texture.fallback
+                continue
             inp = shader.GetInput(name)
             found = authored_type(inp.GetAttr()) if inp else ""
             if inp and Sdf.ValueTypeNames.Find(found).type != sdf_type.type:
@@ -164,14 +182,21 @@ class MaterialReader:
                 self.ctx.problem(
                     prim, f"inputs:{inp.GetBaseName()}", f"is not an input of {PHONG_SHADER_ID} (expected one of {', '.join(PHONG_INPUTS)})"
                 )
-        return PhongMaterial(source=str(prim.GetPath()), **values)
+        return self._textured(PhongMaterial(source=str(prim.GetPath()), **values), diffuse_texture)
 
     def _preview(self, shader: UsdShade.Shader) -> PhongMaterial:
         prim = shader.GetPrim()
         values = {}
+        diffuse_texture = self.textures.connected(shader, "diffuseColor")
         for name in PREVIEW_INPUTS:
             default = self.preview_defaults[name]
-            value = self._input_value(shader, name, default)
+            if name == "diffuseColor" and diffuse_texture is not None:
+                value = diffuse_texture.fallback
+                if diffuse_texture.texture is not None:
+                    # The metallic tint of F0 takes the texture's mean colour (one cs per material).
+                    value = tuple(float(c) for c in diffuse_texture.texture.image.mean(axis=(0, 1)))
+            else:
+                value = self._input_value(shader, name, default)
             shape = np.shape(default)
             try:
                 arr = np.asarray(value, dtype=np.float64)
@@ -203,7 +228,12 @@ class MaterialReader:
                 specular_level = float(value)
             else:
                 self.ctx.problem(prim, f"inputs:{BLENDER_SPECULAR_LEVEL}", f"must be a finite number, got {value!r}")
-        return preview_to_phong(
+        if diffuse_texture is not None and diffuse_texture.texture is not None and not int(values["useSpecularWorkflow"]):
+            # The spec's diffuse lobe is diffuseColor·(1 − metallic): the texels are scaled so.
+            factor = 1.0 - float(np.clip(values["metallic"], 0.0, 1.0))
+            if factor != 1.0:
+                diffuse_texture = self.textures.connected(shader, "diffuseColor", factor)
+        material = preview_to_phong(
             tuple(values["diffuseColor"]),
             float(values["roughness"]),
             float(values["metallic"]),
@@ -213,6 +243,7 @@ class MaterialReader:
             source=str(prim.GetPath()),
             specular_level=specular_level,
         )
+        return self._textured(material, diffuse_texture)
 
     def _display_color(self, prim: Usd.Prim) -> PhongMaterial:
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor")

@@ -1,0 +1,272 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Textured materials (issue 14): the USD reader (UsdUVTexture, st primvars of every
+interpolation, colour spaces, channels, scale/bias, Transform2d, .usdz), the native lookup in
+every wrap mode against the oracle, and both backends on a textured USD scene."""
+
+from __future__ import annotations
+
+import dataclasses
+import zipfile
+
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
+
+import calibration
+import oracle
+from phongscene import load_usd
+from phongscene.backends import native
+from phongscene.validate import check, validate
+
+# The native tracer against the float64 oracle: float32 texels and colour arithmetic.
+NATIVE_REL = 1e-6
+# OpenImageIO's sRGB → linear (its built-in OCIO transform) against the standard's formula:
+# measured within 2.41e-5 relative on these texels; far below one 8-bit step (~1e-2 relative).
+SRGB_REL = 3e-5
+# ... and on the linear toe (c <= 0.04045) within 7.6e-7 absolute (its slope differs slightly
+# from 1/12.92); one 8-bit step there is 3e-4.
+SRGB_ABS = 1e-6
+
+# A 4 × 2 RGB texture with distinct 8-bit values (row 0 at the top of the file).
+PIXELS8 = np.array(
+    [[[10, 200, 30], [250, 5, 60], [90, 90, 240], [0, 128, 255]], [[255, 255, 255], [40, 10, 170], [128, 64, 32], [7, 77, 177]]],
+    dtype=np.uint8,
+)
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    """The sRGB transfer function's inverse (IEC 61966-2-1), written from the standard."""
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def write_png(path, pixels=PIXELS8) -> str:
+    buf = oiio.ImageBuf(oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], "uint8"))
+    buf.set_pixels(oiio.ROI(), pixels)
+    assert buf.write(str(path))
+    return str(path)
+
+
+def textured_stage(
+    path,
+    image: str,
+    *,
+    interpolation="faceVarying",
+    color_space=None,
+    output="rgb",
+    wrap=("repeat", "repeat"),
+    scale=None,
+    bias=None,
+    transform=None,
+    phong=False,
+):
+    """A quad (two triangles as one 4-sided face) under a camera and a light, its material's
+    diffuseColor from a UsdUVTexture whose st comes from a primvar reader (varname through a
+    material interface input, as Blender writes it)."""
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    mesh = UsdGeom.Mesh.Define(stage, "/World/Quad")
+    mesh.CreatePointsAttr([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    mesh.CreateSubdivisionSchemeAttr("none")
+    mesh.CreateDoubleSidedAttr(True)
+    st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, interpolation)
+    corners = [(-0.25, -0.5), (1.5, -0.25), (1.25, 1.5), (-0.5, 1.25)]
+    if interpolation == "faceVarying":
+        st.Set([corners[i] for i in (0, 1, 2, 3)])
+    elif interpolation == "vertex":
+        st.Set(corners)
+        st.SetIndices([0, 1, 2, 3])  # indexed: exercises the indices path
+    else:  # uniform / constant: one value
+        st.Set([(0.3, 0.6)])
+    material = UsdShade.Material.Define(stage, "/World/Looks/Mat")
+    name = material.CreateInput("frame:stPrimvarName", Sdf.ValueTypeNames.Token)
+    name.Set("st")
+    reader = UsdShade.Shader.Define(stage, "/World/Looks/Mat/Reader")
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).ConnectToSource(name)
+    st_source = reader.ConnectableAPI(), "result"
+    if transform is not None:
+        t2d = UsdShade.Shader.Define(stage, "/World/Looks/Mat/Transform")
+        t2d.CreateIdAttr("UsdTransform2d")
+        t2d.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
+        t2d.CreateInput("scale", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(*transform[0]))
+        t2d.CreateInput("rotation", Sdf.ValueTypeNames.Float).Set(transform[1])
+        t2d.CreateInput("translation", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(*transform[2]))
+        st_source = t2d.ConnectableAPI(), "result"
+    tex = UsdShade.Shader.Define(stage, "/World/Looks/Mat/Texture")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(image)
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(*st_source)
+    tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set(wrap[0])
+    tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set(wrap[1])
+    if color_space:
+        tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(color_space)
+    if scale:
+        tex.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(*scale))
+    if bias:
+        tex.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(*bias))
+    kind = Sdf.ValueTypeNames.Float if output in ("r", "g", "b", "a") else Sdf.ValueTypeNames.Float3
+    tex.CreateOutput(output, kind)
+    surface = UsdShade.Shader.Define(stage, "/World/Looks/Mat/Surface")
+    if phong:
+        surface.CreateIdAttr("phongscene_PhongSurface")
+        material.CreateSurfaceOutput("phong").ConnectToSource(surface.ConnectableAPI(), "surface")
+    else:
+        surface.CreateIdAttr("UsdPreviewSurface")
+        surface.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.4)
+        material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), output)
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+    cam = UsdGeom.Camera.Define(stage, "/World/Camera")
+    cam.AddTranslateOp().Set((0.1, 0.2, 4.0))
+    light = stage.DefinePrim("/World/Light", "SphereLight")
+    light.CreateAttribute("inputs:intensity", Sdf.ValueTypeNames.Float).Set(20.0)
+    light.CreateAttribute("treatAsPoint", Sdf.ValueTypeNames.Bool).Set(True)
+    UsdGeom.Xformable(light).AddTranslateOp().Set((0.5, 1.0, 3.0))
+    render = stage.DefinePrim("/Render/Settings", "RenderSettings")
+    render.CreateAttribute("resolution", Sdf.ValueTypeNames.Int2).Set(Gf.Vec2i(48, 36))
+    stage.SetDefaultPrim(stage.GetPrimAtPath("/World"))
+    stage.GetRootLayer().Save()
+    return str(path)
+
+
+def _texture(scene):
+    (mesh,) = scene.meshes
+    assert mesh.material.diffuse_texture is not None
+    return mesh, mesh.material.diffuse_texture
+
+
+# -- the reader ---------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("space", [None, "auto", "sRGB", "raw"])
+def test_colour_space_of_an_8bit_png(tmp_path, space):
+    png = write_png(tmp_path / "tex.png")
+    scene = load_usd(textured_stage(tmp_path / "s.usda", "tex.png", color_space=space))
+    _, texture = _texture(scene)
+    expected = PIXELS8 / 255.0
+    if space != "raw":  # auto: an 8-bit image is sRGB-encoded
+        expected = srgb_to_linear(expected)
+    np.testing.assert_allclose(texture.image, expected, rtol=SRGB_REL, atol=SRGB_ABS)
+    assert texture.file == png and (texture.wrap_s, texture.wrap_t) == ("repeat", "repeat")
+
+
+def test_float_exr_is_raw_under_auto(tmp_path):
+    values = np.random.default_rng(3).uniform(0, 4, (3, 5, 3)).astype(np.float32)
+    assert oiio.ImageBuf(values).write(str(tmp_path / "tex.exr"), "float")
+    _, texture = _texture(load_usd(textured_stage(tmp_path / "s.usda", "tex.exr")))
+    np.testing.assert_array_equal(texture.image, values)
+
+
+@pytest.mark.parametrize("output,channel", [("r", 0), ("g", 1), ("b", 2)])
+def test_single_channel_output_scale_and_bias(tmp_path, output, channel):
+    write_png(tmp_path / "tex.png")
+    scene = load_usd(
+        textured_stage(tmp_path / "s.usda", "tex.png", color_space="raw", output=output, scale=(2, 3, 4, 1), bias=(0.1, 0.2, 0.3, 0))
+    )
+    _, texture = _texture(scene)
+    expected = PIXELS8[:, :, channel] / 255.0 * (2, 3, 4)[channel] + (0.1, 0.2, 0.3)[channel]
+    np.testing.assert_allclose(texture.image, np.repeat(expected[:, :, None], 3, axis=2), rtol=1e-6)
+
+
+def test_alpha_output_of_an_rgb_image_is_one(tmp_path):
+    write_png(tmp_path / "tex.png")
+    _, texture = _texture(load_usd(textured_stage(tmp_path / "s.usda", "tex.png", output="a")))
+    assert np.all(texture.image == 1.0)
+
+
+@pytest.mark.parametrize("interpolation", ["faceVarying", "vertex", "uniform", "constant"])
+def test_st_of_every_interpolation(tmp_path, interpolation):
+    write_png(tmp_path / "tex.png")
+    mesh, _ = _texture(load_usd(textured_stage(tmp_path / "s.usda", "tex.png", interpolation=interpolation)))
+    corner_uv = mesh.uvs[mesh.uv_indices]  # (2 triangles, 3 corners, uv)
+    corner_of_point = {(-1, -1): (-0.25, -0.5), (1, -1): (1.5, -0.25), (1, 1): (1.25, 1.5), (-1, 1): (-0.5, 1.25)}
+    for tri, uvs in zip(mesh.triangles, corner_uv):
+        for point, uv in zip(mesh.points[tri], uvs):
+            expected = corner_of_point[(int(point[0]), int(point[1]))] if interpolation in ("faceVarying", "vertex") else (0.3, 0.6)
+            np.testing.assert_allclose(uv, expected, rtol=1e-7)
+
+
+def test_transform2d_applies_scale_rotation_translation(tmp_path):
+    write_png(tmp_path / "tex.png")
+    mesh, _ = _texture(load_usd(textured_stage(tmp_path / "s.usda", "tex.png", transform=((2.0, 0.5), 90.0, (0.25, -1.0)))))
+    plain, _ = _texture(load_usd(textured_stage(tmp_path / "p.usda", "tex.png")))
+    st = plain.uvs * (2.0, 0.5)
+    expected = np.column_stack([-st[:, 1], st[:, 0]]) + (0.25, -1.0)  # 90° counter-clockwise
+    np.testing.assert_allclose(mesh.uvs, expected, atol=1e-6)
+
+
+def test_usdz_packaged_texture(tmp_path):
+    write_png(tmp_path / "tex.png")
+    layer = textured_stage(tmp_path / "scene.usdc", "tex.png")
+    # usdz: an uncompressed zip whose files are 64-byte aligned (USD's own packager does this).
+    from pxr import UsdUtils
+
+    package = tmp_path / "scene.usdz"
+    assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(layer), str(package))
+    (tmp_path / "tex.png").unlink()  # only the packaged copy remains
+    assert any(n.endswith("tex.png") for n in zipfile.ZipFile(package).namelist())
+    _, texture = _texture(load_usd(str(package)))
+    np.testing.assert_allclose(texture.image, srgb_to_linear(PIXELS8 / 255.0), rtol=SRGB_REL, atol=SRGB_ABS)
+
+
+def test_missing_image_uses_the_fallback_with_a_warning(tmp_path):
+    scene = load_usd(textured_stage(tmp_path / "s.usda", "missing.png", phong=True))
+    (mesh,) = scene.meshes
+    assert mesh.material.diffuse_texture is None
+    assert not validate(scene)
+
+
+def test_textured_phong_shader(tmp_path):
+    write_png(tmp_path / "tex.png")
+    mesh, texture = _texture(load_usd(textured_stage(tmp_path / "s.usda", "tex.png", phong=True)))
+    assert mesh.material.source.endswith("/Surface") and texture.source == "/World/Looks/Mat/Texture"
+
+
+# -- the native lookup against the oracle, every wrap mode ---------------------------------------
+
+
+@pytest.mark.parametrize("wrap_s", ["repeat", "clamp", "mirror", "black"])
+@pytest.mark.parametrize("wrap_t", ["repeat", "clamp", "mirror", "black"])
+def test_native_matches_oracle_in_every_wrap_mode(wrap_s, wrap_t):
+    # uvs from -2.3 to 3.1: every wrap rule is exercised beyond both edges of both axes.
+    scene = calibration.point_light()
+    quad = calibration.textured_quad(calibration.checker_texture(wrap_s, wrap_t), -2.3, 3.1)
+    scene = check(dataclasses.replace(scene, meshes=(quad,), settings=dataclasses.replace(scene.settings, width=40, height=30)))
+    image = native.render(scene)
+    ref = oracle.render(scene)
+    np.testing.assert_allclose(image, ref, rtol=NATIVE_REL, atol=1e-7)
+    if (wrap_s, wrap_t) != ("repeat", "repeat"):  # the wrap rule shows beyond [0, 1]
+        repeat = dataclasses.replace(quad.material.diffuse_texture, wrap_s="repeat", wrap_t="repeat")
+        tiled = dataclasses.replace(quad, material=dataclasses.replace(quad.material, diffuse_texture=repeat))
+        assert np.abs(image - native.render(dataclasses.replace(scene, meshes=(tiled,)))).max() > 0.05
+
+
+def test_validation_needs_uvs_for_a_textured_mesh():
+    scene = calibration.texture_repeat()
+    mesh = dataclasses.replace(scene.meshes[0], uvs=None, uv_indices=None)
+    problems = validate(dataclasses.replace(scene, meshes=(mesh,)))
+    assert [p.attribute for p in problems] == ["uvs"]
+
+
+# -- both backends on a textured USD scene ---------------------------------------------------------
+
+
+@pytest.mark.povray
+@pytest.mark.parametrize("mapping", ["exact", "classic"])
+def test_textured_usd_scene_agrees_on_both_backends(tmp_path, mapping):
+    from phongscene import compare
+    from phongscene.backends import povray
+
+    write_png(tmp_path / "tex.png")
+    scene = check(load_usd(textured_stage(tmp_path / "s.usda", "tex.png", wrap=("repeat", "repeat"))))
+    if mapping == "classic":
+        scene = calibration.classic_variant(scene)
+    settings = dataclasses.replace(scene.settings, numerics="povray")
+    a = native.render(scene, settings)
+    b = povray.render(scene, mapping=mapping)
+    assert np.ptp(a[:, :, 0]) > 0.1
+    report = compare(a, b)
+    assert report.ok, report
