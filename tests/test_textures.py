@@ -270,3 +270,99 @@ def test_textured_usd_scene_agrees_on_both_backends(tmp_path, mapping):
     assert np.ptp(a[:, :, 0]) > 0.1
     report = compare(a, b)
     assert report.ok, report
+
+
+# -- POV-Ray's image_map, measured directly (docs/povray-3.7-semantics.md §16) ------------------
+
+# POV-Ray's half-float output: one rounding, 2^-11 relative (ref §2), plus float32 colour arithmetic.
+POV_OUTPUT_REL = 2.0**-11 + 1e-6
+
+
+def _pov_quad(tmp_path, texture, uv_lo, uv_hi, modifiers, n=60):
+    """Render a uv-mapped square with an emissive-like finish (ambient 1, ambient_light 1) seen
+    orthographically, so each pixel is the pigment at its uv; return (image, u, v of pixels)."""
+    import subprocess
+
+    from phongscene.images import read_image, write_image
+
+    write_image(tmp_path / "tex.exr", texture.image, half=True)
+    sdl = f"""#version 3.7;
+global_settings {{ assumed_gamma 1.0 ambient_light 1 }}
+background {{ rgb <0, 0, 100> }}
+camera {{ orthographic location <0.5, 0.5, -1> direction <0, 0, 1> right <1, 0, 0> up <0, 1, 0> }}
+mesh2 {{ vertex_vectors {{ 4, <0, 0, 0>, <1, 0, 0>, <1, 1, 0>, <0, 1, 0> }}
+  uv_vectors {{ 4, <{uv_lo}, {uv_lo}>, <{uv_hi}, {uv_lo}>, <{uv_hi}, {uv_hi}>, <{uv_lo}, {uv_hi}> }}
+  face_indices {{ 2, <0, 1, 2>, <0, 2, 3> }}
+  texture {{ uv_mapping pigment {{ image_map {{ exr "tex.exr" {modifiers} }} }} finish {{ ambient 1 diffuse 0 }} }} }}
+"""
+    (tmp_path / "quad.pov").write_text(sdl)
+    subprocess.run(
+        ["povray", "+Iquad.pov", "+Oquad.exr", "+FE", f"+W{n}", f"+H{n}", "-D", "-V", "-GA", "-A", "+WT1"],
+        cwd=tmp_path, check=True, capture_output=True, env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"},
+    )
+    s = (np.arange(n) + 0.5) / n
+    u, v = np.meshgrid(uv_lo + (uv_hi - uv_lo) * s, uv_lo + (uv_hi - uv_lo) * (1 - s))
+    return read_image(tmp_path / "quad.exr"), u, v
+
+
+@pytest.mark.povray
+def test_povray_image_map_is_the_model_lookup_on_half_texels(tmp_path):
+    # interpolate 2 = bilinear between texel centres, repeat wrap (uvs -0.7..1.6), on the texels
+    # rounded to half floats: POV-Ray holds an EXR image map as half floats.
+    texture = calibration.checker_texture()
+    image, u, v = _pov_quad(tmp_path, texture, -0.7, 1.6, "interpolate 2")
+    half = dataclasses.replace(texture, image=texture.image.astype(np.float16).astype(np.float32))
+    expected = oracle.sample_texture(half, u.ravel(), v.ravel()).reshape(image.shape)
+    assert np.all(np.abs(image - expected) <= POV_OUTPUT_REL * expected)
+    # ... and not on the float32 texels (the half rounding is visible above the output rounding).
+    full = oracle.sample_texture(texture, u.ravel(), v.ravel()).reshape(image.shape)
+    assert np.any(np.abs(image - full) > POV_OUTPUT_REL * full)
+
+
+@pytest.mark.povray
+def test_povray_once_is_clamp_inside_the_unit_square_and_clear_outside(tmp_path):
+    texture = dataclasses.replace(calibration.checker_texture(), wrap_s="clamp", wrap_t="clamp")
+    image, u, v = _pov_quad(tmp_path, texture, -0.3, 1.3, "interpolate 2 once")
+    half = dataclasses.replace(texture, image=texture.image.astype(np.float16).astype(np.float32))
+    expected = oracle.sample_texture(half, u.ravel(), v.ravel()).reshape(image.shape)
+    inside = (u >= 0) & (u <= 1) & (v >= 0) & (v <= 1)
+    assert np.all(np.abs(image - expected)[inside] <= (POV_OUTPUT_REL * expected)[inside])
+    outside = (u < -0.01) | (u > 1.01) | (v < -0.01) | (v > 1.01)
+    assert np.all(image[outside] == (0.0, 0.0, 100.0))  # transparent: the background shows
+
+
+# -- a textured Blender export ----------------------------------------------------------------------
+
+# Blender 5.0.1's USD export of benchmarks/blender/build_scenes.py's "textured_glossy" (its colour
+# grid texture on a glossy sphere and a tiled floor), converted to .usdc to keep it small.
+BLENDER_TEXTURED = __import__("pathlib").Path(__file__).parent / "scenes" / "blender_textured" / "textured_glossy.usdc"
+
+
+def test_blender_export_reads_its_image_texture():
+    scene = load_usd(str(BLENDER_TEXTURED))
+    textures = {m.material.diffuse_texture for m in scene.meshes}
+    # Floor and sphere: both textured, by one shared Texture (same image and sampling rules).
+    assert len(scene.meshes) == 2 and len(textures) == 1 and None not in textures
+    for t in textures:
+        assert (t.width, t.height, t.wrap_s, t.wrap_t) == (64, 64, "repeat", "repeat")
+        assert t.file.endswith("textured_glossy_grid.png")
+    floor = next(m for m in scene.meshes if m.source.startswith("/root/Floor"))
+    assert floor.uvs.max() == 2.0  # the floor's uvs tile the grid twice (repeat)
+
+
+@pytest.mark.povray
+@pytest.mark.parametrize("mapping", ["exact", "classic"])
+def test_blender_textured_export_agrees_on_both_backends(mapping):
+    from phongscene import compare
+    from phongscene.backends import povray
+
+    scene = check(load_usd(str(BLENDER_TEXTURED)))
+    if mapping == "classic":
+        scene = calibration.classic_variant(scene)
+    settings = dataclasses.replace(scene.settings, width=80, height=60, numerics="povray")
+    a = native.render(scene, settings)
+    b = povray.render(scene, dataclasses.replace(settings, numerics="scale-invariant"), mapping=mapping)
+    # Its colours: the grid's hues differ across the image (a grey render would not).
+    assert np.ptp(a[..., 0] - a[..., 2]) > 0.3
+    report = compare(a, b)
+    assert report.ok, report
