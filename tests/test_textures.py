@@ -366,3 +366,47 @@ def test_blender_textured_export_agrees_on_both_backends(mapping):
     assert np.ptp(a[..., 0] - a[..., 2]) > 0.3
     report = compare(a, b)
     assert report.ok, report
+
+
+@pytest.mark.povray
+def test_compile_writes_the_texture_beside_the_sdl_and_povray_renders_it(tmp_path, capsys):
+    import subprocess
+
+    from phongscene.backends import povray
+    from phongscene.cli import main
+    from phongscene.images import read_image
+
+    out = tmp_path / "out"
+    out.mkdir()
+    assert main(["compile", str(BLENDER_TEXTURED), "-o", str(out / "scene.pov"), "--width", "40", "--height", "30"]) == 0
+    (texture,) = out.glob("phongscene-texture-*.exr")
+    assert texture.name in (out / "scene.pov").read_text() and texture.name in capsys.readouterr().out
+    # The half EXR holds the texture's texels rounded to half.
+    model = load_usd(str(BLENDER_TEXTURED)).meshes[0].material.diffuse_texture
+    np.testing.assert_array_equal(read_image(texture), model.image.astype(np.float16).astype(np.float32))
+    # povray with the written .ini renders in that folder, as the command printed says.
+    run = subprocess.run(["povray", "scene.ini"], cwd=out, capture_output=True, env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"})
+    assert run.returncode == 0, run.stderr[-500:]
+    frames = sorted(out.glob("scene*.exr"))
+    assert len(frames) == 2  # exact mapping: one frame per light
+    summed = np.sum([read_image(f) for f in frames], axis=0)
+    scene = check(load_usd(str(BLENDER_TEXTURED)))
+    expected = povray.render(scene, dataclasses.replace(scene.settings, width=40, height=30))
+    np.testing.assert_allclose(summed, expected, rtol=1e-6, atol=1e-7)
+
+
+@pytest.mark.parametrize("name", ["texture_repeat", "texture_clamp"])
+def test_write_usd_round_trips_textures(tmp_path, name):
+    from phongscene import write_usd
+
+    scene = calibration.SCENES[name]()
+    path = write_usd(scene, tmp_path / "scene.usda")
+    (image_file,) = tmp_path.glob("scene-texture-*.exr")  # the image, beside the layer
+    back = load_usd(str(path))
+    (mesh,) = back.meshes
+    original = scene.meshes[0]
+    t, u = mesh.material.diffuse_texture, original.material.diffuse_texture
+    np.testing.assert_array_equal(t.image, u.image)
+    assert (t.wrap_s, t.wrap_t, t.file) == (u.wrap_s, u.wrap_t, str(image_file))
+    np.testing.assert_array_equal(mesh.uvs[mesh.uv_indices], original.uvs[original.uv_indices])
+    assert mesh.material.diffuse_color == pytest.approx(original.material.diffuse_color)
