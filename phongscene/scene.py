@@ -134,6 +134,17 @@ class PhongMaterial:
     # cd as a function of the surface point: the texture at the mesh's (u, v) replaces
     # diffuse_color (meshes with uvs only; diffuse_color stays the fallback USD authored).
     diffuse_texture: Texture | None = None
+    # cs likewise (the seed convention's highlight colour; povray-classic ignores cs).
+    specular_texture: Texture | None = None
+
+    @property
+    def textures(self) -> tuple[Texture, ...]:
+        """The textures the material samples (diffuse first)."""
+        return tuple(t for t in (self.diffuse_texture, self.specular_texture) if t is not None)
+
+    def without_textures(self) -> PhongMaterial:
+        """The same material with its constant colours only (the textures' fallbacks)."""
+        return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source)
 
 
 DEFAULT_MATERIAL = PhongMaterial()

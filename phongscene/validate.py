@@ -142,12 +142,12 @@ def validate(scene: Scene) -> list[Problem]:
     for sphere in scene.spheres:
         _check_sphere(c, sphere)
         materials.append(sphere.material)
-        if sphere.material.diffuse_texture is not None:
+        if sphere.material.textures:
             c.add(sphere, "material", "a textured material needs texture coordinates, which only meshes carry")
     for mesh in scene.meshes:
         _check_mesh(c, mesh)
         materials.append(mesh.material)
-        if mesh.material.diffuse_texture is not None and mesh.uvs is None:
+        if mesh.material.textures and mesh.uvs is None:
             c.add(mesh, "uvs", "a mesh with a textured material needs texture coordinates (uvs)")
     for material in _unique(materials):
         _check_material(c, material)
@@ -189,8 +189,8 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
         c.add(m, "exponent", f"must be >= 0, got {_show(m.exponent)}")
     c.colour(m, "diffuse_color")
     c.colour(m, "specular_color")
-    if m.diffuse_texture is not None:
-        _check_texture(c, m.diffuse_texture)
+    for t in m.textures:
+        _check_texture(c, t)
 
 
 def _check_texture(c: _Collector, t) -> None:

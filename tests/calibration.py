@@ -475,6 +475,20 @@ def texture_clamp() -> Scene:
     return dataclasses.replace(scene, meshes=(textured_quad(checker_texture("clamp", "mirror"), 0.0, 0.9),))
 
 
+@functools.cache
+def _specular_checker() -> Texture:
+    return Texture(checker_texture(seed=11).image * 2.0, "repeat", "repeat", source="/Looks/Checker/Specular")
+
+
+def texture_specular() -> Scene:
+    """A textured highlight colour (cs) beside a textured cd, on a glossy ground, under two lights
+    (the exact mapping's per-light passes each carry the cs filter layer)."""
+    scene = shadows_two_lights()
+    quad = textured_quad(checker_texture(), -0.6, 1.7)
+    material = dataclasses.replace(quad.material, specular_texture=_specular_checker(), ks=0.5, exponent=8.0)
+    return dataclasses.replace(scene, meshes=(dataclasses.replace(quad, material=material),))
+
+
 def classic_variant(scene: Scene) -> Scene:
     """The same scene under the ``povray-classic`` specular convention."""
     return dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, specular="povray-classic"))
@@ -506,4 +520,5 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "povray_golden": povray_golden,
     "texture_repeat": texture_repeat,
     "texture_clamp": texture_clamp,
+    "texture_specular": texture_specular,
 }

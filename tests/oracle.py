@@ -257,6 +257,7 @@ class _Mesh:
     hi: np.ndarray
     corner_uv: np.ndarray | None = None  # (T, 3, 2) when the material is textured
     texture: object = None  # the material's diffuse Texture
+    specular_texture: object = None  # ... and specular Texture
 
 
 # numpy's pad mode for each wrap rule: the image extended beyond its edges is exactly what the
@@ -331,10 +332,13 @@ def _prepare(scene: Scene) -> _Geometry:
         corner_normals = None if mesh.normals is None else mesh.normals[mesh.normal_indices]
         lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
         pad = AABB_PAD_RELATIVE * (1.0 + float(np.abs(mesh.points).max()))
-        texture = mesh.material.diffuse_texture
-        corner_uv = None if texture is None else mesh.uvs[mesh.uv_indices]
+        texture, specular = mesh.material.diffuse_texture, mesh.material.specular_texture
+        corner_uv = None if texture is None and specular is None else mesh.uvs[mesh.uv_indices]
         meshes.append(
-            _Mesh(p0, e1, e2, cross_len, flat, corner_normals, material_index(mesh.material), lo - pad, hi + pad, corner_uv, texture)
+            _Mesh(
+                p0, e1, e2, cross_len, flat, corner_normals, material_index(mesh.material), lo - pad, hi + pad,
+                corner_uv, texture, specular,
+            )
         )
     return _Geometry(
         inverses,
@@ -421,12 +425,13 @@ def _mesh_hits(mesh: _Mesh, o: np.ndarray, d: np.ndarray, accept) -> tuple[np.nd
 
 def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
     """Nearest hit with MIN_ISECT_DEPTH <= t < MAX_DISTANCE: (t, material, unflipped normal, cd
-    at the hit: the material's, or its texture's at the hit's uv); t = inf on a miss."""
+    and cs at the hit: the material's, or its textures' at the hit's uv); t = inf on a miss."""
     n = len(o)
     best_t = np.full(n, np.inf)
     material = np.full(n, -1, dtype=np.int64)
     normal = np.zeros((n, 3))
     colour = np.zeros((n, 3))
+    specular = np.zeros((n, 3))
 
     def accept(t, _rows):
         return (t >= MIN_ISECT_DEPTH) & (t < MAX_DISTANCE)
@@ -440,6 +445,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
         best_t[closer] = t[closer]
         material[closer] = mat
         colour[closer] = geo.cd[mat]
+        specular[closer] = geo.cs[mat]
         p_object = (o[closer] + t[closer, None] * d[closer]) @ inverse[:3, :3].T + inverse[:3, 3]
         nw = p_object @ normal_matrix.T
         normal[closer] = nw / np.linalg.norm(nw, axis=1, keepdims=True)
@@ -451,12 +457,15 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
         best_t[closer] = t[closer]
         material[closer] = mesh.material
         tri, u, v = tri[closer], u[closer], v[closer]
-        if mesh.texture is None:
-            colour[closer] = geo.cd[mesh.material]
-        else:
+        colour[closer] = geo.cd[mesh.material]
+        specular[closer] = geo.cs[mesh.material]
+        if mesh.corner_uv is not None:
             uv = mesh.corner_uv[tri]
             st = (1.0 - u - v)[:, None] * uv[:, 0] + u[:, None] * uv[:, 1] + v[:, None] * uv[:, 2]
-            colour[closer] = sample_texture(mesh.texture, st[:, 0], st[:, 1])
+            if mesh.texture is not None:
+                colour[closer] = sample_texture(mesh.texture, st[:, 0], st[:, 1])
+            if mesh.specular_texture is not None:
+                specular[closer] = sample_texture(mesh.specular_texture, st[:, 0], st[:, 1])
         if mesh.corner_normals is None:
             nw = mesh.flat_normal[tri]
         else:
@@ -464,7 +473,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
             nw = (1.0 - u - v)[:, None] * c[:, 0] + u[:, None] * c[:, 1] + v[:, None] * c[:, 2]
             nw = nw / np.linalg.norm(nw, axis=1, keepdims=True)
         normal[closer] = nw
-    return best_t, material, normal, colour
+    return best_t, material, normal, colour, specular
 
 
 def _occluded(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray) -> np.ndarray:
@@ -555,11 +564,10 @@ def _visible_fraction(geo: _Geometry, light, p: np.ndarray, l: np.ndarray, dist:
     return (~blocked).astype(np.float64) @ weights
 
 
-def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material, cd) -> np.ndarray:
+def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material, cd, cs) -> np.ndarray:
     n = np.where((np.einsum("ij,ij->i", normal, d) > 0.0)[:, None], -normal, normal)  # face the viewer
     wo = -d
     ka, kd, ks, e = geo.ka[material], geo.kd[material], geo.ks[material], geo.exponent[material]
-    cs = geo.cs[material]
     radiance = ka[:, None] * cd * np.asarray(scene.ambient.color, dtype=np.float64)
     for light in scene.lights:
         l, dist, lc = _light_at_centre(light, p)
@@ -595,13 +603,13 @@ def _trace(geo: _Geometry, scene: Scene, settings: RenderSettings, origins, dire
     o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
-    t, material, normal, colour = _closest_hit(geo, o, d)
+    t, material, normal, colour, specular = _closest_hit(geo, o, d)
     radiance = np.empty((len(o), 3))
     radiance[:] = np.asarray(settings.background, dtype=np.float64)
     hit = np.isfinite(t)
     if hit.any():
         p = o[hit] + t[hit, None] * d[hit]
-        radiance[hit] = _shade(geo, scene, settings, p, d[hit], normal[hit], material[hit], colour[hit])
+        radiance[hit] = _shade(geo, scene, settings, p, d[hit], normal[hit], material[hit], colour[hit], specular[hit])
     return radiance
 
 
@@ -633,12 +641,15 @@ def with_half_texels(scene: Scene) -> Scene:
     images with the oracle of this scene."""
     import dataclasses
 
-    def half(material):
-        t = material.diffuse_texture
+    def half_texture(t):
         if t is None:
-            return material
-        image = np.asarray(t.image, dtype=np.float16).astype(np.float32)
-        return dataclasses.replace(material, diffuse_texture=dataclasses.replace(t, image=image))
+            return None
+        return dataclasses.replace(t, image=np.asarray(t.image, dtype=np.float16).astype(np.float32))
+
+    def half(material):
+        return dataclasses.replace(
+            material, diffuse_texture=half_texture(material.diffuse_texture), specular_texture=half_texture(material.specular_texture)
+        )
 
     return dataclasses.replace(
         scene,

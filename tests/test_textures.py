@@ -59,6 +59,8 @@ def textured_stage(
     bias=None,
     transform=None,
     phong=False,
+    inputs=("diffuseColor",),
+    specular_workflow=False,
 ):
     """A quad (two triangles as one 4-sided face) under a camera and a light, its material's
     diffuseColor from a UsdUVTexture whose st comes from a primvar reader (varname through a
@@ -116,8 +118,11 @@ def textured_stage(
     else:
         surface.CreateIdAttr("UsdPreviewSurface")
         surface.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.4)
+        if specular_workflow:
+            surface.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
         material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
-    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), output)
+    for name in inputs:
+        surface.CreateInput(name, Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), output)
     UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
     cam = UsdGeom.Camera.Define(stage, "/World/Camera")
     cam.AddTranslateOp().Set((0.1, 0.2, 4.0))
@@ -132,10 +137,10 @@ def textured_stage(
     return str(path)
 
 
-def _texture(scene):
+def _texture(scene, field="diffuse_texture"):
     (mesh,) = scene.meshes
-    assert mesh.material.diffuse_texture is not None
-    return mesh, mesh.material.diffuse_texture
+    assert getattr(mesh.material, field) is not None
+    return mesh, getattr(mesh.material, field)
 
 
 # -- the reader ---------------------------------------------------------------------------------
@@ -395,18 +400,56 @@ def test_compile_writes_the_texture_beside_the_sdl_and_povray_renders_it(tmp_pat
     np.testing.assert_allclose(summed, expected, rtol=1e-6, atol=1e-7)
 
 
-@pytest.mark.parametrize("name", ["texture_repeat", "texture_clamp"])
+@pytest.mark.parametrize("name", ["texture_repeat", "texture_clamp", "texture_specular"])
 def test_write_usd_round_trips_textures(tmp_path, name):
     from phongscene import write_usd
 
     scene = calibration.SCENES[name]()
     path = write_usd(scene, tmp_path / "scene.usda")
-    (image_file,) = tmp_path.glob("scene-texture-*.exr")  # the image, beside the layer
+    images = sorted(str(p) for p in tmp_path.glob("scene-texture-*.exr"))  # beside the layer
     back = load_usd(str(path))
     (mesh,) = back.meshes
     original = scene.meshes[0]
-    t, u = mesh.material.diffuse_texture, original.material.diffuse_texture
-    np.testing.assert_array_equal(t.image, u.image)
-    assert (t.wrap_s, t.wrap_t, t.file) == (u.wrap_s, u.wrap_t, str(image_file))
+    assert len(images) == len(original.material.textures)
+    for field in ("diffuse_texture", "specular_texture"):
+        t, u = getattr(mesh.material, field), getattr(original.material, field)
+        assert (t is None) == (u is None)
+        if u is not None:
+            np.testing.assert_array_equal(t.image, u.image)
+            assert (t.wrap_s, t.wrap_t) == (u.wrap_s, u.wrap_t) and t.file in images
     np.testing.assert_array_equal(mesh.uvs[mesh.uv_indices], original.uvs[original.uv_indices])
     assert mesh.material.diffuse_color == pytest.approx(original.material.diffuse_color)
+    assert mesh.material.specular_color == pytest.approx(original.material.specular_color)
+
+
+def test_phong_specular_color_texture(tmp_path):
+    write_png(tmp_path / "tex.png")
+    scene = load_usd(textured_stage(tmp_path / "s.usda", "tex.png", phong=True, inputs=("specularColor",), color_space="raw"))
+    mesh, texture = _texture(scene, "specular_texture")
+    assert mesh.material.diffuse_texture is None
+    np.testing.assert_allclose(texture.image, PIXELS8 / 255.0, rtol=1e-7)
+
+
+def test_preview_specular_workflow_texture_keeps_the_highlight_strength_per_texel(tmp_path):
+    from phongscene.usd import preview_to_phong
+
+    write_png(tmp_path / "tex.png")
+    path = textured_stage(tmp_path / "s.usda", "tex.png", inputs=("specularColor",), color_space="raw", specular_workflow=True)
+    mesh, texture = _texture(load_usd(path), "specular_texture")
+    m = mesh.material
+    f0 = (PIXELS8 / 255.0).reshape(-1, 3)
+    for texel, cs in zip(f0, texture.image.reshape(-1, 3)):
+        # Per texel, ks·cs is what the untextured mapping gives that texel's F0 (same exponent).
+        alone = preview_to_phong((0.18, 0.18, 0.18), 0.4, specular_color=tuple(texel), use_specular_workflow=1)
+        assert alone.exponent == pytest.approx(m.exponent)
+        np.testing.assert_allclose(m.ks * cs, alone.ks * np.asarray(alone.specular_color), rtol=1e-6)
+
+
+def test_a_specular_texture_changes_only_the_highlight():
+    scene = check(calibration.texture_specular())
+    plain_mesh = dataclasses.replace(scene.meshes[0], material=dataclasses.replace(scene.meshes[0].material, specular_texture=None))
+    plain = dataclasses.replace(scene, meshes=(plain_mesh,))
+    textured, untextured = native.render(scene), native.render(plain)
+    assert np.abs(textured - untextured).max() > 0.05
+    no_highlight = lambda s: dataclasses.replace(s, meshes=tuple(dataclasses.replace(m, material=dataclasses.replace(m.material, ks=0.0)) for m in s.meshes))  # noqa: E731
+    np.testing.assert_array_equal(native.render(no_highlight(scene)), native.render(no_highlight(plain)))

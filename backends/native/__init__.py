@@ -57,6 +57,8 @@ def _materials(models) -> list[_native.Material]:
         native = _material(m)
         if m.diffuse_texture is not None:
             native.diffuse_texture = texture_ids.setdefault(id(m.diffuse_texture), len(texture_ids))
+        if m.specular_texture is not None:
+            native.specular_texture = texture_ids.setdefault(id(m.specular_texture), len(texture_ids))
         out.append(native)
     return out
 
@@ -74,8 +76,8 @@ def texture_arrays(scene: Scene, *, half_texels: bool = False) -> dict | None:
         models.setdefault(obj.material, None)
     textures: dict[int, object] = {}
     for m in models:
-        if m.diffuse_texture is not None:
-            textures.setdefault(id(m.diffuse_texture), m.diffuse_texture)
+        for t in m.textures:  # diffuse first, as _materials numbers them
+            textures.setdefault(id(t), t)
     if not textures:
         return None
     corner_uv = [

@@ -97,8 +97,7 @@ def texture_files(scene: Scene) -> dict[str, Texture]:
     texture's image there as a half-float EXR (``write_texture_files``) before rendering."""
     out: dict[str, Texture] = {}
     for obj in (*scene.spheres, *scene.meshes):
-        t = obj.material.diffuse_texture
-        if t is not None:
+        for t in obj.material.textures:
             out.setdefault(texture_file_name(t), t)
     return out
 
@@ -420,8 +419,12 @@ class _Compiler:
         t = m.diffuse_texture
         if t is None:
             return f"pigment {{ rgb {self.vec(m.diffuse_color, m, 'diffuse_color')} }}"
+        return f"pigment {{ {self.image_map(t)} }}"
+
+    @staticmethod
+    def image_map(t: Texture, modifiers: str = "") -> str:
         once = "" if (t.wrap_s, t.wrap_t) == ("repeat", "repeat") else " once"
-        return f'pigment {{ uv_mapping image_map {{ exr "{texture_file_name(t)}" interpolate 2{once} }} }}'
+        return f'uv_mapping image_map {{ exr "{texture_file_name(t)}" interpolate 2{once}{modifiers} }}'
 
     def texture(self, m: PhongMaterial, name: str) -> str:
         self.vec(m.diffuse_color, m, "diffuse_color")  # checked also when a texture replaces it
@@ -438,8 +441,11 @@ class _Compiler:
         # (A) the average of a diffuse texture and a layered specular texture, each doubled.
         # (A texture_map entry cannot hold a layered texture inline: it is declared first.)
         layers = [f"texture {{ pigment {{ rgb 0 }} finish {{ ambient 0 diffuse 0 phong {self.num(2 * m.ks, m, 'ks')} phong_size {e} }} }}"]
-        if tuple(m.specular_color) != (1.0, 1.0, 1.0):
-            cs = self.vec(m.specular_color, m, "specular_color")
+        cs = self.vec(m.specular_color, m, "specular_color")
+        if m.specular_texture is not None:
+            # cs per point: the image as a filter layer (filter all 1: rgbf <texel, 1>, ref §16).
+            layers.append(f"texture {{ pigment {{ {self.image_map(m.specular_texture, ' filter all 1')} }} finish {{ ambient 0 diffuse 0 }} }}")
+        elif tuple(m.specular_color) != (1.0, 1.0, 1.0):
             layers.append(f"texture {{ pigment {{ rgbf <{cs[1:-1]}, 1> }} finish {{ ambient 0 diffuse 0 }} }}")
         # (B) the specular n.l of this pass's light.
         layers.append("texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }")

@@ -15,8 +15,6 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import trimesh
 from pxr import Usd, UsdGeom
@@ -192,8 +190,8 @@ def mesh(
     out = []
     for j, (source, part_material) in enumerate([(mesh_.source, material)] + [(s, m) for s, m, _ in subsets], start=-1):
         keep = part_of_tri == j
-        if mesh_.uvs is None and part_material.diffuse_texture is not None:
-            part_material = dataclasses.replace(part_material, diffuse_texture=None)  # no st: the fallback colour
+        if mesh_.uvs is None and part_material.textures:
+            part_material = part_material.without_textures()  # no st: the fallback colours
         if keep.any():
             out.append(TriangleMesh(
                 mesh_.points, mesh_.triangles[keep], mesh_.normals,
@@ -271,8 +269,8 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     if len(ctx.problems) > n_problems:
         return None
     uv_values, uv_indices = (None, None) if uvs is None else uvs
-    if uvs is None and material.diffuse_texture is not None:
-        material = dataclasses.replace(material, diffuse_texture=None)  # no st: the fallback colour
+    if uvs is None and material.textures:
+        material = material.without_textures()  # no st: the fallback colours
     world_points = _to_world(p, world)
     if normals is None:
         return TriangleMesh(world_points, triangles, material=material, source=path, uvs=uv_values, uv_indices=uv_indices), face_of_tri, len(counts)

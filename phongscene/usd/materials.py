@@ -152,22 +152,28 @@ class MaterialReader:
             return default if value is None else value
         return default
 
-    def _textured(self, material: PhongMaterial, connected) -> PhongMaterial:
-        """``material`` with the diffuse texture of ``connected`` (when its image was read)."""
-        if connected is None or connected.texture is None:
+    def _textured(self, material: PhongMaterial, diffuse, specular=None) -> PhongMaterial:
+        """``material`` with the diffuse and specular textures of ``diffuse`` and ``specular``
+        (``textures.Connected``, where their images were read)."""
+        fields = {}
+        for field, connected in (("diffuse_texture", diffuse), ("specular_texture", specular)):
+            if connected is not None and connected.texture is not None:
+                fields[field] = connected.texture
+                st = connected.st
+        if not fields:
             return material
-        textured = dataclasses.replace(material, diffuse_texture=connected.texture)
-        self.st_of[textured] = connected.st
+        textured = dataclasses.replace(material, **fields)
+        self.st_of[textured] = st  # one st per material: the specular texture's if both differ
         return textured
 
     def _phong(self, shader: UsdShade.Shader) -> PhongMaterial:
         prim = shader.GetPrim()
         values = {}
-        diffuse_texture = self.textures.connected(shader, "diffuseColor")
+        connected = {n: self.textures.connected(shader, n) for n in ("diffuseColor", "specularColor")}
         for name, (field, sdf_type) in phong_inputs().items():
             default = self.phong_defaults[name]
-            if name == "diffuseColor" and diffuse_texture is not None:
-                values[field] = diffuse_texture.fallback
+            if connected.get(name) is not None:
+                values[field] = connected[name].fallback
                 continue
             inp = shader.GetInput(name)
             found = authored_type(inp.GetAttr()) if inp else ""
@@ -182,12 +188,13 @@ class MaterialReader:
                 self.ctx.problem(
                     prim, f"inputs:{inp.GetBaseName()}", f"is not an input of {PHONG_SHADER_ID} (expected one of {', '.join(PHONG_INPUTS)})"
                 )
-        return self._textured(PhongMaterial(source=str(prim.GetPath()), **values), diffuse_texture)
+        return self._textured(PhongMaterial(source=str(prim.GetPath()), **values), connected["diffuseColor"], connected["specularColor"])
 
     def _preview(self, shader: UsdShade.Shader) -> PhongMaterial:
         prim = shader.GetPrim()
         values = {}
         diffuse_texture = self.textures.connected(shader, "diffuseColor")
+        specular_texture = self.textures.connected(shader, "specularColor")
         for name in PREVIEW_INPUTS:
             default = self.preview_defaults[name]
             if name == "diffuseColor" and diffuse_texture is not None:
@@ -195,6 +202,11 @@ class MaterialReader:
                 if diffuse_texture.texture is not None:
                     # The metallic tint of F0 takes the texture's mean colour (one cs per material).
                     value = tuple(float(c) for c in diffuse_texture.texture.image.mean(axis=(0, 1)))
+            elif name == "specularColor" and specular_texture is not None:
+                value = specular_texture.fallback
+                if specular_texture.texture is not None:
+                    # ks from the brightest texel (ks·cs stays the matched strength, ks <= 1).
+                    value = tuple(float(c) for c in specular_texture.texture.image.max(axis=(0, 1)))
             else:
                 value = self._input_value(shader, name, default)
             shape = np.shape(default)
@@ -243,7 +255,16 @@ class MaterialReader:
             source=str(prim.GetPath()),
             specular_level=specular_level,
         )
-        return self._textured(material, diffuse_texture)
+        if specular_texture is not None and specular_texture.texture is not None:
+            if int(values["useSpecularWorkflow"]):
+                # cs = strength/ks is linear in F0 = the texel: the texels are scaled by cs/F0.
+                f0 = np.asarray(values["specularColor"], dtype=np.float64)
+                c = int(np.argmax(f0))
+                factor = material.specular_color[c] / f0[c] if f0[c] > 0 else 0.0
+                specular_texture = self.textures.connected(shader, "specularColor", factor)
+            else:
+                specular_texture = None  # the metallic workflow does not read specularColor
+        return self._textured(material, diffuse_texture, specular_texture)
 
     def _display_color(self, prim: Usd.Prim) -> PhongMaterial:
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor")

@@ -100,12 +100,12 @@ def _texture_shader(stage: Usd.Stage, path: str, texture, image_file: str, fallb
 
 
 def define_phong_material(
-    stage: Usd.Stage, path: str, material: PhongMaterial = DEFAULT_MATERIAL, texture_file: str | None = None
+    stage: Usd.Stage, path: str, material: PhongMaterial = DEFAULT_MATERIAL, texture_file=None
 ) -> UsdShade.Material:
     """A Material with our Phong shader (every input authored) and a UsdPreviewSurface fallback.
-    A textured material's diffuseColor is connected to a UsdUVTexture reading ``texture_file``
-    (the image ``write_usd`` writes beside the layer)."""
-    if material.diffuse_texture is not None and texture_file is None:
+    A textured material's diffuseColor (specularColor) is connected to a UsdUVTexture reading
+    ``texture_file(texture)``, the image ``write_usd`` writes beside the layer."""
+    if material.textures and texture_file is None:
         raise ValueError("a textured material needs the file its image is written to (write_usd writes it)")
     mat = UsdShade.Material.Define(stage, path)
     phong = UsdShade.Shader.Define(stage, f"{path}/Phong")
@@ -114,8 +114,13 @@ def define_phong_material(
         value = getattr(material, field)
         phong.CreateInput(name, sdf_type).Set(Gf.Vec3f(*map(float, value)) if isinstance(value, tuple) else float(value))
     if material.diffuse_texture is not None:
-        texture = _texture_shader(stage, f"{path}/DiffuseTexture", material.diffuse_texture, texture_file, material.diffuse_color)
+        t = material.diffuse_texture
+        texture = _texture_shader(stage, f"{path}/DiffuseTexture", t, texture_file(t), material.diffuse_color)
         phong.GetInput("diffuseColor").ConnectToSource(texture.ConnectableAPI(), "rgb")
+    if material.specular_texture is not None:
+        t = material.specular_texture
+        texture = _texture_shader(stage, f"{path}/SpecularTexture", t, texture_file(t), material.specular_color)
+        phong.GetInput("specularColor").ConnectToSource(texture.ConnectableAPI(), "rgb")
     mat.CreateSurfaceOutput(PHONG_RENDER_CONTEXT).ConnectToSource(phong.ConnectableAPI(), "surface")
 
     # Preview fallback (for other tools): Lambert albedo kd·cd, and the reader's mapping
@@ -133,7 +138,8 @@ def define_phong_material(
     preview.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(float(math.sqrt(alpha)))
     if material.diffuse_texture is not None:
         albedo_texture = _texture_shader(
-            stage, f"{path}/PreviewDiffuseTexture", material.diffuse_texture, texture_file, albedo, float(material.kd)
+            stage, f"{path}/PreviewDiffuseTexture", material.diffuse_texture, texture_file(material.diffuse_texture), albedo,
+            float(material.kd),
         )
         preview.GetInput("diffuseColor").ConnectToSource(albedo_texture.ConnectableAPI(), "rgb")
     mat.CreateSurfaceOutput().ConnectToSource(preview.ConnectableAPI(), "surface")
@@ -365,8 +371,8 @@ def scene_to_stage(scene: Scene, texture_files: dict[int, str] | None = None) ->
             if known == m:
                 return usd
         source = m.source.rsplit("/", 1)[0] if m.source.endswith("/Phong") else ""
-        image = None if m.diffuse_texture is None else texture_files.get(id(m.diffuse_texture))
-        usd = define_phong_material(stage, paths.take(source, "/World/Looks", "Material"), m, image)
+        images = (lambda t: texture_files[id(t)]) if m.textures else None
+        usd = define_phong_material(stage, paths.take(source, "/World/Looks", "Material"), m, images)
         materials.append((m, usd))
         return usd
 
@@ -398,9 +404,8 @@ def write_usd(scene: Scene, path) -> Path:
     check(scene)
     path = Path(path)
     texture_files: dict[int, str] = {}
-    for obj in (*scene.spheres, *scene.meshes):
-        t = obj.material.diffuse_texture
-        if t is not None and id(t) not in texture_files:
+    for t in (t for obj in (*scene.spheres, *scene.meshes) for t in obj.material.textures):
+        if id(t) not in texture_files:
             # Beside the layer, named after it and the texels (float EXR: linear, exact).
             digest = hashlib.sha1(np.ascontiguousarray(t.image).tobytes()).hexdigest()[:12]
             name = f"{path.stem}-texture-{digest}.exr"

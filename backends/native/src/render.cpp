@@ -64,13 +64,16 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
             n = normalize(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
         }
         material = &scene.materials[size_t(sh.material)];
-        if (material->diffuse_texture >= 0) {
-            // cd from the texture at the hit's (u, v), interpolated like the normals.
+        if (material->diffuse_texture >= 0 || material->specular_texture >= 0) {
+            // cd and cs from the textures at the hit's (u, v), interpolated like the normals.
             const double* uv = scene.corner_uv.data() + 6 * size_t(scene.triangle_source[size_t(hit.ref)]);
             const double u = uv[0] * hit.bary.b0 + uv[2] * hit.bary.b1 + uv[4] * hit.bary.b2;
             const double v = uv[1] * hit.bary.b0 + uv[3] * hit.bary.b1 + uv[5] * hit.bary.b2;
             textured = *material;
-            textured.diffuse_color = scene.textures[size_t(material->diffuse_texture)].lookup(u, v);
+            if (material->diffuse_texture >= 0)
+                textured.diffuse_color = scene.textures[size_t(material->diffuse_texture)].lookup(u, v);
+            if (material->specular_texture >= 0)
+                textured.specular_color = scene.textures[size_t(material->specular_texture)].lookup(u, v);
             material = &textured;
         }
     }
