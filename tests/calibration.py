@@ -469,15 +469,15 @@ def texture_repeat() -> Scene:
 
 
 def texture_clamp() -> Scene:
-    """Clamp along u and mirror along v with uvs inside [0, 1] (where POV-Ray's ``once`` is both):
-    the edge texels extend to the quad's border."""
+    """Clamp along u and mirror along v with uvs inside [0, 1]: the edge texels extend to the
+    quad's border (POV-Ray: ``once``, no tiling needed)."""
     scene = point_light()
     return dataclasses.replace(scene, meshes=(textured_quad(checker_texture("clamp", "mirror"), 0.0, 0.9),))
 
 
 @functools.cache
 def _specular_checker() -> Texture:
-    return Texture(checker_texture(seed=11).image * 2.0, "repeat", "repeat", source="/Looks/Checker/Specular")
+    return Texture(checker_texture(seed=11).image * 3.0, "repeat", "repeat", source="/Looks/Checker/Specular")
 
 
 def texture_specular() -> Scene:
@@ -485,7 +485,7 @@ def texture_specular() -> Scene:
     (the exact mapping's per-light passes each carry the cs filter layer)."""
     scene = shadows_two_lights()
     quad = textured_quad(checker_texture(), -0.6, 1.7)
-    material = dataclasses.replace(quad.material, specular_texture=_specular_checker(), ks=0.5, exponent=8.0)
+    material = dataclasses.replace(quad.material, specular_texture=_specular_checker(), ks=0.9, exponent=3.0)
     return dataclasses.replace(scene, meshes=(dataclasses.replace(quad, material=material),))
 
 

@@ -453,3 +453,41 @@ def test_a_specular_texture_changes_only_the_highlight():
     assert np.abs(textured - untextured).max() > 0.05
     no_highlight = lambda s: dataclasses.replace(s, meshes=tuple(dataclasses.replace(m, material=dataclasses.replace(m.material, ks=0.0)) for m in s.meshes))  # noqa: E731
     np.testing.assert_array_equal(native.render(no_highlight(scene)), native.render(no_highlight(plain)))
+
+
+def _wrap_scene(wrap_s, wrap_t):
+    scene = calibration.point_light()
+    quad = calibration.textured_quad(calibration.checker_texture(wrap_s, wrap_t), -2.3, 3.1)
+    return check(dataclasses.replace(scene, meshes=(quad,), settings=dataclasses.replace(scene.settings, width=40, height=30)))
+
+
+WRAP_PAIRS = [(s, t) for s in ("repeat", "clamp", "mirror", "black") for t in ("repeat", "clamp", "mirror", "black")]
+
+
+@pytest.mark.povray
+def test_every_wrap_mode_agrees_on_both_backends_beyond_the_unit_square():
+    # uvs from -2.3 to 3.1: POV-Ray gets each image tiled over the uvs' integer box by its own
+    # rules, with the uvs mapped into [0, 1]² (compile.UvFrame); one POV-Ray run for all 16.
+    from phongscene import compare
+    from phongscene.backends import povray
+
+    scenes = [_wrap_scene(*pair) for pair in WRAP_PAIRS]
+    images = povray.render_many([(s, None, None) for s in scenes])
+    for pair, scene, b in zip(WRAP_PAIRS, scenes, images):
+        a = native.render(scene, dataclasses.replace(scene.settings, numerics="povray"))
+        report = compare(a, b)
+        assert report.ok, (pair, report)
+
+
+def test_uv_frame_tiles_by_each_axis_rule():
+    from phongscene.backends.povray.compile import UvFrame
+
+    t = dataclasses.replace(calibration.checker_texture(), wrap_s="mirror", wrap_t="black")
+    frame = UvFrame(u0=-1, ku=3, v0=0, kv=2)
+    tiled = frame.tile(t)
+    assert tiled.shape == (2 * t.height, 3 * t.width, 3)
+    # The image itself sits in the tile u in [0, 1] (the middle column), v in [0, 1] (the bottom row).
+    np.testing.assert_array_equal(tiled[t.height :, t.width : 2 * t.width], t.image)
+    np.testing.assert_array_equal(tiled[: t.height], 0.0)  # black above v = 1
+    np.testing.assert_array_equal(tiled[t.height :, : t.width], t.image[:, ::-1])  # mirrored left of u = 0
+    np.testing.assert_allclose(frame.apply(np.array([[-1.0, 0.0], [2.0, 2.0]])), [[0, 0], [1, 1]])

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -84,22 +85,91 @@ LAMBERT_SPOTLIGHT = "spotlight radius 90 falloff 90 tightness 1"
 _COMMENT_SAFE = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789/_.:-[]<>(), =+@")
 
 
-def texture_file_name(texture: Texture) -> str:
-    """The file name a texture's image is written to beside the SDL: from a hash of its texels,
-    so that it is deterministic, and scenes batched into one run share equal images."""
-    digest = hashlib.sha1(np.ascontiguousarray(texture.image).tobytes())
-    digest.update(repr(texture.image.shape).encode("ascii"))
+# The wrap rules as numpy pad modes: the image extended by whole tiles is exactly what the rule
+# samples there (np.pad "symmetric" repeats the edge texel: a mirror about the image edge).
+PAD_MODES = {"repeat": "wrap", "clamp": "edge", "mirror": "symmetric", "black": "constant"}
+# The most texels a texture may grow to when it is tiled to cover the scene's uvs (below):
+# 2^26 (400 MB as a half RGB EXR). Beyond, POV-Ray samples the image itself with ``once``.
+MAX_TILED_TEXELS = 2**26
+
+
+@dataclass(frozen=True)
+class UvFrame:
+    """How the SDL's uvs and images relate to the model's. POV-Ray has only repeat and ``once``
+    (clamp inside [0, 1]², clear outside, ref §16); every USD wrap rule, per axis, is exact in
+    POV-Ray when each image is extended by whole tiles over [u0, u0 + ku] × [v0, v0 + kv], the
+    integer-aligned box around every textured uv, by its own rules (PAD_MODES), the uvs are
+    mapped into [0, 1]² by u' = (u − u0)/ku, v' = (v − v0)/kv, and ``once`` clamps at the outer
+    edge (the half texel there, where the extended image's own rule and a clamp agree). The
+    bilinear lookup between texel centres is unchanged by this (the map is affine, so it commutes
+    with the barycentric interpolation of the uvs). The identity frame (no tiling, no ``once``)
+    when every texture repeats on both axes."""
+
+    u0: int = 0
+    ku: int = 1
+    v0: int = 0
+    kv: int = 1
+
+    @property
+    def identity(self) -> bool:
+        return (self.u0, self.ku, self.v0, self.kv) == (0, 1, 0, 1)
+
+    def apply(self, uvs: np.ndarray) -> np.ndarray:
+        return (uvs - (self.u0, self.v0)) / (self.ku, self.kv) if not self.identity else uvs
+
+    def tile(self, texture: Texture) -> np.ndarray:
+        """The texture's image extended over the frame's tiles by its own wrap rules."""
+        h, w = texture.height, texture.width
+        # Rows run down from v0 + kv (the top) to v0; the image itself is the tile [0, 1]².
+        rows = ((self.v0 + self.kv - 1) * h, -self.v0 * h)
+        cols = (-self.u0 * w, (self.u0 + self.ku - 1) * w)
+        image = np.pad(texture.image, (rows, (0, 0), (0, 0)), mode=PAD_MODES[texture.wrap_t])
+        return np.pad(image, ((0, 0), cols, (0, 0)), mode=PAD_MODES[texture.wrap_s])
+
+
+def uv_frame(scene: Scene) -> UvFrame:
+    """The scene's UvFrame: identity if every texture repeats (or none is used), else the
+    box around every textured mesh's uvs, unless a tiled image would exceed MAX_TILED_TEXELS
+    (then identity: POV-Ray's ``once`` is exact inside [0, 1]² only)."""
+    textured = [m for m in scene.meshes if m.material.textures and m.uvs is not None and len(m.triangles)]
+    textures = {id(t): t for m in (*scene.spheres, *scene.meshes) for t in m.material.textures}
+    if all((t.wrap_s, t.wrap_t) == ("repeat", "repeat") for t in textures.values()) or not textured:
+        return UvFrame()
+    used = np.concatenate([m.uvs[np.unique(m.uv_indices)] for m in textured])
+    with np.errstate(over="ignore", invalid="ignore"):
+        lo, hi = np.floor(used.min(axis=0)), np.ceil(used.max(axis=0))
+        k = np.maximum(hi - lo, 1.0)
+        largest = max((t.width * t.height for t in textures.values()), default=0)
+        if not (np.all(np.isfinite(k)) and float(k[0] * k[1]) * largest <= MAX_TILED_TEXELS):
+            return UvFrame()
+    return UvFrame(int(lo[0]), int(k[0]), int(lo[1]), int(k[1]))
+
+
+def texture_file_name(image: np.ndarray) -> str:
+    """The file name an image is written to beside the SDL: from a hash of its texels, so that
+    it is deterministic, and scenes batched into one run share equal images."""
+    digest = hashlib.sha1(np.ascontiguousarray(image).tobytes())
+    digest.update(repr(image.shape).encode("ascii"))
     return f"phongscene-texture-{digest.hexdigest()[:16]}.exr"
 
 
-def texture_files(scene: Scene) -> dict[str, Texture]:
-    """The image files the SDL of ``scene`` reads (``image_map``), by file name: write each
-    texture's image there as a half-float EXR (``write_texture_files``) before rendering."""
-    out: dict[str, Texture] = {}
+def pov_images(scene: Scene) -> tuple[UvFrame, dict[int, tuple[str, np.ndarray]]]:
+    """The scene's UvFrame and, by ``id(texture)``, the file name and image POV-Ray reads for
+    each texture (tiled over the frame)."""
+    frame = uv_frame(scene)
+    out: dict[int, tuple[str, np.ndarray]] = {}
     for obj in (*scene.spheres, *scene.meshes):
         for t in obj.material.textures:
-            out.setdefault(texture_file_name(t), t)
-    return out
+            if id(t) not in out:
+                image = t.image if frame.identity else frame.tile(t)
+                out[id(t)] = (texture_file_name(image), image)
+    return frame, out
+
+
+def texture_files(scene: Scene) -> dict[str, np.ndarray]:
+    """The image files the SDL of ``scene`` reads (``image_map``), by file name: write each
+    image there as a half-float EXR (``PovJob.write_textures``) before rendering."""
+    return dict(pov_images(scene)[1].values())
 
 
 def sanitize_comment(text: str) -> str:
@@ -210,6 +280,7 @@ class _Compiler:
         # scaling the inverse-square fade: computed once, not once per light and pass.
         with np.errstate(over="ignore", invalid="ignore"):
             self.bounds = scene.bounds()
+        self.uv_frame, self.images = pov_images(scene)
 
     # -- numbers, with the prim named when one is not finite ---------------------------------
 
@@ -421,10 +492,11 @@ class _Compiler:
             return f"pigment {{ rgb {self.vec(m.diffuse_color, m, 'diffuse_color')} }}"
         return f"pigment {{ {self.image_map(t)} }}"
 
-    @staticmethod
-    def image_map(t: Texture, modifiers: str = "") -> str:
-        once = "" if (t.wrap_s, t.wrap_t) == ("repeat", "repeat") else " once"
-        return f'uv_mapping image_map {{ exr "{texture_file_name(t)}" interpolate 2{once}{modifiers} }}'
+    def image_map(self, t: Texture, modifiers: str = "") -> str:
+        """The texture's image map (see UvFrame): ``once`` unless the image simply repeats."""
+        once = "" if self.uv_frame.identity and (t.wrap_s, t.wrap_t) == ("repeat", "repeat") else " once"
+        name = self.images[id(t)][0]
+        return f'uv_mapping image_map {{ exr "{name}" interpolate 2{once}{modifiers} }}'
 
     def texture(self, m: PhongMaterial, name: str) -> str:
         self.vec(m.diffuse_color, m, "diffuse_color")  # checked also when a texture replaces it
@@ -495,7 +567,7 @@ class _Compiler:
             out.append(f"  normal_vectors {{ {len(mesh.normals)},\n{normals}\n  }}")
         if mesh.uvs is not None:
             try:
-                uvs = ",\n".join(f"<{sdl_float(u)}, {sdl_float(v)}>" for u, v in mesh.uvs)
+                uvs = ",\n".join(f"<{sdl_float(u)}, {sdl_float(v)}>" for u, v in self.uv_frame.apply(mesh.uvs))
             except NonFiniteNumber as e:
                 raise self._error(mesh, "uvs", f"cannot be written to mesh2: {e}") from None
             out.append(f"  uv_vectors {{ {len(mesh.uvs)},\n{uvs}\n  }}")

@@ -28,7 +28,7 @@ import numpy as np
 
 from phongscene.errors import BackendError, PhongSceneError
 from phongscene.images import read_image, write_image
-from phongscene.scene import RenderSettings, Scene, Texture
+from phongscene.scene import RenderSettings, Scene
 
 from .compile import compile_body, compile_pov, pass_count, resolve_mapping, texture_files
 
@@ -55,11 +55,11 @@ class PovJob:
     supersample: int  # "grid" anti-aliasing: average supersample² blocks (1 = none)
     switches: tuple[str, ...]  # everything except input, output and frames
     # The image files the SDL reads, by file name: written beside it (write_textures).
-    textures: tuple[tuple[str, Texture], ...] = ()
+    textures: tuple[tuple[str, np.ndarray], ...] = ()
 
     def write_textures(self, directory: str | os.PathLike) -> list[Path]:
-        """Write each texture beside the SDL as the half-float EXR it names (atomically)."""
-        return [write_image(Path(directory) / name, t.image, half=True) for name, t in self.textures]
+        """Write each image the SDL reads beside it as the half-float EXR it names (atomically)."""
+        return [write_image(Path(directory) / name, image, half=True) for name, image in self.textures]
 
     def frame_switches(self) -> tuple[str, ...]:
         return ("+KFI0", f"+KFF{self.frames - 1}") if self.frames > 1 else ()
