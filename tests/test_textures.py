@@ -77,7 +77,7 @@ def textured_stage(
     corners = [(-0.25, -0.5), (1.5, -0.25), (1.25, 1.5), (-0.5, 1.25)]
     if interpolation == "faceVarying":
         st.Set([corners[i] for i in (0, 1, 2, 3)])
-    elif interpolation == "vertex":
+    elif interpolation in ("vertex", "varying"):
         st.Set(corners)
         st.SetIndices([0, 1, 2, 3])  # indexed: exercises the indices path
     else:  # uniform / constant: one value
@@ -182,7 +182,7 @@ def test_alpha_output_of_an_rgb_image_is_one(tmp_path):
     assert np.all(texture.image == 1.0)
 
 
-@pytest.mark.parametrize("interpolation", ["faceVarying", "vertex", "uniform", "constant"])
+@pytest.mark.parametrize("interpolation", ["faceVarying", "vertex", "varying", "uniform", "constant"])
 def test_st_of_every_interpolation(tmp_path, interpolation):
     write_png(tmp_path / "tex.png")
     mesh, _ = _texture(load_usd(textured_stage(tmp_path / "s.usda", "tex.png", interpolation=interpolation)))
@@ -190,7 +190,8 @@ def test_st_of_every_interpolation(tmp_path, interpolation):
     corner_of_point = {(-1, -1): (-0.25, -0.5), (1, -1): (1.5, -0.25), (1, 1): (1.25, 1.5), (-1, 1): (-0.5, 1.25)}
     for tri, uvs in zip(mesh.triangles, corner_uv):
         for point, uv in zip(mesh.points[tri], uvs):
-            expected = corner_of_point[(int(point[0]), int(point[1]))] if interpolation in ("faceVarying", "vertex") else (0.3, 0.6)
+            per_point = interpolation in ("faceVarying", "vertex", "varying")
+            expected = corner_of_point[(int(point[0]), int(point[1]))] if per_point else (0.3, 0.6)
             np.testing.assert_allclose(uv, expected, rtol=1e-7)
 
 
@@ -491,3 +492,48 @@ def test_uv_frame_tiles_by_each_axis_rule():
     np.testing.assert_array_equal(tiled[: t.height], 0.0)  # black above v = 1
     np.testing.assert_array_equal(tiled[t.height :, : t.width], t.image[:, ::-1])  # mirrored left of u = 0
     np.testing.assert_allclose(frame.apply(np.array([[-1.0, 0.0], [2.0, 2.0]])), [[0, 0], [1, 1]])
+
+
+def test_use_metadata_takes_the_files_wrap_modes(tmp_path):
+    values = np.random.default_rng(5).uniform(0, 1, (2, 3, 3)).astype(np.float32)
+    buf = oiio.ImageBuf(values)
+    buf.specmod().attribute("wrapmodes", "clamp,mirror")
+    assert buf.write(str(tmp_path / "tex.exr"), "float")
+    _, texture = _texture(load_usd(textured_stage(tmp_path / "s.usda", "tex.exr", wrap=("useMetadata", "useMetadata"))))
+    assert (texture.wrap_s, texture.wrap_t) == ("clamp", "mirror")
+    # Without the file's modes, useMetadata is black (the UsdUVTexture spec).
+    assert oiio.ImageBuf(values).write(str(tmp_path / "plain.exr"), "float")
+    _, texture = _texture(load_usd(textured_stage(tmp_path / "p.usda", "plain.exr", wrap=("useMetadata", "repeat"))))
+    assert (texture.wrap_s, texture.wrap_t) == ("black", "repeat")
+
+
+def test_textured_mesh_without_its_st_primvar_and_sphere_use_the_fallback(tmp_path):
+    write_png(tmp_path / "tex.png")
+    path = textured_stage(tmp_path / "s.usda", "tex.png")
+    stage = Usd.Stage.Open(path)
+    UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/World/Quad")).RemovePrimvar("st")
+    sphere = UsdGeom.Sphere.Define(stage, "/World/Ball")
+    UsdShade.MaterialBindingAPI.Apply(sphere.GetPrim()).Bind(UsdShade.Material(stage.GetPrimAtPath("/World/Looks/Mat")))
+    stage.GetRootLayer().Save()
+    from phongscene.usd import read_usd
+
+    result = read_usd(path)
+    assert all(not m.material.textures for m in (*result.scene.meshes, *result.scene.spheres))
+    assert any("without their st primvar" in w and "/World/Quad" in w for w in result.warnings)
+    assert any("without texture coordinates" in w and "/World/Ball" in w for w in result.warnings)
+    assert not validate(result.scene)
+
+
+def test_unreadable_image_is_a_warning_and_non_finite_texels_an_error(tmp_path):
+    from phongscene.errors import SceneError
+    from phongscene.usd import read_usd
+
+    (tmp_path / "bad.png").write_bytes(b"\x89PNG\r\n\x1a\nnot a png")
+    result = read_usd(textured_stage(tmp_path / "s.usda", "bad.png"))
+    assert not result.scene.meshes[0].material.textures
+    assert any("/World/Looks/Mat/Texture.inputs:file: cannot read" in w and "fallback" in w for w in result.warnings)
+    values = np.ones((2, 2, 3), np.float32)
+    values[0, 1, 2] = np.nan
+    assert oiio.ImageBuf(values).write(str(tmp_path / "nan.exr"), "float")
+    with pytest.raises(SceneError, match=r"/World/Looks/Mat/Texture\.inputs:file: .*nan\.exr: 1 texel values are not finite"):
+        load_usd(textured_stage(tmp_path / "n.usda", "nan.exr"))

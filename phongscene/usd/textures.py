@@ -127,6 +127,10 @@ class TextureReader:
         if decoded is None:
             return Connected(None, value, st)
         pixels, eight_bit, file_wraps = decoded
+        if not np.all(np.isfinite(pixels)):
+            bad = int(np.count_nonzero(~np.isfinite(pixels)))
+            self.ctx.problem(prim, "inputs:file", f"{resolved}: {bad} texel values are not finite")
+            return Connected(None, value, st)
         space = str(_value(tex_shader.GetInput("sourceColorSpace"), time, "auto"))
         if space not in ("auto", "raw", "sRGB"):
             self.ctx.problem(prim, "inputs:sourceColorSpace", f"must be auto, raw or sRGB, got {space!r}")
@@ -207,7 +211,8 @@ class TextureReader:
 def _read(path: str) -> tuple[np.ndarray, bool, str]:
     buf = ImageBuf(path)
     if not buf.read(force=True) or buf.has_error:
-        raise OSError(buf.geterror().strip().splitlines()[0] if buf.geterror().strip() else "OpenImageIO cannot read it")
+        error = buf.geterror().strip()  # (retrieving it clears it)
+        raise OSError(error.splitlines()[0] if error else "OpenImageIO cannot read it")
     spec = buf.spec()
     pixels = buf.get_pixels(oiio.TypeFloat)
     if pixels is None:
