@@ -537,3 +537,25 @@ def test_unreadable_image_is_a_warning_and_non_finite_texels_an_error(tmp_path):
     assert oiio.ImageBuf(values).write(str(tmp_path / "nan.exr"), "float")
     with pytest.raises(SceneError, match=r"/World/Looks/Mat/Texture\.inputs:file: .*nan\.exr: 1 texel values are not finite"):
         load_usd(textured_stage(tmp_path / "n.usda", "nan.exr"))
+
+
+def test_preview_metallic_texture_is_the_mapping_per_texel(tmp_path):
+    from phongscene.usd import preview_to_phong
+
+    write_png(tmp_path / "tex.png")
+    path = textured_stage(tmp_path / "s.usda", "tex.png", inputs=(), output="g", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    surface = UsdShade.Shader(stage.GetPrimAtPath("/World/Looks/Mat/Surface"))
+    texture = UsdShade.Shader(stage.GetPrimAtPath("/World/Looks/Mat/Texture"))
+    surface.CreateInput("metallic", Sdf.ValueTypeNames.Float).ConnectToSource(texture.ConnectableAPI(), "g")
+    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set((0.9, 0.5, 0.2))
+    stage.GetRootLayer().Save()
+    (mesh,) = load_usd(path).meshes
+    m = mesh.material
+    metallic = (PIXELS8[:, :, 1] / 255.0).reshape(-1)
+    cd, cs = m.diffuse_texture.image.reshape(-1, 3), m.specular_texture.image.reshape(-1, 3)
+    for k, metal in enumerate(metallic):
+        alone = preview_to_phong((0.9, 0.5, 0.2), 0.4, metallic=float(metal))
+        np.testing.assert_allclose(cd[k], alone.diffuse_color, rtol=1e-6, atol=1e-7)
+        np.testing.assert_allclose(m.ks * cs[k], alone.ks * np.asarray(alone.specular_color), rtol=1e-6)
+        assert alone.exponent == pytest.approx(m.exponent)

@@ -9,7 +9,7 @@ import dataclasses
 import numpy as np
 from pxr import Sdf, Sdr, Usd, UsdGeom, UsdShade
 
-from ..scene import DEFAULT_MATERIAL, PhongMaterial
+from ..scene import DEFAULT_MATERIAL, PhongMaterial, Texture
 from .context import ReadContext, authored_type
 from .names import COLOR_TYPES, PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
 from .shader_defs import phong_input_defaults, phong_inputs
@@ -195,9 +195,14 @@ class MaterialReader:
         values = {}
         diffuse_texture = self.textures.connected(shader, "diffuseColor")
         specular_texture = self.textures.connected(shader, "specularColor")
+        metallic_texture = self.textures.connected(shader, "metallic")
         for name in PREVIEW_INPUTS:
             default = self.preview_defaults[name]
-            if name == "diffuseColor" and diffuse_texture is not None:
+            if name == "metallic" and metallic_texture is not None:
+                value = metallic_texture.fallback[0]
+                if metallic_texture.texture is not None:  # the mean, where one value stands for all
+                    value = float(np.clip(metallic_texture.texture.image[..., 0], 0.0, 1.0).mean())
+            elif name == "diffuseColor" and diffuse_texture is not None:
                 value = diffuse_texture.fallback
                 if diffuse_texture.texture is not None:
                     # The metallic tint of F0 takes the texture's mean colour (one cs per material).
@@ -255,6 +260,13 @@ class MaterialReader:
             source=str(prim.GetPath()),
             specular_level=specular_level,
         )
+        metal = None if metallic_texture is None else metallic_texture.texture
+        if metal is not None and not int(values["useSpecularWorkflow"]):
+            if diffuse_texture is None or diffuse_texture.texture is None:
+                return self._metallic_textured(material, metallic_texture, values, specular_level)
+            self.ctx.unsupported["textured metallic over a textured diffuseColor (the mean metallic is used)"].append(
+                str(prim.GetPath())
+            )
         if specular_texture is not None and specular_texture.texture is not None:
             if int(values["useSpecularWorkflow"]):
                 # cs = strength/ks is linear in F0 = the texel: the texels are scaled by cs/F0.
@@ -265,6 +277,38 @@ class MaterialReader:
             else:
                 specular_texture = None  # the metallic workflow does not read specularColor
         return self._textured(material, diffuse_texture, specular_texture)
+
+    def _metallic_textured(self, material: PhongMaterial, connected, values: dict, specular_level: float) -> PhongMaterial:
+        """A UsdPreviewSurface with a textured metallic m (and a constant diffuseColor): the
+        mapping's diffuse colour cd·(1 − m) and highlight strength ks·cs (F0 = (1 − m)·F0_ior +
+        m·cd, times a factor of the roughness) are both linear in m, so they are two textures,
+        each the blend of the mapping at m = 0 and m = 1 (preview_to_phong) by the texel's m."""
+        metal = connected.texture
+        ends = [
+            preview_to_phong(
+                tuple(values["diffuseColor"]), float(values["roughness"]), m, ior=float(values["ior"]),
+                source=material.source, specular_level=specular_level,
+            )
+            for m in (0.0, 1.0)
+        ]
+        m = np.clip(metal.image[..., :1].astype(np.float64), 0.0, 1.0)
+        diffuse = [np.asarray(p.diffuse_color) for p in ends]
+        strength = [np.asarray(p.specular_color) * p.ks for p in ends]
+        diffuse_image = diffuse[0] + m * (diffuse[1] - diffuse[0])
+        strength_image = strength[0] + m * (strength[1] - strength[0])
+        ks = float(min(1.0, strength_image.max()))
+        cs_image = strength_image / ks if ks > 0 else np.ones_like(strength_image)
+        fallback_cs = np.asarray(material.specular_color) * material.ks / ks if ks > 0 else np.ones(3)
+
+        def texture(image):
+            return Texture(image.astype(np.float32), metal.wrap_s, metal.wrap_t, source=metal.source, file=metal.file)
+
+        textured = dataclasses.replace(
+            material, ks=ks, specular_color=tuple(float(c) for c in fallback_cs),
+            diffuse_texture=texture(diffuse_image), specular_texture=texture(cs_image),
+        )
+        self.st_of[textured] = connected.st
+        return textured
 
     def _display_color(self, prim: Usd.Prim) -> PhongMaterial:
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor")
