@@ -559,3 +559,20 @@ def test_preview_metallic_texture_is_the_mapping_per_texel(tmp_path):
         np.testing.assert_allclose(cd[k], alone.diffuse_color, rtol=1e-6, atol=1e-7)
         np.testing.assert_allclose(m.ks * cs[k], alone.ks * np.asarray(alone.specular_color), rtol=1e-6)
         assert alone.exponent == pytest.approx(m.exponent)
+
+
+def test_phong_ks_texture_is_a_highlight_colour_texture(tmp_path):
+    write_png(tmp_path / "tex.png")
+    path = textured_stage(tmp_path / "s.usda", "tex.png", phong=True, inputs=(), output="b", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    surface = UsdShade.Shader(stage.GetPrimAtPath("/World/Looks/Mat/Surface"))
+    texture = UsdShade.Shader(stage.GetPrimAtPath("/World/Looks/Mat/Texture"))
+    surface.CreateInput("ks", Sdf.ValueTypeNames.Float).ConnectToSource(texture.ConnectableAPI(), "b")
+    surface.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set((0.5, 1.0, 2.0))
+    stage.GetRootLayer().Save()
+    (mesh,) = load_usd(path).meshes
+    m = mesh.material
+    ks = PIXELS8[:, :, 2] / 255.0
+    assert m.ks == pytest.approx(ks.max())
+    # ks·cs per texel is the texel's ks times the authored cs.
+    np.testing.assert_allclose(m.ks * m.specular_texture.image, ks[:, :, None] * (0.5, 1.0, 2.0), rtol=1e-6)

@@ -13,7 +13,7 @@ from ..scene import DEFAULT_MATERIAL, PhongMaterial, Texture
 from .context import ReadContext, authored_type
 from .names import COLOR_TYPES, PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
 from .shader_defs import phong_input_defaults, phong_inputs
-from .textures import StSource, TextureReader
+from .textures import Connected, StSource, TextureReader
 
 PREVIEW_SHADER_ID = "UsdPreviewSurface"
 # Highest Phong exponent produced from a UsdPreviewSurface: e = 1/(2α²) − 2 reaches 1e6 at
@@ -169,11 +169,12 @@ class MaterialReader:
     def _phong(self, shader: UsdShade.Shader) -> PhongMaterial:
         prim = shader.GetPrim()
         values = {}
-        connected = {n: self.textures.connected(shader, n) for n in ("diffuseColor", "specularColor")}
+        connected = {n: self.textures.connected(shader, n) for n in ("diffuseColor", "specularColor", "ks")}
         for name, (field, sdf_type) in phong_inputs().items():
             default = self.phong_defaults[name]
             if connected.get(name) is not None:
-                values[field] = connected[name].fallback
+                fallback = connected[name].fallback
+                values[field] = fallback if isinstance(default, tuple) else fallback[0]
                 continue
             inp = shader.GetInput(name)
             found = authored_type(inp.GetAttr()) if inp else ""
@@ -188,7 +189,25 @@ class MaterialReader:
                 self.ctx.problem(
                     prim, f"inputs:{inp.GetBaseName()}", f"is not an input of {PHONG_SHADER_ID} (expected one of {', '.join(PHONG_INPUTS)})"
                 )
-        return self._textured(PhongMaterial(source=str(prim.GetPath()), **values), connected["diffuseColor"], connected["specularColor"])
+        material = PhongMaterial(source=str(prim.GetPath()), **values)
+        specular = connected["specularColor"]
+        ks = connected["ks"]
+        if ks is not None and ks.texture is not None:
+            if specular is not None and specular.texture is not None:
+                self.ctx.unsupported["textured ks over a textured specularColor (ks's fallback is used)"].append(str(prim.GetPath()))
+            else:
+                # The highlight is ks·cs: a textured ks with a constant cs is the texture
+                # cs·ks(x)/max ks under ks = max ks (the same product at every point).
+                k = ks.texture.image[..., :1].astype(np.float64)
+                if k.min() < 0 or k.max() > 1:
+                    self.ctx.warn(f"{ks.texture.source}: ks texels outside [0, 1] (clipped)")
+                    k = np.clip(k, 0.0, 1.0)
+                top = float(k.max())
+                image = np.asarray(material.specular_color) * (k / top if top > 0 else k)
+                cs = Texture(image.astype(np.float32), ks.texture.wrap_s, ks.texture.wrap_t, source=ks.texture.source, file=ks.texture.file)
+                material = dataclasses.replace(material, ks=top)
+                specular = Connected(cs, material.specular_color, ks.st)
+        return self._textured(material, connected["diffuseColor"], specular)
 
     def _preview(self, shader: UsdShade.Shader) -> PhongMaterial:
         prim = shader.GetPrim()
