@@ -61,9 +61,9 @@ using Index1 = In<int32_t, nb::shape<-1>>;
 std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_object,
                                          const Matrices& sphere_object_from_world, const Index1& sphere_material,
                                          const Rows3& points, const Index3& triangles, const Index1& triangle_material,
-                                         const Index1& triangle_mesh, const Rows3& normals, const Index3& normal_indices,
+                                         const Index1& triangle_mesh, const Rows3& mesh_origins, const Rows3& normals, const Index3& normal_indices,
                                          std::vector<phong::Material> materials, std::vector<phong::Light> lights,
-                                         const phong::RGB& ambient) {
+                                         const phong::RGB& ambient, bool povray_triangles) {
     const size_t n_spheres = sphere_world_from_object.shape(0), n_triangles = triangles.shape(0);
     if (sphere_object_from_world.shape(0) != n_spheres || sphere_material.shape(0) != n_spheres)
         throw std::invalid_argument("sphere arrays differ in length");
@@ -80,6 +80,9 @@ std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_objec
     a.triangles = triangles.data();
     a.triangle_material = triangle_material.data();
     a.triangle_mesh = triangle_mesh.data();
+    a.mesh_origins = mesh_origins.data();
+    a.mesh_count = mesh_origins.shape(0);
+    a.povray_triangles = povray_triangles;
     a.normal_indices = normal_indices.data();
     a.triangle_count = n_triangles;
     a.normals = normals.data();
@@ -323,18 +326,21 @@ NB_MODULE(_native, m) {
     nb::class_<phong::Scene>(m, "Scene", "Geometry from flat arrays, materials and lights, with the BVH.")
         .def("__init__",
              [](phong::Scene* self, const Matrices& swo, const Matrices& sow, const Index1& smat, const Rows3& points,
-                const Index3& triangles, const Index1& tmat, const Index1& tmesh, const Rows3& normals,
-                const Index3& nidx,
-                std::vector<phong::Material> materials, std::vector<phong::Light> lights, const phong::RGB& ambient) {
-                 std::unique_ptr<phong::Scene> built = make_scene(swo, sow, smat, points, triangles, tmat, tmesh, normals,
-                                                                  nidx, std::move(materials), std::move(lights),
-                                                                  ambient);
+                const Index3& triangles, const Index1& tmat, const Index1& tmesh, const Rows3& origins,
+                const Rows3& normals, const Index3& nidx,
+                std::vector<phong::Material> materials, std::vector<phong::Light> lights, const phong::RGB& ambient,
+                bool povray_triangles) {
+                 std::unique_ptr<phong::Scene> built =
+                     make_scene(swo, sow, smat, points, triangles, tmat, tmesh, origins, normals, nidx,
+                                std::move(materials), std::move(lights), ambient, povray_triangles);
                  new (self) phong::Scene(std::move(*built));
              },
              "sphere_world_from_object"_a, "sphere_object_from_world"_a, "sphere_material"_a, "points"_a,
-             "triangles"_a, "triangle_material"_a, "triangle_mesh"_a, "normals"_a, "normal_indices"_a, "materials"_a, "lights"_a,
-             "ambient"_a,
-             "Materials are indexed by sphere_material and triangle_material; lights are summed in list order.")
+             "triangles"_a, "triangle_material"_a, "triangle_mesh"_a, "mesh_origins"_a, "normals"_a,
+             "normal_indices"_a, "materials"_a, "lights"_a, "ambient"_a, "povray_triangles"_a = false,
+             "Materials are indexed by sphere_material and triangle_material; lights are summed in list order. "
+             "triangle_mesh and mesh_origins say which mesh (POV-Ray object) a triangle belongs to and its "
+             "frame; with povray_triangles, triangles are tested as POV-Ray's mesh2 tests them.")
         .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
              "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and specular_texture, and the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order.")
