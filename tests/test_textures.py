@@ -483,15 +483,17 @@ def test_every_wrap_mode_agrees_on_both_backends_beyond_the_unit_square():
 def test_uv_frame_tiles_by_each_axis_rule():
     from phongscene.backends.povray.compile import UvFrame
 
-    t = dataclasses.replace(calibration.checker_texture(), wrap_s="mirror", wrap_t="black")
-    frame = UvFrame(u0=-1, ku=3, v0=0, kv=2)
+    t = dataclasses.replace(calibration.checker_texture(), wrap_s="mirror", wrap_t="black")  # 5 x 3
+    # u in [-1, 2] (whole tiles, g_u = 1); v in [-1/3, 4/3] (g_v = 3: one texel row below and above).
+    frame = UvFrame(g_u=1, lo_u=-1, n_u=3, g_v=3, lo_v=-1, n_v=5)
     tiled = frame.tile(t)
-    assert tiled.shape == (2 * t.height, 3 * t.width, 3)
-    # The image itself sits in the tile u in [0, 1] (the middle column), v in [0, 1] (the bottom row).
-    np.testing.assert_array_equal(tiled[t.height :, t.width : 2 * t.width], t.image)
-    np.testing.assert_array_equal(tiled[: t.height], 0.0)  # black above v = 1
-    np.testing.assert_array_equal(tiled[t.height :, : t.width], t.image[:, ::-1])  # mirrored left of u = 0
-    np.testing.assert_allclose(frame.apply(np.array([[-1.0, 0.0], [2.0, 2.0]])), [[0, 0], [1, 1]])
+    assert tiled.shape == (t.height + 2, 3 * t.width, 3)
+    # The image itself: u in [0, 1] (the middle tile), v in [0, 1] (below the top row).
+    np.testing.assert_array_equal(tiled[1 : 1 + t.height, t.width : 2 * t.width], t.image)
+    np.testing.assert_array_equal(tiled[0], 0.0)  # black above v = 1 ...
+    np.testing.assert_array_equal(tiled[-1], 0.0)  # ... and below v = 0
+    np.testing.assert_array_equal(tiled[1:-1, : t.width], t.image[:, ::-1])  # mirrored left of u = 0
+    np.testing.assert_allclose(frame.apply(np.array([[-1.0, -1 / 3], [2.0, 4 / 3]])), [[0, 0], [1, 1]])
 
 
 def test_use_metadata_takes_the_files_wrap_modes(tmp_path):

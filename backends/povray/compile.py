@@ -97,52 +97,64 @@ MAX_TILED_TEXELS = 2**26
 class UvFrame:
     """How the SDL's uvs and images relate to the model's. POV-Ray has only repeat and ``once``
     (clamp inside [0, 1]², clear outside, ref §16); every USD wrap rule, per axis, is exact in
-    POV-Ray when each image is extended by whole tiles over [u0, u0 + ku] × [v0, v0 + kv], the
-    integer-aligned box around every textured uv, by its own rules (PAD_MODES), the uvs are
-    mapped into [0, 1]² by u' = (u − u0)/ku, v' = (v − v0)/kv, and ``once`` clamps at the outer
-    edge (the half texel there, where the extended image's own rule and a clamp agree). The
-    bilinear lookup between texel centres is unchanged by this (the map is affine, so it commutes
-    with the barycentric interpolation of the uvs). The identity frame (no tiling, no ``once``)
-    when every texture repeats on both axes."""
+    POV-Ray when each image is extended, by its own rules (PAD_MODES), over a box that holds
+    every textured uv with a margin beyond the bilinear footprint (so the outer edge, where
+    ``once`` clamps, is never blended), the uvs are mapped into [0, 1]² by the affine
+    u' = (u − u_lo)/u_span (which commutes with the barycentric interpolation of the uvs, so the
+    lookup between texel centres is unchanged), and ``once`` is used. The box's edges are
+    multiples of 1/g, g the greatest common divisor of the textures' sides along that axis, so
+    that every image grows by whole texels. The identity frame (no extension, no ``once``) when
+    every texture repeats on both axes."""
 
-    u0: int = 0
-    ku: int = 1
-    v0: int = 0
-    kv: int = 1
+    g_u: int = 1  # the box along u: [lo_u/g_u, (lo_u + n_u)/g_u]
+    lo_u: int = 0
+    n_u: int = 1
+    g_v: int = 1  # along v: [lo_v/g_v, (lo_v + n_v)/g_v]
+    lo_v: int = 0
+    n_v: int = 1
 
     @property
     def identity(self) -> bool:
-        return (self.u0, self.ku, self.v0, self.kv) == (0, 1, 0, 1)
+        return (self.lo_u, self.n_u, self.lo_v, self.n_v) == (0, self.g_u, 0, self.g_v)
 
     def apply(self, uvs: np.ndarray) -> np.ndarray:
-        return (uvs - (self.u0, self.v0)) / (self.ku, self.kv) if not self.identity else uvs
+        if self.identity:
+            return uvs
+        lo = np.array([self.lo_u / self.g_u, self.lo_v / self.g_v])
+        return (uvs - lo) / np.array([self.n_u / self.g_u, self.n_v / self.g_v])
 
     def tile(self, texture: Texture) -> np.ndarray:
-        """The texture's image extended over the frame's tiles by its own wrap rules."""
+        """The texture's image extended over the frame's box by its own wrap rules (the image
+        itself covers [0, 1]², which the box contains)."""
         h, w = texture.height, texture.width
-        # Rows run down from v0 + kv (the top) to v0; the image itself is the tile [0, 1]².
-        rows = ((self.v0 + self.kv - 1) * h, -self.v0 * h)
-        cols = (-self.u0 * w, (self.u0 + self.ku - 1) * w)
+        per_u, per_v = w // self.g_u, h // self.g_v  # texels per 1/g
+        cols = (-self.lo_u * per_u, (self.lo_u + self.n_u) * per_u - w)
+        rows = ((self.lo_v + self.n_v) * per_v - h, -self.lo_v * per_v)  # row 0 is the top (v high)
         image = np.pad(texture.image, (rows, (0, 0), (0, 0)), mode=PAD_MODES[texture.wrap_t])
         return np.pad(image, ((0, 0), cols, (0, 0)), mode=PAD_MODES[texture.wrap_s])
 
 
 def uv_frame(scene: Scene) -> UvFrame:
-    """The scene's UvFrame: identity if every texture repeats (or none is used), else the
-    box around every textured mesh's uvs, unless a tiled image would exceed MAX_TILED_TEXELS
-    (then identity: POV-Ray's ``once`` is exact inside [0, 1]² only)."""
+    """The scene's UvFrame: identity if every texture repeats (or none is used), else the box
+    around every textured mesh's uvs and [0, 1]², widened by 1/g on each side (beyond the half
+    texel a bilinear lookup reaches), unless an extended image would exceed MAX_TILED_TEXELS
+    (then identity: POV-Ray's ``once`` is exact for clamp and mirror inside [0, 1]² only)."""
     textured = [m for m in scene.meshes if m.material.textures and m.uvs is not None and len(m.triangles)]
     textures = {id(t): t for m in (*scene.spheres, *scene.meshes) for t in m.material.textures}
     if all((t.wrap_s, t.wrap_t) == ("repeat", "repeat") for t in textures.values()) or not textured:
         return UvFrame()
     used = np.concatenate([m.uvs[np.unique(m.uv_indices)] for m in textured])
+    g_u = math.gcd(*(t.width for t in textures.values()))
+    g_v = math.gcd(*(t.height for t in textures.values()))
     with np.errstate(over="ignore", invalid="ignore"):
-        lo, hi = np.floor(used.min(axis=0)), np.ceil(used.max(axis=0))
-        k = np.maximum(hi - lo, 1.0)
-        largest = max((t.width * t.height for t in textures.values()), default=0)
-        if not (np.all(np.isfinite(k)) and float(k[0] * k[1]) * largest <= MAX_TILED_TEXELS):
+        lo = np.minimum(np.floor(used.min(axis=0) * (g_u, g_v)), 0.0) - 1.0
+        hi = np.maximum(np.ceil(used.max(axis=0) * (g_u, g_v)), (g_u, g_v)) + 1.0
+        n = hi - lo
+        growth = float(n[0] / g_u * n[1] / g_v)  # the area of the box, in images
+        largest = max(t.width * t.height for t in textures.values())
+        if not (np.all(np.isfinite(n)) and growth * largest <= MAX_TILED_TEXELS):
             return UvFrame()
-    return UvFrame(int(lo[0]), int(k[0]), int(lo[1]), int(k[1]))
+    return UvFrame(g_u, int(lo[0]), int(n[0]), g_v, int(lo[1]), int(n[1]))
 
 
 def texture_file_name(image: np.ndarray) -> str:

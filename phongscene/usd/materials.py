@@ -133,8 +133,9 @@ class MaterialReader:
 
     def _input_value(self, shader: UsdShade.Shader, name: str, default):
         """An input's value: authored, through an interface connection, else ``default``.
-        A connection to another shader (a texture) is not evaluated: warn, use the input's own
-        value or default."""
+        An input fed by a UsdUVTexture that the model has no per-point form for (roughness,
+        an exponent): the texture's mean (of its fallback without an image), with a warning;
+        by another shader: its own value or default, with a warning."""
         inp = shader.GetInput(name)
         if not inp:
             return default
@@ -143,9 +144,16 @@ class MaterialReader:
             if attrs and UsdShade.Utils.GetType(attrs[0].GetName()) == UsdShade.AttributeType.Input:
                 value = attrs[0].Get(self.ctx.time)
                 return default if value is None else value
-            self.ctx.unsupported["texture-connected inputs (authored value or default used)"].append(
-                f"{shader.GetPath()}.inputs:{name}"
-            )
+            where = f"{shader.GetPath()}.inputs:{name}"
+            connected = self.textures.connected(shader, name)
+            if connected is not None:
+                self.ctx.unsupported["textured inputs without a per-point model (the texture's mean is used)"].append(where)
+                if connected.texture is None:
+                    value = connected.fallback
+                else:
+                    value = tuple(float(c) for c in connected.texture.image.mean(axis=(0, 1)))
+                return value if isinstance(default, tuple) else value[0]
+            self.ctx.unsupported["inputs connected to other shaders (authored value or default used)"].append(where)
         attr = inp.GetAttr()
         if attr.HasAuthoredValue():
             value = attr.Get(self.ctx.time)
