@@ -456,10 +456,25 @@ def test_a_specular_texture_changes_only_the_highlight():
     np.testing.assert_array_equal(native.render(no_highlight(scene)), native.render(no_highlight(plain)))
 
 
-def _wrap_scene(wrap_s, wrap_t):
+def _wrap_scene(wrap_s, wrap_t, uv_lo=-2.3, uv_hi=3.1):
     scene = calibration.point_light()
-    quad = calibration.textured_quad(calibration.checker_texture(wrap_s, wrap_t), -2.3, 3.1)
+    quad = calibration.textured_quad(calibration.checker_texture(wrap_s, wrap_t), uv_lo, uv_hi)
     return check(dataclasses.replace(scene, meshes=(quad,), settings=dataclasses.replace(scene.settings, width=40, height=30)))
+
+
+def _edge_scene(wrap_s, wrap_t):
+    from phongscene.scene import AmbientLight, Camera, PointLight, Scene, TriangleMesh
+
+    corners = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+    material = dataclasses.replace(calibration.GROUND, diffuse_texture=calibration.checker_texture(wrap_s, wrap_t))
+    quad = TriangleMesh(corners, [(0, 1, 2), (0, 2, 3)], material=material, uvs=[c[:2] for c in corners], uv_indices=[(0, 1, 2), (0, 2, 3)])
+    camera = Camera(position=(0.5, 0.5, 2.0), projection="orthographic", ortho_width=1.3)
+    return check(
+        Scene(
+            camera=camera, ambient=AmbientLight((0.2, 0.2, 0.2)), lights=(PointLight((0.3, 0.6, 3.0), (3.0, 3.0, 3.0)),),
+            meshes=(quad,), settings=dataclasses.replace(calibration.point_light().settings, width=40, height=40),
+        )
+    )
 
 
 WRAP_PAIRS = [(s, t) for s in ("repeat", "clamp", "mirror", "black") for t in ("repeat", "clamp", "mirror", "black")]
@@ -472,9 +487,12 @@ def test_every_wrap_mode_agrees_on_both_backends_beyond_the_unit_square():
     from phongscene import compare
     from phongscene.backends import povray
 
-    scenes = [_wrap_scene(*pair) for pair in WRAP_PAIRS]
+    # And a unit square seen whole with uvs ending exactly on the image's edges: there the lookup
+    # blends the edge texel with what lies beyond it (the other edge, black, or itself).
+    cases = [("far", pair) for pair in WRAP_PAIRS] + [("edges", pair) for pair in WRAP_PAIRS]
+    scenes = [_wrap_scene(*pair) if kind == "far" else _edge_scene(*pair) for kind, pair in cases]
     images = povray.render_many([(s, None, None) for s in scenes])
-    for pair, scene, b in zip(WRAP_PAIRS, scenes, images):
+    for pair, scene, b in zip(cases, scenes, images):
         a = native.render(scene, dataclasses.replace(scene.settings, numerics="povray"))
         report = compare(a, b)
         assert report.ok, (pair, report)
