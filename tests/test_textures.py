@@ -596,3 +596,13 @@ def test_phong_ks_texture_is_a_highlight_colour_texture(tmp_path):
     assert m.ks == pytest.approx(ks.max())
     # ks·cs per texel is the texel's ks times the authored cs.
     np.testing.assert_allclose(m.ks * m.specular_texture.image, ks[:, :, None] * (0.5, 1.0, 2.0), rtol=1e-6)
+
+
+def test_texels_beyond_half_range_are_an_error_naming_the_file_input(tmp_path):
+    from phongscene.errors import SceneError
+
+    values = np.ones((2, 2, 3), np.float32)
+    values[0, 0, 1] = 1e5  # POV-Ray holds image maps as half floats (max 65504)
+    assert oiio.ImageBuf(values).write(str(tmp_path / "big.exr"), "float")
+    with pytest.raises(SceneError, match=r"/World/Looks/Mat/Texture\.inputs:file: texel values must be in \[0, 65504\]"):
+        load_usd(textured_stage(tmp_path / "s.usda", "big.exr"))  # it validates
