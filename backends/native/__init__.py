@@ -93,6 +93,13 @@ def texture_arrays(scene: Scene, *, half_texels: bool = False) -> dict | None:
 
 
 def _light(light: Light):
+    native = _native_light(light)
+    if (light.diffuse, light.specular) != (1.0, 1.0):
+        native.terms = _native.LightTerms(diffuse=light.diffuse, specular=light.specular)
+    return native
+
+
+def _native_light(light: Light):
     if isinstance(light, PointLight):
         native = _native.PointLight(
             position=light.position, color=light.color, fade_distance=light.fade_distance, fade_power=light.fade_power,

@@ -254,6 +254,12 @@ NB_MODULE(_native, m) {
         .value("mirror", phong::Wrap::kMirror)
         .value("black", phong::Wrap::kBlack);
 
+    using phong::LightTerms;
+    nb::class_<LightTerms>(m, "LightTerms", "Multipliers of a light's diffuse and specular terms (lights.hpp).")
+        .def(nb::init<double, double>(), "diffuse"_a = 1.0, "specular"_a = 1.0)
+        .def_rw("diffuse", &LightTerms::diffuse)
+        .def_rw("specular", &LightTerms::specular);
+
     using phong::PointLight;
     nb::class_<PointLight>(m, "PointLight", "A point light, with POV-Ray's fade when fade_power > 0.")
         .def(nb::init<phong::Vec3, phong::RGB, double, double, bool>(), "position"_a, "color"_a, "fade_distance"_a,
@@ -265,7 +271,8 @@ NB_MODULE(_native, m) {
         .def_rw("inverse_square", &PointLight::inverse_square)
         .def_rw("cone_axis", &PointLight::cone_axis)
         .def_rw("cone_cos_outer", &PointLight::cone_cos_outer)
-        .def_rw("cone_cos_inner", &PointLight::cone_cos_inner);
+        .def_rw("cone_cos_inner", &PointLight::cone_cos_inner)
+        .def_rw("terms", &PointLight::terms);
 
     using phong::DirectionalLight;
     nb::class_<DirectionalLight>(m, "DirectionalLight", "A light at infinity; made from the direction it travels.")
@@ -275,7 +282,8 @@ NB_MODULE(_native, m) {
              },
              "direction"_a, "color"_a)
         .def_rw("to_light", &DirectionalLight::to_light)
-        .def_rw("color", &DirectionalLight::color);
+        .def_rw("color", &DirectionalLight::color)
+        .def_rw("terms", &DirectionalLight::terms);
 
     using phong::RectAreaLight;
     nb::class_<RectAreaLight>(m, "RectAreaLight", "A rectangular area light, samples x samples shadow rays.")
@@ -286,7 +294,8 @@ NB_MODULE(_native, m) {
         .def_rw("axis_u", &RectAreaLight::axis_u)
         .def_rw("axis_v", &RectAreaLight::axis_v)
         .def_rw("color", &RectAreaLight::color)
-        .def_rw("samples", &RectAreaLight::samples);
+        .def_rw("samples", &RectAreaLight::samples)
+        .def_rw("terms", &RectAreaLight::terms);
 
     using phong::SphereAreaLight;
     nb::class_<SphereAreaLight>(m, "SphereAreaLight", "A spherical light: POV-Ray's circular, oriented area light.")
@@ -296,7 +305,8 @@ NB_MODULE(_native, m) {
         .def_rw("center", &SphereAreaLight::center)
         .def_rw("radius", &SphereAreaLight::radius)
         .def_rw("color", &SphereAreaLight::color)
-        .def_rw("samples", &SphereAreaLight::samples);
+        .def_rw("samples", &SphereAreaLight::samples)
+        .def_rw("terms", &SphereAreaLight::terms);
 
     using phong::CameraDescription;
     nb::class_<CameraDescription>(m, "CameraDescription", "The model's camera (camera.hpp).")
