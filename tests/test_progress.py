@@ -22,7 +22,7 @@ REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO / "examples"
 PHONGSCENE = Path(sys.executable).with_name("phongscene")
 
-# What POV-Ray 3.7.0.10 printed for a two-frame run (+V -GR), abridged (docs ref §16): the
+# What POV-Ray 3.7.0.10 printed for a two-frame run (+V -GR), abridged (docs ref §17): the
 # first frame's line twice, a "Rendered" count stepping back by a block, a banner out of order.
 TWO_FRAMES = (
     "Persistence of Vision(tm) Ray Tracer Version 3.7.0.10.unofficial\n"
@@ -165,7 +165,7 @@ def _on_a_terminal(args: list[str]) -> tuple[int, str]:
 @pytest.mark.povray
 def test_povray_progress_on_a_terminal_moves_between_0_and_100(tmp_path):
     # 1600 x 1200 renders for ~1 s after ~0.5 s of start-up; POV-Ray prints its count every
-    # ~0.2 s (measured, ref §16), so at least one redraw lies strictly between 0 and 100 %.
+    # ~0.2 s (measured, ref §17), so at least one redraw lies strictly between 0 and 100 %.
     rc, text = _on_a_terminal(
         ["render", str(EXAMPLES / "seed_exponents.usda"), "-o", str(tmp_path / "x.exr"), "--backend", "povray",
          "--width", "1600"]

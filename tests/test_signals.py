@@ -21,7 +21,7 @@ from phongscene.cli import EXIT_BACKEND, EXIT_INTERRUPTED
 REPO = Path(__file__).resolve().parents[1]
 SCENE = REPO / "examples" / "seed_exponents.usda"
 PHONGSCENE = Path(sys.executable).with_name("phongscene")
-# 1600 x 1200 keeps POV-Ray busy for ~1 s after it starts (ref §16), long enough to signal it.
+# 1600 x 1200 keeps POV-Ray busy for ~1 s after it starts (ref §17), long enough to signal it.
 BUSY_WIDTH = "1600"
 # How long a test waits for POV-Ray to start, or for phongscene to exit after a signal: generous,
 # for a loaded 2-core machine; a hang fails instead of blocking the suite.

@@ -29,10 +29,10 @@ from pathlib import Path
 import numpy as np
 
 from phongscene.errors import BackendError, PhongSceneError
-from phongscene.images import read_image
+from phongscene.images import read_image, write_image
 from phongscene.scene import RenderSettings, Scene
 
-from .compile import compile_body, compile_pov, pass_count, resolve_mapping
+from .compile import compile_body, compile_pov, pass_count, resolve_mapping, texture_files
 
 # The largest value of POV-Ray's half-float EXR output; brighter pixels are written as inf.
 HALF_MAX = 65504.0
@@ -58,6 +58,12 @@ class PovJob:
     height: int
     supersample: int  # "grid" anti-aliasing: average supersample² blocks (1 = none)
     switches: tuple[str, ...]  # everything except input, output and frames
+    # The image files the SDL reads, by file name: written beside it (write_textures).
+    textures: tuple[tuple[str, np.ndarray], ...] = ()
+
+    def write_textures(self, directory: str | os.PathLike) -> list[Path]:
+        """Write each image the SDL reads beside it as the half-float EXR it names (atomically)."""
+        return [write_image(Path(directory) / name, image, half=True) for name, image in self.textures]
 
     def frame_switches(self) -> tuple[str, ...]:
         return ("+KFI0", f"+KFF{self.frames - 1}") if self.frames > 1 else ()
@@ -89,7 +95,7 @@ def render_switches(settings: RenderSettings) -> tuple[int, int, int, tuple[str,
     width, height = settings.width * k, settings.height * k
     # -GD -GR -GS silence the debug, render and statistics streams but keep the fatal and
     # warning streams: they carry "File 'x.pov' line N: Parse Error: ..." for error reports.
-    # +V keeps the "Rendered N of M pixels" lines (ref §16) the progress bar is drawn from.
+    # +V keeps the "Rendered N of M pixels" lines (ref §17) the progress bar is drawn from.
     switches = ["+FE", f"+W{width}", f"+H{height}", "-D", "+V", "-GD", "-GR", "-GS", "+Q9", "-J"]
     if n > 1 and settings.sample_pattern == "povray-am1":
         switches += ["+AM1", "+A0.0", f"+R{n}"]
@@ -105,7 +111,8 @@ def prepare(scene: Scene, settings: RenderSettings | None = None, mapping: str |
     settings = scene.settings if settings is None else settings
     mapping = resolve_mapping(settings, mapping)
     width, height, k, switches = render_switches(settings)
-    return PovJob(compile_pov(scene, settings, mapping), pass_count(scene, mapping), width, height, k, switches)
+    textures = tuple(texture_files(scene).items())
+    return PovJob(compile_pov(scene, settings, mapping), pass_count(scene, mapping), width, height, k, switches, textures)
 
 
 def render(
@@ -176,7 +183,10 @@ def render_many(
         else:
             sdl = _batch_sdl([jobs[i][:3] for i in members])
         passes = [pass_count(jobs[i][0], jobs[i][2]) for i in members]
-        job = PovJob(sdl, sum(passes), width, height, k, switches)
+        textures: dict = {}
+        for i in members:
+            textures.update(texture_files(jobs[i][0]))
+        job = PovJob(sdl, sum(passes), width, height, k, switches, tuple(textures.items()))
 
         def frame_done(frames: float, base: int = done) -> None:
             if progress:
@@ -235,6 +245,7 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
     workdir.mkdir(parents=True, exist_ok=True)
     pov, output, log = workdir / f"{stem}.pov", workdir / f"{stem}.exr", workdir / f"{stem}.log"
     pov.write_text(job.sdl, encoding="ascii")
+    job.write_textures(workdir)
     (workdir / f"{stem}.ini").write_text(job.ini(pov.name, output.name), encoding="ascii")
     home = workdir / "home"
     (home / ".povray" / "3.7").mkdir(parents=True, exist_ok=True)
@@ -342,7 +353,7 @@ def _stop(proc: subprocess.Popen) -> None:
 
 @dataclass(slots=True)
 class PovProgress:
-    """What POV-Ray's console output (``+V``, ref §16) says so far: the frame being rendered
+    """What POV-Ray's console output (``+V``, ref §17) says so far: the frame being rendered
     (1-based, 0 before the first one) and the pixels of it done."""
 
     frame: int = 0
@@ -383,7 +394,7 @@ class PovLogParser:
             elif m.group("parsing"):
                 p.parsing = True
             else:
-                # A run of one frame prints no "Rendering frame" line (ref §16).
+                # A run of one frame prints no "Rendering frame" line (ref §17).
                 p.frame = max(p.frame, 1)
                 p.pixels_done = max(p.pixels_done, int(m.group("done")))
                 p.pixels_total, p.parsing = int(m.group("total")), False
@@ -406,6 +417,6 @@ def _tail(log: Path) -> str:
         text = log.read_text(encoding="utf-8", errors="replace")
     except OSError:
         return ""
-    # The progress lines ("Rendered N of M pixels", ref §16) say nothing about a failure.
+    # The progress lines ("Rendered N of M pixels", ref §17) say nothing about a failure.
     lines = [line for line in text.rstrip().splitlines() if not _is_progress_line(line)]
     return "\n".join(lines[-OUTPUT_TAIL_LINES:])
