@@ -48,11 +48,97 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+class Terminated(BaseException):
+    """SIGTERM or SIGHUP arrived: raised in the main thread, like KeyboardInterrupt for SIGINT, so
+    that every ``finally`` runs (POV-Ray is killed, its temporary folder removed) before exit.
+    A BaseException, so that no ``except Exception`` swallows it."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+# Signals that end phongscene with cleanup and exit status 128 + the signal number (the shell's
+# convention for "killed by signal N", as 130 is for Ctrl-C); SIGINT stays KeyboardInterrupt.
+TERMINATING_SIGNALS = ("SIGTERM", "SIGHUP")
+# Modules whose import a command needs, imported before the command runs with Ctrl-C deferred:
+# USD's Python bindings catch a KeyboardInterrupt raised while they import (Tf prints "Error
+# occurred postprocessing module" and the import goes on half-done), so an early Ctrl-C was lost.
+PREIMPORTS = {
+    "compare": ("OpenImageIO",),
+    **{command: ("pxr.Usd", "OpenImageIO") for command in ("diff", "info", "validate", "import", "render", "compile")},
+}
+
+
+def _on_terminating_signal(signum, frame) -> None:
+    import signal
+
+    # Cleanup is under way: a second SIGTERM must not interrupt it half-done.
+    for name in TERMINATING_SIGNALS:
+        signal.signal(getattr(signal, name), signal.SIG_IGN)
+    raise Terminated(signum)
+
+
+def _install_signal_handlers() -> dict:
+    """Handle TERMINATING_SIGNALS; returns the previous handlers (``main`` restores them, so
+    calling it in-process, as the tests do, leaves the caller's handlers as they were)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return {}  # main() called from a worker thread: Python allows handlers only in the main one
+    return {
+        signum: signal.signal(signum, _on_terminating_signal)
+        for signum in (getattr(signal, name) for name in TERMINATING_SIGNALS)
+    }
+
+
+def _preimport(modules) -> None:
+    """Import ``modules`` with SIGINT held back, then raise KeyboardInterrupt if one came."""
+    import importlib
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        for module in modules:
+            importlib.import_module(module)
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
     try:
+        for module in modules:
+            try:
+                importlib.import_module(module)
+            except ImportError:
+                pass  # a missing module is the command's to report, in its own words
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
+
+
+def main(argv: list[str] | None = None) -> int:
+    import signal
+
+    previous = _install_signal_handlers()
+    try:
+        return _main(argv)
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def _main(argv: list[str] | None) -> int:
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        _preimport(PREIMPORTS.get(args.command, ()))
         return int(args.func(args) or 0)
+    except Terminated as e:
+        import signal
+
+        print(f"terminated by {signal.Signals(e.signum).name}", file=sys.stderr)
+        return 128 + e.signum
     except SceneError as e:
         for p in in_file_terms(e).problems:
             print(f"error: {p}", file=sys.stderr)
@@ -105,6 +191,21 @@ def _add_size_options(p: argparse.ArgumentParser, spp_help: str = SPP_HELP) -> N
     p.add_argument("--width", type=_image_side, metavar="W", help="image width (alone: keeps the aspect ratio)")
     p.add_argument("--height", type=_image_side, metavar="H", help="image height (alone: keeps the aspect ratio)")
     p.add_argument("--spp", type=_samples_per_axis, metavar="N", help=spp_help)
+
+
+def _seconds(text: str) -> float:
+    """An argparse type: a number of seconds > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a number of seconds > 0, got {text}")
+    return value
+
+
+def _add_timeout_option(p: argparse.ArgumentParser, help: str) -> None:
+    p.add_argument("--timeout", type=_seconds, metavar="SECONDS", help=help)
 
 
 def _add_threshold_options(p: argparse.ArgumentParser, by_format: bool = False) -> None:
@@ -172,6 +273,7 @@ def _add_diff_command(sub) -> None:
                         default="exact")
     _add_size_options(p, spp_help=f"{SPP_HELP} (RenderSettings.samples; default: the scene's)")
     p.add_argument("--threads", type=_thread_count, metavar="N", help="native worker threads (0 = all cores)")
+    _add_timeout_option(p, "stop POV-Ray after SECONDS per process (exit 3)")
     _add_threshold_options(p)
     _add_sandbox_option(p)
     p.set_defaults(func=_run_diff)
@@ -190,7 +292,8 @@ def _run_diff(args) -> int:
     check_output_folder(args.outdir)  # before the renders; OUTDIR may be new, its parent must exist
     result = diff(
         args.scene, args.outdir, mapping=args.mapping, width=args.width, height=args.height, samples=args.spp,
-        threads=args.threads, thresholds=thresholds, progress=sys.stderr, sandbox=args.sandbox,
+        threads=args.threads, thresholds=thresholds, progress=sys.stderr, timeout=args.timeout,
+        sandbox=args.sandbox,
     )
     s = result.settings
     print(f"{args.scene}: {s.width} x {s.height}, mapping {result.mapping} (native {s.specular})")
@@ -412,6 +515,7 @@ def _add_render_command(sub) -> None:
                         "'povray-classic'); default: the scene's")
     _add_size_options(p)
     p.add_argument("--threads", type=_thread_count, metavar="N", help="worker threads (0 = all cores)")
+    _add_timeout_option(p, "--backend povray only: stop POV-Ray after SECONDS (exit 3)")
     p.set_defaults(func=_run_render)
 
 
@@ -426,11 +530,15 @@ def _run_render(args) -> int:
     if not args.output.lower().endswith(WRITABLE):
         print(f"error: {args.output}: the output must end in one of {', '.join(WRITABLE)}", file=sys.stderr)
         return EXIT_SCENE
+    if args.timeout is not None and args.backend != "povray":
+        print("error: --timeout applies to --backend povray only (the native tracer stops on Ctrl-C)", file=sys.stderr)
+        return EXIT_SCENE
     check_output(args.output)  # before the render, not after it
-    scene, settings = _scene_and_settings(args)
     bar = ProgressBar(args.backend)
     start = time.perf_counter()
-    image = render(scene, args.backend, settings, progress=bar)
+    bar.phase(f"reading {Path(args.scene).name}")  # a big USD file takes seconds
+    scene, settings = _scene_and_settings(args)
+    image = render(scene, args.backend, settings, progress=bar, timeout=args.timeout)
     bar.done(time.perf_counter() - start)
     write_image(args.output, image)
     print(f"{args.output}: {settings.width} x {settings.height}, {args.backend}, specular {settings.specular}")
@@ -475,6 +583,8 @@ def _run_compile(args) -> int:
     with atomic_files(out, ini) as (tmp_pov, tmp_ini):  # both appear, or neither
         tmp_pov.write_text(job.sdl, encoding="ascii")
         tmp_ini.write_text(job.ini(out.name, image.name), encoding="ascii")
+    for texture in job.write_textures(out.parent):
+        print(f"{texture}: a texture the scene reads (keep it beside {out.name})")
     mapping = MAPPING_OF_SPECULAR[settings.specular]  # args.mapping, or the scene's
     print(f"{out}: {mapping} mapping, {job.frames} frame(s), {settings.width} x {settings.height}")
     print(f"{ini}: the same options; render in {out.parent} with: povray {shlex.quote(_pov_quoted(ini.name))}")

@@ -30,6 +30,7 @@ from .rendering import load_scene, render, settings_with
 from .scene import RenderSettings, Scene
 
 LABELS = ("povray", "native")
+SHADOW_CACHE_CAUSE = "POV-Ray's shadow cache"  # what explains a failing pixel (see _explain)
 
 
 @dataclass(frozen=True)
@@ -119,7 +120,14 @@ def diff(
     from .backends.povray import check_mapping
 
     check_mapping(mapping)  # before the scene is read
+    reading = None
+    if progress is not None and not isinstance(scene_or_path, Scene):
+        reading = ProgressBar("scene", progress)
+        reading.phase(f"reading {Path(scene_or_path).name}")  # a big USD file takes seconds
+    start = time.perf_counter()
     scene, warnings = load_scene(scene_or_path, sandbox=sandbox)
+    if reading is not None:
+        reading.done(time.perf_counter() - start, "read")
     if progress is not None:
         for w in warnings:
             progress.write(f"warning: {w}\n")
@@ -142,14 +150,15 @@ def diff(
     plain = render(scene, "native", replace(settings, numerics="scale-invariant"))
     numerics_differ = int(failing_mask(images["native"], plain, thresholds).sum())
 
-    written = None
+    result = DiffResult(report, None, timings, images["povray"], images["native"], settings, mapping, warnings,
+                        explained, unexplained, numerics_differ)
     if outdir is not None:
         from .files import atomic_folder
         from .report import write_report
 
         source = scene.source_file or (os.fspath(scene_or_path) if not isinstance(scene_or_path, Scene) else "")
         with atomic_folder(outdir) as tmp:  # the whole report, or none of it (a full disk)
-            index = write_report(
+            write_report(
                 tmp,
                 images["povray"],
                 images["native"],
@@ -157,6 +166,10 @@ def diff(
                 labels=LABELS,
                 title=f"phongscene diff: {Path(source).name if source else 'scene'} ({mapping} mapping)",
                 timings=timings,
+                # Failing pixels are classified only when the comparison fails (_explain).
+                explained=None if report.ok else explained,
+                cause=SHADOW_CACHE_CAUSE,
+                ok=result.ok,
                 meta={
                     "scene": source,
                     "mapping": mapping,
@@ -168,9 +181,8 @@ def diff(
                     "native_numerics_differ_pixels": numerics_differ,
                 },
             )
-        written = Path(outdir)
-    return DiffResult(report, written, timings, images["povray"], images["native"], settings, mapping, warnings,
-                      explained, unexplained, numerics_differ)
+        result = replace(result, outdir=Path(outdir))
+    return result
 
 
 def _explain(scene: Scene, settings: RenderSettings, images: dict, report: Report, thresholds: Thresholds):

@@ -201,7 +201,15 @@ def RectLight "Panel" {
     uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
 }
 def DiskLight "Disk" {}
-def CylinderLight "Tube" {}
+def CylinderLight "Tube" { uniform token phong:lightModel = "seed"
+    float inputs:intensity = 1.5
+    double3 xformOp:translate = (4, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"] }
+def CylinderLight "Tube2" { float inputs:radius = 0.25
+    float inputs:length = 2
+    double3 xformOp:scale = (3, 2, 2)
+    uniform token[] xformOpOrder = ["xformOp:scale"] }
+def PortalLight "Portal" {}
 def Sphere "Target" {}
 """
 
@@ -211,7 +219,7 @@ def test_lights(tmp_path):
     result = read(tmp_path, LIGHTS)
     scene = result.scene
     assert scene.ambient.color == pytest.approx((0.6, 0.7, 0.8), abs=FLOAT32)  # DomeLights add up
-    point, ball, sun, panel, disk = scene.lights
+    point, ball, sun, panel, disk, tube, tube2 = scene.lights
     assert point.position == (1, 2, 3) and point.color == (4.0, 2.0, 1.0)  # 2·2^1·color
     assert (point.fade_distance, point.fade_power) == (4.0, 2.0)
     assert ball.center == (0, 5, 0) and ball.radius == 1.0 and ball.samples == 5  # radius × scale
@@ -224,8 +232,13 @@ def test_lights(tmp_path):
     side = 0.5 * math.sqrt(math.pi)
     assert np.linalg.norm(disk.axis_u) == pytest.approx(side) and np.linalg.norm(disk.axis_v) == pytest.approx(side)
     assert disk.falloff == "inverse-square" and any("DiskLights" in w and "/Disk" in w for w in result.warnings)
+    # A CylinderLight is a point light of the same power at its centre (UsdLux: I = L·π·r·l/2).
+    assert tube.position == (4, 0, 0) and tube.color == (1.5, 1.5, 1.5) and tube.falloff == "none"
+    assert tube2.falloff == "inverse-square"
+    assert tube2.color == pytest.approx((math.pi / 2 * (0.25 * 2) * (2 * 3),) * 3)
+    assert any("CylinderLights" in w and "/Tube2" in w for w in result.warnings)
     unsupported = [w for w in result.warnings if "unsupported lights" in w]
-    assert len(unsupported) == 1 and "/Disk" not in unsupported[0] and "/Tube" in unsupported[0]
+    assert len(unsupported) == 1 and "/Tube" not in unsupported[0] and "/Portal" in unsupported[0]
 
 
 def test_z_up_light_and_camera(tmp_path):
@@ -324,14 +337,15 @@ def test_preview_to_phong_metallic_and_specular_workflow():
     assert preview_to_phong((0.2, 0.2, 0.2), 0.0).exponent == PREVIEW_MAX_EXPONENT  # capped
 
 
-def test_texture_connected_input_uses_default_with_warning(tmp_path):
+def test_texture_without_an_image_uses_its_fallback_with_a_warning(tmp_path):
     inputs = 'color3f inputs:diffuseColor.connect = </M/T.outputs:rgb>\n float inputs:roughness = 0.5'
     body = PREVIEW.format(inputs=inputs).replace(
         'def Shader "S"', 'def Shader "T" { uniform token info:id = "UsdUVTexture"\n float3 outputs:rgb }\n    def Shader "S"'
     )
     result = read(tmp_path, body)
-    assert result.scene.spheres[0].material.diffuse_color == pytest.approx((0.18, 0.18, 0.18))  # UsdPreviewSurface default
-    assert any("texture-connected" in w and "/M/S.inputs:diffuseColor" in w for w in result.warnings)
+    # A texture without an image gives its fallback (UsdUVTexture's default: (0, 0, 0, 1)).
+    assert result.scene.spheres[0].material.diffuse_color == pytest.approx((0.0, 0.0, 0.0))
+    assert any("/M/T.inputs:file" in w and "fallback" in w for w in result.warnings)
 
 
 def test_phong_shader_unauthored_inputs_take_sdr_defaults(tmp_path):
@@ -456,23 +470,24 @@ def test_usdlux_lights_in_usdlux_units(tmp_path):
 
 def test_light_diffuse_and_specular_multipliers(tmp_path):
     body = """
-    def DistantLight "Even" { float inputs:intensity = 2
-        bool inputs:normalize = 1
-        float inputs:diffuse = 0.5
-        float inputs:specular = 0.5 }
+    def DistantLight "Plain" { float inputs:intensity = 2
+        bool inputs:normalize = 1 }
     def DistantLight "Split" { float inputs:intensity = 2
         bool inputs:normalize = 1
         float inputs:diffuse = 0.7
         float inputs:specular = 0.25 }
+    def DomeLight "Sky" { float inputs:intensity = 0.5
+        float inputs:diffuse = 0.5 }
     """
     result = read(tmp_path, body)
-    even, split = result.scene.lights
-    # Equal multipliers scale the light: exact for both terms.
-    assert even.color == (1.0, 1.0, 1.0)
-    # Unequal: the diffuse one scales the light (a surface stays as bright as authored); warned.
-    assert split.color == pytest.approx((1.4, 1.4, 1.4))
-    warned = [w for w in result.warnings if "inputs:specular != inputs:diffuse" in w]
-    assert len(warned) == 1 and "/Split (diffuse 0.7, specular 0.25)" in warned[0] and "/Even" not in warned[0]
+    plain, split = result.scene.lights
+    assert (plain.diffuse, plain.specular) == (1.0, 1.0)
+    # The multipliers are the light's own fields; its strength stays as authored.
+    assert split.color == (2.0, 2.0, 2.0)
+    assert split.diffuse == pytest.approx(0.7) and split.specular == 0.25
+    assert not [w for w in result.warnings if "inputs:diffuse" in w or "inputs:specular" in w]
+    # The ambient term is diffuse light: a dome's diffuse multiplier scales it.
+    assert result.scene.ambient.color == (0.25, 0.25, 0.25)
 
 
 def test_negative_light_multiplier_is_an_error(tmp_path):
@@ -544,6 +559,30 @@ def test_shaping_cone_on_a_point_light(tmp_path):
     assert wide.cone is None  # a hard 180° cone restricts nothing, and is not warned about
     assert not [w for w in result.warnings if "cone" in w]
 
+
+
+def test_shaping_focus_is_a_cosine_power_inside_the_cone(tmp_path):
+    body = """
+    def SphereLight "Focused" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 40
+        float inputs:shaping:focus = 6 }
+    def SphereLight "Tinted" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 40
+        float inputs:shaping:focus = 2
+        color3f inputs:shaping:focusTint = (0.2, 0.1, 0) }
+    def SphereLight "Everywhere" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 180
+        float inputs:shaping:focus = 3 }
+    """
+    result = read(tmp_path, body)
+    focused, tinted, everywhere = result.scene.lights
+    assert focused.cone.focus == 6.0 and tinted.cone.focus == 2.0
+    assert everywhere.cone is None
+    assert any("focusTint" in w and "/Tinted" in w and "/Focused" not in w for w in result.warnings)
+    assert any("focus but no cone" in w and "/Everywhere" in w for w in result.warnings)
 
 TYPOS = """
 def SphereLight "L" {
