@@ -15,6 +15,7 @@ import numpy as np
 from .errors import Problem, SceneError
 from .scene import (
     NUMERICS,
+    SAMPLE_PATTERNS,
     Camera,
     DirectionalLight,
     PhongMaterial,
@@ -40,6 +41,9 @@ MAX_PIXELS = 2**28
 MAX_THREADS = 1024  # worker threads (C++ int; far more than any machine here has cores)
 # An area light's shadow grid per axis: 257 = 2^8 + 1 (66 049 shadow rays per light and point).
 MAX_SHADOW_SAMPLES = 257
+# An area light's `adaptive` level: POV-Ray's default, 100, is the deepest anyone writes (a grid of
+# MAX_SHADOW_SAMPLES is fully subdivided from level 8 on).
+MAX_ADAPTIVE = 100
 
 
 class _Collector:
@@ -104,6 +108,12 @@ class _Collector:
         n = node.samples
         if not isinstance(n, (int, np.integer)) or n < 3 or n > MAX_SHADOW_SAMPLES or (n - 1) & (n - 2):
             self.add(node, "samples", f"must be 2^k + 1 with 1 <= k <= 8 (3, 5, 9, 17, ..., {MAX_SHADOW_SAMPLES}), got {_show(n)}")
+
+
+    def adaptive(self, node) -> None:
+        a = node.adaptive
+        if a is not None and (isinstance(a, bool) or not isinstance(a, (int, np.integer)) or not 0 <= a <= MAX_ADAPTIVE):
+            self.add(node, "adaptive", f"must be an integer in 0..{MAX_ADAPTIVE} (or unset: every grid point), got {_show(a)}")
 
 
 def _show(value) -> str:
@@ -209,8 +219,9 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
         c.add(s, "width", f"width × height must be at most {MAX_PIXELS} pixels, got {s.width} × {s.height}")
     if not isinstance(s.samples, (int, np.integer)) or not 1 <= s.samples <= MAX_SAMPLES:
         c.add(s, "samples", f"must be an integer in 1..{MAX_SAMPLES}, got {_show(s.samples)}")
-    if s.sample_pattern not in ("grid", "povray-am1"):
-        c.add(s, "sample_pattern", f"must be 'grid' or 'povray-am1', got {_show(s.sample_pattern)}")
+    if s.sample_pattern not in SAMPLE_PATTERNS:
+        c.add(s, "sample_pattern", f"must be one of {', '.join(SAMPLE_PATTERNS)}, got {_show(s.sample_pattern)}")
+    c.unit_interval(s, "aa_threshold")  # POV-Ray clips +A to [0, 1]
     if s.specular not in ("seed", "povray-classic"):
         c.add(s, "specular", f"must be 'seed' or 'povray-classic', got {_show(s.specular)}")
     if s.numerics not in NUMERICS:
@@ -256,11 +267,13 @@ def _check_light(c: _Collector, light) -> None:
             if cross <= SINGULAR_RELATIVE_DET * float(np.linalg.norm(u) * np.linalg.norm(v)):
                 c.add(light, "axis_v", "must not be parallel to axis_u (the rectangle has no area)")
         c.samples_2k1(light)
+        c.adaptive(light)
     elif isinstance(light, SphereAreaLight):
         c.position(light, "center", light.center)
         if c.finite(light, "radius", light.radius) and light.radius <= 0:
             c.add(light, "radius", f"must be > 0, got {_show(light.radius)}")
         c.samples_2k1(light)
+        c.adaptive(light)
     else:
         c.add(light, "lights", f"unknown light type {type(light).__name__}")
 

@@ -76,6 +76,11 @@ INVERSE_SQUARE_FADE_RADII = 1e-6
 # in tests/test_cross_backend.py).
 LAMBERT_SPOTLIGHT = "spotlight radius 90 falloff 90 tightness 1"
 
+
+def _adaptive(light) -> str:
+    """POV-Ray's ``adaptive n`` of an area light (absent: every grid point, its default)."""
+    return "" if light.adaptive is None else f" adaptive {int(light.adaptive)}"
+
 # Characters copied verbatim into a comment; everything else becomes \xNN / \uNNNN / \UNNNNNNNN.
 # '#', '"', '*', '\\' and all control characters are escaped, so a comment can neither end early
 # nor carry a directive.
@@ -300,7 +305,7 @@ class _Compiler:
             )
         if isinstance(light, RectAreaLight):
             n = int(light.samples)
-            # No 'adaptive': POV's default level (100) subdivides fully, giving trapezoid
+            # Without 'adaptive' POV's default level (100) subdivides fully, giving trapezoid
             # weights for n = 2^k + 1 (ref §5). No 'jitter' (not deterministic).
             spot = ""
             if light.falloff == "inverse-square":
@@ -309,14 +314,15 @@ class _Compiler:
                 spot = f" {LAMBERT_SPOTLIGHT} point_at {self.vec(target, light, 'axis_v')}"
             return (
                 f"light_source {{ {self.vec(light.center, light, 'center')} color rgb {colour}{spot}"
-                f" area_light {self.vec(light.axis_u, light, 'axis_u')}, {self.vec(light.axis_v, light, 'axis_v')}, {n}, {n}{fade} }}"
+                f" area_light {self.vec(light.axis_u, light, 'axis_u')}, {self.vec(light.axis_v, light, 'axis_v')}, {n}, {n}"
+                f"{_adaptive(light)}{fade} }}"
             )
         if isinstance(light, SphereAreaLight):
             n = int(light.samples)
             d = self.num(2.0 * light.radius, light, "radius")
             return (
                 f"light_source {{ {self.vec(light.center, light, 'center')} color rgb {colour}"
-                f" area_light <{d}, 0, 0>, <0, {d}, 0>, {n}, {n} circular orient{fade} }}"
+                f" area_light <{d}, 0, 0>, <0, {d}, 0>, {n}, {n}{_adaptive(light)} circular orient{fade} }}"
             )
         raise self._error(light, "lights", f"unknown light type {type(light).__name__}")
 

@@ -78,6 +78,12 @@ class PovJob:
         return "\n".join(lines) + "\n"
 
 
+def aa_threshold(value: float) -> str:
+    """POV-Ray's +A value: the shortest decimal that reads back as the same float32 (POV-Ray holds
+    it as a float), e.g. 0.03; 0 prints as 0.0."""
+    return np.format_float_positional(np.float32(value), trim="0")
+
+
 def render_switches(settings: RenderSettings) -> tuple[int, int, int, tuple[str, ...]]:
     """(width, height, supersample, switches) POV-Ray needs for ``settings``."""
     n = int(settings.samples)
@@ -86,8 +92,9 @@ def render_switches(settings: RenderSettings) -> tuple[int, int, int, tuple[str,
     # -GD -GR -GS silence the debug, render and statistics streams but keep the fatal and
     # warning streams: they carry "File 'x.pov' line N: Parse Error: ..." for error reports.
     switches = ["+FE", f"+W{width}", f"+H{height}", "-D", "-V", "-GD", "-GR", "-GS", "+Q9", "-J"]
-    if n > 1 and settings.sample_pattern == "povray-am1":
-        switches += ["+AM1", "+A0.0", f"+R{n}"]
+    if n > 1 and settings.sample_pattern == "povray-am1" or settings.sample_pattern == "povray-am2":
+        method = "+AM1" if settings.sample_pattern == "povray-am1" else "+AM2"
+        switches += [method, f"+A{aa_threshold(settings.aa_threshold)}", f"+R{n}"]
     else:
         switches.append("-A")
     if settings.threads > 0:

@@ -42,7 +42,7 @@ from ..validate import validate
 from . import geometry, names, typos
 from .context import ReadContext, gf_to_numpy, tf_error_text, unit
 from .materials import MaterialReader
-from .names import INT_TYPES, PHONG_ATTRIBUTES, STRING_TYPES, in_usd_terms
+from .names import FLOAT_TYPES, INT_TYPES, PHONG_ATTRIBUTES, STRING_TYPES, in_usd_terms
 
 DEFAULT_SHADOW_SAMPLES = 9  # phong:shadowSamples on area lights: a 9×9 grid (2^3 + 1)
 # Composition errors name their arc in the text; report it as the "attribute" (a metadata field).
@@ -289,6 +289,9 @@ def _render_settings(ctx: ReadContext) -> tuple[RenderSettings, Usd.Prim | None]
     pattern = ctx.get(prim, names.SAMPLE_PATTERN, STRING_TYPES)
     if pattern is not None:
         values["sample_pattern"] = str(pattern)
+    threshold = ctx.get(prim, names.AA_THRESHOLD, FLOAT_TYPES)
+    if threshold is not None:
+        values["aa_threshold"] = float(threshold)
     convention = ctx.get(prim, names.SPECULAR_CONVENTION, STRING_TYPES)
     if convention is not None:
         values["specular"] = str(convention)
@@ -471,6 +474,11 @@ def _shadow_samples(ctx: ReadContext, prim: Usd.Prim) -> int:
     return int(ctx.get(prim, names.SHADOW_SAMPLES, INT_TYPES, DEFAULT_SHADOW_SAMPLES))
 
 
+def _shadow_adaptive(ctx: ReadContext, prim: Usd.Prim) -> int | None:
+    level = ctx.get(prim, names.SHADOW_ADAPTIVE, INT_TYPES)
+    return None if level is None else int(level)
+
+
 def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> None:
     """One UsdLux light into the model, in UsdLux's units (see README: lights) unless it asks for
     the seed's light. The emitted luminance L (normalized by the emitting area when
@@ -528,7 +536,12 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
             for name in (names.FADE_DISTANCE, names.FADE_POWER):
                 if prim.GetAttribute(name).HasAuthoredValue():
                     ctx.problem(prim, name, "applies to point lights only (treatAsPoint or radius 0)")
-            lights.append(SphereAreaLight(centre, radius_world, _rgb(colour), _shadow_samples(ctx, prim), path, falloff))
+            lights.append(
+                SphereAreaLight(
+                    centre, radius_world, _rgb(colour), _shadow_samples(ctx, prim), path, falloff,
+                    _shadow_adaptive(ctx, prim),
+                )
+            )
             ctx.nodes.append((path, "SphereAreaLight" + ("" if seed else " (UsdLux)")))
     elif prim.IsA(UsdLux.DistantLight):
         direction = unit(world[:3, :3] @ np.array([0.0, 0.0, -1.0]))
@@ -565,7 +578,10 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
         else:
             colour = luminance * float(np.linalg.norm(np.cross(axis_u, axis_v)))
         lights.append(
-            RectAreaLight(centre, _rgb(axis_u), _rgb(axis_v), _rgb(colour), _shadow_samples(ctx, prim), path, falloff)
+            RectAreaLight(
+                centre, _rgb(axis_u), _rgb(axis_v), _rgb(colour), _shadow_samples(ctx, prim), path, falloff,
+                _shadow_adaptive(ctx, prim),
+            )
         )
         ctx.nodes.append((path, "RectAreaLight" + ("" if seed else " (UsdLux)")))
 

@@ -178,7 +178,8 @@ NB_MODULE(_native, m) {
 
     nb::enum_<phong::SamplePattern>(m, "SamplePattern", "Where a pixel's primary rays go (render.hpp).")
         .value("grid", phong::SamplePattern::kGrid)
-        .value("povray_am1", phong::SamplePattern::kPovrayAm1);
+        .value("povray_am1", phong::SamplePattern::kPovrayAm1)
+        .value("povray_am2", phong::SamplePattern::kPovrayAm2);
     nb::enum_<phong::SpecularConvention>(m, "SpecularConvention", "Which Phong specular term (materials.hpp).")
         .value("seed", phong::SpecularConvention::kSeed)
         .value("povray_classic", phong::SpecularConvention::kPovrayClassic);
@@ -230,7 +231,8 @@ NB_MODULE(_native, m) {
         .def_rw("axis_u", &RectAreaLight::axis_u)
         .def_rw("axis_v", &RectAreaLight::axis_v)
         .def_rw("color", &RectAreaLight::color)
-        .def_rw("samples", &RectAreaLight::samples);
+        .def_rw("samples", &RectAreaLight::samples)
+        .def_rw("adaptive", &RectAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)");
 
     using phong::SphereAreaLight;
     nb::class_<SphereAreaLight>(m, "SphereAreaLight", "A spherical light: POV-Ray's circular, oriented area light.")
@@ -240,7 +242,8 @@ NB_MODULE(_native, m) {
         .def_rw("center", &SphereAreaLight::center)
         .def_rw("radius", &SphereAreaLight::radius)
         .def_rw("color", &SphereAreaLight::color)
-        .def_rw("samples", &SphereAreaLight::samples);
+        .def_rw("samples", &SphereAreaLight::samples)
+        .def_rw("adaptive", &SphereAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)");
 
     using phong::CameraDescription;
     nb::class_<CameraDescription>(m, "CameraDescription", "The model's camera (camera.hpp).")
@@ -263,6 +266,7 @@ NB_MODULE(_native, m) {
         .def_rw("height", &RenderSettings::height)
         .def_rw("samples", &RenderSettings::samples)
         .def_rw("sample_pattern", &RenderSettings::sample_pattern)
+        .def_rw("aa_threshold", &RenderSettings::aa_threshold)
         .def_rw("threads", &RenderSettings::threads)
         .def_rw("background", &RenderSettings::background)
         .def_rw("specular_convention", &RenderSettings::specular_convention);

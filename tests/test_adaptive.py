@@ -1,0 +1,94 @@
+# SPDX-License-Identifier: Apache-2.0
+"""POV-Ray's adaptive estimators in the native tracer (issue 12): `adaptive n` area lights and
++AM1 / +AM2 with a threshold. Their agreement with POV-Ray is in tests/test_cross_backend.py
+(``ADAPTIVE_SCENES``); here: the scenes really exercise the adaptive rules (so that agreement
+means something), the estimators are deterministic for any thread count, and the knobs travel
+through validation, USD and the POV-Ray command line."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import calibration
+import numpy as np
+import pytest
+
+from phongscene.backends.povray.run import render_switches
+from phongscene.backends.povray.compile import compile_pov
+from phongscene.errors import SceneError
+from phongscene.rendering import render
+from phongscene.scene import RenderSettings
+from phongscene.usd import load_usd, write_usd
+from phongscene.validate import validate
+
+R = dataclasses.replace
+# A pixel counts as changed by the adaptive rule when it moves by more than float32 rounding
+# of values near 1 (2^-23 ≈ 1.2e-7), with margin.
+CHANGED = 1e-6
+
+
+def _full(scene):
+    """The same scene with the non-adaptive estimator (every grid point / every sample)."""
+    lights = tuple(R(light, adaptive=None) if hasattr(light, "adaptive") else light for light in scene.lights)
+    return R(scene, lights=lights, settings=R(scene.settings, aa_threshold=0.0))
+
+
+@pytest.mark.parametrize(
+    "name, at_least",
+    [
+        ("adaptive_rect_light_levels", 100),  # 9 grid points of 289 change the whole penumbra
+        ("adaptive_sphere_light_threshold", 5),  # only where a region's corners agree
+        ("adaptive_am1", 1000),  # unsupersampled pixels keep their centre colour
+        ("adaptive_am2", 1000),
+    ],
+)
+def test_adaptive_scenes_differ_from_the_full_estimators(name, at_least):
+    scene = calibration.ADAPTIVE_SCENES[name]()
+    adaptive = render(scene, "native")
+    full = render(_full(scene), "native")
+    changed = int((np.abs(adaptive - full) > CHANGED).any(axis=2).sum())
+    assert changed >= at_least, f"{name}: only {changed} pixels differ from the full estimator"
+
+
+def test_adaptive_am1_supersamples_only_near_edges():
+    scene = calibration.ADAPTIVE_SCENES["adaptive_am1"]()
+    one = render(R(scene, settings=R(scene.settings, samples=1, sample_pattern="grid")), "native")
+    adaptive = render(scene, "native")
+    same = (np.abs(adaptive - one) <= CHANGED).all(axis=2)
+    # Most pixels (flat shading) keep the centre sample; the supersampled ones are a minority.
+    assert 0.5 < same.mean() < 1.0
+
+
+@pytest.mark.parametrize("name", sorted(calibration.ADAPTIVE_SCENES))
+def test_adaptive_estimators_are_the_same_for_any_thread_count(name):
+    scene = calibration.ADAPTIVE_SCENES[name]()
+    images = [render(scene, "native", R(scene.settings, threads=t)) for t in (1, 2, 7)]
+    assert all(np.array_equal(images[0], im) for im in images[1:])
+
+
+def test_threshold_and_adaptive_are_validated():
+    scene = calibration.ADAPTIVE_SCENES["adaptive_rect_light_levels"]()
+    bad = R(scene, settings=R(scene.settings, aa_threshold=1.5), lights=(R(scene.lights[0], adaptive=-1),))
+    fields = {problem.attribute for problem in validate(bad)}
+    assert {"aa_threshold", "adaptive"} <= fields
+    with pytest.raises(SceneError, match="adaptive"):
+        render(bad, "native")
+
+
+def test_knobs_round_trip_through_usd(tmp_path):
+    scene = calibration.ADAPTIVE_SCENES["adaptive_rect_light_levels"]()
+    scene = R(scene, settings=R(scene.settings, sample_pattern="povray-am2", samples=3, aa_threshold=0.05))
+    back = load_usd(write_usd(scene, tmp_path / "s.usda"))
+    assert back.lights[0].adaptive == 1
+    assert back.settings.sample_pattern == "povray-am2"
+    assert back.settings.aa_threshold == pytest.approx(0.05)
+    assert "phong:shadowAdaptive = 1" in (tmp_path / "s.usda").read_text()
+
+
+def test_povray_gets_the_adaptive_switches_and_sdl():
+    *_, switches = render_switches(RenderSettings(samples=3, sample_pattern="povray-am1", aa_threshold=0.03))
+    assert {"+AM1", "+A0.03", "+R3"} <= set(switches) and "-A" not in switches
+    *_, switches = render_switches(RenderSettings(samples=2, sample_pattern="povray-am2", aa_threshold=0.0))
+    assert {"+AM2", "+A0.0", "+R2"} <= set(switches) and "-A" not in switches
+    sdl = compile_pov(calibration.ADAPTIVE_SCENES["adaptive_sphere_light_threshold"](), mapping="classic")
+    assert " adaptive 0 circular orient" in sdl
