@@ -72,6 +72,21 @@ def main(argv: list[str] | None = None) -> int:
 # Arguments more than one command takes
 
 
+def _float_in(low: float, high: float):
+    """An argparse type: a number in [low, high]."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if not low <= value <= high:  # also rejects nan
+            raise argparse.ArgumentTypeError(f"expected a number in [{low:g}, {high:g}], got {text}")
+        return value
+
+    return parse
+
+
 def _int_in(low: int, high: int | None = None):
     """An argparse type: a whole number in [low, high] (no upper bound when high is None)."""
 
@@ -105,6 +120,20 @@ def _add_size_options(p: argparse.ArgumentParser, spp_help: str = SPP_HELP) -> N
     p.add_argument("--width", type=_image_side, metavar="W", help="image width (alone: keeps the aspect ratio)")
     p.add_argument("--height", type=_image_side, metavar="H", help="image height (alone: keeps the aspect ratio)")
     p.add_argument("--spp", type=_samples_per_axis, metavar="N", help=spp_help)
+    _add_estimator_options(p)
+
+
+def _add_estimator_options(p: argparse.ArgumentParser) -> None:
+    from .scene import SAMPLE_PATTERNS
+    from .validate import MAX_ADAPTIVE
+
+    p.add_argument("--sample-pattern", choices=SAMPLE_PATTERNS,
+                   help="anti-aliasing pattern (RenderSettings.sample_pattern; default: the scene's)")
+    p.add_argument("--aa-threshold", type=_float_in(0.0, 1.0), metavar="T",
+                   help="POV-Ray's +A threshold of povray-am1/am2: supersample where colours differ by >= T "
+                   "(0: everywhere)")
+    p.add_argument("--shadow-adaptive", type=_int_in(0, MAX_ADAPTIVE), metavar="N",
+                   help="POV-Ray's 'adaptive N' on every area light (default: each light's own)")
 
 
 def _add_threshold_options(p: argparse.ArgumentParser) -> None:
@@ -136,12 +165,14 @@ def _print_warnings(warnings, stream=None) -> None:
 def _scene_and_settings(args):
     """The scene of ``args.scene`` (its warnings printed) and its settings with the command's
     mapping, size, sample and thread overrides."""
-    from .rendering import load_scene, settings_with
+    from .rendering import load_scene, settings_with, with_shadow_adaptive
 
     scene, warnings = load_scene(args.scene)
     _print_warnings(warnings)
+    scene = with_shadow_adaptive(scene, args.shadow_adaptive)
     settings = settings_with(scene, args.mapping, width=args.width, height=args.height, samples=args.spp,
-                             threads=getattr(args, "threads", None))
+                             threads=getattr(args, "threads", None), sample_pattern=args.sample_pattern,
+                             aa_threshold=args.aa_threshold)
     return scene, settings
 
 
@@ -178,7 +209,8 @@ def _run_diff(args) -> int:
         return EXIT_SCENE
     result = diff(
         args.scene, args.outdir, mapping=args.mapping, width=args.width, height=args.height, samples=args.spp,
-        threads=args.threads, thresholds=thresholds, progress=sys.stderr,
+        threads=args.threads, thresholds=thresholds, progress=sys.stderr, sample_pattern=args.sample_pattern,
+        aa_threshold=args.aa_threshold, shadow_adaptive=args.shadow_adaptive,
     )
     s = result.settings
     print(f"{args.scene}: {s.width} x {s.height}, mapping {result.mapping} (native {s.specular})")

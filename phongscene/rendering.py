@@ -41,6 +41,8 @@ def settings_with(
     height: int | None = None,
     samples: int | None = None,
     threads: int | None = None,
+    sample_pattern: str | None = None,
+    aa_threshold: float | None = None,
 ) -> RenderSettings:
     """The scene's settings with the overrides that are not None applied, and the specular
     convention that the POV-Ray ``mapping`` reproduces (None: the scene's). Giving only one of
@@ -50,8 +52,20 @@ def settings_with(
         height = max(1, round(width * s.height / s.width))
     elif height is not None and width is None:
         width = max(1, round(height * s.width / s.height))
-    changes = {"width": width, "height": height, "samples": samples, "threads": threads}
+    changes = {"width": width, "height": height, "samples": samples, "threads": threads,
+               "sample_pattern": sample_pattern, "aa_threshold": aa_threshold}
     return replace(s, **{k: v for k, v in changes.items() if v is not None})
+
+
+def with_shadow_adaptive(scene, level: int | None):
+    """``scene`` with POV-Ray's ``adaptive level`` on every area light (None: unchanged)."""
+    from .scene import RectAreaLight, SphereAreaLight
+
+    if level is None:
+        return scene
+    lights = tuple(replace(light, adaptive=level) if isinstance(light, (RectAreaLight, SphereAreaLight)) else light
+                   for light in scene.lights)
+    return replace(scene, lights=lights)
 
 
 def load_scene(scene_or_path: Scene | str | os.PathLike) -> tuple[Scene, list[str]]:

@@ -515,7 +515,17 @@ def adaptive_am2() -> Scene:
     )
 
 
+def adaptive_am1_two_lights() -> Scene:
+    """+AM1 +A0.1 +R3 with two lights: under the exact mapping POV-Ray renders one pass per light
+    and decides supersampling per pass (crossvalidation.render_native_as_povray does the same)."""
+    scene = shadows_two_lights()
+    return dataclasses.replace(
+        scene, settings=_settings(80, 60, samples=3, sample_pattern="povray-am1", aa_threshold=0.1)
+    )
+
+
 ADAPTIVE_SCENES: dict[str, Callable[[], Scene]] = {
+    "adaptive_am1_two_lights": adaptive_am1_two_lights,
     "adaptive_rect_light_levels": adaptive_rect_light_levels,
     "adaptive_sphere_light_threshold": adaptive_sphere_light_threshold,
     "adaptive_am1": adaptive_am1,

@@ -92,3 +92,19 @@ def test_povray_gets_the_adaptive_switches_and_sdl():
     assert {"+AM2", "+A0.0", "+R2"} <= set(switches) and "-A" not in switches
     sdl = compile_pov(calibration.ADAPTIVE_SCENES["adaptive_sphere_light_threshold"](), mapping="classic")
     assert " adaptive 0 circular orient" in sdl
+
+
+def test_exact_mapping_passes_decide_adaptive_aa_on_their_own():
+    """With several lights the exact mapping's POV-Ray passes supersample different pixels than
+    the summed image would (the cross-backend test shows the per-pass image is POV-Ray's)."""
+    from phongscene.crossvalidation import render_native_as_povray
+    from phongscene.rendering import settings_for
+
+    scene = calibration.ADAPTIVE_SCENES["adaptive_am1_two_lights"]()
+    settings = settings_for(scene, mapping="exact")
+    whole = render(scene, "native", settings)
+    passes = render_native_as_povray(scene, settings, "exact")
+    assert int((np.abs(whole - passes) > CHANGED).any(axis=2).sum()) > 10
+    # Without a threshold (every pixel supersampled) the passes add up to the whole image.
+    full = R(settings, aa_threshold=0.0)
+    assert np.array_equal(render_native_as_povray(scene, full, "exact"), render(scene, "native", full))

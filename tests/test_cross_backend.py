@@ -45,6 +45,7 @@ from phongscene.comparison import (
     compare,
     failing_mask,
 )
+from phongscene.crossvalidation import render_native_as_povray
 from phongscene.rendering import render, settings_for
 from phongscene.report import write_report
 from phongscene.scene import RectAreaLight, Scene, SphereAreaLight
@@ -127,7 +128,7 @@ def _check(case: tuple[str, str, str], povray_images, tmp_path: Path, monkeypatc
     scene = _scene(kind, name)
     settings = settings_for(scene, mapping=mapping)
     pov = povray_images[case]
-    native = render(scene, "native", settings)
+    native = render_native_as_povray(scene, settings, mapping)
     allowance, thresholds = _thresholds(scene)
     report = compare(pov, native, thresholds)
     unexplained = []
@@ -142,7 +143,7 @@ def _check(case: tuple[str, str, str], povray_images, tmp_path: Path, monkeypatc
         if "POVRAY_SHADOW_CACHE" in allowances and kind == "adaptive":
             # The oracle has no adaptive estimators: the native tracer with the cache's window
             # (numerics "povray-shadow-cache", as `diff` explains pixels) stands in for it.
-            cached = render(scene, "native", replace(settings, numerics="povray-shadow-cache"))
+            cached = render_native_as_povray(scene, replace(settings, numerics="povray-shadow-cache"), mapping)
             explained |= ~failing_mask(pov, cached, HALF_FLOAT)
         elif "POVRAY_SHADOW_CACHE" in allowances:
             monkeypatch.setattr(oracle, "SHADOW_TOLERANCE", SHADOW_CACHE_WINDOW)

@@ -40,11 +40,13 @@ appear in ``//`` comments after ``sanitize_comment``.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from phongscene.errors import Problem, SceneError
 from phongscene.scene import (
+    AmbientLight,
     DirectionalLight,
     PhongMaterial,
     PointLight,
@@ -136,6 +138,24 @@ def pass_count(scene: Scene, mapping: str) -> int:
     """Render passes (animation frames) the SDL of ``mapping`` needs: one per light for
     ``exact`` (at least one, which carries the ambient term), one for ``classic``."""
     return max(1, len(scene.lights)) if mapping == "exact" else 1
+
+
+def pass_scenes(scene: Scene, mapping: str) -> tuple[Scene, ...]:
+    """What each render pass of ``mapping`` draws, as scenes whose linear images add up to the
+    picture: for ``exact`` with several lights, one light each, pass 0 with the ambient light and
+    the background, the others with neither (as the SDL's ``#switch (Pass)``); else the scene."""
+    if pass_count(scene, mapping) == 1:
+        return (scene,)
+    dark = AmbientLight((0.0, 0.0, 0.0), scene.ambient.source)
+    return tuple(
+        replace(
+            scene,
+            lights=(light,),
+            ambient=scene.ambient if i == 0 else dark,
+            settings=scene.settings if i == 0 else replace(scene.settings, background=(0.0, 0.0, 0.0)),
+        )
+        for i, light in enumerate(scene.lights)
+    )
 
 
 def compile_pov(scene: Scene, settings: RenderSettings | None = None, mapping: str | None = None) -> str:
