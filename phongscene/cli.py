@@ -9,6 +9,7 @@ phongscene.cli`` and ``phongscene --help`` stay fast."""
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from pathlib import Path
@@ -25,6 +26,9 @@ SCENE_HELP = "USD file (.usda, .usdc, .usd, .usdz)"
 # against), named here so that building the parser imports no backend.
 MAPPING_CHOICES = ("exact", "classic")
 SPP_HELP = f"anti-aliasing: N x N samples per pixel, N in 1..{MAX_SAMPLES}"
+# `bench` renders its references at 27² samples per pixel: a small default image keeps that
+# to seconds.
+BENCH_WIDTH = 320
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -43,6 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
         _add_import_command,
         _add_render_command,
         _add_compile_command,
+        _add_bench_command,
     ):
         add_command(sub)
     return parser
@@ -374,6 +379,55 @@ def _run_import(args) -> int:
 
 # ----------------------------------------------------------------------------------------------
 # render, compile
+
+
+def _add_bench_command(sub) -> None:
+    p = sub.add_parser(
+        "bench",
+        help="speed against error: every estimator of both backends, wall and CPU time",
+        description="Render SCENE with every anti-aliasing estimator (grid, POV-Ray's +AM1/+AM2 with thresholds) "
+        "and, if it has area lights, every shadow estimator (grids, POV-Ray's 'adaptive n') on both backends; "
+        "time each (wall and CPU, best of --repeat) and measure its RMS and max error against a reference "
+        "whose own error is measured too. Prints the table and writes OUTDIR/bench.csv, bench.json and "
+        "bench.png (log-log, with each backend's Pareto front).",
+        epilog="Exit codes: 0 ok, 2 bad scene or usage, 3 backend failure.",
+    )
+    _add_scene_argument(p)
+    p.add_argument("-o", "--outdir", required=True, metavar="OUTDIR", help="folder for bench.csv/.json/.png (created)")
+    _add_mapping_option(p, "POV-Ray mapping (default: the scene's specular convention)")
+    p.add_argument("--width", type=_image_side, metavar="W",
+                   help=f"image width (default {BENCH_WIDTH}; the height keeps the aspect ratio)")
+    p.add_argument("--threads", type=_thread_count, metavar="N", help="threads of both renderers (0 = all cores)")
+    p.add_argument("--repeat", type=_int_in(1, 100), default=3, metavar="N", help="runs per setting; the best counts")
+    p.add_argument("--quick", action="store_true", help="a few estimators of each kind")
+    p.add_argument("--native-only", action="store_true", help="measure the native tracer only")
+    p.add_argument("--target-rms", type=_float_in(0.0, math.inf), metavar="E",
+                   help="say which setting of each backend reaches RMS error E fastest")
+    p.set_defaults(func=_run_bench)
+
+
+def _run_bench(args) -> int:
+    from pathlib import Path
+
+    from . import bench
+    from .rendering import check_settings, load_scene, settings_with
+
+    scene, warnings = load_scene(args.scene)
+    _print_warnings(warnings)
+    settings = check_settings(scene, settings_with(scene, args.mapping, width=args.width or BENCH_WIDTH,
+                                                   threads=args.threads))
+    backends = ("native",) if args.native_only else bench.BACKEND_NAMES
+    print(f"{args.scene}: {settings.width} x {settings.height}, specular {settings.specular}, "
+          f"threads {settings.threads or 'all'}, best of {args.repeat}", flush=True)
+    result = bench.run(scene, settings, repeat=args.repeat, quick=args.quick, backends=backends,
+                       log=lambda line: print(line, flush=True))
+    print()
+    print(bench.table(result), end="")
+    if args.target_rms is not None:
+        print("\n".join(bench.target(result, args.target_rms)))
+    paths = bench.write_all(result, Path(args.outdir), "bench", title=f"{Path(args.scene).name}: speed against error")
+    print("wrote " + ", ".join(str(p) for p in paths))
+    return EXIT_OK
 
 
 def _add_render_command(sub) -> None:
