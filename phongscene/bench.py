@@ -6,15 +6,16 @@ Two families of estimators, each varied with the other held fixed:
 
 * anti-aliasing (every scene): the n×n ``grid``, POV-Ray's ``povray-am1`` and ``povray-am2``
   with thresholds (ref §8), and the native tracer's ``stratified`` estimator; the scene's lights
-  as they are. Reference: a ``grid`` render at REFERENCE_RESOLUTION× the resolution with
-  REFERENCE_SAMPLES² samples per (small) pixel, box-filtered down: 27×27 samples per pixel.
+  as they are. Reference: the stratified estimator without early stop at REFERENCE_RESOLUTION×
+  the resolution with REFERENCE_SAMPLES² points per (small) pixel, box-filtered down: 48² points
+  per pixel.
 * area-light shadows (scenes with area lights): the shadow grid at 3…33 points per axis, in
   full and with POV-Ray's ``adaptive n``, and the native tracer's ``cells`` estimator, at one
   sample per pixel (the same primary rays as the reference, so anti-aliasing error cancels).
   Reference: the full grid at REFERENCE_SHADOW_SAMPLES points per axis.
 
 The reference's own error is measured, not assumed: it is rendered a second time with a coarser
-setting (2/3 of the samples per axis, resp. half the grid intervals) and, for an estimator whose
+setting (half the samples per axis, resp. half the grid intervals) and, for an estimator whose
 error falls as h^p with p >= 1 (h: the sample spacing), its error is at most
 |reference − coarser| / ((h_coarse / h_ref)^p − 1) <= |reference − coarser| / (ratio − 1).
 Rows whose error is not at least REFERENCE_MARGIN× that bound are flagged.
@@ -43,11 +44,13 @@ from .scene import RectAreaLight, RenderSettings, Scene, SphereAreaLight
 AA, AREA = "anti-aliasing", "area-light shadows"
 BACKEND_NAMES = ("native", "povray")
 
-# The anti-aliasing reference: REFERENCE_SAMPLES² (the most RenderSettings allows) at
-# REFERENCE_RESOLUTION× the size, i.e. 27² cell-centred samples per pixel.
+# The anti-aliasing reference: REFERENCE_SAMPLES² points of the stratified (0,2)-sequence (the
+# most RenderSettings allows, no early stop) at REFERENCE_RESOLUTION× the size: 48² samples per
+# pixel; its twin with half the points per axis measures its error.
 REFERENCE_RESOLUTION = 3
-REFERENCE_SAMPLES = 9
-REFERENCE_COARSE_SAMPLES = 6  # 18² per pixel: the second render that measures the reference's error
+REFERENCE_PATTERN = "stratified"
+REFERENCE_SAMPLES = 16
+REFERENCE_COARSE_SAMPLES = 8
 # The area-light reference grid (2^7 + 1: its trapezoid rule contains every coarser 2^k + 1 grid)
 # and its coarser twin (half the intervals).
 REFERENCE_SHADOW_SAMPLES = 129
@@ -60,6 +63,8 @@ REFERENCE_MARGIN = 10.0
 AA_GRID = (1, 2, 3, 4, 6)
 AA_AM1 = ((3, 0.3), (3, 0.1), (3, 0.03), (4, 0.03), (4, 0.01))
 AA_AM2 = ((2, 0.1), (3, 0.1), (3, 0.03), (4, 0.03), (4, 0.01))
+# The native stratified estimator: (n, threshold): up to n² points, stop when settled within t.
+AA_STRATIFIED = ((2, 0.0), (4, 0.0), (4, 0.03), (8, 0.03), (8, 0.01), (8, 0.003), (16, 0.01), (16, 0.003))
 AREA_GRID = (3, 5, 9, 17, 33)
 AREA_ADAPTIVE = ((9, 1), (17, 1), (17, 2), (33, 1), (33, 2))
 
@@ -99,6 +104,9 @@ def estimators(scene: Scene, quick: bool = False) -> list[Estimator]:
                       spacing=1 / n) for n, t in am1]
     out += [Estimator(AA, f"am2 R{n} A{t:g}", {"samples": n, "sample_pattern": "povray-am2", "aa_threshold": t}, {},
                       spacing=1 / 2 ** (n - 1)) for n, t in am2]
+    stratified = AA_STRATIFIED[2:4] if quick else AA_STRATIFIED
+    out += [Estimator(AA, f"stratified {n} t{t:g}", {"samples": n, "sample_pattern": "stratified", "aa_threshold": t},
+                      {}, backends=("native",), spacing=1 / n) for n, t in stratified]
     if any(_is_area(light) for light in scene.lights):
         one = {"samples": 1, "sample_pattern": "grid", "aa_threshold": 0.0}
         shadow = AREA_GRID[:3] if quick else AREA_GRID
@@ -151,13 +159,14 @@ def reference(family: str, scene: Scene, settings: RenderSettings, render: Calla
     if family == AA:
         k = REFERENCE_RESOLUTION
         big = dataclasses.replace(settings, width=settings.width * k, height=settings.height * k,
-                                  sample_pattern="grid", aa_threshold=0.0)
+                                  sample_pattern=REFERENCE_PATTERN, aa_threshold=0.0)
         start = time.perf_counter()
         fine = box_down(render(scene, dataclasses.replace(big, samples=REFERENCE_SAMPLES)), k)
         seconds = time.perf_counter() - start
         coarse = box_down(render(scene, dataclasses.replace(big, samples=REFERENCE_COARSE_SAMPLES)), k)
         ratio = REFERENCE_SAMPLES / REFERENCE_COARSE_SAMPLES
-        what = f"grid {REFERENCE_SAMPLES * k}x{REFERENCE_SAMPLES * k} per pixel"
+        what = (f"{REFERENCE_PATTERN} {REFERENCE_SAMPLES}x{REFERENCE_SAMPLES} points at {k}x the resolution "
+                f"({(REFERENCE_SAMPLES * k) ** 2} per pixel)")
     else:
         one = dataclasses.replace(settings, samples=1, sample_pattern="grid", aa_threshold=0.0)
 
@@ -238,7 +247,7 @@ def run(
                 wall, cpu, image = timed(lambda: render_backend(s_scene, backend, s_settings), repeat)
                 row = {"family": family, "label": est.label, "backend": backend, "wall": wall, "cpu": cpu,
                        "rms": rms(ref["image"], image), "max": max_error(ref["image"], image),
-                       "spacing": est.spacing}
+                       "bias": float(np.mean(image.astype(np.float64) - ref["image"])), "spacing": est.spacing}
                 row["resolved"] = row["rms"] >= REFERENCE_MARGIN * ref["rms_error_bound"]
                 rows.append(row)
                 log(f"  {est.label:<22} {backend:<7} wall {wall:7.3f} s  cpu {cpu:7.3f} s  rms {row['rms']:.2e}"
@@ -270,13 +279,15 @@ def target(result: dict, rms_target: float) -> list[str]:
 
 
 def table(result: dict) -> str:
-    """A plain-text table of every row, and the dominance summary."""
+    """A plain-text table of every row (bias: the mean signed error over every channel value, an
+    estimate of the estimator's bias on this scene), and the dominance summary."""
     out = io.StringIO()
-    out.write(f"{'family':<19} {'estimator':<22} {'backend':<7} {'wall s':>8} {'CPU s':>8} {'RMS':>9} {'max':>7}\n")
+    out.write(f"{'family':<19} {'estimator':<22} {'backend':<7} {'wall s':>8} {'CPU s':>8} {'RMS':>9} {'max':>7} "
+              f"{'bias':>9}\n")
     for r in result["rows"]:
         flag = "" if r["resolved"] else "  *"
         out.write(f"{r['family']:<19} {r['label']:<22} {r['backend']:<7} {r['wall']:8.3f} {r['cpu']:8.3f} "
-                  f"{r['rms']:9.2e} {r['max']:7.3f}{flag}\n")
+                  f"{r['rms']:9.2e} {r['max']:7.3f} {r['bias']:+9.1e}{flag}\n")
     if any(not r["resolved"] for r in result["rows"]):
         out.write(f"* RMS error within {REFERENCE_MARGIN:g}x of the reference's own error bound\n")
     for family, d in result["dominance"].items():
@@ -292,7 +303,7 @@ def write_csv(result: dict, path: Path) -> None:
     from .files import write_text_atomic
 
     out = io.StringIO()
-    fields = ("family", "label", "backend", "wall", "cpu", "rms", "max", "spacing", "resolved")
+    fields = ("family", "label", "backend", "wall", "cpu", "rms", "max", "bias", "spacing", "resolved")
     writer = csv.DictWriter(out, fieldnames=fields, extrasaction="ignore", lineterminator="\n")
     writer.writeheader()
     writer.writerows(result["rows"])

@@ -17,7 +17,7 @@ from pathlib import Path
 from . import __version__
 from .errors import BackendError, PhongSceneError, SceneError
 from .rendering import BACKENDS, in_file_terms
-from .validate import MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_THREADS
+from .validate import MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_STRATIFIED_SAMPLES, MAX_THREADS
 
 EXIT_OK, EXIT_DIFFERENT, EXIT_SCENE, EXIT_BACKEND, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -25,7 +25,8 @@ SCENE_HELP = "USD file (.usda, .usdc, .usd, .usdz)"
 # The POV-Ray backend's mappings (phongscene.backends.povray.MAPPINGS, which a test checks this
 # against), named here so that building the parser imports no backend.
 MAPPING_CHOICES = ("exact", "classic")
-SPP_HELP = f"anti-aliasing: N x N samples per pixel, N in 1..{MAX_SAMPLES}"
+SPP_HELP = (f"anti-aliasing: N x N samples per pixel, N in 1..{MAX_SAMPLES} "
+            f"(stratified: at most N x N, N up to {MAX_STRATIFIED_SAMPLES})")
 # `bench` renders its references at 27² samples per pixel: a small default image keeps that
 # to seconds.
 BENCH_WIDTH = 320
@@ -110,7 +111,8 @@ def _int_in(low: int, high: int | None = None):
 
 _image_side = _int_in(1, MAX_IMAGE_SIDE)
 _thread_count = _int_in(0, MAX_THREADS)  # 0 = all cores
-_samples_per_axis = _int_in(1, MAX_SAMPLES)  # the model's anti-aliasing range (RenderSettings.samples)
+# The model's anti-aliasing range (RenderSettings.samples; above MAX_SAMPLES: stratified only).
+_samples_per_axis = _int_in(1, MAX_STRATIFIED_SAMPLES)
 
 
 def _add_scene_argument(p: argparse.ArgumentParser) -> None:

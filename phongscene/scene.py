@@ -38,8 +38,10 @@ Vec3 = tuple[float, float, float]
 RGB = tuple[float, float, float]
 
 SpecularConvention = Literal["seed", "povray-classic"]
-SamplePattern = Literal["grid", "povray-am1", "povray-am2"]
-SAMPLE_PATTERNS: tuple[str, ...] = ("grid", "povray-am1", "povray-am2")
+SamplePattern = Literal["grid", "povray-am1", "povray-am2", "stratified"]
+SAMPLE_PATTERNS: tuple[str, ...] = ("grid", "povray-am1", "povray-am2", "stratified")
+# The patterns POV-Ray has ("stratified" is the native tracer's own).
+POVRAY_SAMPLE_PATTERNS: tuple[str, ...] = ("grid", "povray-am1", "povray-am2")
 # The native tracer's ray tolerances: "scale-invariant" (relative to the scene's size, so a scene
 # renders the same in any units), "povray" (POV-Ray's absolute 1e-4 / 1e-3 and its mesh2 data:
 # float32, flat where a triangle's normals are equal, to reproduce POV-Ray's images; ``diff``
@@ -341,7 +343,9 @@ class RenderSettings:
     # plus the n×n grid, divided by n²+1 (ref §8), in pixels where the colour changes by at least
     # ``aa_threshold`` (every pixel at 0). "povray-am2": POV-Ray's +AM2 +A t +R n -J, the pixel's
     # corners, then 4-corner subdivision down to 2^(n−1) cells per side where the corners differ by
-    # at least ``aa_threshold`` (the full grid, trapezoid weights, at 0).
+    # at least ``aa_threshold`` (the full grid, trapezoid weights, at 0). "stratified" (native
+    # only): 4, 16, 64, … points of a per-pixel scrambled Sobol' (0,2)-sequence, up to n², while
+    # the estimate still changes by at least ``aa_threshold`` (linear |Δr|+|Δg|+|Δb|; all n² at 0).
     sample_pattern: SamplePattern = "grid"
     # POV-Ray's +A: compared with |Δr|+|Δg|+|Δb| of colours encoded as c^(1/2.5), [0, 1].
     aa_threshold: float = 0.0

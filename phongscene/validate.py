@@ -29,7 +29,9 @@ from .scene import (
 )
 from .tolerances import SINGULAR_RELATIVE_DET, UNIT_TOLERANCE, is_singular
 
-MAX_SAMPLES = 9  # anti-aliasing grid per axis (RenderSettings.samples)
+MAX_SAMPLES = 9  # anti-aliasing grid per axis (RenderSettings.samples): POV-Ray's +R limit
+# The native stratified estimator's budget is samples² points: up to 256 (its stages 4, 16, 64, 256).
+MAX_STRATIFIED_SAMPLES = 16
 # Positions the tracer can represent: every coordinate within ±1e150, so that differences stay
 # finite and squared distances (inverse-square falloff, sphere tests, box areas) stay below
 # 1e300 < the largest double; beyond that, bounds and extents overflow to inf.
@@ -217,8 +219,9 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
             sides_ok = False
     if sides_ok and s.width * s.height > MAX_PIXELS:
         c.add(s, "width", f"width × height must be at most {MAX_PIXELS} pixels, got {s.width} × {s.height}")
-    if not isinstance(s.samples, (int, np.integer)) or not 1 <= s.samples <= MAX_SAMPLES:
-        c.add(s, "samples", f"must be an integer in 1..{MAX_SAMPLES}, got {_show(s.samples)}")
+    most = MAX_STRATIFIED_SAMPLES if s.sample_pattern == "stratified" else MAX_SAMPLES
+    if not isinstance(s.samples, (int, np.integer)) or not 1 <= s.samples <= most:
+        c.add(s, "samples", f"must be an integer in 1..{most}, got {_show(s.samples)}")
     if s.sample_pattern not in SAMPLE_PATTERNS:
         c.add(s, "sample_pattern", f"must be one of {', '.join(SAMPLE_PATTERNS)}, got {_show(s.sample_pattern)}")
     c.unit_interval(s, "aa_threshold")  # POV-Ray clips +A to [0, 1]

@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from phongscene.errors import BackendError, PhongSceneError
+from phongscene.errors import BackendError, PhongSceneError, Problem, SceneError
 from phongscene.images import read_image
-from phongscene.scene import RenderSettings, Scene
+from phongscene.scene import POVRAY_SAMPLE_PATTERNS, RenderSettings, Scene
 
 from .compile import compile_body, compile_pov, pass_count, resolve_mapping
 
@@ -84,8 +84,13 @@ def aa_threshold(value: float) -> str:
     return np.format_float_positional(np.float32(value), trim="0")
 
 
-def render_switches(settings: RenderSettings) -> tuple[int, int, int, tuple[str, ...]]:
-    """(width, height, supersample, switches) POV-Ray needs for ``settings``."""
+def render_switches(settings: RenderSettings, source_file: str = "") -> tuple[int, int, int, tuple[str, ...]]:
+    """(width, height, supersample, switches) POV-Ray needs for ``settings`` (a SceneError naming
+    ``source_file`` for a pattern POV-Ray does not have)."""
+    if settings.sample_pattern not in POVRAY_SAMPLE_PATTERNS:
+        raise SceneError(Problem(
+            f"{settings.sample_pattern!r} is the native tracer's own; POV-Ray renders {', '.join(POVRAY_SAMPLE_PATTERNS)}",
+            settings.source, "sample_pattern", source_file, node="RenderSettings"))
     n = int(settings.samples)
     k = n if n > 1 and settings.sample_pattern == "grid" else 1
     width, height = settings.width * k, settings.height * k
@@ -106,7 +111,7 @@ def prepare(scene: Scene, settings: RenderSettings | None = None, mapping: str |
     """Compile ``scene`` and work out how POV-Ray must render it (what the CLI prints)."""
     settings = scene.settings if settings is None else settings
     mapping = resolve_mapping(settings, mapping)
-    width, height, k, switches = render_switches(settings)
+    width, height, k, switches = render_switches(settings, scene.source_file)
     return PovJob(compile_pov(scene, settings, mapping), pass_count(scene, mapping), width, height, k, switches)
 
 
@@ -155,7 +160,7 @@ def render_many(
     for scene, settings, mapping in items:
         settings = scene.settings if settings is None else settings
         mapping = resolve_mapping(settings, mapping)
-        jobs.append((scene, settings, mapping, render_switches(settings)))
+        jobs.append((scene, settings, mapping, render_switches(settings, scene.source_file)))
     groups: dict[tuple, list[int]] = {}
     for i, job in enumerate(jobs):
         groups.setdefault(job[3], []).append(i)

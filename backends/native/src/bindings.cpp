@@ -179,7 +179,8 @@ NB_MODULE(_native, m) {
     nb::enum_<phong::SamplePattern>(m, "SamplePattern", "Where a pixel's primary rays go (render.hpp).")
         .value("grid", phong::SamplePattern::kGrid)
         .value("povray_am1", phong::SamplePattern::kPovrayAm1)
-        .value("povray_am2", phong::SamplePattern::kPovrayAm2);
+        .value("povray_am2", phong::SamplePattern::kPovrayAm2)
+        .value("stratified", phong::SamplePattern::kStratified);
     nb::enum_<phong::SpecularConvention>(m, "SpecularConvention", "Which Phong specular term (materials.hpp).")
         .value("seed", phong::SpecularConvention::kSeed)
         .value("povray_classic", phong::SpecularConvention::kPovrayClassic);

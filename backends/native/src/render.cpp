@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
@@ -27,6 +28,35 @@ constexpr int kPovrayBlockSize = 32;
 // POV-Ray's Antialias_Gamma default (view.cpp): the +A threshold compares colours encoded as
 // max(c, 0)^(1/2.5), in float (colourspace.cpp: PowerLawGammaCurve).
 constexpr float kPovrayAntialiasEncodingExponent = 1.0f / 2.5f;
+
+// The native "stratified" pixel estimator's points: the 2-D Sobol' sequence, a (0,2)-sequence in
+// base 2 (its first 4^k points put one point in every elementary interval of area 4^-k: every
+// 2^a x 2^b cell grid with a + b = 2k), digitally shifted per pixel by a hash of its position (a
+// digital shift keeps that stratification; it decorrelates neighbouring pixels' patterns).
+inline uint32_t reverse_bits(uint32_t x) {
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
+    x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
+    return (x >> 16) | (x << 16);
+}
+// Sobol's second dimension: direction numbers v_1 = 2^31, v_k = v_(k-1) ^ (v_(k-1) >> 1).
+inline uint32_t sobol_second(uint32_t i) {
+    uint32_t y = 0;
+    for (uint32_t v = 1u << 31; i != 0; i >>= 1, v ^= v >> 1)
+        if (i & 1u) y ^= v;
+    return y;
+}
+// A 32-bit integer hash (Wellons' lowbias32): the per-pixel digital shifts.
+inline uint32_t hash32(uint32_t x) {
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+constexpr double kTwoToMinus32 = 1.0 / 4294967296.0;
 
 // A colour as POV-Ray's threshold test sees it: float, gamma-encoded.
 struct EncodedColour {
@@ -259,11 +289,66 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
             }
     };
 
+    // The native stratified estimator (render.hpp). With a threshold t > 0 it first looks at the
+    // pixel's 4 corners (traced once per tile, shared with the neighbours, as +AM2 does): a
+    // straight edge through the pixel always separates two corners, which 4 interior samples do
+    // not guarantee. Corners within t of each other (|dr| + |dg| + |db|, linear): the pixel is
+    // their mean (+AM2's level 0). Otherwise, and always at t = 0, it takes stages of 16, 64,
+    // 256 points of the scrambled (0,2)-sequence, up to n^2, stopping when a stage moved the
+    // estimate by less than t (that change estimates the previous stage's error).
+    const int budget = n * n;
+    const double settle = settings.aa_threshold;
+    auto colour_l1 = [](const RGB& a) { return std::fabs(a.x) + std::fabs(a.y) + std::fabs(a.z); };
+    auto stratified_pixel = [&](int i, int j, const RGB* corners, std::vector<BundleCandidate>& scratch) {
+        if (corners != nullptr) {
+            bool agree = true;
+            for (int a = 0; a < 4 && agree; ++a)
+                for (int b = a + 1; b < 4 && agree; ++b) agree = colour_l1(corners[a] - corners[b]) < settle;
+            if (agree) return store(i, j, (corners[0] + corners[1] + corners[2] + corners[3]) / 4.0);
+        }
+        const uint32_t key = uint32_t(j) * 0x9E3779B1u + uint32_t(i);
+        const uint32_t shift_x = hash32(key), shift_y = hash32(key ^ 0xA511E9B3u);
+        RGB sum, previous;
+        int count = 0;
+        for (int stage = std::min(16, budget);; stage = std::min(stage * 4, budget)) {
+            for (; count < stage; ++count) {
+                const double px = double(reverse_bits(uint32_t(count)) ^ shift_x) * kTwoToMinus32;
+                const double py = double(sobol_second(uint32_t(count)) ^ shift_y) * kTwoToMinus32;
+                sum += trace_at(i + px, j + py, scratch);
+            }
+            const RGB mean = sum / double(count);
+            if (count >= budget || (settle > 0.0 && count > 16 && colour_l1(mean - previous) < settle))
+                return store(i, j, mean);
+            previous = mean;
+        }
+    };
+    auto render_block_stratified = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
+        const int stride = x1 - x0 + 1;
+        std::vector<RGB> corners;
+        if (settle > 0.0) {
+            corners.resize(size_t(stride) * size_t(y1 - y0 + 1));
+            for (int j = y0; j <= y1; ++j)
+                for (int i = x0; i <= x1; ++i) corners[size_t(j - y0) * stride + size_t(i - x0)] = trace_at(i, j, scratch);
+        }
+        for (int j = y0; j < y1; ++j)
+            for (int i = x0; i < x1; ++i) {
+                if (corners.empty()) {
+                    stratified_pixel(i, j, nullptr, scratch);
+                    continue;
+                }
+                const size_t k = size_t(j - y0) * stride + size_t(i - x0);
+                const RGB four[4] = {corners[k], corners[k + 1], corners[k + stride], corners[k + stride + 1]};
+                stratified_pixel(i, j, four, scratch);
+            }
+    };
+
     const bool adaptive_am1 = settings.sample_pattern == SamplePattern::kPovrayAm1 && threshold > 0.0;
+    const bool stratified = settings.sample_pattern == SamplePattern::kStratified;
     const bool am2 = settings.sample_pattern == SamplePattern::kPovrayAm2;
     auto render_tile = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
         if (adaptive_am1) return render_block_am1(x0, y0, x1, y1, scratch);
         if (am2) return render_block_am2(x0, y0, x1, y1, scratch);
+        if (stratified) return render_block_stratified(x0, y0, x1, y1, scratch);
         for (int j = y0; j < y1; ++j)
             for (int i = x0; i < x1; ++i) render_pixel(i, j, scratch);
     };
