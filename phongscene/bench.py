@@ -310,9 +310,38 @@ def write_csv(result: dict, path: Path) -> None:
     write_text_atomic(path, out.getvalue())
 
 
+def draw(ax, result: dict, cost: str) -> None:
+    """One panel: RMS error against ``cost`` ("cpu" or "wall") time, log-log; every estimator a
+    faint point, each backend's Pareto front (per family) a labelled line."""
+    colours = {"native": "tab:blue", "povray": "tab:red"}
+    markers = {AA: "o", AREA: "s"}
+    rows = result["rows"]
+    for family in sorted({r["family"] for r in rows}, key=[AA, AREA].index):
+        for backend in BACKEND_NAMES:
+            mine = [r for r in rows if r["family"] == family and r["backend"] == backend]
+            if not mine:
+                continue
+            ax.scatter([r[cost] for r in mine], [r["rms"] for r in mine], color=colours[backend],
+                       marker=markers[family], alpha=0.35, s=20)
+            front = [mine[i] for i in pareto_front([(r[cost], r["rms"]) for r in mine])]
+            ax.plot([r[cost] for r in front], [r["rms"] for r in front], color=colours[backend],
+                    marker=markers[family], linestyle="-" if family == AA else "--",
+                    label=f"{'POV-Ray' if backend == 'povray' else 'native'} Pareto front, {family}")
+            for r in front:
+                ax.annotate(r["label"], (r[cost], r["rms"]), textcoords="offset points", xytext=(4, 3),
+                            fontsize=6, color=colours[backend])
+        bound = result["references"][family]["rms_error_bound"]
+        ax.axhline(bound, color="grey", linestyle=":" if family == AA else "-.", linewidth=1,
+                   label=f"reference's own RMS error (bound), {family}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(f"{'CPU' if cost == 'cpu' else 'wall'} time per image, end to end (s)")
+    ax.set_ylabel("RMS error against the reference")
+    ax.grid(True, which="both", alpha=0.3)
+
+
 def plot(result: dict, path: Path, title: str = "") -> None:
-    """Log-log RMS error against CPU and wall time, one panel each, every estimator a point,
-    each backend's Pareto front (per family) a line."""
+    """Log-log RMS error against CPU and wall time, one panel each (``draw``)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -320,34 +349,10 @@ def plot(result: dict, path: Path, title: str = "") -> None:
 
     from .files import atomic_path
 
-    colours = {"native": "tab:blue", "povray": "tab:red"}
-    markers = {AA: "o", AREA: "s"}
     fig, axes = plt.subplots(1, 2, figsize=(13, 6), layout="constrained")
-    rows = result["rows"]
-    for ax, cost, name in ((axes[0], "cpu", "CPU time"), (axes[1], "wall", "wall time")):
-        for family in sorted({r["family"] for r in rows}, key=[AA, AREA].index):
-            for backend in BACKEND_NAMES:
-                mine = [r for r in rows if r["family"] == family and r["backend"] == backend]
-                if not mine:
-                    continue
-                ax.scatter([r[cost] for r in mine], [r["rms"] for r in mine], color=colours[backend],
-                           marker=markers[family], alpha=0.5, s=22)
-                front = [mine[i] for i in pareto_front([(r[cost], r["rms"]) for r in mine])]
-                ax.plot([r[cost] for r in front], [r["rms"] for r in front], color=colours[backend],
-                        marker=markers[family], linestyle="-" if family == AA else "--",
-                        label=f"{backend} Pareto front, {family}")
-                for r in front:
-                    ax.annotate(r["label"], (r[cost], r["rms"]), textcoords="offset points", xytext=(4, 3),
-                                fontsize=7, color=colours[backend])
-            bound = result["references"][family]["rms_error_bound"]
-            ax.axhline(bound, color="grey", linestyle=":" if family == AA else "-.", linewidth=1,
-                       label=f"reference's own RMS error bound, {family}")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel(f"{name} per image, end to end (s)")
-        ax.set_ylabel("RMS error against the reference")
-        ax.set_title(f"RMS error against {name}")
-        ax.grid(True, which="both", alpha=0.3)
+    for ax, cost in zip(axes, ("cpu", "wall")):
+        draw(ax, result, cost)
+        ax.set_title(f"RMS error against {'CPU' if cost == 'cpu' else 'wall'} time")
     fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=3, fontsize=8)
     fig.suptitle(title or f"Speed against error, {result['width']}x{result['height']}")
     with atomic_path(path) as tmp:
