@@ -159,3 +159,13 @@ def test_stratified_is_native_only_and_may_use_up_to_16_per_axis():
     assert {p.attribute for p in validate(R(scene, settings=R(ok, sample_pattern="grid")))} == {"samples"}
     with pytest.raises(SceneError, match="native tracer's own"):
         render_switches(R(ok, samples=4))
+
+
+def test_cli_rejects_more_than_9_samples_except_for_stratified(tmp_path, capsys):
+    from phongscene.cli import main
+
+    path = write_usd(calibration.point_light(), tmp_path / "scene.usda")
+    assert main(["render", str(path), "-o", str(tmp_path / "a.exr"), "--spp", "10"]) == 2
+    assert "phong:samples" in capsys.readouterr().err
+    assert main(["render", str(path), "-o", str(tmp_path / "b.exr"), "--spp", "10", "--width", "8",
+                 "--sample-pattern", "stratified", "--aa-threshold", "0.05"]) == 0

@@ -241,26 +241,34 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     // or else of its 4 corners. Samples sit at (i + a/m, j + b/m); the corners are traced once
     // per tile, the other samples once per pixel (as POV-Ray).
     const int m = 1 << (n - 1);
+    // A traced sample and its encoding for the threshold tests (encoded once: powf dominated
+    // the subdivision's cost when every level re-encoded its corners).
+    struct Sample {
+        RGB colour;
+        EncodedColour encoded;
+        explicit Sample(const RGB& c = RGB()) : colour(c), encoded(c) {}
+    };
     auto render_block_am2 = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
         const int stride = x1 - x0 + 1;
-        std::vector<RGB> corners(size_t(stride) * size_t(y1 - y0 + 1));
+        std::vector<Sample> corners(size_t(stride) * size_t(y1 - y0 + 1));
         for (int j = y0; j <= y1; ++j)
-            for (int i = x0; i <= x1; ++i) corners[size_t(j - y0) * stride + size_t(i - x0)] = trace_at(i, j, scratch);
+            for (int i = x0; i <= x1; ++i)
+                corners[size_t(j - y0) * stride + size_t(i - x0)] = Sample(trace_at(i, j, scratch));
         const int side = m + 1;
-        std::vector<RGB> sample(size_t(side) * side);
+        std::vector<Sample> sample(size_t(side) * side);
         std::vector<int> stamp(sample.size(), -1);  // which pixel traced the sample (no clearing)
         int pixel_id = 0;
         for (int j = y0; j < y1; ++j)
             for (int i = x0; i < x1; ++i, ++pixel_id) {
-                auto get = [&](int a, int b) -> const RGB& {
+                auto get = [&](int a, int b) -> const Sample& {
                     const size_t k = size_t(b) * side + size_t(a);
                     if (stamp[k] != pixel_id) {
-                        sample[k] = trace_at(i + double(a) / m, j + double(b) / m, scratch);
+                        sample[k] = Sample(trace_at(i + double(a) / m, j + double(b) / m, scratch));
                         stamp[k] = pixel_id;
                     }
                     return sample[k];
                 };
-                auto set = [&](int a, int b, const RGB& c) {
+                auto set = [&](int a, int b, const Sample& c) {
                     const size_t k = size_t(b) * side + size_t(a);
                     sample[k] = c;
                     stamp[k] = pixel_id;
@@ -270,10 +278,11 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
                 set(0, m, corners[size_t(j + 1 - y0) * stride + size_t(i - x0)]);
                 set(m, m, corners[size_t(j + 1 - y0) * stride + size_t(i + 1 - x0)]);
                 auto subdivide = [&](auto&& self, int a, int b, int step, int level) -> RGB {
-                    const RGB c00 = get(a, b), c02 = get(a, b + step), c20 = get(a + step, b),
-                              c22 = get(a + step, b + step);
+                    const Sample &s00 = get(a, b), &s02 = get(a, b + step), &s20 = get(a + step, b),
+                                 &s22 = get(a + step, b + step);
                     if (level > 0) {
-                        const EncodedColour e00(c00), e02(c02), e20(c20), e22(c22);
+                        const EncodedColour &e00 = s00.encoded, &e02 = s02.encoded, &e20 = s20.encoded,
+                                            &e22 = s22.encoded;
                         if (colour_distance(e00, e02) >= threshold || colour_distance(e00, e20) >= threshold ||
                             colour_distance(e00, e22) >= threshold || colour_distance(e02, e20) >= threshold ||
                             colour_distance(e02, e22) >= threshold || colour_distance(e20, e22) >= threshold) {
@@ -283,7 +292,7 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
                                    4.0;
                         }
                     }
-                    return (c00 + c02 + c20 + c22) / 4.0;
+                    return (s00.colour + s02.colour + s20.colour + s22.colour) / 4.0;
                 };
                 store(i, j, subdivide(subdivide, 0, 0, m, n - 1));
             }
