@@ -236,7 +236,8 @@ def run(
     rows: list[dict] = []
     references: dict = {}
     chosen = estimators(scene, quick)
-    wanted = families or sorted({e.family for e in chosen}, key=[AA, AREA].index)
+    available = sorted({e.family for e in chosen}, key=[AA, AREA].index)
+    wanted = [f for f in available if f in families] if families else available
     for family in wanted:
         ref = reference(family, scene, settings, render_native)
         references[family] = {k: v for k, v in ref.items() if k != "image"}

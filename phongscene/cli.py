@@ -403,6 +403,9 @@ def _add_bench_command(sub) -> None:
     p.add_argument("--repeat", type=_int_in(1, 100), default=3, metavar="N", help="runs per setting; the best counts")
     p.add_argument("--quick", action="store_true", help="a few estimators of each kind")
     p.add_argument("--native-only", action="store_true", help="measure the native tracer only")
+    p.add_argument("--family", choices=("anti-aliasing", "area-light shadows"), action="append",
+                   help="study only this family of estimators (repeatable; default: every one that applies; "
+                   "the anti-aliasing reference of a scene with area lights is slow)")
     p.add_argument("--target-rms", type=_float_in(0.0, math.inf), metavar="E",
                    help="say which setting of each backend reaches RMS error E fastest")
     p.set_defaults(func=_run_bench)
@@ -422,7 +425,7 @@ def _run_bench(args) -> int:
     print(f"{args.scene}: {settings.width} x {settings.height}, specular {settings.specular}, "
           f"threads {settings.threads or 'all'}, best of {args.repeat}", flush=True)
     result = bench.run(scene, settings, repeat=args.repeat, quick=args.quick, backends=backends,
-                       log=lambda line: print(line, flush=True))
+                       log=lambda line: print(line, flush=True), families=args.family)
     print()
     print(bench.table(result), end="")
     if args.target_rms is not None:
