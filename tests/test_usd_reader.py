@@ -346,7 +346,7 @@ def test_phong_shader_unauthored_inputs_take_sdr_defaults(tmp_path):
     """
     m = read(tmp_path, body).scene.spheres[0].material
     assert m.ks == pytest.approx(0.7)
-    assert (m.ka, m.kd, m.exponent) == pytest.approx((0.1, 0.6, 32.0))  # schemas/phongShaderDefs.usda
+    assert (m.ka, m.kd, m.exponent) == pytest.approx((0.1, 0.6, 32.0))  # schemas/phongscene_PhongSurface.usda
     assert m.diffuse_color == pytest.approx((0.8, 0.8, 0.8)) and m.specular_color == (1.0, 1.0, 1.0)
 
 
@@ -452,6 +452,33 @@ def test_usdlux_lights_in_usdlux_units(tmp_path):
     # A distant light's irradiance is L·π·sin²(angle/2) (angle 0.53° by default), L when normalized.
     assert sun.color == pytest.approx((50000 * math.pi * math.sin(math.radians(0.53) / 2) ** 2,) * 3)
     assert lux.color == (7.0, 7.0, 7.0)
+
+
+def test_light_diffuse_and_specular_multipliers(tmp_path):
+    body = """
+    def DistantLight "Plain" { float inputs:intensity = 2
+        bool inputs:normalize = 1 }
+    def DistantLight "Split" { float inputs:intensity = 2
+        bool inputs:normalize = 1
+        float inputs:diffuse = 0.7
+        float inputs:specular = 0.25 }
+    def DomeLight "Sky" { float inputs:intensity = 0.5
+        float inputs:diffuse = 0.5 }
+    """
+    result = read(tmp_path, body)
+    plain, split = result.scene.lights
+    assert (plain.diffuse, plain.specular) == (1.0, 1.0)
+    # The multipliers are the light's own fields; its strength stays as authored.
+    assert split.color == (2.0, 2.0, 2.0)
+    assert split.diffuse == pytest.approx(0.7) and split.specular == 0.25
+    assert not [w for w in result.warnings if "inputs:diffuse" in w or "inputs:specular" in w]
+    # The ambient term is diffuse light: a dome's diffuse multiplier scales it.
+    assert result.scene.ambient.color == (0.25, 0.25, 0.25)
+
+
+def test_negative_light_multiplier_is_an_error(tmp_path):
+    with pytest.raises(SceneError, match=r"/L\.inputs:diffuse: must be >= 0, got -1"):
+        read(tmp_path, 'def SphereLight "L" { float inputs:diffuse = -1 }')
 
 
 def test_unknown_light_model_is_an_error(tmp_path):

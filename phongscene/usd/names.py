@@ -100,8 +100,15 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "fade_distance": FADE_DISTANCE,
         "fade_power": FADE_POWER,
         "falloff": LIGHT_MODEL,
+        "diffuse": "inputs:diffuse",
+        "specular": "inputs:specular",
     },
-    "DirectionalLight": {"direction": "xformOp", "color": "inputs:color"},
+    "DirectionalLight": {
+        "direction": "xformOp",
+        "color": "inputs:color",
+        "diffuse": "inputs:diffuse",
+        "specular": "inputs:specular",
+    },
     "RectAreaLight": {
         "center": "xformOp",
         "axis_u": "inputs:width",
@@ -110,6 +117,8 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "samples": SHADOW_SAMPLES,
         "adaptive": SHADOW_ADAPTIVE,
         "falloff": LIGHT_MODEL,
+        "diffuse": "inputs:diffuse",
+        "specular": "inputs:specular",
     },
     "SphereAreaLight": {
         "center": "xformOp",
@@ -118,6 +127,8 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "samples": SHADOW_SAMPLES,
         "adaptive": SHADOW_ADAPTIVE,
         "falloff": LIGHT_MODEL,
+        "diffuse": "inputs:diffuse",
+        "specular": "inputs:specular",
     },
     "Sphere": {"world_from_object": "radius"},
     "TriangleMesh": {

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux, UsdRender
 
-from ..errors import Problem, SceneError
+from ..errors import Problem, SceneError, SceneFileNotFoundError
 from ..scene import (
     AmbientLight,
     Camera,
@@ -218,8 +218,10 @@ def _open(source) -> tuple[Usd.Stage, str]:
         layer = source.GetRootLayer()
         return source, layer.realPath or layer.identifier
     path = os.fspath(source)
+    if not os.path.exists(path):
+        raise SceneFileNotFoundError(path)
     if not os.path.isfile(path):
-        raise SceneError(Problem("file not found" if not os.path.exists(path) else "not a file", file=path))
+        raise SceneError(Problem("not a file", file=path))
     try:
         stage = Usd.Stage.Open(path)
     except Tf.ErrorException as e:
@@ -386,16 +388,21 @@ def _luminance(ctx: ReadContext, prim: Usd.Prim) -> np.ndarray:
     if api.GetEnableColorTemperatureAttr().Get(ctx.time):
         kelvin = ctx.number(prim, "inputs:colorTemperature", 6500.0, minimum=0.0, strict=True)
         color = color * np.asarray(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
-    for name in ("inputs:diffuse", "inputs:specular"):
-        attr = prim.GetAttribute(name)
-        if attr and attr.HasAuthoredValue() and attr.Get(ctx.time) != 1.0:
-            ctx.unsupported[f"lights with {name} != 1 (the multiplier is not applied)"].append(str(prim.GetPath()))
     with np.errstate(over="ignore"):
         scale = np.float64(intensity) * np.exp2(np.float64(exposure))
     if not np.isfinite(scale):
         ctx.problem(prim, "inputs:exposure", f"intensity · 2^exposure overflows ({intensity!r} · 2^{exposure!r})")
         scale = 1.0
     return color * scale if scale != 1.0 else color
+
+
+def _terms(ctx: ReadContext, prim: Usd.Prim) -> dict[str, float]:
+    """UsdLux's multipliers of a light's diffuse and specular contributions (model fields
+    ``diffuse`` and ``specular``)."""
+    return {
+        "diffuse": ctx.number(prim, "inputs:diffuse", 1.0, minimum=0.0),
+        "specular": ctx.number(prim, "inputs:specular", 1.0, minimum=0.0),
+    }
 
 
 def _seed_light(ctx: ReadContext, prim: Usd.Prim) -> bool:
@@ -498,6 +505,7 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
         return
     seed = _seed_light(ctx, prim)
     luminance = _luminance(ctx, prim)
+    terms = _terms(ctx, prim)
     falloff = "none" if seed else "inverse-square"
     if dome:
         texture = prim.GetAttribute("inputs:texture:file")
@@ -507,7 +515,8 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
             if mean is None:
                 return
             luminance = luminance * mean
-        ambient.append(AmbientLight(_rgb(luminance), path))
+        # The ambient term is diffuse light: the dome's diffuse multiplier scales it.
+        ambient.append(AmbientLight(_rgb(luminance * terms["diffuse"]), path))
         ctx.nodes.append((path, "AmbientLight"))
     elif prim.IsA(UsdLux.SphereLight):
         radius = ctx.number(prim, "inputs:radius", 0.5, minimum=0.0)
@@ -528,7 +537,7 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
             fade_distance = ctx.number(prim, names.FADE_DISTANCE, 0.0)
             fade_power = ctx.number(prim, names.FADE_POWER, 0.0)
             cone = _cone(ctx, prim, world)
-            lights.append(PointLight(centre, _rgb(colour), fade_distance, fade_power, path, falloff, cone))
+            lights.append(PointLight(centre, _rgb(colour), fade_distance, fade_power, path, falloff, cone, **terms))
             ctx.nodes.append((path, "PointLight" + ("" if seed else " (UsdLux)")))
         else:
             if _shaping(ctx, prim) is not None:
@@ -539,7 +548,7 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
             lights.append(
                 SphereAreaLight(
                     centre, radius_world, _rgb(colour), _shadow_samples(ctx, prim), path, falloff,
-                    _shadow_adaptive(ctx, prim),
+                    adaptive=_shadow_adaptive(ctx, prim), **terms,
                 )
             )
             ctx.nodes.append((path, "SphereAreaLight" + ("" if seed else " (UsdLux)")))
@@ -558,7 +567,7 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
                 irradiance = irradiance * factor
                 ctx.unsupported["Blender suns (its exporter writes strength S as intensity S/4: read as S, "
                                 "as Cycles renders them)"].append(path)
-        lights.append(DirectionalLight(tuple(float(c) for c in direction), _rgb(irradiance), path))
+        lights.append(DirectionalLight(tuple(float(c) for c in direction), _rgb(irradiance), path, **terms))
         ctx.nodes.append((path, "DirectionalLight"))
     else:  # RectLight, or a DiskLight as the square of its area
         if _shaping(ctx, prim) is not None:
@@ -580,7 +589,7 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
         lights.append(
             RectAreaLight(
                 centre, _rgb(axis_u), _rgb(axis_v), _rgb(colour), _shadow_samples(ctx, prim), path, falloff,
-                _shadow_adaptive(ctx, prim),
+                adaptive=_shadow_adaptive(ctx, prim), **terms,
             )
         )
         ctx.nodes.append((path, "RectAreaLight" + ("" if seed else " (UsdLux)")))
