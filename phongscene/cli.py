@@ -338,7 +338,8 @@ def _run_info(args) -> int:
     )
     s = scene.settings
     print(
-        f"settings: {s.source or '(defaults)'}: {s.width}x{s.height}, samples {s.samples} ({s.sample_pattern}), "
+        f"settings: {s.source or '(defaults)'}: {s.width}x{s.height}, samples {s.samples} ({s.sample_pattern}"
+        f"{f', threshold {s.aa_threshold:g}' if s.aa_threshold else ''}), "
         f"specular {s.specular}, background {_vector(s.background)}"
     )
     _print_warnings(result.warnings, sys.stdout)

@@ -169,3 +169,17 @@ def test_cli_rejects_more_than_9_samples_except_for_stratified(tmp_path, capsys)
     assert "phong:samples" in capsys.readouterr().err
     assert main(["render", str(path), "-o", str(tmp_path / "b.exr"), "--spp", "10", "--width", "8",
                  "--sample-pattern", "stratified", "--aa-threshold", "0.05"]) == 0
+
+
+@pytest.mark.parametrize("change", [{"samples": 10, "sample_pattern": "povray-am2"}, {"aa_threshold": float("nan")},
+                                    {"samples": 17, "sample_pattern": "stratified"}])
+def test_the_extension_refuses_settings_validation_would_reject(change):
+    """Validation runs in Python; the extension still refuses what would make it misbehave (a
+    2^(n-1)-sized +AM2 buffer, a NaN threshold), with an error and not a crash."""
+    from phongscene.backends import native
+
+    scene = calibration.point_light()
+    built = native.build(scene)
+    settings = native._settings(R(scene.settings, width=4, height=3, **change))
+    with pytest.raises(ValueError):
+        built.render(native._camera(scene.camera), settings)

@@ -98,6 +98,12 @@ Image render(const phong::Scene& scene, const phong::CameraDescription& camera_d
              const phong::RenderSettings& settings, nb::object progress) {
     if (settings.width < 1 || settings.height < 1 || settings.samples < 1)
         throw std::invalid_argument("width, height and samples must be >= 1");
+    // The Python model validates these (phongscene.validate); a direct caller gets an error, not
+    // a 2^(n-1)-sized +AM2 buffer or a NaN threshold.
+    const int most_samples = settings.sample_pattern == phong::SamplePattern::kStratified ? 16 : 9;
+    if (settings.samples > most_samples) throw std::invalid_argument("samples too large for the sample pattern");
+    if (!(settings.aa_threshold >= 0.0 && settings.aa_threshold <= 1.0))
+        throw std::invalid_argument("aa_threshold must be in [0, 1]");
     const phong::Camera camera = phong::Camera::make(camera_description, settings.width, settings.height);
 
     const size_t count = size_t(settings.width) * size_t(settings.height) * 3;
