@@ -167,12 +167,15 @@ class AmbientLight:
 class Cone:
     """A spot light's cone (UsdLux ShapingAPI): along unit ``axis`` the light is unchanged where
     cos θ >= ``cos_inner``, zero where cos θ <= ``cos_outer``, and smoothstep in cos θ between
-    (t = (cos θ − cos_outer)/(cos_inner − cos_outer), t²(3 − 2t): POV-Ray's spotlight edge).
-    0 < cos_outer <= cos_inner <= 1 (a cone narrower than a hemisphere)."""
+    (t = (cos θ − cos_outer)/(cos_inner − cos_outer), t²(3 − 2t): POV-Ray's spotlight edge),
+    times cos θ^``focus`` inside the cone (UsdLux shaping:focus, "an off-axis cosine power
+    exponent"; POV-Ray's spotlight ``tightness``). 0 < cos_outer <= cos_inner <= 1 (a cone
+    narrower than a hemisphere), focus >= 0."""
 
     axis: Vec3
     cos_outer: float
     cos_inner: float
+    focus: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)

@@ -257,6 +257,8 @@ def _check_light(c: _Collector, light) -> None:
                 c.add(light, "cone", f"the cone's axis must be a finite unit vector, got {_show(tuple(cone.axis))}")
             if not (np.isfinite(cone.cos_outer) and np.isfinite(cone.cos_inner) and 0 < cone.cos_outer <= cone.cos_inner <= 1):
                 c.add(light, "cone", f"must have 0 < cos_outer <= cos_inner <= 1, got {_show(cone.cos_outer)}, {_show(cone.cos_inner)}")
+            if not (np.isfinite(cone.focus) and cone.focus >= 0):
+                c.add(light, "cone", f"the cone's focus must be finite and >= 0, got {_show(cone.focus)}")
         fd_ok = c.finite(light, "fade_distance", light.fade_distance)
         if c.finite(light, "fade_power", light.fade_power):
             if light.fade_power < 0:

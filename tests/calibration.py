@@ -212,7 +212,7 @@ def sphere_area_light() -> Scene:
 def inverse_square_lights() -> Scene:
     """UsdLux falloff: a point light and a spherical light fall off as I/d², a tilted rect light
     as I·cos θ/d² (one-sided Lambertian panel), a spot light's cone edge is a smoothstep in cos θ,
-    each with its shadows."""
+    a focused spot's light is × cos θ^focus inside its cone, each with its shadows."""
     scene = _sphere_on_ground(
         PointLight((3.41, 5.07, 2.93), (61.0, 57.0, 52.0), falloff="inverse-square"), material=GOLD
     )
@@ -225,7 +225,10 @@ def inverse_square_lights() -> Scene:
     spot_axis = np.array([0.3, -1.0, -0.2]) / np.linalg.norm([0.3, -1.0, -0.2])
     spot = PointLight((-0.8, 3.9, 0.9), (16.0, 14.0, 12.0), falloff="inverse-square",
                       cone=Cone(_vec(spot_axis), math.cos(math.radians(21.0)), math.cos(math.radians(14.0))))
-    return dataclasses.replace(scene, lights=(*scene.lights, rect, disc, spot))
+    focused_axis = np.array([-0.4, -1.0, 0.3]) / np.linalg.norm([-0.4, -1.0, 0.3])
+    focused = PointLight((1.9, 3.3, 1.4), (13.0, 15.0, 11.0), falloff="inverse-square",
+                         cone=Cone(_vec(focused_axis), math.cos(math.radians(33.0)), math.cos(math.radians(27.0)), 7.5))
+    return dataclasses.replace(scene, lights=(*scene.lights, rect, disc, spot, focused))
 
 
 def ambient_only() -> Scene:

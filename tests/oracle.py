@@ -490,7 +490,8 @@ def _light_at_centre(light, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
         c = (-l) @ np.asarray(cone.axis, dtype=np.float64)
         span = cone.cos_inner - cone.cos_outer
         t = np.clip((c - cone.cos_outer) / span, 0.0, 1.0) if span > 0 else (c > cone.cos_outer).astype(np.float64)
-        lc = lc * (t * t * (3.0 - 2.0 * t))[:, None]
+        focus = np.power(np.maximum(c, 0.0), cone.focus) if cone.focus > 0 else 1.0  # cos θ^focus
+        lc = lc * (t * t * (3.0 - 2.0 * t) * focus)[:, None]
     return l, dist, lc
 
 

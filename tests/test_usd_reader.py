@@ -201,7 +201,15 @@ def RectLight "Panel" {
     uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
 }
 def DiskLight "Disk" {}
-def CylinderLight "Tube" {}
+def CylinderLight "Tube" { uniform token phong:lightModel = "seed"
+    float inputs:intensity = 1.5
+    double3 xformOp:translate = (4, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"] }
+def CylinderLight "Tube2" { float inputs:radius = 0.25
+    float inputs:length = 2
+    double3 xformOp:scale = (3, 2, 2)
+    uniform token[] xformOpOrder = ["xformOp:scale"] }
+def PortalLight "Portal" {}
 def Sphere "Target" {}
 """
 
@@ -211,7 +219,7 @@ def test_lights(tmp_path):
     result = read(tmp_path, LIGHTS)
     scene = result.scene
     assert scene.ambient.color == pytest.approx((0.6, 0.7, 0.8), abs=FLOAT32)  # DomeLights add up
-    point, ball, sun, panel, disk = scene.lights
+    point, ball, sun, panel, disk, tube, tube2 = scene.lights
     assert point.position == (1, 2, 3) and point.color == (4.0, 2.0, 1.0)  # 2·2^1·color
     assert (point.fade_distance, point.fade_power) == (4.0, 2.0)
     assert ball.center == (0, 5, 0) and ball.radius == 1.0 and ball.samples == 5  # radius × scale
@@ -224,8 +232,13 @@ def test_lights(tmp_path):
     side = 0.5 * math.sqrt(math.pi)
     assert np.linalg.norm(disk.axis_u) == pytest.approx(side) and np.linalg.norm(disk.axis_v) == pytest.approx(side)
     assert disk.falloff == "inverse-square" and any("DiskLights" in w and "/Disk" in w for w in result.warnings)
+    # A CylinderLight is a point light of the same power at its centre (UsdLux: I = L·π·r·l/2).
+    assert tube.position == (4, 0, 0) and tube.color == (1.5, 1.5, 1.5) and tube.falloff == "none"
+    assert tube2.falloff == "inverse-square"
+    assert tube2.color == pytest.approx((math.pi / 2 * (0.25 * 2) * (2 * 3),) * 3)
+    assert any("CylinderLights" in w and "/Tube2" in w for w in result.warnings)
     unsupported = [w for w in result.warnings if "unsupported lights" in w]
-    assert len(unsupported) == 1 and "/Disk" not in unsupported[0] and "/Tube" in unsupported[0]
+    assert len(unsupported) == 1 and "/Tube" not in unsupported[0] and "/Portal" in unsupported[0]
 
 
 def test_z_up_light_and_camera(tmp_path):
@@ -545,6 +558,30 @@ def test_shaping_cone_on_a_point_light(tmp_path):
     assert wide.cone is None  # a hard 180° cone restricts nothing, and is not warned about
     assert not [w for w in result.warnings if "cone" in w]
 
+
+
+def test_shaping_focus_is_a_cosine_power_inside_the_cone(tmp_path):
+    body = """
+    def SphereLight "Focused" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 40
+        float inputs:shaping:focus = 6 }
+    def SphereLight "Tinted" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 40
+        float inputs:shaping:focus = 2
+        color3f inputs:shaping:focusTint = (0.2, 0.1, 0) }
+    def SphereLight "Everywhere" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 180
+        float inputs:shaping:focus = 3 }
+    """
+    result = read(tmp_path, body)
+    focused, tinted, everywhere = result.scene.lights
+    assert focused.cone.focus == 6.0 and tinted.cone.focus == 2.0
+    assert everywhere.cone is None
+    assert any("focusTint" in w and "/Tinted" in w and "/Focused" not in w for w in result.warnings)
+    assert any("focus but no cone" in w and "/Everywhere" in w for w in result.warnings)
 
 TYPOS = """
 def SphereLight "L" {

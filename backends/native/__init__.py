@@ -72,6 +72,7 @@ def _native_light(light: Light):
         if light.cone is not None:
             native.cone_axis = light.cone.axis
             native.cone_cos_outer, native.cone_cos_inner = light.cone.cos_outer, light.cone.cos_inner
+            native.cone_focus = light.cone.focus
         return native
     if isinstance(light, DirectionalLight):
         return _native.DirectionalLight(direction=light.direction, color=light.color)

@@ -334,13 +334,14 @@ class _Compiler:
                 )
             if light.cone is not None:
                 # POV-Ray's spotlight: 1 inside `radius`, 0 outside `falloff`, a cubic (smoothstep)
-                # in cos between; tightness 0 adds no cos^n factor.
+                # in cos between, times cos^tightness (the cone's focus; 0 adds no factor).
                 cone = light.cone
                 target = np.asarray(light.position, dtype=np.float64) + np.asarray(cone.axis, dtype=np.float64)
                 text += (
                     f" spotlight point_at {self.vec(target, light, 'cone')}"
                     f" radius {self.num(math.degrees(math.acos(cone.cos_inner)), light, 'cone')}"
-                    f" falloff {self.num(math.degrees(math.acos(cone.cos_outer)), light, 'cone')} tightness 0"
+                    f" falloff {self.num(math.degrees(math.acos(cone.cos_outer)), light, 'cone')}"
+                    f" tightness {self.num(cone.focus, light, 'cone') if cone.focus > 0 else 0}"
                 )
             return text + fade + " }"
         if isinstance(light, DirectionalLight):

@@ -63,6 +63,7 @@ PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
     "RectLight": {SHADOW_SAMPLES: INT_TYPES, SHADOW_ADAPTIVE: INT_TYPES, LIGHT_MODEL: STRING_TYPES},
     "DiskLight": {SHADOW_SAMPLES: INT_TYPES, SHADOW_ADAPTIVE: INT_TYPES, LIGHT_MODEL: STRING_TYPES},
     "DistantLight": {LIGHT_MODEL: STRING_TYPES},
+    "CylinderLight": {LIGHT_MODEL: STRING_TYPES},
     "DomeLight": {LIGHT_MODEL: STRING_TYPES},
     "RenderSettings": {
         SAMPLES: INT_TYPES,

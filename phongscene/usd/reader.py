@@ -444,27 +444,34 @@ FULL_CONE_DEG = 180.0
 HEMISPHERE_DEG = 90.0
 
 
-def _shaping(ctx: ReadContext, prim: Usd.Prim) -> tuple[float, float] | None:
-    """(cone angle in degrees, softness in [0, 1]) of a ShapingAPI light whose cone restricts its
-    emission; None when it restricts nothing (no ShapingAPI, or a hard 180° cone). A focus is
-    warned about (not modelled)."""
+def _shaping(ctx: ReadContext, prim: Usd.Prim) -> tuple[float, float, float] | None:
+    """(cone angle in degrees, softness in [0, 1], focus >= 0) of a ShapingAPI light whose cone
+    restricts its emission; None when it restricts nothing (no ShapingAPI, or a hard 180° cone).
+    A non-black focusTint is warned about (not modelled: the off-axis light fades to black)."""
     if not prim.HasAPI(UsdLux.ShapingAPI):
         return None
-    if (UsdLux.ShapingAPI(prim).GetShapingFocusAttr().Get(ctx.time) or 0.0) != 0.0:
-        ctx.unsupported["lights with shaping:focus (ignored)"].append(str(prim.GetPath()))
+    focus = ctx.number(prim, "inputs:shaping:focus", 0.0, minimum=0.0)
+    tint = ctx.color(prim, "inputs:shaping:focusTint", (0.0, 0.0, 0.0))
+    if focus > 0 and any(c != 0.0 for c in tint):
+        ctx.unsupported["lights with a shaping:focusTint (off-axis light fades to black)"].append(str(prim.GetPath()))
     angle = ctx.number(prim, "inputs:shaping:cone:angle", 90.0, minimum=0.0)
     softness = float(np.clip(ctx.number(prim, "inputs:shaping:cone:softness", 0.0), 0.0, 1.0))
-    return None if angle >= FULL_CONE_DEG and softness == 0.0 else (angle, softness)
+    if angle >= FULL_CONE_DEG and softness == 0.0:
+        if focus > 0:
+            ctx.unsupported["lights with shaping:focus but no cone (focus ignored)"].append(str(prim.GetPath()))
+        return None
+    return angle, softness, focus
 
 
 def _cone(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray) -> Cone | None:
     """A point light's ShapingAPI cone: zero beyond shaping:cone:angle θc off its −Z axis, full
     inside θc·(1 − softness) (UsdLux's smooth start), smoothstep in cos θ between (UsdLux
-    interpolates the angle; POV-Ray's spotlight the cosine, which both backends then share)."""
+    interpolates the angle; POV-Ray's spotlight the cosine, which both backends then share),
+    times cos θ^focus (UsdLux's "off-axis cosine power", POV-Ray's tightness)."""
     shape = _shaping(ctx, prim)
     if shape is None:
         return None
-    angle, softness = shape
+    angle, softness, focus = shape
     path = str(prim.GetPath())
     if angle >= HEMISPHERE_DEG:
         ctx.unsupported["spot cones of 90° or more (ignored: the light shines everywhere)"].append(path)
@@ -474,7 +481,7 @@ def _cone(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray) -> Cone | None:
         ctx.problem(prim, "xformOpOrder", "the light's transform is degenerate (no −Z direction for its cone)")
         return None
     outer = math.radians(angle)
-    return Cone(_rgb(axis), math.cos(outer), math.cos(outer * (1.0 - softness)))
+    return Cone(_rgb(axis), math.cos(outer), math.cos(outer * (1.0 - softness)), focus)
 
 
 def _shadow_samples(ctx: ReadContext, prim: Usd.Prim) -> int:
@@ -499,7 +506,7 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
     centre = tuple(float(c) for c in world[:3, 3])
     type_name = prim.GetTypeName()
     dome = prim.IsA(UsdLux.DomeLight) or type_name == "DomeLight_1"
-    known = (UsdLux.SphereLight, UsdLux.DistantLight, UsdLux.RectLight, UsdLux.DiskLight)
+    known = (UsdLux.SphereLight, UsdLux.DistantLight, UsdLux.RectLight, UsdLux.DiskLight, UsdLux.CylinderLight)
     if not (dome or any(prim.IsA(kind) for kind in known)):
         ctx.unsupported["unsupported lights (ignored)"].append(f"{path} ({type_name})")
         return
@@ -552,6 +559,22 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
                 )
             )
             ctx.nodes.append((path, "SphereAreaLight" + ("" if seed else " (UsdLux)")))
+    elif prim.IsA(UsdLux.CylinderLight):
+        # A tube of radius r and length l along its X axis, emitting luminance L from its side:
+        # intensity L·2rl·sin θ off the axis, power π²·L·r·l. Lit as a point light of the same
+        # power at its centre (I = L·π·r·l/2; normalized, L/(2πrl): I = L/4, as a sphere light).
+        radius = ctx.number(prim, "inputs:radius", 0.5, minimum=0.0)
+        length = ctx.number(prim, "inputs:length", 1.0, minimum=0.0)
+        scales = np.linalg.norm(world[:3, :3], axis=0)
+        if seed:
+            colour = luminance
+        elif _normalized(ctx, prim):
+            colour = luminance / 4.0
+        else:
+            colour = luminance * (math.pi / 2 * radius * float(np.mean(scales[1:])) * length * float(scales[0]))
+        ctx.unsupported["CylinderLights (each lit as a point light of the same power at its centre)"].append(path)
+        lights.append(PointLight(centre, _rgb(colour), 0.0, 0.0, path, falloff, None, **terms))
+        ctx.nodes.append((path, "PointLight (UsdLux CylinderLight)"))
     elif prim.IsA(UsdLux.DistantLight):
         direction = unit(world[:3, :3] @ np.array([0.0, 0.0, -1.0]))
         if direction is None:

@@ -160,6 +160,25 @@ def _set_light_color(light: UsdLux.LightAPI, color) -> None:
         light.CreateColorAttr(Gf.Vec3f(r, g, b))
 
 
+def _define_cone(prim: Usd.Prim, cone, position) -> None:
+    """A ShapingAPI cone the reader reads back as ``cone``: angle θo = acos(cos_outer), softness
+    1 − θi/θo, focus; the axis is the light's −Z (an aimed light's transform is a rotation)."""
+    outer, inner = math.acos(cone.cos_outer), math.acos(cone.cos_inner)
+    shaping = UsdLux.ShapingAPI.Apply(prim)
+    shaping.CreateShapingConeAngleAttr(math.degrees(outer))
+    shaping.CreateShapingConeSoftnessAttr(1.0 - inner / outer if outer > 0 else 0.0)
+    if cone.focus > 0:
+        shaping.CreateShapingFocusAttr(float(cone.focus))
+    axis = np.asarray(cone.axis, dtype=np.float64)
+    helper = np.array([0.0, 1.0, 0.0]) if abs(axis[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    x = np.cross(helper, -axis)
+    x /= np.linalg.norm(x)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2] = x, np.cross(-axis, x), -axis  # the light emits along its −Z
+    m[:3, 3] = position
+    _set_transform(UsdLux.SphereLight(prim), m)
+
+
 def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
     """A UsdLux light for a model light (PointLight, DirectionalLight, RectAreaLight,
     SphereAreaLight) or an AmbientLight (an untextured DomeLight).
@@ -185,6 +204,8 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
             p.CreateAttribute(names.FADE_POWER, Sdf.ValueTypeNames.Double).Set(float(light.fade_power))
         else:
             strength = strength * 4.0
+        if light.cone is not None:
+            _define_cone(p, light.cone, light.position)
     elif isinstance(light, SphereAreaLight):
         prim = UsdLux.SphereLight.Define(stage, path)
         prim.CreateTreatAsPointAttr(False)

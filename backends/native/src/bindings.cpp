@@ -229,6 +229,7 @@ NB_MODULE(_native, m) {
         .def_rw("cone_axis", &PointLight::cone_axis)
         .def_rw("cone_cos_outer", &PointLight::cone_cos_outer)
         .def_rw("cone_cos_inner", &PointLight::cone_cos_inner)
+        .def_rw("cone_focus", &PointLight::cone_focus)
         .def_rw("terms", &PointLight::terms);
 
     using phong::DirectionalLight;
