@@ -337,14 +337,15 @@ def test_preview_to_phong_metallic_and_specular_workflow():
     assert preview_to_phong((0.2, 0.2, 0.2), 0.0).exponent == PREVIEW_MAX_EXPONENT  # capped
 
 
-def test_texture_connected_input_uses_default_with_warning(tmp_path):
+def test_texture_without_an_image_uses_its_fallback_with_a_warning(tmp_path):
     inputs = 'color3f inputs:diffuseColor.connect = </M/T.outputs:rgb>\n float inputs:roughness = 0.5'
     body = PREVIEW.format(inputs=inputs).replace(
         'def Shader "S"', 'def Shader "T" { uniform token info:id = "UsdUVTexture"\n float3 outputs:rgb }\n    def Shader "S"'
     )
     result = read(tmp_path, body)
-    assert result.scene.spheres[0].material.diffuse_color == pytest.approx((0.18, 0.18, 0.18))  # UsdPreviewSurface default
-    assert any("texture-connected" in w and "/M/S.inputs:diffuseColor" in w for w in result.warnings)
+    # A texture without an image gives its fallback (UsdUVTexture's default: (0, 0, 0, 1)).
+    assert result.scene.spheres[0].material.diffuse_color == pytest.approx((0.0, 0.0, 0.0))
+    assert any("/M/T.inputs:file" in w and "fallback" in w for w in result.warnings)
 
 
 def test_phong_shader_unauthored_inputs_take_sdr_defaults(tmp_path):

@@ -651,12 +651,21 @@ def _gprim(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, materials: Mater
         ctx.unsupported["unsupported geometry (ignored)"].append(f"{path} ({type_name})")
         return
     material = materials.for_gprim(prim)
+    if type_name != "Mesh" and material.textures:
+        # Only meshes carry st primvars here: the texture's fallback colour is used.
+        ctx.unsupported["textures on prims without texture coordinates (the fallback colour is used)"].append(path)
+        material = material.without_textures()
     if type_name == "Sphere":
         spheres.append(geometry.sphere(ctx, prim, world, material))
         ctx.nodes.append((path, "Sphere"))
         return
     if type_name == "Mesh":
-        built = geometry.mesh(ctx, prim, world, material, materials.face_subsets(prim))
+        subsets = materials.face_subsets(prim)
+        textured = [m for m in (material, *(m for _, m, _ in subsets)) if m.textures]
+        st = materials.st_of.get(textured[0]) if textured else None
+        if len({materials.st_of.get(m) for m in textured}) > 1:
+            ctx.warn(f"{path}: its materials read different st primvars; all use {st.primvar!r}")
+        built = geometry.mesh(ctx, prim, world, material, subsets, st)
     else:
         built = geometry.primitive(ctx, prim, world, material)
         built = () if built is None else (built,)
