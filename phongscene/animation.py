@@ -102,7 +102,7 @@ def render_frame(scene: str, frame: int, output: str, backend: str, options: dic
     write_image(output, image)
     return {"frame": frame, "output": output, "width": settings.width, "height": settings.height,
             "specular": settings.specular, "load_seconds": load_seconds, "render_seconds": render_seconds,
-            "seconds": _time.perf_counter() - start + load_seconds, "warnings": warnings}
+            "seconds": _time.perf_counter() - start + load_seconds, "warnings": warnings, "pid": os.getpid()}
 
 
 def compile_frame(scene: str, frame: int, output: str, options: dict) -> dict:
@@ -118,7 +118,7 @@ def compile_frame(scene: str, frame: int, output: str, options: dict) -> dict:
     write_text_atomic(out, job.sdl, encoding="ascii")
     write_text_atomic(out.with_suffix(".ini"), job.ini(out.name, out.with_suffix(".exr").name), encoding="ascii")
     return {"frame": frame, "output": output, "passes": job.frames, "load_seconds": load_seconds,
-            "seconds": _time.perf_counter() - start + load_seconds, "warnings": warnings}
+            "seconds": _time.perf_counter() - start + load_seconds, "warnings": warnings, "pid": os.getpid()}
 
 
 def diff_frame(scene: str, frame: int, outdir: str, options: dict, thresholds) -> dict:
@@ -134,7 +134,7 @@ def diff_frame(scene: str, frame: int, outdir: str, options: dict, thresholds) -
             "failing_pixels": r.failing_pixels, "failing_percent": r.failing_percent, "pixels": r.pixels,
             "explained_pixels": len(result.explained), "timings": result.timings,
             "width": result.settings.width, "height": result.settings.height,
-            "seconds": _time.perf_counter() - start, "warnings": result.warnings}
+            "seconds": _time.perf_counter() - start, "warnings": result.warnings, "pid": os.getpid()}
 
 
 # ----------------------------------------------------------------------------------------------
