@@ -102,6 +102,7 @@ def render_frame(scene: str, frame: int, output: str, backend: str, options: dic
     write_image(output, image)
     return {"frame": frame, "output": output, "width": settings.width, "height": settings.height,
             "specular": settings.specular, "load_seconds": load_seconds, "render_seconds": render_seconds,
+            "write_seconds": _time.perf_counter() - start - render_seconds,
             "seconds": _time.perf_counter() - start + load_seconds, "warnings": warnings, "pid": os.getpid()}
 
 

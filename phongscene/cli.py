@@ -131,8 +131,8 @@ def _add_time_options(p: argparse.ArgumentParser, output: str) -> None:
     when = group.add_mutually_exclusive_group()
     when.add_argument("--time", type=_time_code, metavar="T", help="read the stage at USD time code T")
     when.add_argument("--frames", type=_frame_range, metavar="START:END[:STEP]",
-                      help=f"one {output} per frame (a whole time code, END included); #### in the name becomes "
-                      "the frame number. Frames run as Dask tasks: a LocalCluster here, or --scheduler")
+                      help=f"frames START, START+STEP, ... END (whole time codes): {output}. Frames run as Dask "
+                      "tasks: a LocalCluster here, or --scheduler")
     group.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                        help="with --frames: an existing Dask scheduler (default: $DASK_SCHEDULER_ADDRESS, else a "
                        "LocalCluster); workers must see the scene and the output at the same paths")
@@ -183,6 +183,14 @@ def _run_frames(args, task, arguments, label: str):
         print(f"error: frames failed (each tried {1 + TASK_RETRIES} times): "
               f"{', '.join(map(str, sorted(run.failures)))}", file=sys.stderr)
     return run
+
+
+def _cluster_without_frames(args) -> bool:
+    """--scheduler/--workers without --frames: said (one error line), since nothing would use them."""
+    if (args.scheduler or args.workers) and not args.frames:
+        print("error: --scheduler and --workers run frames: give --frames START:END", file=sys.stderr)
+        return True
+    return False
 
 
 def _output_at_time(args, output: str) -> str | None:
@@ -256,7 +264,8 @@ def _add_diff_command(sub) -> None:
     _add_size_options(p, spp_help=f"{SPP_HELP} (RenderSettings.samples; default: the scene's)")
     p.add_argument("--threads", type=_thread_count, metavar="N", help="native worker threads (0 = all cores)")
     _add_threshold_options(p)
-    _add_time_options(p, "report (OUTDIR/frame.####) and one index.html with a row per frame")
+    _add_time_options(p, "a report per frame in OUTDIR/frame.####, and OUTDIR/index.html with a row per frame; "
+                      "exit 1 if any frame fails")
     p.set_defaults(func=_run_diff)
 
 
@@ -267,6 +276,8 @@ def _run_diff(args) -> int:
         thresholds = _thresholds(args)
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
+        return EXIT_SCENE
+    if _cluster_without_frames(args):
         return EXIT_SCENE
     if args.frames:
         return _diff_frames(args, thresholds)
@@ -476,7 +487,7 @@ def _add_render_command(sub) -> None:
                         "'povray-classic'); default: the scene's")
     _add_size_options(p)
     p.add_argument("--threads", type=_thread_count, metavar="N", help="worker threads (0 = all cores)")
-    _add_time_options(p, "image")
+    _add_time_options(p, "one image per frame, #### in IMAGE becomes the frame number")
     p.set_defaults(func=_run_render)
 
 
@@ -489,6 +500,8 @@ def _run_render(args) -> int:
 
     if not args.output.lower().endswith(WRITABLE):
         print(f"error: {args.output}: the output must end in one of {', '.join(WRITABLE)}", file=sys.stderr)
+        return EXIT_SCENE
+    if _cluster_without_frames(args):
         return EXIT_SCENE
     if args.frames:
         return _render_frames(args)
@@ -538,7 +551,7 @@ def _add_compile_command(sub) -> None:
     _add_mapping_option(p, "exact (the seed model, one pass per light) or classic (one plain POV-Ray finish per "
                         "material); default: the scene's specular convention")
     _add_size_options(p)
-    _add_time_options(p, "OUT.pov and OUT.ini")
+    _add_time_options(p, "a .pov and an .ini per frame, #### in OUT.pov becomes the frame number")
     p.set_defaults(func=_run_compile)
 
 
@@ -552,6 +565,8 @@ def _run_compile(args) -> int:
     out = Path(args.output)
     if out.suffix.lower() != ".pov":
         print(f"error: {out}: the output must end in .pov", file=sys.stderr)
+        return EXIT_SCENE
+    if _cluster_without_frames(args):
         return EXIT_SCENE
     if args.frames:
         return _compile_frames(args)

@@ -167,6 +167,8 @@ def test_frame_options_are_checked_before_anything_runs(tmp_path, capsys):
     assert "needs #### for the frame number" in capsys.readouterr().err
     assert main(["render", str(ANIMATED), "-o", str(tmp_path / "out.####.exr"), "--time", "2.5"]) == 2
     assert "needs --frames, or a whole --time" in capsys.readouterr().err
+    assert main(["render", str(ANIMATED), "-o", str(tmp_path / "out.exr"), "--workers", "2"]) == 2
+    assert "--scheduler and --workers run frames: give --frames" in capsys.readouterr().err
     for bad in (["--frames", "9:1"], ["--time", "nan"], ["--time", "1", "--frames", "1:2"]):
         with pytest.raises(SystemExit) as exit_:
             main(["render", str(ANIMATED), "-o", str(tmp_path / "o.####.exr"), *bad])
