@@ -454,6 +454,32 @@ def test_usdlux_lights_in_usdlux_units(tmp_path):
     assert lux.color == (7.0, 7.0, 7.0)
 
 
+def test_light_diffuse_and_specular_multipliers(tmp_path):
+    body = """
+    def DistantLight "Even" { float inputs:intensity = 2
+        bool inputs:normalize = 1
+        float inputs:diffuse = 0.5
+        float inputs:specular = 0.5 }
+    def DistantLight "Split" { float inputs:intensity = 2
+        bool inputs:normalize = 1
+        float inputs:diffuse = 0.7
+        float inputs:specular = 0.25 }
+    """
+    result = read(tmp_path, body)
+    even, split = result.scene.lights
+    # Equal multipliers scale the light: exact for both terms.
+    assert even.color == (1.0, 1.0, 1.0)
+    # Unequal: the diffuse one scales the light (a surface stays as bright as authored); warned.
+    assert split.color == pytest.approx((1.4, 1.4, 1.4))
+    warned = [w for w in result.warnings if "inputs:specular != inputs:diffuse" in w]
+    assert len(warned) == 1 and "/Split (diffuse 0.7, specular 0.25)" in warned[0] and "/Even" not in warned[0]
+
+
+def test_negative_light_multiplier_is_an_error(tmp_path):
+    with pytest.raises(SceneError, match=r"/L\.inputs:diffuse: must be >= 0, got -1"):
+        read(tmp_path, 'def SphereLight "L" { float inputs:diffuse = -1 }')
+
+
 def test_unknown_light_model_is_an_error(tmp_path):
     with pytest.raises(SceneError, match=r"/L\.phong:lightModel: must be one of usdlux, seed"):
         read(tmp_path, 'def SphereLight "L" { token phong:lightModel = "suffern" }')

@@ -127,6 +127,12 @@ def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:
         if meshes
         else np.zeros(0, np.int32)
     )
+    # Each mesh is one POV-Ray object, whose shadow test the POV-Ray numerics reproduce.
+    triangle_mesh = (
+        np.concatenate([np.full(len(m.triangles), i, np.int32) for i, m in enumerate(meshes)])
+        if meshes
+        else np.zeros(0, np.int32)
+    )
     with_normals = [m for m in meshes if m.normals is not None]
     normals = np.concatenate([m.normals for m in with_normals]) if with_normals else np.zeros((0, 3))
     normal_indices = (
@@ -152,6 +158,7 @@ def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:
         "points": c(points, np.float64),
         "triangles": c(triangles, np.int32),
         "triangle_material": c(triangle_material, np.int32),
+        "triangle_mesh": c(triangle_mesh, np.int32),
         "normals": c(normals, np.float64),
         "normal_indices": c(normal_indices, np.int32),
         "materials": [_material(m) for m in material_ids],

@@ -430,10 +430,17 @@ def _luminance(ctx: ReadContext, prim: Usd.Prim) -> np.ndarray:
     if api.GetEnableColorTemperatureAttr().Get(ctx.time):
         kelvin = ctx.number(prim, "inputs:colorTemperature", 6500.0, minimum=0.0, strict=True)
         color = color * np.asarray(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
-    for name in ("inputs:diffuse", "inputs:specular"):
-        attr = prim.GetAttribute(name)
-        if attr and attr.HasAuthoredValue() and attr.Get(ctx.time) != 1.0:
-            ctx.unsupported[f"lights with {name} != 1 (the multiplier is not applied)"].append(str(prim.GetPath()))
+    # UsdLux's diffuse and specular multipliers. The model's light has one strength for both
+    # terms (so has a POV-Ray light): the diffuse multiplier scales the whole light, which keeps
+    # a surface's brightness as authored and is exact when the two are equal; a different
+    # specular multiplier is warned about.
+    diffuse = ctx.number(prim, "inputs:diffuse", 1.0, minimum=0.0)
+    specular = ctx.number(prim, "inputs:specular", 1.0, minimum=0.0)
+    if specular != diffuse:
+        ctx.unsupported["lights with inputs:specular != inputs:diffuse (the diffuse multiplier scales the whole light)"].append(
+            f"{prim.GetPath()} (diffuse {diffuse:g}, specular {specular:g})"
+        )
+    intensity = intensity * diffuse
     with np.errstate(over="ignore"):
         scale = np.float64(intensity) * np.exp2(np.float64(exposure))
     if not np.isfinite(scale):

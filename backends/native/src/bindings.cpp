@@ -61,13 +61,14 @@ using Index1 = In<int32_t, nb::shape<-1>>;
 std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_object,
                                          const Matrices& sphere_object_from_world, const Index1& sphere_material,
                                          const Rows3& points, const Index3& triangles, const Index1& triangle_material,
-                                         const Rows3& normals, const Index3& normal_indices,
+                                         const Index1& triangle_mesh, const Rows3& normals, const Index3& normal_indices,
                                          std::vector<phong::Material> materials, std::vector<phong::Light> lights,
                                          const phong::RGB& ambient) {
     const size_t n_spheres = sphere_world_from_object.shape(0), n_triangles = triangles.shape(0);
     if (sphere_object_from_world.shape(0) != n_spheres || sphere_material.shape(0) != n_spheres)
         throw std::invalid_argument("sphere arrays differ in length");
-    if (triangle_material.shape(0) != n_triangles || normal_indices.shape(0) != n_triangles)
+    if (triangle_material.shape(0) != n_triangles || triangle_mesh.shape(0) != n_triangles ||
+        normal_indices.shape(0) != n_triangles)
         throw std::invalid_argument("triangle arrays differ in length");
     phong::GeometryArrays a;
     a.sphere_world_from_object = sphere_world_from_object.data();
@@ -78,6 +79,7 @@ std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_objec
     a.point_count = points.shape(0);
     a.triangles = triangles.data();
     a.triangle_material = triangle_material.data();
+    a.triangle_mesh = triangle_mesh.data();
     a.normal_indices = normal_indices.data();
     a.triangle_count = n_triangles;
     a.normals = normals.data();
@@ -270,15 +272,16 @@ NB_MODULE(_native, m) {
     nb::class_<phong::Scene>(m, "Scene", "Geometry from flat arrays, materials and lights, with the BVH.")
         .def("__init__",
              [](phong::Scene* self, const Matrices& swo, const Matrices& sow, const Index1& smat, const Rows3& points,
-                const Index3& triangles, const Index1& tmat, const Rows3& normals, const Index3& nidx,
+                const Index3& triangles, const Index1& tmat, const Index1& tmesh, const Rows3& normals,
+                const Index3& nidx,
                 std::vector<phong::Material> materials, std::vector<phong::Light> lights, const phong::RGB& ambient) {
-                 std::unique_ptr<phong::Scene> built = make_scene(swo, sow, smat, points, triangles, tmat, normals,
+                 std::unique_ptr<phong::Scene> built = make_scene(swo, sow, smat, points, triangles, tmat, tmesh, normals,
                                                                   nidx, std::move(materials), std::move(lights),
                                                                   ambient);
                  new (self) phong::Scene(std::move(*built));
              },
              "sphere_world_from_object"_a, "sphere_object_from_world"_a, "sphere_material"_a, "points"_a,
-             "triangles"_a, "triangle_material"_a, "normals"_a, "normal_indices"_a, "materials"_a, "lights"_a,
+             "triangles"_a, "triangle_material"_a, "triangle_mesh"_a, "normals"_a, "normal_indices"_a, "materials"_a, "lights"_a,
              "ambient"_a,
              "Materials are indexed by sphere_material and triangle_material; lights are summed in list order.")
         .def_prop_ro("magnitude", [](const phong::Scene& s) { return s.magnitude; })

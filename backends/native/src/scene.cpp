@@ -123,6 +123,7 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     triangles.resize(n_triangles);
     triangle_shading.resize(n_triangles);
     triangle_source.resize(n_triangles);
+    triangle_mesh.resize(n_triangles);
     for_chunks(order.size(), [&](size_t begin, size_t end) {
         size_t spheres_before = size_t(
             std::lower_bound(sphere_positions.begin(), sphere_positions.end(), uint32_t(begin)) -
@@ -147,6 +148,7 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
             }
             triangle_shading[slot] = sh;
             triangle_source[slot] = uint32_t(i);
+            triangle_mesh[slot] = in.triangle_mesh[i];
         }
     });
     bvh_.order.clear();
