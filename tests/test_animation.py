@@ -139,6 +139,14 @@ def test_frame_ranges_and_names():
         animation.frame_name("out.exr", 1)
 
 
+def test_the_cluster_is_the_option_else_the_environment_else_a_local_one(monkeypatch):
+    monkeypatch.delenv("DASK_SCHEDULER_ADDRESS", raising=False)
+    assert animation.scheduler_address(None) is None  # a LocalCluster
+    monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", "tcp://10.0.0.1:8786")
+    assert animation.scheduler_address(None) == "tcp://10.0.0.1:8786"
+    assert animation.scheduler_address("tcp://127.0.0.1:9999") == "tcp://127.0.0.1:9999"
+
+
 def _ball_x(image: np.ndarray) -> float:
     hue = np.abs(image[..., 0] - image[..., 1]) + np.abs(image[..., 2] - image[..., 1])
     return float(np.nonzero(hue > 0.1)[1].mean()) + 0.5  # pixel centres
