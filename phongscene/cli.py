@@ -297,7 +297,6 @@ def _run_diff(args) -> int:
 
 def _diff_frames(args, thresholds) -> int:
     from .animation import FRAME_FOLDER, diff_frame, frame_name, write_frames_report
-
     from .backends.povray import check_mapping
 
     check_mapping(args.mapping)

@@ -123,6 +123,15 @@ def test_a_blender_style_export_with_keyframes_reads_its_frames():
     assert last.lights[0].color[0] / first.lights[0].color[0] == pytest.approx(477.46484 / 159.15494)
 
 
+def test_a_blender_style_export_renders_its_frames(tmp_path):
+    for frame in (1, 24):
+        assert main(["render", str(BLENDER), "-o", str(tmp_path / "b.####.exr"), "--time", str(frame), "--width", "64"]) == 0
+    # The red cube (Blender's base colour (0.8, 0.1, 0.1)) crosses the frame from the left to the right.
+    first, last = (read_image(tmp_path / f"b.{f:04d}.exr") for f in (1, 24))
+    red_x = lambda image: float(np.nonzero(image[..., 0] > 2 * image[..., 1] + 1e-3)[1].mean())  # noqa: E731
+    assert red_x(first) < 64 / 3 and red_x(last) > 2 * 64 / 3
+
+
 # -- frames: names and ranges ----------------------------------------------------------------
 
 
