@@ -177,6 +177,13 @@ def _run_frames(args, task, arguments, label: str):
         run = run_frames(task, args.frames, arguments, scheduler=args.scheduler, workers=args.workers,
                          progress=bar, on_frame=on_frame)
     bar.done(run.seconds)
+    # Warnings the first frame did not have (a light that clips only later, ...), once each.
+    later: dict[str, list[int]] = {}
+    for frame in sorted(run.results):
+        for warning in run.results[frame].get("warnings", ()):
+            if warning not in warnings:
+                later.setdefault(warning, []).append(frame)
+    _print_warnings(f"frames {', '.join(map(str, frames))}: {warning}" for warning, frames in later.items())
     where = f"{run.workers} Dask workers" if run.workers else "this process"
     print(f"{args.scene}: {len(run.results)} of {len(args.frames)} {label} on {where} in {run.seconds:.2f} s")
     if run.failures:

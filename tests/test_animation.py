@@ -252,9 +252,14 @@ def test_a_frame_that_is_invalid_is_reported_by_number_and_the_others_are_writte
     path.write_text(
         "#usda 1.0\n(\n    startTimeCode = 11\n    endTimeCode = 13\n)\n"
         'def Sphere "Ball" {\n    double radius.timeSamples = {11: 1, 12: -1, 13: 1}\n}\n'
+        'def SphereLight "Key" {\n    float inputs:intensity.timeSamples = {11: 1, 13: 100}\n'
+        '    custom token phong:lightModel = "seed"\n    bool treatAsPoint = 1\n}\n'
     )
     assert main(["render", str(path), "-o", str(tmp_path / "b.####.png"), "--frames", "11:13", "--workers", "1"]) == 3
     err = capsys.readouterr().err
+    # Every frame has no camera (said once, at the first frame); only frame 13's light clips.
+    assert err.count("no camera: using a default framing camera") == 1
+    assert err.count("clips to white") == 1 and "warning: frames 13: /Key: lights a white surface" in err
     assert "error: frame 12: " in err and "/Ball.radius" in err and "frames failed (each tried 2 times): 12" in err
     assert sorted(p.name for p in tmp_path.glob("b.*")) == ["b.0011.png", "b.0013.png"]
 
