@@ -83,7 +83,7 @@ def main() -> int:
         two = diff_frames(2, frames, 320, 240)
         ratios.append(one / two)
         print(f"pair {pair + 1}: 24-frame diff at 320x240: 1 worker {one:.2f} s, 2 workers {two:.2f} s, "
-              f"speed-up {one / two:.2f}x")
+              f"speed-up {one / two:.2f}x (load average {os.getloadavg()[0]:.2f})")
     if ratios:
         print(f"speed-up of 2 workers over 1: median {statistics.median(ratios):.2f}x (min {min(ratios):.2f}x)")
     o = overhead(args.overhead_frames)
