@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, TextIO
 
-from .errors import PhongSceneError
+from .errors import BackendError, PhongSceneError
 
 # The frame number replaces the run of '#' in an output name, zero-padded to its length.
 FRAME_PATTERN = re.compile(r"#+")
@@ -150,7 +150,8 @@ class FramesRun:
     failures: dict[int, str] = field(default_factory=dict)
     seconds: float = 0.0  # wall clock, cluster start-up included
     startup_seconds: float = 0.0  # connecting to (or starting) the cluster
-    workers: int = 0  # worker processes that ran the frames (0: run in this process)
+    workers: int = 0  # Dask workers when the frames were submitted
+    cluster: str = ""  # "LocalCluster", the scheduler's address, or "" (run in this process)
 
     @property
     def ok(self) -> bool:
@@ -175,7 +176,8 @@ def run_frames(
     """Run ``task(*arguments(frame))`` for every frame on Dask distributed.
 
     Args:
-        task: one of this module's ``*_frame`` functions (workers import it by name).
+        task: one of this module's ``*_frame`` functions (workers import it by name), or any
+            function cloudpickle can ship.
         frames: the frame numbers.
         arguments: the task's arguments for a frame (paths, the frame, plain options).
         scheduler: ``tcp://HOST:PORT`` of a running scheduler; None: ``DASK_SCHEDULER_ADDRESS``,
@@ -197,7 +199,12 @@ def run_frames(
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=logging.CRITICAL)
     try:
-        with Client(cluster if cluster is not None else address) as client:
+        try:
+            client = Client(cluster if cluster is not None else address)
+        except OSError as e:  # a scheduler that is not there (Dask waits distributed.comm.timeouts.connect)
+            raise BackendError(f"cannot reach the Dask scheduler {address}: {e}") from None
+        with client:
+            run.cluster = "LocalCluster" if cluster is not None else address
             run.workers = len(client.scheduler_info().get("workers", {}))
             run.startup_seconds = _time.perf_counter() - began
             # pure=False: a frame is an action (it writes a file); never deduplicate or cache it.

@@ -184,8 +184,8 @@ def _run_frames(args, task, arguments, label: str):
             if warning not in warnings:
                 later.setdefault(warning, []).append(frame)
     _print_warnings(f"frames {', '.join(map(str, frames))}: {warning}" for warning, frames in later.items())
-    where = f"{run.workers} Dask workers" if run.workers else "this process"
-    print(f"{args.scene}: {len(run.results)} of {len(args.frames)} {label} on {where} in {run.seconds:.2f} s")
+    where = f"on {run.workers} Dask workers ({run.cluster})" if run.cluster else "in this process"
+    print(f"{args.scene}: {len(run.results)} of {len(args.frames)} {label} {where} in {run.seconds:.2f} s")
     if run.failures:
         print(f"error: frames failed (each tried {1 + TASK_RETRIES} times): "
               f"{', '.join(map(str, sorted(run.failures)))}", file=sys.stderr)

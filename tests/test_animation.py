@@ -156,6 +156,18 @@ def test_the_cluster_is_the_option_else_the_environment_else_a_local_one(monkeyp
     assert animation.scheduler_address("tcp://127.0.0.1:9999") == "tcp://127.0.0.1:9999"
 
 
+def test_a_scheduler_that_is_not_there_is_one_error_naming_it(tmp_path, capsys):
+    import dask
+    import distributed  # noqa: F401  (its config defaults first: leaving set() restores the config as it was)
+
+    with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
+        rc = main(["render", str(ANIMATED), "-o", str(tmp_path / "f.####.exr"), "--frames", "1:2",
+                   "--scheduler", "tcp://127.0.0.1:9"])  # the discard port: nothing listens
+    assert rc == 3
+    assert "error: cannot reach the Dask scheduler tcp://127.0.0.1:9: " in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
+
+
 def _ball_x(image: np.ndarray) -> float:
     hue = np.abs(image[..., 0] - image[..., 1]) + np.abs(image[..., 2] - image[..., 1])
     return float(np.nonzero(hue > 0.1)[1].mean()) + 0.5  # pixel centres
@@ -219,7 +231,7 @@ def test_frames_on_a_local_cluster_of_processes_are_bit_identical_to_serial_rend
     out = tmp_path / "f.####.exr"
     assert main(["render", str(ANIMATED), "-o", str(out), "--frames", "1:24:8", "--workers", "2", "--threads", "1"]) == 0
     printed = capsys.readouterr()
-    assert "3 of 3 frames rendered on 2 Dask workers" in printed.out
+    assert "3 of 3 frames rendered on 2 Dask workers (LocalCluster)" in printed.out
     assert "frames: rendered in" in printed.err  # the progress bar counts frames (not a terminal: one line)
     for frame in (1, 9, 17):
         scene, _ = load_scene(ANIMATED, time=float(frame))
@@ -286,7 +298,7 @@ def test_diff_frames_through_a_scheduler_and_a_worker_started_as_processes(tmp_p
             client.wait_for_workers(1, timeout=CLUSTER_START_TIMEOUT_S)
         outdir = tmp_path / "report"
         assert main(["diff", str(ANIMATED), "-o", str(outdir), "--frames", "1:24:23", "--scheduler", address]) == 0
-        assert "2 of 2 frames diffed on 1 Dask workers" in capsys.readouterr().out
+        assert f"2 of 2 frames diffed on 1 Dask workers ({address})" in capsys.readouterr().out
         metrics = json.loads((outdir / "metrics.json").read_text())
         assert [(r["frame"], r["ok"]) for r in metrics["frames"]] == [(1, True), (24, True)]
         assert all(r["pid"] not in (os.getpid(), started[1].pid) for r in metrics["frames"])  # the worker's child
