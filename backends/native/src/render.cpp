@@ -79,8 +79,9 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
         if (!(n_dot_l >= kMinCosineToLight)) continue;
         const double fraction = visible_fraction(light, p, centre, ShadowQuery{scene, p, window, candidates, settings.numerics != Numerics::kScaleInvariant});
         if (fraction == 0.0) continue;
+        const LightTerms& terms = light_terms(light);
         color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l,
-                             centre.color * fraction);
+                             centre.color * fraction, terms.diffuse, terms.specular);
     }
     return color;
 }

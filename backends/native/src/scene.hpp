@@ -6,12 +6,14 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "bvh.hpp"
 #include "lights.hpp"
 #include "materials.hpp"
 #include "math.hpp"
+#include "povray_triangle.hpp"
 #include "shapes.hpp"
 
 namespace phong {
@@ -27,6 +29,9 @@ struct GeometryArrays {
     const int32_t* triangles = nullptr;          // (T, 3) rows of points
     const int32_t* triangle_material = nullptr;  // (T,) indices of materials
     const int32_t* triangle_mesh = nullptr;      // (T,) the mesh (one POV-Ray object) of each triangle
+    const double* mesh_origins = nullptr;        // (M, 3) each mesh's local frame, as the compiler writes it
+    size_t mesh_count = 0;
+    bool povray_triangles = false;               // test triangles as POV-Ray does (povray_triangle.hpp)
     const int32_t* normal_indices = nullptr;     // (T, 3) rows of normals, -1: flat
     size_t triangle_count = 0;
     const double* normals = nullptr;  // (K, 3) unit
@@ -90,6 +95,7 @@ class Scene {
     std::vector<TriangleShading> triangle_shading;  // leaf order
     std::vector<uint32_t> triangle_source;        // leaf order -> input row
     std::vector<int32_t> triangle_mesh;           // leaf order -> mesh
+    std::vector<PovrayTriangle> povray_triangles;  // leaf order; empty unless built in POV-Ray numerics
     std::vector<Vec3> normals;
     std::vector<Material> materials;
     std::vector<Light> lights;
@@ -98,6 +104,15 @@ class Scene {
     double magnitude = 0.0;  // largest absolute coordinate of the geometry bounds
 
   private:
+    // A triangle's hit test: POV-Ray's where the scene was built for it, else the watertight one.
+    bool hit_triangle(int32_t ref, const Ray& ray, std::optional<WatertightRay>& wr, double t_min, double t_max,
+                      double& t, Barycentric& bary) const {
+        if (!povray_triangles.empty())
+            return intersect_povray_triangle(povray_triangles[size_t(ref)], ray, t_min, t_max, t, bary);
+        if (!wr) wr.emplace(ray.dir);
+        return intersect_triangle(triangles[size_t(ref)], ray, *wr, t_min, t_max, t, bary);
+    }
+
     Bvh bvh_;
     std::vector<int32_t> refs_;  // BVH leaf order
 };
