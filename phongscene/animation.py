@@ -132,6 +132,7 @@ def diff_frame(scene: str, frame: int, outdir: str, options: dict, thresholds) -
                   thresholds=thresholds, time=float(frame))
     r = result.report
     return {"frame": frame, "outdir": outdir, "ok": result.ok, "max_error": r.max_error,
+            "worst_pixel": [r.worst.x, r.worst.y] if r.worst else None,
             "failing_pixels": r.failing_pixels, "failing_percent": r.failing_percent, "pixels": r.pixels,
             "explained_pixels": len(result.explained), "timings": result.timings,
             "width": result.settings.width, "height": result.settings.height,
@@ -291,7 +292,8 @@ def write_frames_report(outdir: str | os.PathLike, scene: str, run: FramesRun, m
         )
         rows.append(
             f"<tr class='{'ok' if m['ok'] else 'fail'}'><td>{frame}</td><td>{'PASS' if m['ok'] else 'FAIL'}</td>"
-            f"<td>{m['max_error']:.6g}</td><td>{m['failing_pixels']} ({m['failing_percent']:.4g}%)</td>{thumbs}</tr>"
+            f"<td>{m['max_error']:.6g}{' at ({}, {})'.format(*m['worst_pixel']) if m.get('worst_pixel') else ''}</td>"
+            f"<td>{m['failing_pixels']} ({m['failing_percent']:.4g}%)</td>{thumbs}</tr>"
         )
     failed = [r["frame"] for r in records if not r["ok"]]
     summary = f"{len(frames)} frames, {len(frames) - len(failed)} pass" + (f", fail: {', '.join(map(str, failed))}" if failed else "")

@@ -324,5 +324,11 @@ def test_diff_frames_exits_1_when_a_frame_fails_and_says_which(tmp_path, capsys)
     assert rc == 1
     assert "frame 24: FAIL" in capsys.readouterr().out
     metrics = json.loads((outdir / "metrics.json").read_text())
-    assert metrics["frames"][0]["ok"] is False and metrics["frames"][0]["failing_pixels"] > 0
+    row = metrics["frames"][0]
+    assert row["ok"] is False and row["failing_pixels"] > 0
+    x, y = row["worst_pixel"]  # the worst pixel of the frame's own report
+    frame_report = json.loads((outdir / "frame.0024" / "metrics.json").read_text())
+    assert f"{row['max_error']:.6g} at ({x}, {y})" in (outdir / "index.html").read_text()
+    assert frame_report["report"]["max_error"] == row["max_error"]
+    assert [frame_report["report"]["worst"][k] for k in ("x", "y")] == [x, y]
     assert "fail: 24" in metrics["summary"] and "FAIL" in (outdir / "index.html").read_text()
