@@ -208,6 +208,112 @@ def _add_timeout_option(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS", help=help)
 
 
+def _time_code(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number (a USD time code), got {text!r}") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def _frame_range(text: str) -> tuple[int, ...]:
+    from .animation import parse_frames
+
+    try:
+        return parse_frames(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _add_time_options(p: argparse.ArgumentParser, output: str) -> None:
+    group = p.add_argument_group("time (an animated stage; default: its start time, with a warning)")
+    when = group.add_mutually_exclusive_group()
+    when.add_argument("--time", type=_time_code, metavar="T", help="read the stage at USD time code T")
+    when.add_argument("--frames", type=_frame_range, metavar="START:END[:STEP]",
+                      help=f"frames START, START+STEP, ... END (whole time codes): {output}. Frames run as Dask "
+                      "tasks: a LocalCluster here, or --scheduler")
+    group.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                       help="with --frames: an existing Dask scheduler (default: $DASK_SCHEDULER_ADDRESS, else a "
+                       "LocalCluster); workers must see the scene and the output at the same paths")
+    group.add_argument("--workers", type=_int_in(1), metavar="N",
+                       help="with --frames: LocalCluster worker processes (default: one per core)")
+
+
+def _frame_options(args) -> dict:
+    """The plain options a frame task renders with. Each LocalCluster worker renders one frame at
+    a time; unless --threads says otherwise it gets its share of the cores (so workers x threads
+    = cores); on an existing cluster the scene's setting applies unless --threads is given."""
+    from .animation import scheduler_address
+
+    threads = getattr(args, "threads", None)
+    if threads is None and "threads" in args and scheduler_address(args.scheduler) is None:
+        cores = os.cpu_count() or 1
+        threads = max(1, cores // min(args.workers or cores, len(args.frames)))
+    return {"mapping": args.mapping, "width": args.width, "height": args.height, "samples": args.spp,
+            "threads": threads}
+
+
+def _run_frames(args, task, arguments, label: str):
+    """Run ``task`` for every frame of ``args.frames``: one frame in this process, more on Dask.
+    The stage is read once here first (at the first frame), so a bad file is one error before
+    any cluster starts, and its warnings are printed once."""
+    from .animation import TASK_RETRIES, run_frames, run_serially
+    from .progress import ProgressBar
+    from .rendering import load_scene
+
+    _, warnings = load_scene(args.scene, time=float(args.frames[0]))
+    _print_warnings(warnings)
+    bar = ProgressBar("frames")
+
+    def on_frame(frame, metrics, error):
+        if error is not None:
+            print(f"error: frame {frame}: {error}", file=sys.stderr)
+
+    # One frame, no cluster asked for: this process (a cluster's start-up would cost more).
+    if len(args.frames) == 1 and not (args.scheduler or args.workers):
+        run = run_serially(task, args.frames, arguments, progress=bar, on_frame=on_frame)
+    else:
+        run = run_frames(task, args.frames, arguments, scheduler=args.scheduler, workers=args.workers,
+                         progress=bar, on_frame=on_frame)
+    bar.done(run.seconds)
+    # Warnings the first frame did not have (a light that clips only later, ...), once each.
+    later: dict[str, list[int]] = {}
+    for frame in sorted(run.results):
+        for warning in run.results[frame].get("warnings", ()):
+            if warning not in warnings:
+                later.setdefault(warning, []).append(frame)
+    _print_warnings(f"frames {', '.join(map(str, frames))}: {warning}" for warning, frames in later.items())
+    where = f"on {run.workers} Dask workers ({run.cluster})" if run.cluster else "in this process"
+    print(f"{args.scene}: {len(run.results)} of {len(args.frames)} {label} {where} in {run.seconds:.2f} s")
+    if run.failures:
+        print(f"error: frames failed (each tried {1 + TASK_RETRIES} times): "
+              f"{', '.join(map(str, sorted(run.failures)))}", file=sys.stderr)
+    return run
+
+
+def _cluster_without_frames(args) -> bool:
+    """--scheduler/--workers without --frames: said (one error line), since nothing would use them."""
+    if (args.scheduler or args.workers) and not args.frames:
+        print("error: --scheduler and --workers run frames: give --frames START:END", file=sys.stderr)
+        return True
+    return False
+
+
+def _output_at_time(args, output: str) -> str | None:
+    """A single frame's output name: #### replaced by --time when it is a whole number. None
+    (after an error message) when the name has #### and there is no frame number for it."""
+    from .animation import frame_name, has_frame_pattern
+
+    if not has_frame_pattern(output):
+        return output
+    if args.time is None or args.time != int(args.time):
+        print(f"error: {output}: #### in the name needs --frames, or a whole --time", file=sys.stderr)
+        return None
+    return frame_name(output, int(args.time))
+
+
 def _add_threshold_options(p: argparse.ArgumentParser, by_format: bool = False) -> None:
     from .comparison import HALF_FLOAT as t  # OpenImageIO: only when a parser is built
 
@@ -247,7 +353,7 @@ def _scene_and_settings(args):
     mapping, size, sample and thread overrides."""
     from .rendering import load_scene, settings_with
 
-    scene, warnings = load_scene(args.scene)
+    scene, warnings = load_scene(args.scene, time=getattr(args, "time", None))
     _print_warnings(warnings)
     settings = settings_with(scene, args.mapping, width=args.width, height=args.height, samples=args.spp,
                              threads=getattr(args, "threads", None))
@@ -275,6 +381,8 @@ def _add_diff_command(sub) -> None:
     p.add_argument("--threads", type=_thread_count, metavar="N", help="native worker threads (0 = all cores)")
     _add_timeout_option(p, "stop POV-Ray after SECONDS per process (exit 3)")
     _add_threshold_options(p)
+    _add_time_options(p, "a report per frame in OUTDIR/frame.####, and OUTDIR/index.html with a row per frame; "
+                      "exit 1 if any frame fails")
     p.set_defaults(func=_run_diff)
 
 
@@ -286,9 +394,13 @@ def _run_diff(args) -> int:
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_SCENE
+    if _cluster_without_frames(args):
+        return EXIT_SCENE
+    if args.frames:
+        return _diff_frames(args, thresholds)
     result = diff(
         args.scene, args.outdir, mapping=args.mapping, width=args.width, height=args.height, samples=args.spp,
-        threads=args.threads, thresholds=thresholds, progress=sys.stderr, timeout=args.timeout,
+        threads=args.threads, thresholds=thresholds, progress=sys.stderr, timeout=args.timeout, time=args.time,
     )
     s = result.settings
     print(f"{args.scene}: {s.width} x {s.height}, mapping {result.mapping} (native {s.specular})")
@@ -298,6 +410,28 @@ def _run_diff(args) -> int:
         print(result.explanation())
     print(f"report: {result.outdir / 'index.html'}")
     return EXIT_OK if result.ok else EXIT_DIFFERENT
+
+
+def _diff_frames(args, thresholds) -> int:
+    from .animation import FRAME_FOLDER, diff_frame, frame_name, write_frames_report
+    from .backends.povray import check_mapping
+
+    check_mapping(args.mapping)
+    options = _frame_options(args)
+    outdir = os.path.abspath(args.outdir)
+    folder = lambda f: os.path.join(outdir, frame_name(FRAME_FOLDER, f))  # noqa: E731
+    run = _run_frames(args, diff_frame, lambda f: (os.path.abspath(args.scene), f, folder(f), options, thresholds),
+                      "frames diffed")
+    for frame in sorted(run.results):
+        m = run.results[frame]
+        print(f"  frame {frame}: {'PASS' if m['ok'] else 'FAIL'}, max error {m['max_error']:.6g}, "
+              f"{m['failing_pixels']} failing pixels ({m['failing_percent']:.4g}%)")
+    index = write_frames_report(outdir, os.path.abspath(args.scene), run,
+                                {"mapping": args.mapping, "workers": run.workers, "seconds": run.seconds})
+    print(f"report: {index}")
+    if run.failures:
+        return EXIT_BACKEND
+    return EXIT_OK if all(m["ok"] for m in run.results.values()) else EXIT_DIFFERENT
 
 
 def _add_compare_command(sub) -> None:
@@ -498,6 +632,7 @@ def _add_render_command(sub) -> None:
     _add_size_options(p)
     p.add_argument("--threads", type=_thread_count, metavar="N", help="worker threads (0 = all cores)")
     _add_timeout_option(p, "--backend povray only: stop POV-Ray after SECONDS (exit 3)")
+    _add_time_options(p, "one image per frame, #### in IMAGE becomes the frame number")
     p.set_defaults(func=_run_render)
 
 
@@ -514,6 +649,14 @@ def _run_render(args) -> int:
     if args.timeout is not None and args.backend != "povray":
         print("error: --timeout applies to --backend povray only (the native tracer stops on Ctrl-C)", file=sys.stderr)
         return EXIT_SCENE
+    if _cluster_without_frames(args):
+        return EXIT_SCENE
+    if args.frames:
+        return _render_frames(args)
+    output = _output_at_time(args, args.output)
+    if output is None:
+        return EXIT_SCENE
+    args.output = output
     bar = ProgressBar(args.backend)
     start = time.perf_counter()
     bar.phase(f"reading {Path(args.scene).name}")  # a big USD file takes seconds
@@ -523,6 +666,24 @@ def _run_render(args) -> int:
     write_image(args.output, image)
     print(f"{args.output}: {settings.width} x {settings.height}, {args.backend}, specular {settings.specular}")
     return EXIT_OK
+
+
+def _render_frames(args) -> int:
+    from .animation import frame_name, has_frame_pattern, render_frame
+
+    if not has_frame_pattern(args.output):
+        print(f"error: {args.output}: with --frames the name needs #### for the frame number (e.g. out.####.exr)",
+              file=sys.stderr)
+        return EXIT_SCENE
+    options = _frame_options(args)
+    scene = os.path.abspath(args.scene)
+    run = _run_frames(args, render_frame,
+                      lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), args.backend, options),
+                      "frames rendered")
+    if run.results:
+        m = next(iter(run.results.values()))
+        print(f"{args.output}: {m['width']} x {m['height']}, {args.backend}, specular {m['specular']}")
+    return EXIT_BACKEND if run.failures else EXIT_OK
 
 
 def _add_compile_command(sub) -> None:
@@ -539,6 +700,7 @@ def _add_compile_command(sub) -> None:
     _add_mapping_option(p, "exact (the seed model, one pass per light) or classic (one plain POV-Ray finish per "
                         "material); default: the scene's specular convention")
     _add_size_options(p)
+    _add_time_options(p, "a .pov and an .ini per frame, #### in OUT.pov becomes the frame number")
     p.set_defaults(func=_run_compile)
 
 
@@ -553,6 +715,14 @@ def _run_compile(args) -> int:
     if out.suffix.lower() != ".pov":
         print(f"error: {out}: the output must end in .pov", file=sys.stderr)
         return EXIT_SCENE
+    if _cluster_without_frames(args):
+        return EXIT_SCENE
+    if args.frames:
+        return _compile_frames(args)
+    output = _output_at_time(args, args.output)
+    if output is None:
+        return EXIT_SCENE
+    out = Path(output)
     scene, settings = _scene_and_settings(args)
     job = prepare(scene, check_settings(scene, settings), args.mapping)
     ini, image = out.with_suffix(".ini"), out.with_suffix(".exr")
@@ -569,3 +739,19 @@ def _run_compile(args) -> int:
     if job.supersample > 1:
         print(f"  then average {job.supersample} x {job.supersample} pixel blocks (grid anti-aliasing)")
     return EXIT_OK
+
+
+def _compile_frames(args) -> int:
+    from .animation import compile_frame, frame_name, has_frame_pattern
+
+    if not has_frame_pattern(args.output):
+        print(f"error: {args.output}: with --frames the name needs #### for the frame number (e.g. out.####.pov)",
+              file=sys.stderr)
+        return EXIT_SCENE
+    options = _frame_options(args)
+    scene = os.path.abspath(args.scene)
+    run = _run_frames(args, compile_frame, lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), options),
+                      "frames compiled")
+    for frame in sorted(run.results):
+        print(f"  {run.results[frame]['output']}")
+    return EXIT_BACKEND if run.failures else EXIT_OK

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import os
-import time
+from time import perf_counter
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import TextIO
@@ -92,6 +92,7 @@ def diff(
     thresholds: Thresholds = HALF_FLOAT,
     progress: TextIO | None = None,
     timeout: float | None = None,
+    time: float | None = None,
 ) -> DiffResult:
     """Render a scene with both backends, compare, and write the report if ``outdir`` is given.
 
@@ -106,6 +107,7 @@ def diff(
         thresholds: when the images agree (default: half-float precision at every pixel).
         progress: stream for progress bars (e.g. ``sys.stderr``); None shows none.
         timeout: seconds before POV-Ray is abandoned.
+        time: the USD time code to read a USD file at (None: the reader's choice).
 
     Returns:
         A ``DiffResult``: the report, the folder, both timings and both images.
@@ -122,10 +124,10 @@ def diff(
     if progress is not None and not isinstance(scene_or_path, Scene):
         reading = ProgressBar("scene", progress)
         reading.phase(f"reading {Path(scene_or_path).name}")  # a big USD file takes seconds
-    start = time.perf_counter()
-    scene, warnings = load_scene(scene_or_path)
+    start = perf_counter()
+    scene, warnings = load_scene(scene_or_path, time)
     if reading is not None:
-        reading.done(time.perf_counter() - start, "read")
+        reading.done(perf_counter() - start, "read")
     if progress is not None:
         for w in warnings:
             progress.write(f"warning: {w}\n")
@@ -135,9 +137,9 @@ def diff(
     images, timings = {}, {}
     for backend in LABELS:
         bar = ProgressBar(backend, progress) if progress is not None else None
-        start = time.perf_counter()
+        start = perf_counter()
         images[backend] = render(scene, backend, settings, progress=bar, timeout=timeout)
-        timings[backend] = time.perf_counter() - start
+        timings[backend] = perf_counter() - start
         if bar is not None:
             bar.done(timings[backend])
     try:
@@ -168,6 +170,7 @@ def diff(
             ok=result.ok,
             meta={
                 "scene": source,
+                "time": time,
                 "mapping": mapping,
                 "native_specular": settings.specular,
                 "settings": _settings_dict(settings),
