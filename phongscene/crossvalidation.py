@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import os
-import time
+from time import perf_counter
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import TextIO
@@ -30,6 +30,7 @@ from .rendering import load_scene, render, settings_with, with_shadow_adaptive
 from .scene import RenderSettings, Scene
 
 LABELS = ("povray", "native")
+SHADOW_CACHE_CAUSE = "POV-Ray's shadow cache"  # what explains a failing pixel (see _explain)
 
 
 @dataclass(frozen=True)
@@ -91,6 +92,7 @@ def diff(
     thresholds: Thresholds = HALF_FLOAT,
     progress: TextIO | None = None,
     timeout: float | None = None,
+    time: float | None = None,
     sample_pattern: str | None = None,
     aa_threshold: float | None = None,
     shadow_adaptive: int | None = None,
@@ -108,6 +110,7 @@ def diff(
         thresholds: when the images agree (default: half-float precision at every pixel).
         progress: stream for progress bars (e.g. ``sys.stderr``); None shows none.
         timeout: seconds before POV-Ray is abandoned.
+        time: the USD time code to read a USD file at (None: the reader's choice).
         sample_pattern, aa_threshold: anti-aliasing overrides (``RenderSettings``).
         shadow_adaptive: POV-Ray's ``adaptive n`` for every area light (None: each light's own).
 
@@ -122,7 +125,14 @@ def diff(
     from .backends.povray import check_mapping
 
     check_mapping(mapping)  # before the scene is read
-    scene, warnings = load_scene(scene_or_path)
+    reading = None
+    if progress is not None and not isinstance(scene_or_path, Scene):
+        reading = ProgressBar("scene", progress)
+        reading.phase(f"reading {Path(scene_or_path).name}")  # a big USD file takes seconds
+    start = perf_counter()
+    scene, warnings = load_scene(scene_or_path, time)
+    if reading is not None:
+        reading.done(perf_counter() - start, "read")
     if progress is not None:
         for w in warnings:
             progress.write(f"warning: {w}\n")
@@ -134,12 +144,12 @@ def diff(
     images, timings = {}, {}
     for backend in LABELS:
         bar = ProgressBar(backend, progress) if progress is not None else None
-        start = time.perf_counter()
+        start = perf_counter()
         if backend == "native":
             images[backend] = render_native_as_povray(scene, settings, mapping, progress=bar)
         else:
             images[backend] = render(scene, backend, settings, progress=bar, timeout=timeout)
-        timings[backend] = time.perf_counter() - start
+        timings[backend] = perf_counter() - start
         if bar is not None:
             bar.done(timings[backend])
     try:
@@ -150,7 +160,8 @@ def diff(
     plain = render_native_as_povray(scene, replace(settings, numerics="scale-invariant"), mapping)
     numerics_differ = int(failing_mask(images["native"], plain, thresholds).sum())
 
-    written = None
+    result = DiffResult(report, None, timings, images["povray"], images["native"], settings, mapping, warnings,
+                        explained, unexplained, numerics_differ)
     if outdir is not None:
         from .report import write_report
 
@@ -163,8 +174,13 @@ def diff(
             labels=LABELS,
             title=f"phongscene diff: {Path(source).name if source else 'scene'} ({mapping} mapping)",
             timings=timings,
+            # Failing pixels are classified only when the comparison fails (_explain).
+            explained=None if report.ok else explained,
+            cause=SHADOW_CACHE_CAUSE,
+            ok=result.ok,
             meta={
                 "scene": source,
+                "time": time,
                 "mapping": mapping,
                 "native_specular": settings.specular,
                 "settings": _settings_dict(settings),
@@ -174,9 +190,8 @@ def diff(
                 "native_numerics_differ_pixels": numerics_differ,
             },
         )
-        written = index.parent
-    return DiffResult(report, written, timings, images["povray"], images["native"], settings, mapping, warnings,
-                      explained, unexplained, numerics_differ)
+        result = replace(result, outdir=index.parent)
+    return result
 
 
 def render_native_as_povray(scene: Scene, settings: RenderSettings, mapping: str, progress=None) -> np.ndarray:
