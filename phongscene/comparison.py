@@ -31,7 +31,6 @@ import os
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
-from OpenImageIO import ImageBuf, ImageBufAlgo
 
 from .errors import PhongSceneError
 from .images import as_image, read_image
@@ -232,6 +231,8 @@ def compare(a, b, thresholds: Thresholds = HALF_FLOAT) -> Report:
     Raises:
         ImageMismatchError: the images differ in size.
     """
+    from OpenImageIO import ImageBuf, ImageBufAlgo  # here: building the CLI's parser needs no OIIO
+
     a_img, b_img = _load_pair(a, b)
     height, width = a_img.shape[:2]
     nonfinite_a = ~np.isfinite(a_img).all(axis=2)
@@ -299,6 +300,8 @@ def failing_mask(a, b, thresholds: Thresholds = HALF_FLOAT) -> np.ndarray:
 def channel_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """|a − b| per pixel, maximum over channels: (H, W) float32, computed by OIIO
     (``absdiff`` + ``maxchan``). NaN where either image has a NaN."""
+    from OpenImageIO import ImageBuf, ImageBufAlgo
+
     diff = ImageBufAlgo.maxchan(ImageBufAlgo.absdiff(ImageBuf(as_image(a)), ImageBuf(as_image(b))))
     out = np.asarray(diff.get_pixels(), dtype=np.float32).reshape(a.shape[0], a.shape[1])
     nan_any = np.isnan(a).any(axis=2) | np.isnan(b).any(axis=2)
