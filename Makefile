@@ -21,8 +21,9 @@ $(BUILDDEPS): pyproject.toml | $(PY)
 
 # Always re-run: scikit-build-core's incremental CMake build makes this a few seconds when
 # nothing changed, and it is what picks up C++ edits.
+# The bench extra (matplotlib) too, so the benchmark scripts README.md names run in this venv.
 install: $(BUILDDEPS)
-	$(PIP) install --no-build-isolation -e '.[test]'
+	$(PIP) install --no-build-isolation -e '.[test,bench]'
 
 povray:
 	@if command -v povray >/dev/null 2>&1; then :; \

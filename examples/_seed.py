@@ -9,6 +9,7 @@ import math
 from pathlib import Path
 
 
+import phongscene
 from phongscene.scene import AmbientLight, Camera, PhongMaterial, PointLight, RenderSettings, Scene, Sphere, TriangleMesh
 from phongscene.usd import write_usd
 
@@ -19,7 +20,7 @@ SETTINGS = RenderSettings(width=320, height=240, source="/Render/Settings")
 
 def look_at(eye, target, fov_deg: float = 45.0) -> Camera:
     """A perspective camera at ``eye`` looking at ``target`` with +Y as the up hint."""
-    return Camera.look_at(eye, target, fov_deg, source="/World/Camera")
+    return phongscene.look_at(eye, target, fov_deg, source="/World/Camera")
 
 
 def ground(half_size: float = 10.0) -> TriangleMesh:

@@ -8,6 +8,7 @@ they differ, 2 for a bad scene, 3 when a backend fails (e.g. POV-Ray is not inst
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -61,6 +62,9 @@ def main(argv: list[str] | None = None) -> int:
         f" {r.failing_pixels} of {r.pixels} pixels outside half-float precision"
     )
     print(f"  report      {result.outdir / 'index.html'}")
+    # The CLI is in the virtual environment make created, not on PATH (README, first screen).
+    bin_dir = os.path.relpath(Path(sys.prefix) / "bin")
+    print(f"\nNext: {bin_dir}/phongscene --help   (or: source {bin_dir}/activate, then phongscene --help)")
     return EXIT_OK if r.ok else EXIT_DIFFERENT
 
 

@@ -3,8 +3,9 @@
 and diff the two backends."""
 
 import importlib as _importlib
+from typing import TYPE_CHECKING
 
-from .errors import BackendError, PhongSceneError, Problem, SceneError
+from .errors import BackendError, PhongSceneError, Problem, SceneError, SceneFileNotFoundError, SceneWarning
 from .scene import (
     AmbientLight,
     Camera,
@@ -20,19 +21,33 @@ from .scene import (
     TriangleMesh,
 )
 
+# A perspective camera at an eye point looking at a target (``Camera.look_at``).
+look_at = Camera.look_at
+
 __version__ = "0.1.0"
 
 # Exported on first use, name -> (module, attribute) (PEP 562 module __getattr__): these modules
 # bring in OpenImageIO, pxr or a backend, which ``import phongscene`` does not need.
 _LAZY_EXPORTS = {
+    "Image": (".images", "Image"),
+    "Thresholds": (".comparison", "Thresholds"),
     "compare": (".comparison", "compare"),
-    "compile_pov": (".backends.povray", "compile_pov"),
+    "compile_pov": (".rendering", "compile_pov"),
     "diff": (".crossvalidation", "diff"),
     "load_usd": (".usd", "load_usd"),
     "read_usd": (".usd", "read_usd"),
     "render": (".rendering", "render"),
+    "read_image": (".images", "read_image"),
+    "write_image": (".images", "write_image"),
     "write_usd": (".usd", "write_usd"),
 }
+
+if TYPE_CHECKING:  # the lazy names, for type checkers and IDEs
+    from .comparison import Thresholds, compare
+    from .crossvalidation import diff
+    from .images import Image, read_image, write_image
+    from .rendering import compile_pov, render
+    from .usd import load_usd, read_usd, write_usd
 
 
 def __getattr__(name: str):
@@ -50,6 +65,7 @@ __all__ = [
     "Camera",
     "Cone",
     "DirectionalLight",
+    "Image",
     "PhongMaterial",
     "PhongSceneError",
     "PointLight",
@@ -58,14 +74,20 @@ __all__ = [
     "RenderSettings",
     "Scene",
     "SceneError",
+    "SceneFileNotFoundError",
+    "SceneWarning",
     "Sphere",
     "SphereAreaLight",
+    "Thresholds",
     "TriangleMesh",
     "compare",
     "compile_pov",
     "diff",
     "load_usd",
+    "look_at",
+    "read_image",
     "read_usd",
     "render",
+    "write_image",
     "write_usd",
 ]

@@ -107,25 +107,33 @@ def _add_size_options(p: argparse.ArgumentParser, spp_help: str = SPP_HELP) -> N
     p.add_argument("--spp", type=_samples_per_axis, metavar="N", help=spp_help)
 
 
-def _add_threshold_options(p: argparse.ArgumentParser) -> None:
+def _add_threshold_options(p: argparse.ArgumentParser, by_format: bool = False) -> None:
     from .comparison import HALF_FLOAT as t  # OpenImageIO: only when a parser is built
 
-    group = p.add_argument_group("thresholds (idiff vocabulary; default: half-float precision)")
-    group.add_argument("--fail", type=float, default=t.fail, metavar="ABS",
-                       help=f"absolute error always accepted (default {t.fail:.3g}, one subnormal half step)")
-    group.add_argument("--fail-relative", type=float, default=t.fail_relative, metavar="REL",
-                       help=f"error accepted relative to mean(|a|,|b|) (default {t.fail_relative:.3g} = 2 x 2^-11)")
-    group.add_argument("--fail-percent", type=float, default=t.fail_percent, metavar="PCT",
+    title = ("thresholds (idiff vocabulary; default: by the files' formats: half-float precision for float "
+             "images, one code step for 8-bit ones)" if by_format else
+             "thresholds (idiff vocabulary; default: half-float precision)")
+    group = p.add_argument_group(title)
+    # Defaults are None: a given option overrides one field of the default thresholds.
+    group.add_argument("--fail", type=float, metavar="ABS",
+                       help=f"absolute error always accepted (half-float default {t.fail:.3g}, one subnormal half step)")
+    group.add_argument("--fail-relative", type=float, metavar="REL",
+                       help=f"error accepted relative to mean(|a|,|b|) (half-float default {t.fail_relative:.3g} "
+                       "= 2 x 2^-11)")
+    group.add_argument("--fail-percent", type=float, metavar="PCT",
                        help=f"%% of pixels allowed to fail (default {t.fail_percent:g})")
-    group.add_argument("--hard-fail", type=float, default=t.hard_fail, metavar="ABS",
+    group.add_argument("--hard-fail", type=float, metavar="ABS",
                        help="any error above this fails (default: none)")
 
 
-def _thresholds(args):
-    from .comparison import Thresholds
+def _thresholds(args, base=None):
+    """``base`` (default: half-float precision) with the threshold options given on the command line."""
+    from dataclasses import replace
 
-    return Thresholds(fail=args.fail, fail_relative=args.fail_relative, fail_percent=args.fail_percent,
-                      hard_fail=args.hard_fail)
+    from .comparison import HALF_FLOAT
+
+    given = {name: getattr(args, name) for name in ("fail", "fail_relative", "fail_percent", "hard_fail")}
+    return replace(HALF_FLOAT if base is None else base, **{k: v for k, v in given.items() if v is not None})
 
 
 def _print_warnings(warnings, stream=None) -> None:
@@ -193,7 +201,7 @@ def _run_diff(args) -> int:
 def _add_compare_command(sub) -> None:
     p = sub.add_parser(
         "compare",
-        help="compare two images (EXR, PNG, ...) at half-float precision",
+        help="compare two images (EXR, PNG, ...) at the precision of their formats",
         description="Compare image B against reference A pixel by pixel (OpenImageIO) and print the "
         "errors; with -o, also write the report folder.",
         epilog="Exit codes: 0 the images agree, 1 they differ (or differ in size), 2 unreadable file.",
@@ -201,16 +209,17 @@ def _add_compare_command(sub) -> None:
     p.add_argument("a", metavar="A", help="reference image")
     p.add_argument("b", metavar="B", help="image under test")
     p.add_argument("-o", "--outdir", metavar="OUTDIR", help="write the report folder here")
-    _add_threshold_options(p)
+    _add_threshold_options(p, by_format=True)
     p.set_defaults(func=_run_compare)
 
 
 def _run_compare(args) -> int:
-    from .comparison import ImageMismatchError, compare
+    from .comparison import ImageMismatchError, compare, thresholds_for_files
     from .images import read_image
 
     try:
-        thresholds = _thresholds(args)
+        base, why = thresholds_for_files(args.a, args.b)
+        thresholds = _thresholds(args, base)
         a, b = read_image(args.a), read_image(args.b)
     except (PhongSceneError, ValueError) as e:
         print(f"error: {e}", file=sys.stderr)
@@ -221,6 +230,7 @@ def _run_compare(args) -> int:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_DIFFERENT
     print(f"comparing {args.a} and {args.b}")
+    print(f"  thresholds: {why}" + (" (with the options given)" if thresholds != base else ""))
     print(report.summary())
     if args.outdir:
         from .report import write_report
@@ -247,11 +257,22 @@ def _add_info_command(sub) -> None:
         "(unsupported prims, defaults used).",
         epilog="Exit codes: 0 ok, 2 the scene is invalid (one problem per line on stderr).",
     )
-    _add_scene_argument(p)
+    p.add_argument("scene", metavar="SCENE", nargs="?", help=SCENE_HELP)
+    p.add_argument("--usd-plugin-path", action="store_true",
+                   help="print the folder of the Phong shader's Sdr definition and exit: other USD tools know the "
+                   "shader with PXR_SDR_FS_PLUGIN_SEARCH_PATHS=<it> PXR_SDR_FS_PLUGIN_ALLOWED_EXTS=usda")
     p.set_defaults(func=_run_info)
 
 
 def _run_info(args) -> int:
+    if args.usd_plugin_path:
+        from .schemas import folder
+
+        print(folder())
+        return EXIT_OK
+    if args.scene is None:
+        print("error: info needs SCENE (or --usd-plugin-path)", file=sys.stderr)
+        return EXIT_SCENE
     from .usd import read_usd
 
     result = read_usd(args.scene)
@@ -322,20 +343,35 @@ def _add_import_command(sub) -> None:
     p = sub.add_parser(
         "import",
         help="convert a mesh file (OBJ, PLY, STL, GLB, ...) to a USD scene",
-        description="Read MESHFILE with trimesh and write a USD file with one Mesh (vertex normals, "
-        "subdivisionScheme none) bound to a default Phong material. The scene has no camera or "
+        description="Read MESHFILE with trimesh and write a USD file with one Mesh (subdivisionScheme none) "
+        "bound to a default Phong material. Normals: the file's when it has them, else smooth across "
+        "edges and split at creases (faces meeting at more than --crease-angle). The scene has no camera or "
         "lights, so renderers use the framing camera and the head light.",
         epilog="Exit codes: 0 ok, 2 unreadable input or bad output path.",
     )
     p.add_argument("mesh", metavar="MESHFILE", help="any format trimesh.load reads")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="USD file to write (.usda, .usdc, .usd)")
+    p.add_argument("--crease-angle", type=_degrees, default=None, metavar="DEG",
+                   help="for files without normals: split normals where faces meet at more than DEG degrees "
+                   "(default 30, Blender's auto smooth; 0 = flat, 180 = smooth everywhere)")
     p.set_defaults(func=_run_import)
+
+
+def _degrees(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an angle in degrees, got {text!r}") from None
+    if not 0.0 <= value <= 180.0:
+        raise argparse.ArgumentTypeError(f"expected an angle in 0..180 degrees, got {value:g}")
+    return value
 
 
 def _run_import(args) -> int:
     from .usd import import_mesh
 
-    path = import_mesh(args.mesh, args.output)
+    extra = {} if args.crease_angle is None else {"crease_angle_deg": args.crease_angle}
+    path = import_mesh(args.mesh, args.output, **extra)
     print(f"wrote {path}")
     return EXIT_OK
 

@@ -43,6 +43,7 @@ HALF_ROUNDING_RELATIVE = 2.0**-11
 HALF_SUBNORMAL_STEP = 2.0**-24
 
 CHANNEL_NAMES = ("R", "G", "B")
+SPACES = ("linear", "sRGB")
 # How many of the worst pixels a Report lists (for the HTML page and test messages).
 WORST_PIXELS_LISTED = 10
 
@@ -69,6 +70,9 @@ class Thresholds:
     fail_relative: float = 2 * HALF_ROUNDING_RELATIVE
     fail_percent: float = 0.0  # % of pixels allowed to fail; 0: every pixel must agree
     hard_fail: float = math.inf  # any channel error above it fails the comparison
+    # What the errors are measured on: "linear" values, or "sRGB": the values an 8-bit sRGB file
+    # holds (clipped to [0, 1], sRGB-encoded), for comparing such files one code step apart.
+    space: str = "linear"
 
     def __post_init__(self) -> None:
         for name in ("fail", "fail_relative", "fail_percent", "hard_fail"):
@@ -77,6 +81,8 @@ class Thresholds:
                 raise ValueError(f"Thresholds.{name} must be a number >= 0, got {value!r}")
         if self.fail_percent > 100:
             raise ValueError(f"Thresholds.fail_percent must be <= 100, got {self.fail_percent!r}")
+        if self.space not in SPACES:
+            raise ValueError(f"Thresholds.space must be one of {', '.join(SPACES)}, got {self.space!r}")
 
     def to_dict(self) -> dict:
         """JSON-ready: an infinite ``hard_fail`` becomes None (no hard limit)."""
@@ -106,6 +112,70 @@ POVRAY_SHADOW_CACHE = replace(HALF_FLOAT, fail_percent=0.2)
 # teapot (shared assets) at 96×72, classic, pixel (38, 29): n·l ≈ 7.9e-4, POV-Ray 2.09·2⁻¹¹ off
 # the oracle, native 3e-5·2⁻¹¹. Bounded by count like the shadow cache (a terminator is a line).
 POVRAY_MESH_FLOAT32 = replace(HALF_FLOAT, fail_percent=0.2)
+
+# Integer image files (8-bit PNG, JPEG, 16-bit PNG/TIFF) quantise: two renders that agree at half
+# precision land on the same code or on neighbouring codes (one value rounds up, the other down),
+# never two codes apart. So such files agree when their stored values differ by at most one code
+# step: an absolute threshold of 1.5 steps (exactly one step passes whatever the float32 rounding
+# of k/255; two steps fail), no relative one. Measured on the values the file stores: sRGB-encoded
+# for sRGB files (one code is up to 10 % of a dark linear value, 0.9 % of a bright one, so no
+# linear threshold fits), linear otherwise.
+INTEGER_CODE_STEPS = 1.5
+
+
+def integer_thresholds(bits: int, space: str = "sRGB") -> Thresholds:
+    """Thresholds for ``bits``-bit integer images whose values are ``space``-encoded."""
+    return Thresholds(fail=INTEGER_CODE_STEPS / (2**bits - 1), fail_relative=0.0, space=space)
+
+
+@dataclass(frozen=True, slots=True)
+class ImageFormat:
+    """How an image file stores its values: ``bits`` of an integer code (None: floating point)
+    and whether they are sRGB-encoded."""
+
+    bits: int | None
+    srgb: bool
+
+    def __str__(self) -> str:
+        if self.bits is None:
+            return "floating point"
+        return f"{self.bits}-bit {'sRGB' if self.srgb else 'linear'}"
+
+
+def image_format(path: str | os.PathLike) -> ImageFormat:
+    """The storage format of an image file, from its header (OpenImageIO)."""
+    from OpenImageIO import DOUBLE, FLOAT, HALF, ImageInput
+
+    path = os.fspath(path)
+    inp = ImageInput.open(path)
+    if inp is None:
+        import OpenImageIO
+
+        raise PhongSceneError(f"{path}: cannot read image: {OpenImageIO.geterror()}")
+    try:
+        spec = inp.spec()
+    finally:
+        inp.close()
+    srgb = "srgb" in spec.get_string_attribute("oiio:ColorSpace").lower()
+    if spec.format.basetype in (HALF, FLOAT, DOUBLE):
+        return ImageFormat(None, srgb)
+    return ImageFormat(spec.format.size() * 8, srgb)
+
+
+def thresholds_for_files(a: str | os.PathLike, b: str | os.PathLike) -> tuple[Thresholds, str]:
+    """The thresholds two image files are compared with, and why: floating-point files (EXR, as
+    both backends write) at half-float precision (``HALF_FLOAT``, POV-Ray's output precision);
+    when either file stores integer codes, one code step of the coarser one
+    (``integer_thresholds``), on its encoding."""
+    formats = [(image_format(a), os.fspath(a)), (image_format(b), os.fspath(b))]
+    integer = [(f, p) for f, p in formats if f.bits is not None]
+    if not integer:
+        return HALF_FLOAT, "floating-point images: half-float precision (POV-Ray's EXR output)"
+    coarsest, path = min(integer, key=lambda fp: fp[0].bits)
+    space = "sRGB" if coarsest.srgb else "linear"
+    reason = (f"{coarsest} input ({path}): values one code step apart agree "
+              f"(|a-b| <= {INTEGER_CODE_STEPS:g}/{2**coarsest.bits - 1} of the {space}-encoded values)")
+    return integer_thresholds(coarsest.bits, space), reason
 
 
 @dataclass(frozen=True, slots=True)
@@ -154,7 +224,8 @@ class Report:
         """idiff-style text block, one fact per line."""
         t = self.thresholds
         lines = [
-            f"  size        {self.width} x {self.height}",
+            f"  size        {self.width} x {self.height}"
+            + ("" if t.space == "linear" else f"  (errors of the {t.space}-encoded values)"),
             f"  mean error  {self.mean_error:.6g}",
             f"  RMS error   {self.rms_error:.6g}",
             f"  max error   {self.worst if self.worst else 0}",
@@ -217,13 +288,16 @@ def load(image) -> np.ndarray:
     return as_image(image)
 
 
-def compare(a, b, thresholds: Thresholds = HALF_FLOAT) -> Report:
+def compare(a, b, thresholds: Thresholds | None = None) -> Report:
     """Compare two linear images pixel by pixel.
 
     Args:
         a: the reference image: a float array (H, W, 3) or a path OpenImageIO can read.
         b: the image under test, same kind.
-        thresholds: when the images agree (default: half-float precision everywhere).
+        thresholds: when the images agree. Default: for two files, by their formats
+            (``thresholds_for_files``: half-float precision, or one code step of an 8-bit file);
+            for arrays, half-float precision everywhere (``HALF_FLOAT``). With ``space="sRGB"``
+            the errors in the report are of the sRGB-encoded values.
 
     Returns:
         A ``Report`` with the error statistics, the worst pixels and the verdict ``ok``.
@@ -233,7 +307,10 @@ def compare(a, b, thresholds: Thresholds = HALF_FLOAT) -> Report:
     """
     from OpenImageIO import ImageBuf, ImageBufAlgo  # here: building the CLI's parser needs no OIIO
 
-    a_img, b_img = _load_pair(a, b)
+    if thresholds is None:
+        paths = isinstance(a, (str, os.PathLike)) and isinstance(b, (str, os.PathLike))
+        thresholds = thresholds_for_files(a, b)[0] if paths else HALF_FLOAT
+    a_img, b_img = (in_space(img, thresholds.space) for img in _load_pair(a, b))
     height, width = a_img.shape[:2]
     nonfinite_a = ~np.isfinite(a_img).all(axis=2)
     nonfinite_b = ~np.isfinite(b_img).all(axis=2)
@@ -287,7 +364,7 @@ def failing_mask(a, b, thresholds: Thresholds = HALF_FLOAT) -> np.ndarray:
     fails when its error exceeds ``fail`` and ``fail_relative`` of mean(|a|, |b|); a NaN never
     agrees; an infinity agrees only with the same infinity). For locating failures, e.g. to
     explain each one; ``compare`` stays the verdict."""
-    a, b = _load_pair(a, b)
+    a, b = (in_space(img, thresholds.space) for img in _load_pair(a, b))
     a64, b64 = a.astype(np.float64), b.astype(np.float64)
     with np.errstate(invalid="ignore"):
         err = np.abs(a64 - b64)
@@ -295,6 +372,21 @@ def failing_mask(a, b, thresholds: Thresholds = HALF_FLOAT) -> np.ndarray:
         special = ~np.isfinite(a64) | ~np.isfinite(b64)
         bad = np.where(special, ~(a64 == b64), bad)
     return bad.any(axis=2)
+
+
+def in_space(image: np.ndarray, space: str) -> np.ndarray:
+    """A linear image as the values ``space`` measures: itself ("linear"), or clipped to [0, 1]
+    and sRGB-encoded by OpenImageIO ("sRGB", what an 8-bit sRGB file holds, unquantised).
+    Non-finite values stay as they are, so that ``compare`` still judges them."""
+    if space == "linear":
+        return image
+    from OpenImageIO import FLOAT, ImageBuf, ImageBufAlgo
+
+    finite = np.isfinite(image)
+    clipped = np.clip(np.where(finite, image, np.float32(0)), 0.0, 1.0).astype(np.float32)
+    encoded = ImageBufAlgo.colorconvert(ImageBuf(clipped), "linear", "sRGB")
+    out = np.asarray(encoded.get_pixels(FLOAT), dtype=np.float32).reshape(image.shape)
+    return np.where(finite, out, image)
 
 
 def channel_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -38,6 +38,23 @@ class SceneError(PhongSceneError):
         super().__init__("\n".join(str(p) for p in self.problems))
 
 
+class SceneFileNotFoundError(SceneError, FileNotFoundError):
+    """The scene (or mesh) file does not exist: a SceneError (the CLI's exit 2) that is also the
+    FileNotFoundError Python code expects."""
+
+    def __init__(self, path: str):
+        SceneError.__init__(self, Problem("file not found", file=path))
+        self.filename = path
+        self.errno = 2  # ENOENT, as os.stat would say
+
+    def __str__(self) -> str:
+        return SceneError.__str__(self)
+
+
+class SceneWarning(UserWarning):
+    """Something in a scene file that the model cannot represent (issued by ``render(path)``)."""
+
+
 class BackendError(PhongSceneError):
     """A renderer failed. ``detail`` holds the tail of its output, ``kept`` a path kept for
     inspection (e.g. the .pov file)."""

@@ -26,6 +26,31 @@ WRITABLE = (".exr", ".png")
 EXR_COMPRESSION = "none"
 
 
+class Image(np.ndarray):
+    """A rendered image: a numpy array in the image convention (linear float32 (H, W, 3), row 0
+    at the top) that Jupyter displays (``_repr_png_``: sRGB 8-bit, clipped to [0, 1], as
+    ``write_image`` writes a PNG). Any numpy operation works on it; ``np.asarray`` gives the plain
+    array."""
+
+    def __array_wrap__(self, obj, context=None, return_scalar=False):
+        # numpy ufuncs and reductions: what is still (H, W, 3) stays an Image; a reduction
+        # (image.max(), image.mean(axis=2)) is a plain array or scalar, as for any ndarray.
+        if obj.ndim == 3 and obj.shape[2] == 3:
+            return super().__array_wrap__(obj, context, return_scalar) if return_scalar else \
+                super().__array_wrap__(obj, context)
+        out = np.asarray(obj)
+        return out[()] if return_scalar else out
+
+    def _repr_png_(self) -> bytes | None:
+        if self.ndim != 3 or self.shape[2] != 3 or self.dtype != np.float32:
+            return None  # a slice or a derived array is no longer an image
+        import tempfile
+
+        with tempfile.TemporaryDirectory(prefix="phongscene-") as folder:
+            path = write_image(Path(folder) / "image.png", np.asarray(self))
+            return path.read_bytes()
+
+
 def as_image(pixels) -> np.ndarray:
     """Check and convert to the image convention: float32, (H, W, 3), C-contiguous."""
     a = np.ascontiguousarray(pixels, dtype=np.float32)
@@ -47,6 +72,10 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     spec = buf.spec()
     space = spec.get_string_attribute("oiio:ColorSpace").lower()
     if "srgb" in space:
+        # Decoded into float first: colorconvert keeps the buffer's pixel type, and linear values
+        # stored back in 8 bits lose most of the dark codes (codes 51 and 52 both became ~8/255).
+        if not buf.read(0, 0, True, oiio.TypeFloat):
+            raise PhongSceneError(f"{path}: cannot decode image: {buf.geterror()}")
         buf = ImageBufAlgo.colorconvert(buf, "sRGB", "linear")
     pixels = buf.get_pixels(oiio.TypeFloat)
     if pixels is None or buf.has_error:

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
-"""One entry point for both backends: ``render(scene, backend=...)`` returns the common image
-(linear float32 (H, W, 3), row 0 at the top); with it, what every command does before it
+"""One entry point for both backends: ``render(scene_or_path, backend=..., width=, height=, spp=)``
+returns the common image (linear float32 (H, W, 3), row 0 at the top, as an ``Image``); with it, what every command does before it
 renders: load the scene (``load_scene``) and apply the size, sample, thread and mapping
 overrides (``settings_with``). Backends are imported on first use, so that ``import phongscene``
 stays light and a missing backend fails only when asked for."""
@@ -9,13 +9,16 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
-from typing import Callable, Literal
+from typing import TYPE_CHECKING, Callable, Literal
 
 import numpy as np
 
 from .errors import BackendError, SceneError
 from .scene import RenderSettings, Scene
 from .validate import check
+
+if TYPE_CHECKING:
+    from .images import Image
 
 Backend = Literal["native", "povray"]
 BACKENDS: tuple[str, ...] = ("native", "povray")
@@ -93,33 +96,64 @@ def check_settings(scene: Scene, settings: RenderSettings | None = None) -> Rend
 
 
 def render(
-    scene: Scene,
+    scene: Scene | str | os.PathLike,
     backend: Backend = "native",
     settings: RenderSettings | None = None,
     *,
+    width: int | None = None,
+    height: int | None = None,
+    spp: int | None = None,
+    threads: int | None = None,
+    mapping: str | None = None,
     progress: Callable | None = None,
     timeout: float | None = None,
-) -> np.ndarray:
-    """Render ``scene`` with one backend.
+) -> Image:
+    """Render a scene with one backend.
+
+    ``phongscene.render("scene.usda", width=64)`` and ``render(scene, "povray", settings)``
+    both work.
 
     Args:
-        scene: a scene (``phongscene.load_usd`` or built in Python); it is validated first.
+        scene: a Scene (``phongscene.load_usd`` or built in Python) or the path of a USD file
+            (its reader warnings are issued as ``phongscene.SceneWarning``); validated first.
         backend: "native" (the C++ tracer) or "povray".
         settings: render settings; default ``scene.settings``. ``settings.specular`` chooses
             the convention for either backend (POV-Ray renders "seed" with its exact mapping,
             "povray-classic" with its classic one).
+        width, height: image size override; one alone keeps the aspect ratio.
+        spp: anti-aliasing override, N x N samples per pixel (``RenderSettings.samples``, the
+            CLI's ``--spp``).
+        threads: worker threads override (0 = all cores).
+        mapping: "exact" or "classic": the specular convention the POV-Ray mapping reproduces
+            (the CLI's ``--mapping``); default: the settings'.
         progress: called with the backend's progress reports.
         timeout: POV-Ray only: seconds before the render is abandoned.
 
     Returns:
-        Linear float32 image (H, W, 3), row 0 at the top.
+        An ``Image``: a numpy array, linear float32 (H, W, 3), row 0 at the top, that Jupyter
+        shows as an sRGB PNG.
 
     Raises:
+        FileNotFoundError: the USD file does not exist (a ``SceneError`` too).
         SceneError: the scene or the settings are invalid (every problem listed).
         BackendError: the backend is unavailable or failed.
     """
+    from .images import Image  # OpenImageIO, only when rendering
+
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; expected one of {', '.join(BACKENDS)}")
+    if not isinstance(scene, Scene):
+        import warnings
+
+        from .errors import SceneWarning
+
+        scene, reader_warnings = load_scene(scene)
+        for text in reader_warnings:
+            warnings.warn(f"{scene.source_file}: {text}", SceneWarning, stacklevel=2)
+    overrides = {"width": width, "height": height, "samples": spp, "threads": threads}
+    if mapping is not None or any(v is not None for v in overrides.values()):
+        base = scene if settings is None else replace(scene, settings=settings)
+        settings = settings_with(base, mapping, width=width, height=height, samples=spp, threads=threads)
     settings = check_settings(scene, settings)
     try:
         if backend == "native":
@@ -130,10 +164,12 @@ def render(
         raise BackendError(f"the {backend} backend is not available: {e}") from e
     try:
         if backend == "native":
-            return module.render(scene, settings, progress=progress)
-        return module.render(scene, settings, progress=progress, timeout=timeout)
+            image = module.render(scene, settings, progress=progress)
+        else:
+            image = module.render(scene, settings, progress=progress, timeout=timeout)
     except SceneError as e:  # a backend's own check (e.g. a number not finite in the SDL)
         raise in_file_terms(e) from None
+    return image.view(Image)
 
 
 def compile_pov(scene: Scene, settings: RenderSettings | None = None, mapping: str | None = None) -> str:

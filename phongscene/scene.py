@@ -184,6 +184,10 @@ class PointLight:
     source: str = ""
     falloff: Falloff = "none"  # "inverse-square": color / d² (then no fade)
     cone: Cone | None = None  # a spot light's cone
+    # Multipliers of this light's diffuse and specular terms (UsdLux's inputs:diffuse and
+    # inputs:specular; >= 0, 1 = the seed's light).
+    diffuse: float = 1.0
+    specular: float = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -193,6 +197,8 @@ class DirectionalLight:
     direction: Vec3  # unit direction the light travels (USD: the light's −Z axis)
     color: RGB
     source: str = ""
+    diffuse: float = 1.0  # multipliers of the two terms, as on PointLight
+    specular: float = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -211,6 +217,8 @@ class RectAreaLight:
     # "inverse-square": color · max(0, cos θ) / d², θ from the emitting side −(axis_u × axis_v)
     # (UsdLux's RectLight emits along its local −Z).
     falloff: Falloff = "none"
+    diffuse: float = 1.0  # multipliers of the two terms, as on PointLight
+    specular: float = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -225,6 +233,8 @@ class SphereAreaLight:
     samples: int = 9  # grid points per axis, 2^k + 1 (k >= 1)
     source: str = ""
     falloff: Falloff = "none"  # "inverse-square": color / d²
+    diffuse: float = 1.0  # multipliers of the two terms, as on PointLight
+    specular: float = 1.0
 
 
 Light = Union[PointLight, DirectionalLight, RectAreaLight, SphereAreaLight]

@@ -225,6 +225,10 @@ FALLOFFS = ("none", "inverse-square")
 
 def _check_light(c: _Collector, light) -> None:
     c.colour(light, "color")
+    for term in ("diffuse", "specular"):
+        value = getattr(light, term, 1.0)
+        if c.finite(light, term, value) and value < 0:
+            c.add(light, term, f"must be >= 0, got {_show(value)}")
     falloff = getattr(light, "falloff", "none")
     if falloff not in FALLOFFS:
         c.add(light, "falloff", f"must be one of {', '.join(FALLOFFS)}, got {_show(falloff)}")

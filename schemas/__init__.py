@@ -1,1 +1,28 @@
-"""USD schema files shipped with phongscene (data only; registration lives in phongscene.usd)."""
+# SPDX-License-Identifier: Apache-2.0
+"""USD schema files shipped with phongscene (data only; phongscene registers them from Python in
+``phongscene.usd``).
+
+Other USD tools (usdview, USD's validators) find the Phong surface through Sdr's filesystem
+discovery, pointed at this folder::
+
+    export PXR_SDR_FS_PLUGIN_SEARCH_PATHS="$(phongscene info --usd-plugin-path)"
+    export PXR_SDR_FS_PLUGIN_ALLOWED_EXTS=usda
+
+That discovery names a node after its file, so the definition file is named after the node
+identifier, and it must be the only ``.usda`` file here. (A ``plugInfo.json`` cannot do this: USD
+finds Sdr nodes only through discovery plugins, which are C++ libraries; the two that read
+``.usda`` definitions read only USD's own shaders.)
+"""
+
+from __future__ import annotations
+
+import importlib.resources
+from pathlib import Path
+
+# Sdr's filesystem discovery turns <identifier>.usda into the node <identifier>.
+DEFINITIONS_FILE = "phongscene_PhongSurface.usda"
+
+
+def folder() -> Path:
+    """This folder on disk: the value for ``PXR_SDR_FS_PLUGIN_SEARCH_PATHS``."""
+    return Path(str(importlib.resources.files(__name__))).resolve()

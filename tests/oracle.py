@@ -525,18 +525,19 @@ def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal,
         fraction = _visible_fraction(geo, light, p[lit], l[lit], dist[lit])
         nl = n_dot_l[lit]
         light_colour = lc[lit] * fraction[:, None]
+        dm, sm = light.diffuse, light.specular  # the light's multipliers of the two terms
         if settings.specular == "seed":
             mirror = -l[lit] + 2.0 * nl[:, None] * n[lit]
             s = np.einsum("ij,ij->i", mirror, wo[lit])
             spec = np.where(s > 0.0, np.power(np.where(s > 0.0, s, 1.0), e[lit]), 0.0)
-            brdf = kd[lit, None] * cd[lit] / math.pi + ks[lit, None] * cs[lit] * spec[:, None]
+            brdf = dm * kd[lit, None] * cd[lit] / math.pi + sm * ks[lit, None] * cs[lit] * spec[:, None]
             radiance[lit] += brdf * light_colour * nl[:, None]
         elif settings.specular == "povray-classic":
             dl = d[lit]
             reflected = dl - 2.0 * np.einsum("ij,ij->i", dl, n[lit])[:, None] * n[lit]
             k = np.einsum("ij,ij->i", reflected, l[lit])
             phong = np.where(ks[lit] > 0.0, ks[lit] * classic_phong_factor(k, e[lit]), 0.0)
-            radiance[lit] += (kd[lit, None] / math.pi * cd[lit] * nl[:, None] + phong[:, None]) * light_colour
+            radiance[lit] += (dm * kd[lit, None] / math.pi * cd[lit] * nl[:, None] + sm * phong[:, None]) * light_colour
         else:
             raise ValueError(f"unknown specular convention {settings.specular!r}")
     return radiance

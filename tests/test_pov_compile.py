@@ -144,7 +144,8 @@ def test_classic_is_one_idiomatic_finish_per_material():
     sdl = compile_pov(_scene(spheres=(Sphere.at((0, 0, 0), 1.0, m),)), mapping="classic")
     texture = re.search(r"#declare Material_0 = (.*)", sdl).group(1)
     assert texture == (
-        f"texture {{ pigment {{ rgb <0.8, 0.3, 0.2> }} finish {{ ambient 0.15 diffuse {0.7 / math.pi!r} "
+        # diffuse kd/π as the shortest decimal of the float32 POV-Ray stores (numbers.sdl_float32)
+        f"texture {{ pigment {{ rgb <0.8, 0.3, 0.2> }} finish {{ ambient 0.15 diffuse 0.22281691 "
         f"phong 0.35 phong_size 22.0 }} }}"
     )
     assert "ambient_light rgb <0.2, 0.25, 0.3>" in sdl
@@ -185,7 +186,7 @@ def test_exact_without_lights_is_one_ambient_pass():
 def test_exact_texture_doubles_each_half_of_the_average():
     m = PhongMaterial(ka=0.1, kd=0.6, ks=0.3, exponent=20.0, diffuse_color=(0.5, 0.4, 0.3), specular_color=(0.9, 0.5, 0.2))
     sdl = compile_pov(_scene(spheres=(Sphere.at((0, 0, 0), 1.0, m),)))
-    assert f"[1 pigment {{ rgb <0.5, 0.4, 0.3> }} finish {{ ambient 0.2 diffuse {2 * 0.6 / math.pi!r} }}]" in sdl
+    assert "[1 pigment { rgb <0.5, 0.4, 0.3> } finish { ambient 0.2 diffuse 0.38197187 }]" in sdl  # float32
     assert "phong 0.6 phong_size 20.0" in sdl
     specular = sdl.split("#declare Material_0_Specular =")[1].split("#declare")[0]
     # phong under two filter layers: cs, then n.l of this pass's light.
@@ -412,3 +413,54 @@ def test_compile_cli_on_a_usd_example(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert " ".join(job.command("scene.pov", "scene.exr")) in printed
     assert "average 2 x 2 pixel blocks" in printed
+
+
+# ----------------------------------------------------------------------------------------------
+# Colours and finish coefficients: the shortest decimal of the float32 POV-Ray stores (issue 11)
+
+
+def test_float32_numbers_print_short():
+    assert numbers.sdl_float32(0.2) == "0.2"
+    assert numbers.sdl_float32(0.6 / math.pi) == "0.19098593"
+    assert numbers.sdl_float32(math.pi) == "3.1415927"
+    assert numbers.sdl_float32(1.0) == "1.0"
+    assert numbers.sdl_float32(-0.0) == "0.0"
+    assert numbers.sdl_float32(1e-30) == "1e-30" and numbers.sdl_float32(3e20) == "3e20"
+    assert numbers.sdl_float32(1e300) == "1e+300"  # beyond float32: the exact text (POV-Ray stores inf either way)
+    with pytest.raises(numbers.NonFiniteNumber):
+        numbers.sdl_float32(math.nan)
+
+
+def test_float32_numbers_read_back_as_the_float32_of_the_exact_text():
+    # POV-Ray reads a number to a double and stores a colour as float32 (ref §2): the short text
+    # must give the same float32 as the 17-digit text did, for every magnitude and sign.
+    rng = np.random.default_rng(11)
+    values = np.concatenate([
+        np.exp(rng.uniform(np.log(1e-37), np.log(1e37), 20000)) * rng.choice([-1.0, 1.0], 20000),
+        rng.uniform(0, 1, 20000),
+        # float32 values themselves and the float64 midpoints between neighbours (ties)
+        rng.uniform(0, 1, 5000).astype(np.float32).astype(np.float64),
+        (lambda f: (f.astype(np.float64) + np.nextafter(f, np.float32(2)).astype(np.float64)) / 2)(
+            rng.uniform(0, 1, 5000).astype(np.float32)),
+    ])
+    for x in values:
+        text = numbers.sdl_float32(x)
+        assert np.float32(float(text)) == np.float32(float(numbers.sdl_float(x))), (x, text)
+        assert len(text) <= len(numbers.sdl_float(x)), (x, text)
+
+
+@pytest.mark.povray
+def test_povray_renders_the_short_numbers_bit_identically(monkeypatch):
+    from phongscene.backends import povray
+
+    scene = calibration.coloured_specular()
+    settings = dataclasses.replace(scene.settings, width=32, height=24)
+    for specular in ("seed", "povray-classic"):
+        s = dataclasses.replace(settings, specular=specular)
+        short, short_sdl = povray.render(scene, s), povray.compile_pov(scene, s)
+        with monkeypatch.context() as m:  # the 17-digit float64 text, as before
+            m.setattr("phongscene.backends.povray.compile.sdl_float32", numbers.sdl_float)
+            m.setattr("phongscene.backends.povray.compile.sdl_color", numbers.sdl_vector)
+            assert povray.compile_pov(scene, s) != short_sdl  # the two texts differ ...
+            exact = povray.render(scene, s)
+        np.testing.assert_array_equal(short.view(np.uint32), exact.view(np.uint32))  # ... the images do not

@@ -201,7 +201,15 @@ def RectLight "Panel" {
     uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
 }
 def DiskLight "Disk" {}
-def CylinderLight "Tube" {}
+def CylinderLight "Tube" { uniform token phong:lightModel = "seed"
+    float inputs:intensity = 1.5
+    double3 xformOp:translate = (4, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"] }
+def CylinderLight "Tube2" { float inputs:radius = 0.25
+    float inputs:length = 2
+    double3 xformOp:scale = (3, 2, 2)
+    uniform token[] xformOpOrder = ["xformOp:scale"] }
+def PortalLight "Portal" {}
 def Sphere "Target" {}
 """
 
@@ -211,7 +219,7 @@ def test_lights(tmp_path):
     result = read(tmp_path, LIGHTS)
     scene = result.scene
     assert scene.ambient.color == pytest.approx((0.6, 0.7, 0.8), abs=FLOAT32)  # DomeLights add up
-    point, ball, sun, panel, disk = scene.lights
+    point, ball, sun, panel, disk, tube, tube2 = scene.lights
     assert point.position == (1, 2, 3) and point.color == (4.0, 2.0, 1.0)  # 2·2^1·color
     assert (point.fade_distance, point.fade_power) == (4.0, 2.0)
     assert ball.center == (0, 5, 0) and ball.radius == 1.0 and ball.samples == 5  # radius × scale
@@ -224,8 +232,13 @@ def test_lights(tmp_path):
     side = 0.5 * math.sqrt(math.pi)
     assert np.linalg.norm(disk.axis_u) == pytest.approx(side) and np.linalg.norm(disk.axis_v) == pytest.approx(side)
     assert disk.falloff == "inverse-square" and any("DiskLights" in w and "/Disk" in w for w in result.warnings)
+    # A CylinderLight is a point light of the same power at its centre (UsdLux: I = L·π·r·l/2).
+    assert tube.position == (4, 0, 0) and tube.color == (1.5, 1.5, 1.5) and tube.falloff == "none"
+    assert tube2.falloff == "inverse-square"
+    assert tube2.color == pytest.approx((math.pi / 2 * (0.25 * 2) * (2 * 3),) * 3)
+    assert any("CylinderLights" in w and "/Tube2" in w for w in result.warnings)
     unsupported = [w for w in result.warnings if "unsupported lights" in w]
-    assert len(unsupported) == 1 and "/Disk" not in unsupported[0] and "/Tube" in unsupported[0]
+    assert len(unsupported) == 1 and "/Tube" not in unsupported[0] and "/Portal" in unsupported[0]
 
 
 def test_z_up_light_and_camera(tmp_path):
@@ -346,7 +359,7 @@ def test_phong_shader_unauthored_inputs_take_sdr_defaults(tmp_path):
     """
     m = read(tmp_path, body).scene.spheres[0].material
     assert m.ks == pytest.approx(0.7)
-    assert (m.ka, m.kd, m.exponent) == pytest.approx((0.1, 0.6, 32.0))  # schemas/phongShaderDefs.usda
+    assert (m.ka, m.kd, m.exponent) == pytest.approx((0.1, 0.6, 32.0))  # schemas/phongscene_PhongSurface.usda
     assert m.diffuse_color == pytest.approx((0.8, 0.8, 0.8)) and m.specular_color == (1.0, 1.0, 1.0)
 
 
@@ -452,6 +465,33 @@ def test_usdlux_lights_in_usdlux_units(tmp_path):
     # A distant light's irradiance is L·π·sin²(angle/2) (angle 0.53° by default), L when normalized.
     assert sun.color == pytest.approx((50000 * math.pi * math.sin(math.radians(0.53) / 2) ** 2,) * 3)
     assert lux.color == (7.0, 7.0, 7.0)
+
+
+def test_light_diffuse_and_specular_multipliers(tmp_path):
+    body = """
+    def DistantLight "Plain" { float inputs:intensity = 2
+        bool inputs:normalize = 1 }
+    def DistantLight "Split" { float inputs:intensity = 2
+        bool inputs:normalize = 1
+        float inputs:diffuse = 0.7
+        float inputs:specular = 0.25 }
+    def DomeLight "Sky" { float inputs:intensity = 0.5
+        float inputs:diffuse = 0.5 }
+    """
+    result = read(tmp_path, body)
+    plain, split = result.scene.lights
+    assert (plain.diffuse, plain.specular) == (1.0, 1.0)
+    # The multipliers are the light's own fields; its strength stays as authored.
+    assert split.color == (2.0, 2.0, 2.0)
+    assert split.diffuse == pytest.approx(0.7) and split.specular == 0.25
+    assert not [w for w in result.warnings if "inputs:diffuse" in w or "inputs:specular" in w]
+    # The ambient term is diffuse light: a dome's diffuse multiplier scales it.
+    assert result.scene.ambient.color == (0.25, 0.25, 0.25)
+
+
+def test_negative_light_multiplier_is_an_error(tmp_path):
+    with pytest.raises(SceneError, match=r"/L\.inputs:diffuse: must be >= 0, got -1"):
+        read(tmp_path, 'def SphereLight "L" { float inputs:diffuse = -1 }')
 
 
 def test_unknown_light_model_is_an_error(tmp_path):

@@ -44,7 +44,7 @@ def scene() -> Scene:
         ambient=AmbientLight((0.1, 0.2, 0.3)),
         lights=(
             PointLight((1, 2, 3), (math.pi,) * 3, 2.0, 1.0),
-            DirectionalLight((0.0, -0.6, -0.8), (1.0, 0.5, 0.2)),
+            DirectionalLight((0.0, -0.6, -0.8), (1.0, 0.5, 0.2), diffuse=0.5, specular=2.0),
             RectAreaLight((0, 5, 0), (1, 0, 0), (0, 0.5, 2), (2, 2, 2), 5),
             SphereAreaLight((3, 3, 3), 0.3, (1, 1, 1), 17),
         ),
@@ -175,3 +175,60 @@ def test_write_usd_refuses_an_invalid_scene_and_writes_nothing(tmp_path):
     with pytest.raises(SceneError, match="kd: must be finite"):
         write_usd(scene, tmp_path / "bad.usda")
     assert not list(tmp_path.iterdir())
+
+
+# Import normals (issue 11): STL/PLY carry none, so they are split at creases, not averaged.
+
+
+def _corner_normals(mesh) -> np.ndarray:
+    return np.asarray(mesh.normals)[np.asarray(mesh.normal_indices)]  # (F, 3, 3)
+
+
+def _face_normals(mesh) -> np.ndarray:
+    p = np.asarray(mesh.points)[np.asarray(mesh.triangles)]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    return n / np.linalg.norm(n, axis=1)[:, None]
+
+
+@pytest.mark.parametrize("suffix", [".stl", ".ply"])
+def test_import_splits_normals_at_a_box_s_creases(tmp_path, suffix):
+    source = tmp_path / f"box{suffix}"
+    trimesh.creation.box().export(source)
+    assert main(["import", str(source), "-o", str(tmp_path / "box.usda")]) == 0
+    (mesh,) = read_usd(tmp_path / "box.usda").scene.meshes
+    # Every corner's normal is its face's: flat faces, as the box is (averaged, a corner's
+    # normal was the diagonal (±1, ±1, ±1)/√3).
+    corners, faces = _corner_normals(mesh), _face_normals(mesh)
+    assert np.allclose(np.abs(np.einsum("fcj,fj->fc", corners, faces)), 1.0, atol=1e-6)
+
+
+def test_import_smooths_below_the_crease_angle_and_the_angle_is_an_option(tmp_path):
+    source = tmp_path / "cylinder.stl"
+    trimesh.creation.cylinder(radius=1.0, height=2.0, sections=24).export(source)  # sides meet at 15°
+    out = tmp_path / "cylinder.usda"
+    assert main(["import", str(source), "-o", str(out)]) == 0
+    (mesh,) = read_usd(out).scene.meshes
+    corners, faces = _corner_normals(mesh), _face_normals(mesh)
+    side = np.abs(faces[:, 2]) < 0.5
+    # Side corners: radial normals (smooth round the cylinder); cap corners: the cap's normal.
+    radial = np.asarray(mesh.points)[np.asarray(mesh.triangles)][side] * [1.0, 1.0, 0.0]
+    radial /= np.linalg.norm(radial, axis=2)[..., None]
+    assert np.allclose(corners[side], radial, atol=1e-6)
+    assert np.allclose(np.abs(corners[~side][..., 2]), 1.0, atol=1e-6)
+    # Below 15°, the sides are flat too.
+    assert main(["import", str(source), "-o", str(out), "--crease-angle", "10"]) == 0
+    (mesh,) = read_usd(out).scene.meshes
+    assert np.allclose(np.abs(np.einsum("fcj,fj->fc", _corner_normals(mesh), _face_normals(mesh))), 1.0, atol=1e-6)
+    with pytest.raises(SystemExit) as usage:
+        main(["import", str(source), "-o", str(out), "--crease-angle", "200"])
+    assert usage.value.code == 2
+
+
+def test_import_keeps_a_file_s_own_normals(tmp_path):
+    source = tmp_path / "tilted.obj"
+    source.write_text(
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n" + "vn 0 0.6 0.8\n" * 4 + "f 1//1 2//2 3//3\nf 1//1 3//3 4//4\n"
+    )
+    assert main(["import", str(source), "-o", str(tmp_path / "tilted.usda")]) == 0
+    (mesh,) = read_usd(tmp_path / "tilted.usda").scene.meshes
+    assert np.allclose(_corner_normals(mesh), [0.0, 0.6, 0.8], atol=1e-6)  # not the face's +Z

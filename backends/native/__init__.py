@@ -50,6 +50,13 @@ def _material(m: PhongMaterial) -> _native.Material:
 
 
 def _light(light: Light):
+    native = _native_light(light)
+    if (light.diffuse, light.specular) != (1.0, 1.0):
+        native.terms = _native.LightTerms(diffuse=light.diffuse, specular=light.specular)
+    return native
+
+
+def _native_light(light: Light):
     if isinstance(light, PointLight):
         native = _native.PointLight(
             position=light.position, color=light.color, fade_distance=light.fade_distance, fade_power=light.fade_power,
@@ -127,6 +134,12 @@ def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:
         if meshes
         else np.zeros(0, np.int32)
     )
+    # Each mesh is one POV-Ray object, whose shadow test the POV-Ray numerics reproduce.
+    triangle_mesh = (
+        np.concatenate([np.full(len(m.triangles), i, np.int32) for i, m in enumerate(meshes)])
+        if meshes
+        else np.zeros(0, np.int32)
+    )
     with_normals = [m for m in meshes if m.normals is not None]
     normals = np.concatenate([m.normals for m in with_normals]) if with_normals else np.zeros((0, 3))
     normal_indices = (
@@ -152,6 +165,8 @@ def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:
         "points": c(points, np.float64),
         "triangles": c(triangles, np.int32),
         "triangle_material": c(triangle_material, np.int32),
+        "triangle_mesh": c(triangle_mesh, np.int32),
+        "mesh_origins": c(np.array([m.local_origin() for m in meshes]).reshape(-1, 3), np.float64),
         "normals": c(normals, np.float64),
         "normal_indices": c(normal_indices, np.int32),
         "materials": [_material(m) for m in material_ids],
@@ -202,9 +217,10 @@ POVRAY_SMOOTH_NORMAL_DIFFERENCE = 1e-10
 def _as_povray_stores(arrays: dict, scene: Scene) -> dict:
     """The mesh data as POV-Ray's mesh2 holds it (the compiler writes it so): vertices rounded to
     float32 in each mesh's local frame (``TriangleMesh.local_origin``), normals rounded to float32
-    and renormalised (at parse time), and triangles whose three normals are equal shaded flat
-    (normal index -1)."""
-    out = dict(arrays)
+    and renormalised (at parse time), triangles whose three normals are equal shaded flat
+    (normal index -1), and triangles tested as mesh2 tests them (``povray_triangles``: a plane
+    with a float32 normal, not watertight; src/povray_triangle.hpp)."""
+    out = dict(arrays, povray_triangles=True)
     origins = np.concatenate([np.broadcast_to(m.local_origin(), m.points.shape) for m in scene.meshes]) if scene.meshes else 0.0
     out["points"] = np.ascontiguousarray((arrays["points"] - origins).astype(np.float32).astype(np.float64) + origins)
     normals = arrays["normals"].astype(np.float32).astype(np.float64)

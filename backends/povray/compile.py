@@ -39,6 +39,7 @@ appear in ``//`` comments after ``sanitize_comment``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -56,7 +57,7 @@ from phongscene.scene import (
     TriangleMesh,
 )
 
-from .numbers import NonFiniteNumber, float32_vectors, int_vectors, sdl_float, sdl_vector
+from .numbers import NonFiniteNumber, float32_vectors, int_vectors, sdl_color, sdl_float, sdl_float32, sdl_vector
 
 # NdotL_Map resolution: 2**7 linear segments over v in [1/2, 1] (at most 256 colour_map entries).
 NDOTL_SEGMENTS = 128
@@ -186,6 +187,9 @@ class _Compiler:
         self.exact = mapping == "exact"
         self.lines: list[str] = []
         self.materials: dict[PhongMaterial, str] = {}
+        # Lights with diffuse/specular multipliers other than 1: the exact mapping declares them
+        # per pass (Light_Diffuse, Light_Specular) and every finish scales its terms by them.
+        self.light_terms = self.exact and any((l.diffuse, l.specular) != (1.0, 1.0) for l in scene.lights)
         # The geometry's bounds (a pass over every mesh point), for placing parallel lights and
         # scaling the inverse-square fade: computed once, not once per light and pass.
         with np.errstate(over="ignore", invalid="ignore"):
@@ -205,6 +209,21 @@ class _Compiler:
         except NonFiniteNumber as e:
             raise self._error(node, attribute, f"is not finite in the SDL ({e})") from None
 
+    # Colours and finish coefficients: POV-Ray stores them as float32 (ref §2), so they are
+    # printed as the shortest decimal of that float32 (hand-editable, the same stored value).
+
+    def coef(self, x: float, node, attribute: str) -> str:
+        try:
+            return sdl_float32(x)
+        except NonFiniteNumber as e:
+            raise self._error(node, attribute, f"is not finite in the SDL ({e})") from None
+
+    def rgb(self, v, node, attribute: str) -> str:
+        try:
+            return sdl_color(v)
+        except NonFiniteNumber as e:
+            raise self._error(node, attribute, f"is not finite in the SDL ({e})") from None
+
     def _error(self, node, field: str, message: str) -> SceneError:
         source = getattr(node, "source", "")
         return SceneError(Problem(message, source, field, self.scene.source_file, node=type(node).__name__))
@@ -220,9 +239,9 @@ class _Compiler:
             self.exact_passes()
         else:
             self.lines.append(
-                f"global_settings {{ assumed_gamma 1.0 ambient_light rgb {self.vec(self.scene.ambient.color, self.scene.ambient, 'color')} }}"
+                f"global_settings {{ assumed_gamma 1.0 ambient_light rgb {self.rgb(self.scene.ambient.color, self.scene.ambient, 'color')} }}"
             )
-            self.lines.append(f"background {{ color rgb {self.vec(self.settings.background, self.settings, 'background')} }}")
+            self.lines.append(f"background {{ color rgb {self.rgb(self.settings.background, self.settings, 'background')} }}")
             for i, light in enumerate(self.scene.lights):
                 self.comment(light, "light", i)
                 self.lines.append(self.light_source(light))
@@ -266,10 +285,18 @@ class _Compiler:
             radius = 1.0 if bounds is None else float(np.linalg.norm(bounds[1] - bounds[0])) / 2 or 1.0
             fd = INVERSE_SQUARE_FADE_RADII * radius
             scaled = np.asarray(light.color, dtype=np.float64) / (2.0 * fd * fd)
-        return self.vec(scaled, light, "color"), f" fade_distance {self.num(fd, light, 'falloff')} fade_power 2"
+        return self.rgb(scaled, light, "color"), f" fade_distance {self.num(fd, light, 'falloff')} fade_power 2"
 
     def light_source(self, light) -> str:
-        colour = self.vec(light.color, light, "color")
+        if not self.exact and (light.diffuse, light.specular) != (1.0, 1.0):
+            # Classic: one finish per material, so a light has one strength for both terms.
+            if light.specular != light.diffuse:
+                raise self._error(
+                    light, "specular", "differs from the diffuse multiplier, which the classic mapping cannot express "
+                    "(a POV-Ray light has one strength): use the exact mapping"
+                )
+            light = dataclasses.replace(light, color=tuple(c * light.diffuse for c in light.color), diffuse=1.0, specular=1.0)
+        colour = self.rgb(light.color, light, "color")
         fade = ""
         if getattr(light, "falloff", "none") == "inverse-square":
             colour, fade = self.inverse_square_fade(light)
@@ -352,8 +379,8 @@ class _Compiler:
         self.lines.append("#declare NdotL_Map = color_map {")
         self.lines.extend("  " + entry for entry in entries)
         self.lines.append("}")
-        ambient = self.vec(self.scene.ambient.color, self.scene.ambient, "color")
-        background = self.vec(self.settings.background, self.settings, "background")
+        ambient = self.rgb(self.scene.ambient.color, self.scene.ambient, "color")
+        background = self.rgb(self.settings.background, self.settings, "background")
         lights = self.scene.lights or (None,)
         self.lines.append("// One pass per light; pass 0 also carries the ambient term and the background.")
         self.lines.append("#switch (Pass)")
@@ -369,6 +396,11 @@ class _Compiler:
                 self.lines.append("  " + self.comment_text(light, "light", i))
                 self.lines.append("  " + self.light_source(light))
                 self.lines.append("  " + self.ndotl_pigment(light))
+                if self.light_terms:
+                    self.lines.append(
+                        f"  #declare Light_Diffuse = {self.coef(light.diffuse, light, 'diffuse')};"
+                        f" #declare Light_Specular = {self.coef(light.specular, light, 'specular')};"
+                    )
             self.lines.append("#break")
         self.lines.append("#end")
 
@@ -389,30 +421,35 @@ class _Compiler:
             texture = self.texture(m, name)
             self.lines.append(f"#declare {name} = {texture}")
 
+    @property
+    def diffuse_term(self) -> str:
+        return " * Light_Diffuse" if self.light_terms else ""
+
     def texture(self, m: PhongMaterial, name: str) -> str:
-        cd = self.vec(m.diffuse_color, m, "diffuse_color")
-        e = self.num(m.exponent, m, "exponent")
-        ks = self.num(m.ks, m, "ks")  # checked even where no highlight is written
+        cd = self.rgb(m.diffuse_color, m, "diffuse_color")
+        e = self.coef(m.exponent, m, "exponent")
+        ks = self.coef(m.ks, m, "ks")  # checked even where no highlight is written
         if not self.exact or m.ks <= 0:
             # Classic: one idiomatic finish. Exact without a highlight: one plain texture is exact.
             phong = f" phong {ks} phong_size {e}" if m.ks > 0 else ""
             return (
-                f"texture {{ pigment {{ rgb {cd} }} finish {{ ambient {self.num(m.ka, m, 'ka')}"
-                f" diffuse {self.num(m.kd / math.pi, m, 'kd')}{phong} }} }}"
+                f"texture {{ pigment {{ rgb {cd} }} finish {{ ambient {self.coef(m.ka, m, 'ka')}"
+                f" diffuse {self.coef(m.kd / math.pi, m, 'kd')}{self.diffuse_term}{phong} }} }}"
             )
         # (A) the average of a diffuse texture and a layered specular texture, each doubled.
         # (A texture_map entry cannot hold a layered texture inline: it is declared first.)
-        layers = [f"texture {{ pigment {{ rgb 0 }} finish {{ ambient 0 diffuse 0 phong {self.num(2 * m.ks, m, 'ks')} phong_size {e} }} }}"]
+        phong = self.coef(2 * m.ks, m, "ks") + (" * Light_Specular" if self.light_terms else "")
+        layers = [f"texture {{ pigment {{ rgb 0 }} finish {{ ambient 0 diffuse 0 phong {phong} phong_size {e} }} }}"]
         if tuple(m.specular_color) != (1.0, 1.0, 1.0):
-            cs = self.vec(m.specular_color, m, "specular_color")
+            cs = self.rgb(m.specular_color, m, "specular_color")
             layers.append(f"texture {{ pigment {{ rgbf <{cs[1:-1]}, 1> }} finish {{ ambient 0 diffuse 0 }} }}")
         # (B) the specular n.l of this pass's light.
         layers.append("texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }")
         self.lines.append(f"#declare {name}_Specular =\n  " + "\n  ".join(layers))
         # (A texture_map entry holds a texture body without the 'texture' keyword.)
         diffuse = (
-            f"pigment {{ rgb {cd} }} finish {{ ambient {self.num(2 * m.ka, m, 'ka')}"
-            f" diffuse {self.num(2 * m.kd / math.pi, m, 'kd')} }}"
+            f"pigment {{ rgb {cd} }} finish {{ ambient {self.coef(2 * m.ka, m, 'ka')}"
+            f" diffuse {self.coef(2 * m.kd / math.pi, m, 'kd')}{self.diffuse_term} }}"
         )
         return f"texture {{ average texture_map {{\n  [1 {diffuse}]\n  [1 {name}_Specular]\n}} }}"
 

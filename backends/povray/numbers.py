@@ -3,7 +3,9 @@
 
 Scalars are printed with ``repr`` (the shortest decimal that reads back as the same float64,
 at most 17 significant digits); never ``%g``, whose 6 digits once cost an 11x error in the
-camera (ref §13, e01).
+camera (ref §13, e01). Numbers POV-Ray stores as float32 (colours and finish coefficients, ref §2)
+are printed as the shortest decimal that reads back as that float32 (``sdl_float32``): ``rgb
+<0.2, ...>``, not ``rgb <0.20000000298023224, ...>``, and POV-Ray stores the same value.
 
 ``mesh2`` stores vertices and normals as float32 (ref §7), so a mesh array is first
 rounded to float32 and printed with 9 significant digits. That reads back to the identical
@@ -43,6 +45,34 @@ def sdl_float(x: float) -> str:
 def sdl_vector(v) -> str:
     """A 3-vector as ``<x, y, z>`` with exact floats."""
     return "<" + ", ".join(sdl_float(c) for c in v) + ">"
+
+
+# Below and above these magnitudes a float32 prints in scientific notation (as numpy's str does),
+# so that no number needs dozens of zeros.
+_POSITIONAL_RANGE = (1e-4, 1e7)
+
+
+def sdl_float32(x: float) -> str:
+    """A number POV-Ray stores as float32 (a colour channel, a finish coefficient; ref §2): the
+    shortest decimal (numpy's unique float32 formatting) that POV-Ray, reading it to a double and
+    storing it as float32, turns into the same float32 as it does ``sdl_float(x)``. Where the two
+    roundings (decimal -> double -> float32) could disagree, or the value overflows float32, the
+    exact ``sdl_float`` text is kept."""
+    exact = sdl_float(x)  # also rejects NaN and infinities
+    with np.errstate(over="ignore"):
+        stored = np.float32(float(exact))
+    if not np.isfinite(stored):
+        return exact
+    if stored == 0 or _POSITIONAL_RANGE[0] <= abs(stored) < _POSITIONAL_RANGE[1]:
+        short = np.format_float_positional(stored, unique=True, trim="0")
+    else:
+        short = np.format_float_scientific(stored, unique=True, trim="-").replace("+", "")
+    return short if np.float32(float(short)) == stored else exact
+
+
+def sdl_color(v) -> str:
+    """A colour (three float32 channels in POV-Ray) as ``<r, g, b>``, each ``sdl_float32``."""
+    return "<" + ", ".join(sdl_float32(c) for c in v) + ">"
 
 
 def _digits(values: np.ndarray, count: int) -> np.ndarray:

@@ -55,6 +55,7 @@ PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
     "RectLight": {SHADOW_SAMPLES: INT_TYPES, LIGHT_MODEL: STRING_TYPES},
     "DiskLight": {SHADOW_SAMPLES: INT_TYPES, LIGHT_MODEL: STRING_TYPES},
     "DistantLight": {LIGHT_MODEL: STRING_TYPES},
+    "CylinderLight": {LIGHT_MODEL: STRING_TYPES},
     "DomeLight": {LIGHT_MODEL: STRING_TYPES},
     "RenderSettings": {
         SAMPLES: INT_TYPES,
@@ -91,8 +92,15 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "fade_distance": FADE_DISTANCE,
         "fade_power": FADE_POWER,
         "falloff": LIGHT_MODEL,
+        "diffuse": "inputs:diffuse",
+        "specular": "inputs:specular",
     },
-    "DirectionalLight": {"direction": "xformOp", "color": "inputs:color"},
+    "DirectionalLight": {
+        "direction": "xformOp",
+        "color": "inputs:color",
+        "diffuse": "inputs:diffuse",
+        "specular": "inputs:specular",
+    },
     "RectAreaLight": {
         "center": "xformOp",
         "axis_u": "inputs:width",
@@ -100,6 +108,8 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "color": "inputs:color",
         "samples": SHADOW_SAMPLES,
         "falloff": LIGHT_MODEL,
+        "diffuse": "inputs:diffuse",
+        "specular": "inputs:specular",
     },
     "SphereAreaLight": {
         "center": "xformOp",
@@ -107,6 +117,8 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "color": "inputs:color",
         "samples": SHADOW_SAMPLES,
         "falloff": LIGHT_MODEL,
+        "diffuse": "inputs:diffuse",
+        "specular": "inputs:specular",
     },
     "Sphere": {"world_from_object": "radius"},
     "TriangleMesh": {

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux, UsdRender
 
-from ..errors import Problem, SceneError
+from ..errors import Problem, SceneError, SceneFileNotFoundError
 from ..scene import (
     AmbientLight,
     Camera,
@@ -218,8 +218,10 @@ def _open(source) -> tuple[Usd.Stage, str]:
         layer = source.GetRootLayer()
         return source, layer.realPath or layer.identifier
     path = os.fspath(source)
+    if not os.path.exists(path):
+        raise SceneFileNotFoundError(path)
     if not os.path.isfile(path):
-        raise SceneError(Problem("file not found" if not os.path.exists(path) else "not a file", file=path))
+        raise SceneError(Problem("not a file", file=path))
     try:
         stage = Usd.Stage.Open(path)
     except Tf.ErrorException as e:
@@ -383,16 +385,21 @@ def _luminance(ctx: ReadContext, prim: Usd.Prim) -> np.ndarray:
     if api.GetEnableColorTemperatureAttr().Get(ctx.time):
         kelvin = ctx.number(prim, "inputs:colorTemperature", 6500.0, minimum=0.0, strict=True)
         color = color * np.asarray(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
-    for name in ("inputs:diffuse", "inputs:specular"):
-        attr = prim.GetAttribute(name)
-        if attr and attr.HasAuthoredValue() and attr.Get(ctx.time) != 1.0:
-            ctx.unsupported[f"lights with {name} != 1 (the multiplier is not applied)"].append(str(prim.GetPath()))
     with np.errstate(over="ignore"):
         scale = np.float64(intensity) * np.exp2(np.float64(exposure))
     if not np.isfinite(scale):
         ctx.problem(prim, "inputs:exposure", f"intensity · 2^exposure overflows ({intensity!r} · 2^{exposure!r})")
         scale = 1.0
     return color * scale if scale != 1.0 else color
+
+
+def _terms(ctx: ReadContext, prim: Usd.Prim) -> dict[str, float]:
+    """UsdLux's multipliers of a light's diffuse and specular contributions (model fields
+    ``diffuse`` and ``specular``)."""
+    return {
+        "diffuse": ctx.number(prim, "inputs:diffuse", 1.0, minimum=0.0),
+        "specular": ctx.number(prim, "inputs:specular", 1.0, minimum=0.0),
+    }
 
 
 def _seed_light(ctx: ReadContext, prim: Usd.Prim) -> bool:
@@ -484,12 +491,13 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
     centre = tuple(float(c) for c in world[:3, 3])
     type_name = prim.GetTypeName()
     dome = prim.IsA(UsdLux.DomeLight) or type_name == "DomeLight_1"
-    known = (UsdLux.SphereLight, UsdLux.DistantLight, UsdLux.RectLight, UsdLux.DiskLight)
+    known = (UsdLux.SphereLight, UsdLux.DistantLight, UsdLux.RectLight, UsdLux.DiskLight, UsdLux.CylinderLight)
     if not (dome or any(prim.IsA(kind) for kind in known)):
         ctx.unsupported["unsupported lights (ignored)"].append(f"{path} ({type_name})")
         return
     seed = _seed_light(ctx, prim)
     luminance = _luminance(ctx, prim)
+    terms = _terms(ctx, prim)
     falloff = "none" if seed else "inverse-square"
     if dome:
         texture = prim.GetAttribute("inputs:texture:file")
@@ -499,7 +507,8 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
             if mean is None:
                 return
             luminance = luminance * mean
-        ambient.append(AmbientLight(_rgb(luminance), path))
+        # The ambient term is diffuse light: the dome's diffuse multiplier scales it.
+        ambient.append(AmbientLight(_rgb(luminance * terms["diffuse"]), path))
         ctx.nodes.append((path, "AmbientLight"))
     elif prim.IsA(UsdLux.SphereLight):
         radius = ctx.number(prim, "inputs:radius", 0.5, minimum=0.0)
@@ -520,7 +529,7 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
             fade_distance = ctx.number(prim, names.FADE_DISTANCE, 0.0)
             fade_power = ctx.number(prim, names.FADE_POWER, 0.0)
             cone = _cone(ctx, prim, world)
-            lights.append(PointLight(centre, _rgb(colour), fade_distance, fade_power, path, falloff, cone))
+            lights.append(PointLight(centre, _rgb(colour), fade_distance, fade_power, path, falloff, cone, **terms))
             ctx.nodes.append((path, "PointLight" + ("" if seed else " (UsdLux)")))
         else:
             if _shaping(ctx, prim) is not None:
@@ -528,8 +537,24 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
             for name in (names.FADE_DISTANCE, names.FADE_POWER):
                 if prim.GetAttribute(name).HasAuthoredValue():
                     ctx.problem(prim, name, "applies to point lights only (treatAsPoint or radius 0)")
-            lights.append(SphereAreaLight(centre, radius_world, _rgb(colour), _shadow_samples(ctx, prim), path, falloff))
+            lights.append(SphereAreaLight(centre, radius_world, _rgb(colour), _shadow_samples(ctx, prim), path, falloff, **terms))
             ctx.nodes.append((path, "SphereAreaLight" + ("" if seed else " (UsdLux)")))
+    elif prim.IsA(UsdLux.CylinderLight):
+        # A tube of radius r and length l along its X axis, emitting luminance L from its side:
+        # intensity L·2rl·sin θ off the axis, power π²·L·r·l. Lit as a point light of the same
+        # power at its centre (I = L·π·r·l/2; normalized, L/(2πrl): I = L/4, as a sphere light).
+        radius = ctx.number(prim, "inputs:radius", 0.5, minimum=0.0)
+        length = ctx.number(prim, "inputs:length", 1.0, minimum=0.0)
+        scales = np.linalg.norm(world[:3, :3], axis=0)
+        if seed:
+            colour = luminance
+        elif _normalized(ctx, prim):
+            colour = luminance / 4.0
+        else:
+            colour = luminance * (math.pi / 2 * radius * float(np.mean(scales[1:])) * length * float(scales[0]))
+        ctx.unsupported["CylinderLights (each lit as a point light of the same power at its centre)"].append(path)
+        lights.append(PointLight(centre, _rgb(colour), 0.0, 0.0, path, falloff, None, **terms))
+        ctx.nodes.append((path, "PointLight (UsdLux CylinderLight)"))
     elif prim.IsA(UsdLux.DistantLight):
         direction = unit(world[:3, :3] @ np.array([0.0, 0.0, -1.0]))
         if direction is None:
@@ -545,7 +570,7 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
                 irradiance = irradiance * factor
                 ctx.unsupported["Blender suns (its exporter writes strength S as intensity S/4: read as S, "
                                 "as Cycles renders them)"].append(path)
-        lights.append(DirectionalLight(tuple(float(c) for c in direction), _rgb(irradiance), path))
+        lights.append(DirectionalLight(tuple(float(c) for c in direction), _rgb(irradiance), path, **terms))
         ctx.nodes.append((path, "DirectionalLight"))
     else:  # RectLight, or a DiskLight as the square of its area
         if _shaping(ctx, prim) is not None:
@@ -565,7 +590,7 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
         else:
             colour = luminance * float(np.linalg.norm(np.cross(axis_u, axis_v)))
         lights.append(
-            RectAreaLight(centre, _rgb(axis_u), _rgb(axis_v), _rgb(colour), _shadow_samples(ctx, prim), path, falloff)
+            RectAreaLight(centre, _rgb(axis_u), _rgb(axis_v), _rgb(colour), _shadow_samples(ctx, prim), path, falloff, **terms)
         )
         ctx.nodes.append((path, "RectAreaLight" + ("" if seed else " (UsdLux)")))
 

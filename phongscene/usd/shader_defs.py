@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: Apache-2.0
 """Registers phongscene's Phong surface with USD's shader registry (Sdr) and describes its inputs.
 
-The definition lives in ``schemas/phongShaderDefs.usda`` (packaged as ``phongscene.schemas``).
+The definition lives in ``schemas/phongscene_PhongSurface.usda`` (packaged as ``phongscene.schemas``,
+which also says how other USD tools find it).
 Sdr registration works at any time, also after stages were opened (Sdr.Registry accepts discovery results at any time),
 so importing this module late is fine.
 """
@@ -12,9 +13,8 @@ import importlib.resources
 
 from pxr import Sdf, Sdr, Usd, UsdShade
 
+from ..schemas import DEFINITIONS_FILE
 from .names import PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
-
-DEFINITIONS_FILE = "phongShaderDefs.usda"
 __all__ = ["DEFINITIONS_FILE", "PHONG_RENDER_CONTEXT", "PHONG_SHADER_ID", "phong_inputs", "phong_input_defaults",
            "register_phong_shader"]
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
-from ..errors import SceneError
+from ..errors import SceneError, SceneFileNotFoundError
 from ..files import atomic_path
 from ..scene import (
     DEFAULT_MATERIAL,
@@ -216,6 +216,10 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
     elif not isinstance(light, AmbientLight):
         api.CreateNormalizeAttr(True)
     _set_light_color(api, strength)
+    if getattr(light, "diffuse", 1.0) != 1.0:
+        api.CreateDiffuseAttr(float(light.diffuse))
+    if getattr(light, "specular", 1.0) != 1.0:
+        api.CreateSpecularAttr(float(light.specular))
     return prim.GetPrim()
 
 
@@ -353,28 +357,95 @@ def write_usd(scene: Scene, path) -> Path:
     return save_stage(scene_to_stage(scene), path)
 
 
-def import_mesh(mesh_file, output, material: PhongMaterial = DEFAULT_MATERIAL) -> Path:
+# Faces meeting at a larger angle than this get split normals on import (a crease); smaller
+# angles are smoothed. 30 degrees is Blender's "Smooth by Angle" (auto smooth) default.
+DEFAULT_CREASE_ANGLE_DEG = 30.0
+
+
+def import_mesh(mesh_file, output, material: PhongMaterial = DEFAULT_MATERIAL, *,
+                crease_angle_deg: float = DEFAULT_CREASE_ANGLE_DEG) -> Path:
     """Convert a mesh file (anything ``trimesh.load`` reads: OBJ, PLY, STL, OFF, GLB, ...) to a
-    USD file with one Mesh (vertex normals, subdivisionScheme none) and a Phong material. No
-    camera or lights: readers then use the framing camera and head light."""
+    USD file with one Mesh (subdivisionScheme none) and a Phong material. No camera or lights:
+    readers then use the framing camera and head light.
+
+    Normals: the file's own vertex normals when it has them; otherwise (STL, and most PLY and
+    OFF files, have none) normals smoothed across edges where faces meet at less than
+    ``crease_angle_deg`` and split where they meet at more (trimesh's ``smooth_shade``), so a
+    box stays a box and a sphere stays smooth."""
     import trimesh
 
     mesh_file = Path(mesh_file)
+    if not mesh_file.exists():
+        raise SceneFileNotFoundError(str(mesh_file))
     if not mesh_file.is_file():
-        raise SceneError(f"{mesh_file}: file not found")
+        raise SceneError(f"{mesh_file}: not a file")
+    if not (isinstance(crease_angle_deg, (int, float)) and 0.0 <= crease_angle_deg <= 180.0):
+        raise ValueError(f"crease angle must be in 0..180 degrees, got {crease_angle_deg!r}")
     try:
-        tm = trimesh.load(mesh_file, force="mesh")
+        tm, file_normals = _load_trimesh(mesh_file)
     except Exception as e:  # trimesh raises many types for unreadable files
         raise SceneError(f"{mesh_file}: trimesh cannot read it: {e}") from None
-    if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
+    if tm is None or len(tm.faces) == 0:
         raise SceneError(f"{mesh_file}: no triangles found")
     faces = np.asarray(tm.faces, dtype=np.int64)
-    model = TriangleMesh(np.asarray(tm.vertices), faces, _unit_vertex_normals(tm), faces, material)
+    if file_normals:
+        normals, normal_indices = _unit_vertex_normals(tm), faces
+    else:
+        normals, normal_indices = _crease_normals(tm, math.radians(crease_angle_deg))
+    model = TriangleMesh(np.asarray(tm.vertices), faces, normals, normal_indices, material)
     stage = new_stage()
     usd_material = define_phong_material(stage, "/World/Looks/Default", material)
     prim = define_mesh(stage, f"/World/{Tf.MakeValidIdentifier(mesh_file.stem)}", model)
     bind_material(prim.GetPrim(), usd_material)
     return save_stage(stage, output)
+
+
+def _load_trimesh(mesh_file: Path):
+    """(one Trimesh with every mesh of the file in world space, or None; whether the file gave
+    vertex normals). ``trimesh.load(force="mesh")`` would drop the file's normals (its scene
+    flattening copies meshes without their cache, where trimesh keeps given normals), so the
+    scene is flattened here with the cache kept; ``apply_transform`` then transforms the normals."""
+    import trimesh
+
+    scene = trimesh.load_scene(mesh_file)
+    parts = []
+    for node in scene.graph.nodes_geometry:
+        transform, name = scene.graph[node]
+        geometry = scene.geometry[name]
+        if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces):
+            part = geometry.copy(include_cache=True)
+            part.apply_transform(transform)
+            parts.append(part)
+    if not parts:
+        return None, False
+    # Given normals live in trimesh's cache (the test trimesh.util.concatenate makes too).
+    file_normals = all("vertex_normals" in part._cache for part in parts)
+    return (parts[0] if len(parts) == 1 else trimesh.util.concatenate(parts)), file_normals
+
+
+def _crease_normals(tm, angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per-corner normals split at creases sharper than ``angle`` (radians): trimesh's
+    ``smooth_shade`` cuts the mesh into smooth patches; the patches' vertex normals, indexed
+    per corner of the original faces."""
+    import trimesh
+
+    smooth = trimesh.graph.smooth_shade(tm, angle=angle)
+    components = smooth.metadata.get("original_components")
+    if components is None or len(smooth.faces) != len(tm.faces):  # no patches: smooth everywhere
+        return _unit_vertex_normals(tm), np.asarray(tm.faces, dtype=np.int64)
+    faces = np.asarray(tm.faces, dtype=np.int64)
+    order = np.concatenate([np.asarray(c, dtype=np.int64).ravel() for c in components])
+    normal_indices = np.empty_like(faces)
+    normal_indices[order] = np.asarray(smooth.faces, dtype=np.int64)
+    normals = _unit_vertex_normals(smooth)
+    # Where no vertex has two normals (nothing split, e.g. a sphere), one normal per point is the
+    # same and simpler (vertex-interpolated normals in USD); points of no face keep +Z.
+    corners = normals[normal_indices].reshape(-1, 3)
+    per_point = np.tile([0.0, 0.0, 1.0], (len(tm.vertices), 1))
+    per_point[faces.ravel()] = corners
+    if np.array_equal(per_point[faces.ravel()], corners):
+        return per_point, faces
+    return normals, normal_indices
 
 
 def _unit_vertex_normals(tm) -> np.ndarray:

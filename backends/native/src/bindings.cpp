@@ -61,13 +61,14 @@ using Index1 = In<int32_t, nb::shape<-1>>;
 std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_object,
                                          const Matrices& sphere_object_from_world, const Index1& sphere_material,
                                          const Rows3& points, const Index3& triangles, const Index1& triangle_material,
-                                         const Rows3& normals, const Index3& normal_indices,
+                                         const Index1& triangle_mesh, const Rows3& mesh_origins, const Rows3& normals, const Index3& normal_indices,
                                          std::vector<phong::Material> materials, std::vector<phong::Light> lights,
-                                         const phong::RGB& ambient) {
+                                         const phong::RGB& ambient, bool povray_triangles) {
     const size_t n_spheres = sphere_world_from_object.shape(0), n_triangles = triangles.shape(0);
     if (sphere_object_from_world.shape(0) != n_spheres || sphere_material.shape(0) != n_spheres)
         throw std::invalid_argument("sphere arrays differ in length");
-    if (triangle_material.shape(0) != n_triangles || normal_indices.shape(0) != n_triangles)
+    if (triangle_material.shape(0) != n_triangles || triangle_mesh.shape(0) != n_triangles ||
+        normal_indices.shape(0) != n_triangles)
         throw std::invalid_argument("triangle arrays differ in length");
     phong::GeometryArrays a;
     a.sphere_world_from_object = sphere_world_from_object.data();
@@ -78,6 +79,10 @@ std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_objec
     a.point_count = points.shape(0);
     a.triangles = triangles.data();
     a.triangle_material = triangle_material.data();
+    a.triangle_mesh = triangle_mesh.data();
+    a.mesh_origins = mesh_origins.data();
+    a.mesh_count = mesh_origins.shape(0);
+    a.povray_triangles = povray_triangles;
     a.normal_indices = normal_indices.data();
     a.triangle_count = n_triangles;
     a.normals = normals.data();
@@ -198,6 +203,12 @@ NB_MODULE(_native, m) {
         .def_rw("diffuse_color", &Material::diffuse_color)
         .def_rw("specular_color", &Material::specular_color);
 
+    using phong::LightTerms;
+    nb::class_<LightTerms>(m, "LightTerms", "Multipliers of a light's diffuse and specular terms (lights.hpp).")
+        .def(nb::init<double, double>(), "diffuse"_a = 1.0, "specular"_a = 1.0)
+        .def_rw("diffuse", &LightTerms::diffuse)
+        .def_rw("specular", &LightTerms::specular);
+
     using phong::PointLight;
     nb::class_<PointLight>(m, "PointLight", "A point light, with POV-Ray's fade when fade_power > 0.")
         .def(nb::init<phong::Vec3, phong::RGB, double, double, bool>(), "position"_a, "color"_a, "fade_distance"_a,
@@ -209,7 +220,8 @@ NB_MODULE(_native, m) {
         .def_rw("inverse_square", &PointLight::inverse_square)
         .def_rw("cone_axis", &PointLight::cone_axis)
         .def_rw("cone_cos_outer", &PointLight::cone_cos_outer)
-        .def_rw("cone_cos_inner", &PointLight::cone_cos_inner);
+        .def_rw("cone_cos_inner", &PointLight::cone_cos_inner)
+        .def_rw("terms", &PointLight::terms);
 
     using phong::DirectionalLight;
     nb::class_<DirectionalLight>(m, "DirectionalLight", "A light at infinity; made from the direction it travels.")
@@ -219,7 +231,8 @@ NB_MODULE(_native, m) {
              },
              "direction"_a, "color"_a)
         .def_rw("to_light", &DirectionalLight::to_light)
-        .def_rw("color", &DirectionalLight::color);
+        .def_rw("color", &DirectionalLight::color)
+        .def_rw("terms", &DirectionalLight::terms);
 
     using phong::RectAreaLight;
     nb::class_<RectAreaLight>(m, "RectAreaLight", "A rectangular area light, samples x samples shadow rays.")
@@ -230,7 +243,8 @@ NB_MODULE(_native, m) {
         .def_rw("axis_u", &RectAreaLight::axis_u)
         .def_rw("axis_v", &RectAreaLight::axis_v)
         .def_rw("color", &RectAreaLight::color)
-        .def_rw("samples", &RectAreaLight::samples);
+        .def_rw("samples", &RectAreaLight::samples)
+        .def_rw("terms", &RectAreaLight::terms);
 
     using phong::SphereAreaLight;
     nb::class_<SphereAreaLight>(m, "SphereAreaLight", "A spherical light: POV-Ray's circular, oriented area light.")
@@ -240,7 +254,8 @@ NB_MODULE(_native, m) {
         .def_rw("center", &SphereAreaLight::center)
         .def_rw("radius", &SphereAreaLight::radius)
         .def_rw("color", &SphereAreaLight::color)
-        .def_rw("samples", &SphereAreaLight::samples);
+        .def_rw("samples", &SphereAreaLight::samples)
+        .def_rw("terms", &SphereAreaLight::terms);
 
     using phong::CameraDescription;
     nb::class_<CameraDescription>(m, "CameraDescription", "The model's camera (camera.hpp).")
@@ -270,17 +285,21 @@ NB_MODULE(_native, m) {
     nb::class_<phong::Scene>(m, "Scene", "Geometry from flat arrays, materials and lights, with the BVH.")
         .def("__init__",
              [](phong::Scene* self, const Matrices& swo, const Matrices& sow, const Index1& smat, const Rows3& points,
-                const Index3& triangles, const Index1& tmat, const Rows3& normals, const Index3& nidx,
-                std::vector<phong::Material> materials, std::vector<phong::Light> lights, const phong::RGB& ambient) {
-                 std::unique_ptr<phong::Scene> built = make_scene(swo, sow, smat, points, triangles, tmat, normals,
-                                                                  nidx, std::move(materials), std::move(lights),
-                                                                  ambient);
+                const Index3& triangles, const Index1& tmat, const Index1& tmesh, const Rows3& origins,
+                const Rows3& normals, const Index3& nidx,
+                std::vector<phong::Material> materials, std::vector<phong::Light> lights, const phong::RGB& ambient,
+                bool povray_triangles) {
+                 std::unique_ptr<phong::Scene> built =
+                     make_scene(swo, sow, smat, points, triangles, tmat, tmesh, origins, normals, nidx,
+                                std::move(materials), std::move(lights), ambient, povray_triangles);
                  new (self) phong::Scene(std::move(*built));
              },
              "sphere_world_from_object"_a, "sphere_object_from_world"_a, "sphere_material"_a, "points"_a,
-             "triangles"_a, "triangle_material"_a, "normals"_a, "normal_indices"_a, "materials"_a, "lights"_a,
-             "ambient"_a,
-             "Materials are indexed by sphere_material and triangle_material; lights are summed in list order.")
+             "triangles"_a, "triangle_material"_a, "triangle_mesh"_a, "mesh_origins"_a, "normals"_a,
+             "normal_indices"_a, "materials"_a, "lights"_a, "ambient"_a, "povray_triangles"_a = false,
+             "Materials are indexed by sphere_material and triangle_material; lights are summed in list order. "
+             "triangle_mesh and mesh_origins say which mesh (POV-Ray object) a triangle belongs to and its "
+             "frame; with povray_triangles, triangles are tested as POV-Ray's mesh2 tests them.")
         .def_prop_ro("magnitude", [](const phong::Scene& s) { return s.magnitude; })
         .def("render", &render, "camera"_a, "settings"_a, "progress"_a = nb::none(),
              "The image, float32 (height, width, 3), row 0 at the top. progress(done, total) is called from this "

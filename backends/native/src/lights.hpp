@@ -18,6 +18,12 @@ namespace phong {
 // distance d is color / d² (a rect light's additionally × max(0, cos) of the angle from its
 // emitting side, -(axis_u × axis_v): a one-sided Lambertian panel seen from afar). Otherwise the
 // seed's constant light: `color` arrives unchanged (or with POV-Ray's fade on a point light).
+// Multipliers of a light's diffuse and specular contributions (UsdLux inputs:diffuse and
+// inputs:specular; 1 and 1 for the seed's light, which then shades bit for bit as without them).
+struct LightTerms {
+    double diffuse = 1.0, specular = 1.0;
+};
+
 struct PointLight {
     Vec3 position;
     RGB color;
@@ -28,15 +34,17 @@ struct PointLight {
     // smoothstep in cos between (POV-Ray's spotlight edge). cone_cos_outer <= -1: no cone.
     Vec3 cone_axis{0, 0, -1};
     double cone_cos_outer = -2.0, cone_cos_inner = -2.0;
+    LightTerms terms;
 };
 
 struct DirectionalLight {
     Vec3 to_light;  // unit, opposite to the direction the light travels
     RGB color;
+    LightTerms terms;
 
     // From the direction the light travels (the model's and POV-Ray's), of any length.
     static DirectionalLight travelling(const Vec3& direction, const RGB& color) {
-        return {-normalize(direction), color};
+        return {-normalize(direction), color, {}};
     }
 };
 
@@ -45,6 +53,7 @@ struct RectAreaLight {
     RGB color;
     int samples;  // per axis, 2^k + 1
     bool inverse_square = false;
+    LightTerms terms;
 };
 
 // POV-Ray's `area_light <2r,0,0>, <0,2r,0>, n, n circular orient`.
@@ -54,6 +63,7 @@ struct SphereAreaLight {
     RGB color;
     int samples;
     bool inverse_square = false;
+    LightTerms terms;
 };
 
 using Light = std::variant<PointLight, DirectionalLight, RectAreaLight, SphereAreaLight>;
@@ -76,6 +86,10 @@ inline LightSample toward(const Vec3& target, const Vec3& p, const RGB& color) {
 // Trapezoid weight of grid index i of n (n >= 2).
 inline double trapezoid_weight(int i, int n) { return (i == 0 || i == n - 1 ? 0.5 : 1.0) / (n - 1); }
 }  // namespace detail
+
+inline const LightTerms& light_terms(const Light& light) {
+    return std::visit([](const auto& L) -> const LightTerms& { return L.terms; }, light);
+}
 
 inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
     return std::visit(

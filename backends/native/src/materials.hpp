@@ -32,15 +32,19 @@ inline RGB ambient_term(const Material& m, const RGB& ambient_light) {
 }
 
 // The contribution of one light of (shadow-attenuated) colour `light` arriving from unit
-// direction l, at a point with viewer-facing unit normal n seen from unit direction wo.
+// direction l, at a point with viewer-facing unit normal n seen from unit direction wo; the
+// light's diffuse and specular terms scaled by its multipliers (x · 1 is exact: with both 1
+// the result is bit for bit the seed's).
 inline RGB shade_phong(const Material& m, SpecularConvention convention, const Vec3& n, const Vec3& wo,
-                       const Vec3& l, double n_dot_l, const RGB& light) {
-    const RGB diffuse = m.diffuse_color * (m.kd / kPi);
+                       const Vec3& l, double n_dot_l, const RGB& light, double diffuse_scale = 1.0,
+                       double specular_scale = 1.0) {
+    const RGB diffuse = m.diffuse_color * (m.kd / kPi) * diffuse_scale;
     if (convention == SpecularConvention::kSeed) {
         const Vec3 r = n * (2.0 * n_dot_l) - l;
         const double r_dot_wo = dot(r, wo);
         // GlossySpecular: zero when r·wo <= 0, also for e = 0.
-        const RGB specular = r_dot_wo > 0.0 ? m.specular_color * (m.ks * std::pow(r_dot_wo, m.exponent)) : RGB{};
+        const RGB specular =
+            r_dot_wo > 0.0 ? m.specular_color * (m.ks * std::pow(r_dot_wo, m.exponent)) * specular_scale : RGB{};
         return hadamard(diffuse + specular, light) * n_dot_l;
     }
     RGB out = hadamard(diffuse, light) * n_dot_l;
@@ -49,7 +53,7 @@ inline RGB shade_phong(const Material& m, SpecularConvention convention, const V
     const double r_dot_l = dot(r, l);
     if (m.ks > 0.0 && r_dot_l > 0.0) {
         const bool cut = m.exponent >= kClassicPhongCutoffExponent && r_dot_l <= kClassicPhongCutoffCosine;
-        if (!cut) out += light * (m.ks * std::pow(r_dot_l, m.exponent));
+        if (!cut) out += light * (m.ks * std::pow(r_dot_l, m.exponent) * specular_scale);
     }
     return out;
 }

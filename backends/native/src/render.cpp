@@ -28,6 +28,7 @@ struct ShadowQuery {
     const Vec3& p;
     double window;
     std::vector<BundleCandidate>& candidates;  // of the current bundle (one per worker thread)
+    bool povray_walk;                          // POV-Ray numerics: its mesh walk (povray_walk.cpp)
     bool bundle = false;
 
     bool begin_grid(const Vec3 (&corners)[4]) {
@@ -38,8 +39,9 @@ struct ShadowQuery {
 
     bool operator()(const Vec3& dir, double distance) const {
         const Ray ray{p, dir};
-        return bundle ? scene.occluded_by(candidates, ray, window, distance - window)
-                      : scene.occluded(ray, window, distance - window);
+        const bool blocked = bundle ? scene.occluded_by(candidates, ray, window, distance - window)
+                                    : scene.occluded(ray, window, distance - window);
+        return blocked && (!povray_walk || scene.occluded_povray_walk(ray, window, distance - window));
     }
 };
 
@@ -75,10 +77,11 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
         // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at the point
         // (d = 0: the model's answer there is the ambient term only).
         if (!(n_dot_l >= kMinCosineToLight)) continue;
-        const double fraction = visible_fraction(light, p, centre, ShadowQuery{scene, p, window, candidates});
+        const double fraction = visible_fraction(light, p, centre, ShadowQuery{scene, p, window, candidates, settings.numerics != Numerics::kScaleInvariant});
         if (fraction == 0.0) continue;
+        const LightTerms& terms = light_terms(light);
         color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l,
-                             centre.color * fraction);
+                             centre.color * fraction, terms.diffuse, terms.specular);
     }
     return color;
 }

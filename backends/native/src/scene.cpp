@@ -100,6 +100,7 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
                 b.grow(row3(in.points + 3 * size_t(t[k])));
             }
             check_index(in.triangle_material[i], materials.size(), "triangle material");
+            if (in.povray_triangles) check_index(in.triangle_mesh[i], in.mesh_count, "triangle mesh");
             if (in.normal_indices) {
                 const int32_t* n = in.normal_indices + 3 * i;
                 if (n[0] >= 0 || n[1] >= 0 || n[2] >= 0)
@@ -126,6 +127,8 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     triangles.resize(n_triangles);
     triangle_shading.resize(n_triangles);
     triangle_source.resize(n_triangles);
+    triangle_mesh.resize(n_triangles);
+    if (in.povray_triangles) povray_triangles.resize(n_triangles);
     for_chunks(order.size(), [&](size_t begin, size_t end) {
         size_t spheres_before = size_t(
             std::lower_bound(sphere_positions.begin(), sphere_positions.end(), uint32_t(begin)) -
@@ -150,6 +153,11 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
             }
             triangle_shading[slot] = sh;
             triangle_source[slot] = uint32_t(i);
+            triangle_mesh[slot] = in.triangle_mesh[i];
+            if (in.povray_triangles) {
+                const double* origin = in.mesh_origins + 3 * size_t(in.triangle_mesh[i]);
+                povray_triangles[slot] = make_povray_triangle(triangles[slot], {origin[0], origin[1], origin[2]});
+            }
         }
     });
     bvh_.order.clear();
@@ -212,8 +220,7 @@ bool Scene::closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) co
             Barycentric bary{};
             bool hit_here;
             if (ref >= 0) {
-                if (!wr) wr.emplace(ray.dir);
-                hit_here = intersect_triangle(triangles[size_t(ref)], ray, *wr, t_min, t_test, t, bary);
+                hit_here = hit_triangle(ref, ray, wr, t_min, t_test, t, bary);
             } else {
                 hit_here = intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_test, t);
             }
@@ -239,9 +246,8 @@ bool Scene::occluded(const Ray& ray, double t_min, double t_max) const {
             double t;
             bool hit;
             if (ref >= 0) {
-                if (!wr) wr.emplace(ray.dir);
                 Barycentric bary;
-                hit = intersect_triangle(triangles[size_t(ref)], ray, *wr, t_min, t_best, t, bary);
+                hit = hit_triangle(ref, ray, wr, t_min, t_best, t, bary);
             } else {
                 hit = intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_best, t);
             }
@@ -383,9 +389,8 @@ bool Scene::occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray
         double t;
         bool hit;
         if (box.ref >= 0) {
-            if (!wr) wr.emplace(ray.dir);
             Barycentric bary;
-            hit = intersect_triangle(triangles[size_t(box.ref)], ray, *wr, t_min, t_max, t, bary);
+            hit = hit_triangle(box.ref, ray, wr, t_min, t_max, t, bary);
         } else {
             // ray.origin is the bundle's apex, whose object-space form the candidate holds.
             hit = intersect_sphere(spheres[size_t(~box.ref)], box.sphere_origin, ray.dir, t_min, t_max, t);

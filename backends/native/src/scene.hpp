@@ -6,12 +6,14 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "bvh.hpp"
 #include "lights.hpp"
 #include "materials.hpp"
 #include "math.hpp"
+#include "povray_triangle.hpp"
 #include "shapes.hpp"
 
 namespace phong {
@@ -26,6 +28,10 @@ struct GeometryArrays {
     size_t point_count = 0;
     const int32_t* triangles = nullptr;          // (T, 3) rows of points
     const int32_t* triangle_material = nullptr;  // (T,) indices of materials
+    const int32_t* triangle_mesh = nullptr;      // (T,) the mesh (one POV-Ray object) of each triangle
+    const double* mesh_origins = nullptr;        // (M, 3) each mesh's local frame, as the compiler writes it
+    size_t mesh_count = 0;
+    bool povray_triangles = false;               // test triangles as POV-Ray does (povray_triangle.hpp)
     const int32_t* normal_indices = nullptr;     // (T, 3) rows of normals, -1: flat
     size_t triangle_count = 0;
     const double* normals = nullptr;  // (K, 3) unit
@@ -73,6 +79,11 @@ class Scene {
     bool shadow_candidates(const Vec3* hull, int hull_count, double t_min, std::vector<BundleCandidate>& candidates) const;
     bool occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray, double t_min, double t_max) const;
 
+    // occluded() as POV-Ray 3.7 answers it for meshes (povray_walk.cpp): a mesh's bounding-box
+    // walk stops at its first hit, even one too close to count as a shadow hit, so an occluder
+    // of the same mesh behind it can be missed. Call only where occluded() said true.
+    bool occluded_povray_walk(const Ray& ray, double t_min, double t_max) const;
+
     // Every primitive the ray hits in (t_min, t_max), by brute force (tests only).
     int count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const;
 
@@ -83,6 +94,8 @@ class Scene {
     std::vector<TriangleShape> triangles;         // leaf order
     std::vector<TriangleShading> triangle_shading;  // leaf order
     std::vector<uint32_t> triangle_source;        // leaf order -> input row
+    std::vector<int32_t> triangle_mesh;           // leaf order -> mesh
+    std::vector<PovrayTriangle> povray_triangles;  // leaf order; empty unless built in POV-Ray numerics
     std::vector<Vec3> normals;
     std::vector<Material> materials;
     std::vector<Light> lights;
@@ -91,6 +104,15 @@ class Scene {
     double magnitude = 0.0;  // largest absolute coordinate of the geometry bounds
 
   private:
+    // A triangle's hit test: POV-Ray's where the scene was built for it, else the watertight one.
+    bool hit_triangle(int32_t ref, const Ray& ray, std::optional<WatertightRay>& wr, double t_min, double t_max,
+                      double& t, Barycentric& bary) const {
+        if (!povray_triangles.empty())
+            return intersect_povray_triangle(povray_triangles[size_t(ref)], ray, t_min, t_max, t, bary);
+        if (!wr) wr.emplace(ray.dir);
+        return intersect_triangle(triangles[size_t(ref)], ray, *wr, t_min, t_max, t, bary);
+    }
+
     Bvh bvh_;
     std::vector<int32_t> refs_;  // BVH leaf order
 };

@@ -153,11 +153,11 @@ global_settings { assumed_gamma 1.0 adc_bailout 0 }
   texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 phong 0.7 phong_size 24.0 } }
   texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }
 #declare Material_0 = texture { average texture_map {
-  [1 pigment { rgb <0.85, 0.18, 0.12> } finish { ambient 0.24 diffuse 0.477464829275686 }]
+  [1 pigment { rgb <0.85, 0.18, 0.12> } finish { ambient 0.24 diffuse 0.47746482 }]
   [1 Material_0_Specular]
 } }
 // (material 1)
-#declare Material_1 = texture { pigment { rgb <0.62, 0.6, 0.55> } finish { ambient 0.15 diffuse 0.22281692032865347 } }
+#declare Material_1 = texture { pigment { rgb <0.62, 0.6, 0.55> } finish { ambient 0.15 diffuse 0.22281691 } }
 // (sphere 0)
 sphere { <0.07, 1.08, -0.13>, 1.03 texture { Material_0 } }
 // (mesh 0)

@@ -161,7 +161,7 @@ global_settings { assumed_gamma 1.0 adc_bailout 0 }
   texture { pigment { rgbf <1.0, 0.9, 0.6, 1> } finish { ambient 0 diffuse 0 } }
   texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }
 #declare Material_0 = texture { average texture_map {
-  [1 pigment { rgb <0.8, 0.6, 0.2> } finish { ambient 0.2 diffuse 0.3819718634205488 }]
+  [1 pigment { rgb <0.8, 0.6, 0.2> } finish { ambient 0.2 diffuse 0.38197187 }]
   [1 Material_0_Specular]
 } }
 // (material 1)
@@ -169,11 +169,11 @@ global_settings { assumed_gamma 1.0 adc_bailout 0 }
   texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 phong 0.6 phong_size 40.0 } }
   texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }
 #declare Material_1 = texture { average texture_map {
-  [1 pigment { rgb <0.2, 0.75, 0.25> } finish { ambient 0.24 diffuse 0.44563384065730693 }]
+  [1 pigment { rgb <0.2, 0.75, 0.25> } finish { ambient 0.24 diffuse 0.44563383 }]
   [1 Material_1_Specular]
 } }
 // (material 2)
-#declare Material_2 = texture { pigment { rgb <0.62, 0.6, 0.55> } finish { ambient 0.15 diffuse 0.22281692032865347 } }
+#declare Material_2 = texture { pigment { rgb <0.62, 0.6, 0.55> } finish { ambient 0.15 diffuse 0.22281691 } }
 // (sphere 0)
 sphere { <0.07, 1.08, -0.13>, 1.03 texture { Material_0 } }
 // (sphere 1)

@@ -8,13 +8,13 @@ background { color rgb <0.05, 0.07, 0.1> }
 // (light 0)
 light_source { <2.91, 4.63, 3.37> color rgb <3.0, 3.0, 3.0> }
 // (material 0)
-#declare Material_0 = texture { pigment { rgb <0.85, 0.18, 0.12> } finish { ambient 0.12 diffuse 0.238732414637843 phong 0.35 phong_size 24.0 } }
+#declare Material_0 = texture { pigment { rgb <0.85, 0.18, 0.12> } finish { ambient 0.12 diffuse 0.23873241 phong 0.35 phong_size 24.0 } }
 // (material 1)
-#declare Material_1 = texture { pigment { rgb <0.2, 0.75, 0.25> } finish { ambient 0.12 diffuse 0.22281692032865347 phong 0.3 phong_size 40.0 } }
+#declare Material_1 = texture { pigment { rgb <0.2, 0.75, 0.25> } finish { ambient 0.12 diffuse 0.22281691 phong 0.3 phong_size 40.0 } }
 // (material 2)
-#declare Material_2 = texture { pigment { rgb <0.8, 0.6, 0.2> } finish { ambient 0.1 diffuse 0.1909859317102744 phong 0.5 phong_size 18.0 } }
+#declare Material_2 = texture { pigment { rgb <0.8, 0.6, 0.2> } finish { ambient 0.1 diffuse 0.19098593 phong 0.5 phong_size 18.0 } }
 // (material 3)
-#declare Material_3 = texture { pigment { rgb <0.62, 0.6, 0.55> } finish { ambient 0.15 diffuse 0.22281692032865347 } }
+#declare Material_3 = texture { pigment { rgb <0.62, 0.6, 0.55> } finish { ambient 0.15 diffuse 0.22281691 } }
 // (sphere 0)
 sphere { <0, 0, 0>, 1 matrix <0.3828964931956785, 0.07834316698964328, -0.2610605747417341, -0.05438923593256725, 0.888919098087252, 0.18698836346259093, 0.363404078734024, -0.08454741915108788, 0.5076309776544035, -1.41, 0.93, 0.12> texture { Material_0 } }
 // (sphere 1)

@@ -6,15 +6,15 @@ camera { perspective location <0.0, 3.0, 10.0> direction <0.0, -0.30718173184301
 global_settings { assumed_gamma 1.0 ambient_light rgb <1.0, 1.0, 1.0> }
 background { color rgb <0.0, 0.0, 0.0> }
 // /World/Lights/Key
-light_source { <-5.0, 8.0, 6.0> color rgb <3.1415927410125732, 3.1415927410125732, 3.1415927410125732> }
+light_source { <-5.0, 8.0, 6.0> color rgb <3.1415927, 3.1415927, 3.1415927> }
 // /World/Looks/Ambient/Phong
-#declare Material_0 = texture { pigment { rgb <0.800000011920929, 0.5, 0.10000000149011612> } finish { ambient 0.25 diffuse 0.0 } }
+#declare Material_0 = texture { pigment { rgb <0.8, 0.5, 0.1> } finish { ambient 0.25 diffuse 0.0 } }
 // /World/Looks/AmbientDiffuse/Phong
-#declare Material_1 = texture { pigment { rgb <0.800000011920929, 0.5, 0.10000000149011612> } finish { ambient 0.25 diffuse 0.1909859392993735 } }
+#declare Material_1 = texture { pigment { rgb <0.8, 0.5, 0.1> } finish { ambient 0.25 diffuse 0.19098593 } }
 // /World/Looks/AmbientDiffuseSpecular/Phong
-#declare Material_2 = texture { pigment { rgb <0.800000011920929, 0.5, 0.10000000149011612> } finish { ambient 0.25 diffuse 0.1909859392993735 phong 0.30000001192092896 phong_size 20.0 } }
+#declare Material_2 = texture { pigment { rgb <0.8, 0.5, 0.1> } finish { ambient 0.25 diffuse 0.19098593 phong 0.3 phong_size 20.0 } }
 // /World/Looks/Ground/Phong
-#declare Material_3 = texture { pigment { rgb <0.5, 0.5, 0.5> } finish { ambient 0.25 diffuse 0.1909859392993735 } }
+#declare Material_3 = texture { pigment { rgb <0.5, 0.5, 0.5> } finish { ambient 0.25 diffuse 0.19098593 } }
 // /World/Geometry/Ambient
 sphere { <-2.3, 1.0, 0.0>, 1.0 texture { Material_0 } }
 // /World/Geometry/AmbientDiffuse

@@ -144,44 +144,44 @@ global_settings { assumed_gamma 1.0 adc_bailout 0 }
   global_settings { ambient_light rgb <1.0, 1.0, 1.0> }
   background { color rgb <0.0, 0.0, 0.0> }
   // /World/Lights/Key
-  light_source { <-5.0, 8.0, 6.0> color rgb <3.1415927410125732, 3.1415927410125732, 3.1415927410125732> }
+  light_source { <-5.0, 8.0, 6.0> color rgb <3.1415927, 3.1415927, 3.1415927> }
   #declare NdotL = pigment { slope { point_at <-5.0, 8.0, 6.0> } color_map { NdotL_Map } }
 #break
 #end
 // /World/Looks/Exponent5/Phong
 #declare Material_0_Specular =
-  texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 phong 0.4000000059604645 phong_size 5.0 } }
+  texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 phong 0.4 phong_size 5.0 } }
   texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }
 #declare Material_0 = texture { average texture_map {
-  [1 pigment { rgb <0.800000011920929, 0.30000001192092896, 0.10000000149011612> } finish { ambient 0.5 diffuse 0.381971878598747 }]
+  [1 pigment { rgb <0.8, 0.3, 0.1> } finish { ambient 0.5 diffuse 0.38197187 }]
   [1 Material_0_Specular]
 } }
 // /World/Looks/Exponent20/Phong
 #declare Material_1_Specular =
-  texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 phong 0.4000000059604645 phong_size 20.0 } }
+  texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 phong 0.4 phong_size 20.0 } }
   texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }
 #declare Material_1 = texture { average texture_map {
-  [1 pigment { rgb <0.800000011920929, 0.30000001192092896, 0.10000000149011612> } finish { ambient 0.5 diffuse 0.381971878598747 }]
+  [1 pigment { rgb <0.8, 0.3, 0.1> } finish { ambient 0.5 diffuse 0.38197187 }]
   [1 Material_1_Specular]
 } }
 // /World/Looks/Exponent100/Phong
 #declare Material_2_Specular =
-  texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 phong 0.4000000059604645 phong_size 100.0 } }
+  texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 phong 0.4 phong_size 100.0 } }
   texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }
 #declare Material_2 = texture { average texture_map {
-  [1 pigment { rgb <0.800000011920929, 0.30000001192092896, 0.10000000149011612> } finish { ambient 0.5 diffuse 0.381971878598747 }]
+  [1 pigment { rgb <0.8, 0.3, 0.1> } finish { ambient 0.5 diffuse 0.38197187 }]
   [1 Material_2_Specular]
 } }
 // /World/Looks/Exponent1000/Phong
 #declare Material_3_Specular =
-  texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 phong 0.4000000059604645 phong_size 1000.0 } }
+  texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 phong 0.4 phong_size 1000.0 } }
   texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }
 #declare Material_3 = texture { average texture_map {
-  [1 pigment { rgb <0.800000011920929, 0.30000001192092896, 0.10000000149011612> } finish { ambient 0.5 diffuse 0.381971878598747 }]
+  [1 pigment { rgb <0.8, 0.3, 0.1> } finish { ambient 0.5 diffuse 0.38197187 }]
   [1 Material_3_Specular]
 } }
 // /World/Looks/Ground/Phong
-#declare Material_4 = texture { pigment { rgb <0.5, 0.5, 0.5> } finish { ambient 0.25 diffuse 0.1909859392993735 } }
+#declare Material_4 = texture { pigment { rgb <0.5, 0.5, 0.5> } finish { ambient 0.25 diffuse 0.19098593 } }
 // /World/Geometry/Exponent5
 sphere { <-3.4499999999999997, 1.0, 0.0>, 1.0 texture { Material_0 } }
 // /World/Geometry/Exponent20

@@ -6,13 +6,13 @@ camera { perspective location <0.0, 3.0, 10.0> direction <0.0, -0.39355194355397
 global_settings { assumed_gamma 1.0 ambient_light rgb <1.0, 1.0, 1.0> }
 background { color rgb <0.0, 0.0, 0.0> }
 // /World/Lights/Key
-light_source { <-5.0, 8.0, 6.0> color rgb <3.1415927410125732, 3.1415927410125732, 3.1415927410125732> }
+light_source { <-5.0, 8.0, 6.0> color rgb <3.1415927, 3.1415927, 3.1415927> }
 // /World/Looks/WhiteHighlight/Phong
-#declare Material_0 = texture { pigment { rgb <0.800000011920929, 0.10000000149011612, 0.10000000149011612> } finish { ambient 0.25 diffuse 0.1909859392993735 phong 0.5 phong_size 20.0 } }
+#declare Material_0 = texture { pigment { rgb <0.8, 0.1, 0.1> } finish { ambient 0.25 diffuse 0.19098593 phong 0.5 phong_size 20.0 } }
 // /World/Looks/DiffuseColoredHighlight/Phong
-#declare Material_1 = texture { pigment { rgb <0.800000011920929, 0.10000000149011612, 0.10000000149011612> } finish { ambient 0.25 diffuse 0.1909859392993735 phong 0.5 phong_size 20.0 } }
+#declare Material_1 = texture { pigment { rgb <0.8, 0.1, 0.1> } finish { ambient 0.25 diffuse 0.19098593 phong 0.5 phong_size 20.0 } }
 // /World/Looks/Ground/Phong
-#declare Material_2 = texture { pigment { rgb <0.5, 0.5, 0.5> } finish { ambient 0.25 diffuse 0.1909859392993735 } }
+#declare Material_2 = texture { pigment { rgb <0.5, 0.5, 0.5> } finish { ambient 0.25 diffuse 0.19098593 } }
 // /World/Geometry/WhiteHighlight
 sphere { <-1.3, 1.0, 0.0>, 1.0 texture { Material_0 } }
 // /World/Geometry/DiffuseColoredHighlight

@@ -144,7 +144,7 @@ global_settings { assumed_gamma 1.0 adc_bailout 0 }
   global_settings { ambient_light rgb <1.0, 1.0, 1.0> }
   background { color rgb <0.0, 0.0, 0.0> }
   // /World/Lights/Key
-  light_source { <-5.0, 8.0, 6.0> color rgb <3.1415927410125732, 3.1415927410125732, 3.1415927410125732> }
+  light_source { <-5.0, 8.0, 6.0> color rgb <3.1415927, 3.1415927, 3.1415927> }
   #declare NdotL = pigment { slope { point_at <-5.0, 8.0, 6.0> } color_map { NdotL_Map } }
 #break
 #end
@@ -153,20 +153,20 @@ global_settings { assumed_gamma 1.0 adc_bailout 0 }
   texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 phong 1.0 phong_size 20.0 } }
   texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }
 #declare Material_0 = texture { average texture_map {
-  [1 pigment { rgb <0.800000011920929, 0.10000000149011612, 0.10000000149011612> } finish { ambient 0.5 diffuse 0.381971878598747 }]
+  [1 pigment { rgb <0.8, 0.1, 0.1> } finish { ambient 0.5 diffuse 0.38197187 }]
   [1 Material_0_Specular]
 } }
 // /World/Looks/DiffuseColoredHighlight/Phong
 #declare Material_1_Specular =
   texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 phong 1.0 phong_size 20.0 } }
-  texture { pigment { rgbf <0.800000011920929, 0.10000000149011612, 0.10000000149011612, 1> } finish { ambient 0 diffuse 0 } }
+  texture { pigment { rgbf <0.8, 0.1, 0.1, 1> } finish { ambient 0 diffuse 0 } }
   texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }
 #declare Material_1 = texture { average texture_map {
-  [1 pigment { rgb <0.800000011920929, 0.10000000149011612, 0.10000000149011612> } finish { ambient 0.5 diffuse 0.381971878598747 }]
+  [1 pigment { rgb <0.8, 0.1, 0.1> } finish { ambient 0.5 diffuse 0.38197187 }]
   [1 Material_1_Specular]
 } }
 // /World/Looks/Ground/Phong
-#declare Material_2 = texture { pigment { rgb <0.5, 0.5, 0.5> } finish { ambient 0.25 diffuse 0.1909859392993735 } }
+#declare Material_2 = texture { pigment { rgb <0.5, 0.5, 0.5> } finish { ambient 0.25 diffuse 0.19098593 } }
 // /World/Geometry/WhiteHighlight
 sphere { <-1.3, 1.0, 0.0>, 1.0 texture { Material_0 } }
 // /World/Geometry/DiffuseColoredHighlight

@@ -1,0 +1,126 @@
+// SPDX-License-Identifier: Apache-2.0
+// POV-Ray 3.7's mesh2 triangle test, reproduced for the POV-Ray numerics (diff).
+//
+// POV-Ray stores a mesh2's vertices as float32 in the mesh's own frame (the compiler writes
+// local coordinates and a translate) and precomputes per triangle, in float64 from those
+// vertices: the unit plane normal n = normalize((P3 − P1) × (P2 − P1)) and d = −n·P1, the
+// dominant axis of n, and an order of P1, P2 that makes the projected triangle's winding
+// positive. Only then are n and d stored, both as float32 (mesh.h: SNGL_VECT, SNGL). A ray (in mesh space, direction renormalised)
+// hits at depth −(d + n·O)/(n·D) when |n·D| ≥ 1e-10 and depth ≥ 1e-6 (DEPTH_TOLERANCE) and
+// ≤ 1e7, if the point, projected along the dominant axis, is on the inner side of all three
+// edges. The rounded plane is slightly off the vertices' plane, so the depth, and with it the
+// projected point, moves by up to ~1e-7 relative / cos: at grazing angles two triangles
+// sharing an edge can both miss a ray near it, or both hit it (the test is not watertight).
+// Blender's Suzanne lit one area-light sample through such a crack. The
+// native watertight test (shapes.hpp) stays the default; this one replaces it for triangles
+// when the scene is built in POV-Ray's numerics.
+#pragma once
+
+#include <cmath>
+
+#include "math.hpp"
+#include "shapes.hpp"
+
+namespace phong {
+
+// POV-Ray's EPSILON (parallel-ray cut), the mesh's DEPTH_TOLERANCE and MAX_DISTANCE.
+constexpr double kPovrayParallelCosine = 1e-10;
+constexpr double kPovrayMeshMinDepth = 1e-6;
+constexpr double kPovrayMaxDistance = 1e7;
+
+// x rounded to float32, as a double. Through a volatile: GCC 12.2 at -O2/-O3 vectorises
+// `double(float(x))` of neighbouring fields into a packed double division with the two
+// conversions dropped (seen here: the x and y of a normal kept unrounded, z rounded).
+inline double round_to_float(double x) {
+    volatile float f = float(x);
+    return f;
+}
+
+struct PovrayTriangle {
+    double p[3][3];       // P1, P2, P3 in mesh space (float32 values), after POV-Ray's reordering
+    double normal[3];     // float32-rounded unit plane normal
+    double distance;      // float32-rounded −n·P1, with the unrounded normal
+    double origin[3];     // the mesh's frame: world = mesh + origin
+    int a, b;             // the two axes other than the dominant one, in POV-Ray's order
+    bool swapped;         // P1 and P2 exchanged (to map barycentrics back to v0, v1, v2)
+    bool degenerate;      // zero normal: POV-Ray drops the triangle
+};
+
+// `world` holds float32 mesh-space vertices plus `origin` (rounded to float64); subtracting the
+// origin and rounding to float32 recovers them exactly (the error is far below a float32 ulp).
+inline PovrayTriangle make_povray_triangle(const TriangleShape& world, const Vec3& origin) {
+    PovrayTriangle t{};
+    const Vec3* v[3] = {&world.v0, &world.v1, &world.v2};
+    for (int i = 0; i < 3; ++i) {
+        t.p[i][0] = round_to_float(v[i]->x - origin.x);
+        t.p[i][1] = round_to_float(v[i]->y - origin.y);
+        t.p[i][2] = round_to_float(v[i]->z - origin.z);
+    }
+    t.origin[0] = origin.x;
+    t.origin[1] = origin.y;
+    t.origin[2] = origin.z;
+    const Vec3 p1{t.p[0][0], t.p[0][1], t.p[0][2]}, p2{t.p[1][0], t.p[1][1], t.p[1][2]},
+        p3{t.p[2][0], t.p[2][1], t.p[2][2]};
+    Vec3 n = cross(p3 - p1, p2 - p1);
+    const double len = length(n);
+    if (len == 0.0) {
+        t.degenerate = true;
+        return t;
+    }
+    n = n / len;
+    t.distance = round_to_float(-dot(n, p1));
+    const double x = std::fabs(n.x), y = std::fabs(n.y), z = std::fabs(n.z);
+    const int dominant = x > y ? (x > z ? 0 : 2) : (y > z ? 1 : 2);
+    t.a = dominant == 0 ? 1 : 0;
+    t.b = dominant == 2 ? 1 : 2;
+    const int a = t.a, b = t.b;
+    auto& P = t.p;
+    if ((P[1][a] - P[2][a]) * (P[1][b] - P[0][b]) < (P[1][b] - P[2][b]) * (P[1][a] - P[0][a])) {
+        for (int k = 0; k < 3; ++k) std::swap(P[0][k], P[1][k]);
+        t.swapped = true;
+    }
+    t.normal[0] = round_to_float(n.x);
+    t.normal[1] = round_to_float(n.y);
+    t.normal[2] = round_to_float(n.z);
+    return t;
+}
+
+// Whether the world ray hits in (t_min, t_max) as POV-Ray finds it; barycentrics of v0, v1, v2.
+inline bool intersect_povray_triangle(const PovrayTriangle& tri, const Ray& ray, double t_min, double t_max,
+                                      double& t_hit, Barycentric& bary) {
+    if (tri.degenerate) return false;
+    // The ray in mesh space: translated, direction renormalised (POV-Ray's MInvTransRay).
+    const double len = length(ray.dir);
+    const double o[3] = {ray.origin.x - tri.origin[0], ray.origin.y - tri.origin[1], ray.origin.z - tri.origin[2]};
+    const double d[3] = {ray.dir.x / len, ray.dir.y / len, ray.dir.z / len};
+    const double* n = tri.normal;
+    const double n_dot_d = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    if (std::fabs(n_dot_d) < kPovrayParallelCosine) return false;
+    const double n_dot_o = n[0] * o[0] + n[1] * o[1] + n[2] * o[2];
+    const double depth = -(tri.distance + n_dot_o) / n_dot_d;
+    if (depth < kPovrayMeshMinDepth || depth > kPovrayMaxDistance) return false;
+    const int a = tri.a, b = tri.b;
+    const double s = o[a] + depth * d[a], u = o[b] + depth * d[b];
+    const auto& P = tri.p;
+    // Inner side of each edge P2→P1, P3→P2, P1→P3 (POV-Ray's order).
+    for (int e = 0; e < 3; ++e) {
+        const double* q = P[(e + 1) % 3];
+        const double* r = P[e];
+        if ((q[a] - s) * (q[b] - r[b]) < (q[b] - u) * (q[a] - r[a])) return false;
+    }
+    const double t = depth / len;
+    if (!(t > t_min && t < t_max)) return false;
+    // Barycentrics of the projected point (for smooth normals), in the caller's vertex order.
+    const double* v0 = P[tri.swapped ? 1 : 0];
+    const double* v1 = P[tri.swapped ? 0 : 1];
+    const double* v2 = P[2];
+    const double e1a = v1[a] - v0[a], e1b = v1[b] - v0[b], e2a = v2[a] - v0[a], e2b = v2[b] - v0[b];
+    const double qa = s - v0[a], qb = u - v0[b];
+    const double area = e1a * e2b - e1b * e2a;
+    const double b1 = (qa * e2b - qb * e2a) / area, b2 = (e1a * qb - e1b * qa) / area;
+    t_hit = t;
+    bary = {1.0 - b1 - b2, b1, b2};
+    return true;
+}
+
+}  // namespace phong
