@@ -451,6 +451,8 @@ def _run_compile(args) -> int:
     ini, image = out.with_suffix(".ini"), out.with_suffix(".exr")
     write_text_atomic(out, job.sdl, encoding="ascii")
     write_text_atomic(ini, job.ini(out.name, image.name), encoding="ascii")
+    for texture in job.write_textures(out.parent):
+        print(f"{texture}: a texture the scene reads (keep it beside {out.name})")
     mapping = MAPPING_OF_SPECULAR[settings.specular]  # args.mapping, or the scene's
     print(f"{out}: {mapping} mapping, {job.frames} frame(s), {settings.width} x {settings.height}")
     print(f"{ini}: the same options; render in {out.parent} with: povray {ini.name}")

@@ -52,6 +52,11 @@ Projection = Literal["perspective", "orthographic"]
 # ``color`` is the radiant intensity and ``color / d²`` arrives (a rect light: also × max(0, cos θ)
 # of the angle from its emitting side, a one-sided Lambertian panel).
 Falloff = Literal["none", "inverse-square"]
+# How a texture is sampled outside [0, 1] along one axis (UsdUVTexture wrapS / wrapT):
+# "repeat" tiles it, "clamp" extends its edge texels, "mirror" tiles it mirrored, "black" is 0
+# (the bilinear lookup blends the edge texels with black texels beyond the edge).
+Wrap = Literal["repeat", "clamp", "mirror", "black"]
+WRAPS: tuple[str, ...] = ("repeat", "clamp", "mirror", "black")
 
 
 def _readonly(array, dtype, shape_tail: tuple[int, ...]) -> np.ndarray:
@@ -78,7 +83,41 @@ def _arrays_equal(a: np.ndarray | None, b: np.ndarray | None) -> bool:
 
 
 # --------------------------------------------------------------------------------------------
-# Materials
+# Textures and materials
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Texture:
+    """An immutable image a material samples at a surface point's (u, v), and how.
+
+    ``image`` is linear float32 RGB, (H, W, 3), row 0 at the top: v = 1 is the top edge, v = 0
+    the bottom (USD's st convention; the file's colour space, channel selection, ``scale`` and
+    ``bias`` are already applied by the reader, as they commute with the lookup). The lookup is
+    bilinear between texel centres: texel (i, j) (column i, row j) sits at
+    u = (i + ½)/W, v = 1 − (j + ½)/H, which is POV-Ray's ``image_map { interpolate 2 }`` on
+    ``uv_mapping`` (ref §16). Textures compare and hash by identity (the reader shares one per
+    file and sampling rules)."""
+
+    image: np.ndarray  # (H, W, 3) float32, linear, >= 0
+    wrap_s: Wrap = "repeat"  # along u (image columns)
+    wrap_t: Wrap = "repeat"  # along v (image rows)
+    source: str = ""  # USD prim path of the texture shader
+    file: str = ""  # the image file it was read from (resolved path)
+
+    def __post_init__(self) -> None:
+        image = np.array(self.image, dtype=np.float32, order="C", copy=True)
+        if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] < 1 or image.shape[1] < 1:
+            raise ValueError(f"expected a texture image of shape (H, W, 3), got {image.shape}")
+        image.setflags(write=False)
+        object.__setattr__(self, "image", image)
+
+    @property
+    def width(self) -> int:
+        return int(self.image.shape[1])
+
+    @property
+    def height(self) -> int:
+        return int(self.image.shape[0])
 
 
 @dataclass(frozen=True, slots=True)
@@ -92,6 +131,20 @@ class PhongMaterial:
     diffuse_color: RGB = (0.8, 0.8, 0.8)  # cd, linear RGB, >= 0
     specular_color: RGB = (1.0, 1.0, 1.0)  # cs, linear RGB, >= 0
     source: str = ""  # USD prim path of the shader (or material) it came from
+    # cd as a function of the surface point: the texture at the mesh's (u, v) replaces
+    # diffuse_color (meshes with uvs only; diffuse_color stays the fallback USD authored).
+    diffuse_texture: Texture | None = None
+    # cs likewise (the seed convention's highlight colour; povray-classic ignores cs).
+    specular_texture: Texture | None = None
+
+    @property
+    def textures(self) -> tuple[Texture, ...]:
+        """The textures the material samples (diffuse first)."""
+        return tuple(t for t in (self.diffuse_texture, self.specular_texture) if t is not None)
+
+    def without_textures(self) -> PhongMaterial:
+        """The same material with its constant colours only (the textures' fallbacks)."""
+        return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source)
 
 
 DEFAULT_MATERIAL = PhongMaterial()
@@ -164,12 +217,15 @@ class AmbientLight:
 class Cone:
     """A spot light's cone (UsdLux ShapingAPI): along unit ``axis`` the light is unchanged where
     cos θ >= ``cos_inner``, zero where cos θ <= ``cos_outer``, and smoothstep in cos θ between
-    (t = (cos θ − cos_outer)/(cos_inner − cos_outer), t²(3 − 2t): POV-Ray's spotlight edge).
-    0 < cos_outer <= cos_inner <= 1 (a cone narrower than a hemisphere)."""
+    (t = (cos θ − cos_outer)/(cos_inner − cos_outer), t²(3 − 2t): POV-Ray's spotlight edge),
+    times cos θ^``focus`` inside the cone (UsdLux shaping:focus, "an off-axis cosine power
+    exponent"; POV-Ray's spotlight ``tightness``). 0 < cos_outer <= cos_inner <= 1 (a cone
+    narrower than a hemisphere), focus >= 0."""
 
     axis: Vec3
     cos_outer: float
     cos_inner: float
+    focus: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -291,8 +347,15 @@ class TriangleMesh:
     normal_indices: np.ndarray | None = None  # (M, 3) int32, indices into normals
     material: PhongMaterial = DEFAULT_MATERIAL
     source: str = ""
+    uvs: np.ndarray | None = None  # (L, 2) float64, texture coordinates (u, v)
+    uv_indices: np.ndarray | None = None  # (M, 3) int32, indices into uvs
 
     def __post_init__(self) -> None:
+        if (self.uvs is None) != (self.uv_indices is None):
+            raise ValueError("uvs and uv_indices go together")
+        if self.uvs is not None:
+            object.__setattr__(self, "uvs", _readonly(self.uvs, np.float64, (2,)))
+            object.__setattr__(self, "uv_indices", _readonly(self.uv_indices, np.int32, (3,)))
         object.__setattr__(self, "points", _readonly(self.points, np.float64, (3,)))
         object.__setattr__(self, "triangles", _readonly(self.triangles, np.int32, (3,)))
         if (self.normals is None) != (self.normal_indices is None):
@@ -322,6 +385,8 @@ class TriangleMesh:
             and _arrays_equal(self.triangles, other.triangles)
             and _arrays_equal(self.normals, other.normals)
             and _arrays_equal(self.normal_indices, other.normal_indices)
+            and _arrays_equal(self.uvs, other.uvs)
+            and _arrays_equal(self.uv_indices, other.uv_indices)
             and self.material == other.material
             and self.source == other.source
         )

@@ -24,6 +24,7 @@ from .scene import (
     Scene,
     Sphere,
     SphereAreaLight,
+    WRAPS,
     TriangleMesh,
 )
 from .tolerances import SINGULAR_RELATIVE_DET, UNIT_TOLERANCE, is_singular
@@ -38,6 +39,11 @@ MAX_COORDINATE = 1e150
 MAX_IMAGE_SIDE = 16384
 MAX_PIXELS = 2**28
 MAX_THREADS = 1024  # worker threads (C++ int; far more than any machine here has cores)
+# A texture's side: as an image side (OpenImageIO reads bigger ones, but one 16K texture is
+# already 3.2 GB of float32 RGB here).
+MAX_TEXTURE_SIDE = 16384
+# The largest texel POV-Ray can hold: it stores an EXR image map as half floats (ref §16).
+MAX_TEXEL = 65504.0
 # An area light's shadow grid per axis: 257 = 2^8 + 1 (66 049 shadow rays per light and point).
 MAX_SHADOW_SAMPLES = 257
 
@@ -136,9 +142,13 @@ def validate(scene: Scene) -> list[Problem]:
     for sphere in scene.spheres:
         _check_sphere(c, sphere)
         materials.append(sphere.material)
+        if sphere.material.textures:
+            c.add(sphere, "material", "a textured material needs texture coordinates, which only meshes carry")
     for mesh in scene.meshes:
         _check_mesh(c, mesh)
         materials.append(mesh.material)
+        if mesh.material.textures and mesh.uvs is None:
+            c.add(mesh, "uvs", "a mesh with a textured material needs texture coordinates (uvs)")
     for material in _unique(materials):
         _check_material(c, material)
     return c.problems
@@ -179,6 +189,21 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
         c.add(m, "exponent", f"must be >= 0, got {_show(m.exponent)}")
     c.colour(m, "diffuse_color")
     c.colour(m, "specular_color")
+    for t in m.textures:
+        _check_texture(c, t)
+
+
+def _check_texture(c: _Collector, t) -> None:
+    for field in ("wrap_s", "wrap_t"):
+        if getattr(t, field) not in WRAPS:
+            c.add(t, field, f"must be one of {', '.join(WRAPS)}, got {getattr(t, field)!r}")
+    if max(t.image.shape[:2]) > MAX_TEXTURE_SIDE:
+        c.add(t, "image", f"sides must be at most {MAX_TEXTURE_SIDE} texels, got {t.width} x {t.height}")
+    image = t.image
+    if not np.all(np.isfinite(image)):
+        c.add(t, "image", f"{int(np.count_nonzero(~np.isfinite(image)))} texel values are not finite")
+    elif image.size and (image.min() < 0 or image.max() > MAX_TEXEL):
+        c.add(t, "image", f"texel values must be in [0, {MAX_TEXEL:g}], got {float(image.min()):g}..{float(image.max()):g}")
 
 
 def _check_camera(c: _Collector, cam: Camera) -> None:
@@ -243,6 +268,8 @@ def _check_light(c: _Collector, light) -> None:
                 c.add(light, "cone", f"the cone's axis must be a finite unit vector, got {_show(tuple(cone.axis))}")
             if not (np.isfinite(cone.cos_outer) and np.isfinite(cone.cos_inner) and 0 < cone.cos_outer <= cone.cos_inner <= 1):
                 c.add(light, "cone", f"must have 0 < cos_outer <= cos_inner <= 1, got {_show(cone.cos_outer)}, {_show(cone.cos_inner)}")
+            if not (np.isfinite(cone.focus) and cone.focus >= 0):
+                c.add(light, "cone", f"the cone's focus must be finite and >= 0, got {_show(cone.focus)}")
         fd_ok = c.finite(light, "fade_distance", light.fade_distance)
         if c.finite(light, "fade_power", light.fade_power):
             if light.fade_power < 0:
@@ -294,6 +321,13 @@ def _check_mesh(c: _Collector, mesh: TriangleMesh) -> None:
         bad = int(np.count_nonzero((tri < 0) | (tri >= n_points)))
         example = int(tri[(tri < 0) | (tri >= n_points)][0])
         c.add(mesh, "triangles", f"indices must be in [0, {n_points}): {bad} are not, e.g. {example}")
+    if mesh.uvs is not None:
+        c.finite(mesh, "uvs", mesh.uvs)
+        ui, n_uvs = mesh.uv_indices, len(mesh.uvs)
+        if ui.shape != tri.shape:
+            c.add(mesh, "uv_indices", f"must have one row per triangle ({tri.shape}), got {ui.shape}")
+        elif ui.size and (ui.min() < 0 or ui.max() >= n_uvs):
+            c.add(mesh, "uv_indices", f"indices must be in [0, {n_uvs}): {int(np.count_nonzero((ui < 0) | (ui >= n_uvs)))} are not")
     if mesh.normals is None:
         return
     if c.finite(mesh, "normals", mesh.normals):

@@ -16,6 +16,7 @@ POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import Callable
 
@@ -33,6 +34,7 @@ from phongscene.scene import (
     Scene,
     Sphere,
     SphereAreaLight,
+    Texture,
     TriangleMesh,
 )
 
@@ -212,7 +214,7 @@ def sphere_area_light() -> Scene:
 def inverse_square_lights() -> Scene:
     """UsdLux falloff: a point light and a spherical light fall off as I/d², a tilted rect light
     as I·cos θ/d² (one-sided Lambertian panel), a spot light's cone edge is a smoothstep in cos θ,
-    each with its shadows."""
+    a focused spot's light is × cos θ^focus inside its cone, each with its shadows."""
     scene = _sphere_on_ground(
         PointLight((3.41, 5.07, 2.93), (61.0, 57.0, 52.0), falloff="inverse-square"), material=GOLD
     )
@@ -225,7 +227,10 @@ def inverse_square_lights() -> Scene:
     spot_axis = np.array([0.3, -1.0, -0.2]) / np.linalg.norm([0.3, -1.0, -0.2])
     spot = PointLight((-0.8, 3.9, 0.9), (16.0, 14.0, 12.0), falloff="inverse-square",
                       cone=Cone(_vec(spot_axis), math.cos(math.radians(21.0)), math.cos(math.radians(14.0))))
-    return dataclasses.replace(scene, lights=(*scene.lights, rect, disc, spot))
+    focused_axis = np.array([-0.4, -1.0, 0.3]) / np.linalg.norm([-0.4, -1.0, 0.3])
+    focused = PointLight((1.9, 3.3, 1.4), (13.0, 15.0, 11.0), falloff="inverse-square",
+                         cone=Cone(_vec(focused_axis), math.cos(math.radians(33.0)), math.cos(math.radians(27.0)), 7.5))
+    return dataclasses.replace(scene, lights=(*scene.lights, rect, disc, spot, focused))
 
 
 def ambient_only() -> Scene:
@@ -442,6 +447,51 @@ def povray_golden() -> Scene:
     )
 
 
+@functools.cache
+def checker_texture(wrap_s: str = "repeat", wrap_t: str = "repeat", seed: int = 7) -> Texture:
+    """A 5 × 3 texture of distinct random colours (a non-square, non-power-of-two image, so
+    that a swapped axis, a flipped row order or a half-texel shift all show). Cached: textures
+    compare by identity, and a calibration scene built twice must be equal."""
+    rng = np.random.default_rng(seed)
+    return Texture(rng.uniform(0.05, 1.0, (3, 5, 3)).astype(np.float32), wrap_s, wrap_t, source="/Looks/Checker/Texture")
+
+
+def textured_quad(texture: Texture, uv_lo: float, uv_hi: float, height: float = 0.0) -> TriangleMesh:
+    """The ground quad with texture coordinates from uv_lo to uv_hi across it, per corner
+    (separate uv indices, as a faceVarying st primvar gives)."""
+    quad = ground_quad(height, dataclasses.replace(GROUND, diffuse_texture=texture, ks=0.3, exponent=20.0))
+    uvs = [(uv_lo, uv_lo), (uv_hi, uv_lo * 0.7), (uv_hi * 1.1, uv_hi), (uv_lo * 0.8, uv_hi)]
+    return dataclasses.replace(quad, uvs=uvs, uv_indices=[(0, 2, 1), (0, 3, 2)])
+
+
+def texture_repeat() -> Scene:
+    """A textured glossy ground (repeat wrap, uvs from -2.3 to 3.1: tiles, seams, negative uvs)
+    under a point light, with the sphere's shadow on it."""
+    scene = point_light()
+    return dataclasses.replace(scene, meshes=(textured_quad(checker_texture(), -2.3, 3.1),))
+
+
+def texture_clamp() -> Scene:
+    """Clamp along u and mirror along v with uvs inside [0, 1]: the edge texels extend to the
+    quad's border (POV-Ray: ``once``, no tiling needed)."""
+    scene = point_light()
+    return dataclasses.replace(scene, meshes=(textured_quad(checker_texture("clamp", "mirror"), 0.0, 0.9),))
+
+
+@functools.cache
+def _specular_checker() -> Texture:
+    return Texture(checker_texture(seed=11).image * 3.0, "repeat", "repeat", source="/Looks/Checker/Specular")
+
+
+def texture_specular() -> Scene:
+    """A textured highlight colour (cs) beside a textured cd, on a glossy ground, under two lights
+    (the exact mapping's per-light passes each carry the cs filter layer)."""
+    scene = shadows_two_lights()
+    quad = textured_quad(checker_texture(), -0.6, 1.7)
+    material = dataclasses.replace(quad.material, specular_texture=_specular_checker(), ks=0.9, exponent=3.0)
+    return dataclasses.replace(scene, meshes=(dataclasses.replace(quad, material=material),))
+
+
 def classic_variant(scene: Scene) -> Scene:
     """The same scene under the ``povray-classic`` specular convention."""
     return dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, specular="povray-classic"))
@@ -471,4 +521,7 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "exponent_zero": exponent_zero,
     "huge_exponent": huge_exponent,
     "povray_golden": povray_golden,
+    "texture_repeat": texture_repeat,
+    "texture_clamp": texture_clamp,
+    "texture_specular": texture_specular,
 }

@@ -255,6 +255,39 @@ class _Mesh:
     material: int
     lo: np.ndarray  # padded bounds
     hi: np.ndarray
+    corner_uv: np.ndarray | None = None  # (T, 3, 2) when the material is textured
+    texture: object = None  # the material's diffuse Texture
+    specular_texture: object = None  # ... and specular Texture
+
+
+# numpy's pad mode for each wrap rule: the image extended beyond its edges is exactly what the
+# rule samples there (np.pad "symmetric" repeats the edge texel: mirror about the image edge).
+_PAD_MODES = {"repeat": "wrap", "clamp": "edge", "mirror": "symmetric", "black": "constant"}
+
+
+def sample_texture(texture, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The texture at (u, v), written independently of both backends: the image is padded
+    (numpy's pad, by each axis's wrap rule) far enough to cover every (u, v), then bilinearly
+    interpolated between texel centres (texel (i, j) at u = (i + ½)/W, v = 1 − (j + ½)/H)."""
+    image = np.asarray(texture.image, dtype=np.float64)
+    h, w = image.shape[:2]
+    x = np.asarray(u, dtype=np.float64) * w - 0.5
+    y = (1.0 - np.asarray(v, dtype=np.float64)) * h - 0.5
+    if x.size == 0:
+        return np.zeros((0, 3))
+    x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+    px = (max(0, -int(x0.min())), max(0, int(x0.max()) + 2 - w))
+    py = (max(0, -int(y0.min())), max(0, int(y0.max()) + 2 - h))
+    padded = image
+    for axis, pads, wrap in ((1, px, texture.wrap_s), (0, py, texture.wrap_t)):
+        widths = [(0, 0)] * 3
+        widths[axis] = pads
+        padded = np.pad(padded, widths, mode=_PAD_MODES[wrap])
+    xi, yi = x0 + px[0], y0 + py[0]
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    return (padded[yi, xi] * (1 - fx) + padded[yi, xi + 1] * fx) * (1 - fy) + (
+        padded[yi + 1, xi] * (1 - fx) + padded[yi + 1, xi + 1] * fx
+    ) * fy
 
 
 @dataclass
@@ -299,7 +332,14 @@ def _prepare(scene: Scene) -> _Geometry:
         corner_normals = None if mesh.normals is None else mesh.normals[mesh.normal_indices]
         lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
         pad = AABB_PAD_RELATIVE * (1.0 + float(np.abs(mesh.points).max()))
-        meshes.append(_Mesh(p0, e1, e2, cross_len, flat, corner_normals, material_index(mesh.material), lo - pad, hi + pad))
+        texture, specular = mesh.material.diffuse_texture, mesh.material.specular_texture
+        corner_uv = None if texture is None and specular is None else mesh.uvs[mesh.uv_indices]
+        meshes.append(
+            _Mesh(
+                p0, e1, e2, cross_len, flat, corner_normals, material_index(mesh.material), lo - pad, hi + pad,
+                corner_uv, texture, specular,
+            )
+        )
     return _Geometry(
         inverses,
         normal_matrices,
@@ -384,11 +424,14 @@ def _mesh_hits(mesh: _Mesh, o: np.ndarray, d: np.ndarray, accept) -> tuple[np.nd
 
 
 def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
-    """Nearest hit with MIN_ISECT_DEPTH <= t < MAX_DISTANCE: (t, material, unflipped normal); t = inf on a miss."""
+    """Nearest hit with MIN_ISECT_DEPTH <= t < MAX_DISTANCE: (t, material, unflipped normal, cd
+    and cs at the hit: the material's, or its textures' at the hit's uv); t = inf on a miss."""
     n = len(o)
     best_t = np.full(n, np.inf)
     material = np.full(n, -1, dtype=np.int64)
     normal = np.zeros((n, 3))
+    colour = np.zeros((n, 3))
+    specular = np.zeros((n, 3))
 
     def accept(t, _rows):
         return (t >= MIN_ISECT_DEPTH) & (t < MAX_DISTANCE)
@@ -401,6 +444,8 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
             continue
         best_t[closer] = t[closer]
         material[closer] = mat
+        colour[closer] = geo.cd[mat]
+        specular[closer] = geo.cs[mat]
         p_object = (o[closer] + t[closer, None] * d[closer]) @ inverse[:3, :3].T + inverse[:3, 3]
         nw = p_object @ normal_matrix.T
         normal[closer] = nw / np.linalg.norm(nw, axis=1, keepdims=True)
@@ -412,6 +457,15 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
         best_t[closer] = t[closer]
         material[closer] = mesh.material
         tri, u, v = tri[closer], u[closer], v[closer]
+        colour[closer] = geo.cd[mesh.material]
+        specular[closer] = geo.cs[mesh.material]
+        if mesh.corner_uv is not None:
+            uv = mesh.corner_uv[tri]
+            st = (1.0 - u - v)[:, None] * uv[:, 0] + u[:, None] * uv[:, 1] + v[:, None] * uv[:, 2]
+            if mesh.texture is not None:
+                colour[closer] = sample_texture(mesh.texture, st[:, 0], st[:, 1])
+            if mesh.specular_texture is not None:
+                specular[closer] = sample_texture(mesh.specular_texture, st[:, 0], st[:, 1])
         if mesh.corner_normals is None:
             nw = mesh.flat_normal[tri]
         else:
@@ -419,7 +473,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
             nw = (1.0 - u - v)[:, None] * c[:, 0] + u[:, None] * c[:, 1] + v[:, None] * c[:, 2]
             nw = nw / np.linalg.norm(nw, axis=1, keepdims=True)
         normal[closer] = nw
-    return best_t, material, normal
+    return best_t, material, normal, colour, specular
 
 
 def _occluded(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray) -> np.ndarray:
@@ -490,7 +544,8 @@ def _light_at_centre(light, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
         c = (-l) @ np.asarray(cone.axis, dtype=np.float64)
         span = cone.cos_inner - cone.cos_outer
         t = np.clip((c - cone.cos_outer) / span, 0.0, 1.0) if span > 0 else (c > cone.cos_outer).astype(np.float64)
-        lc = lc * (t * t * (3.0 - 2.0 * t))[:, None]
+        focus = np.power(np.maximum(c, 0.0), cone.focus) if cone.focus > 0 else 1.0  # cos θ^focus
+        lc = lc * (t * t * (3.0 - 2.0 * t) * focus)[:, None]
     return l, dist, lc
 
 
@@ -510,11 +565,10 @@ def _visible_fraction(geo: _Geometry, light, p: np.ndarray, l: np.ndarray, dist:
     return (~blocked).astype(np.float64) @ weights
 
 
-def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material) -> np.ndarray:
+def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material, cd, cs) -> np.ndarray:
     n = np.where((np.einsum("ij,ij->i", normal, d) > 0.0)[:, None], -normal, normal)  # face the viewer
     wo = -d
     ka, kd, ks, e = geo.ka[material], geo.kd[material], geo.ks[material], geo.exponent[material]
-    cd, cs = geo.cd[material], geo.cs[material]
     radiance = ka[:, None] * cd * np.asarray(scene.ambient.color, dtype=np.float64)
     for light in scene.lights:
         l, dist, lc = _light_at_centre(light, p)
@@ -551,13 +605,13 @@ def _trace(geo: _Geometry, scene: Scene, settings: RenderSettings, origins, dire
     o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
-    t, material, normal = _closest_hit(geo, o, d)
+    t, material, normal, colour, specular = _closest_hit(geo, o, d)
     radiance = np.empty((len(o), 3))
     radiance[:] = np.asarray(settings.background, dtype=np.float64)
     hit = np.isfinite(t)
     if hit.any():
         p = o[hit] + t[hit, None] * d[hit]
-        radiance[hit] = _shade(geo, scene, settings, p, d[hit], normal[hit], material[hit])
+        radiance[hit] = _shade(geo, scene, settings, p, d[hit], normal[hit], material[hit], colour[hit], specular[hit])
     return radiance
 
 
@@ -581,3 +635,26 @@ def render(scene: Scene, settings: RenderSettings | None = None) -> np.ndarray:
     origins, directions = camera_rays(scene.camera, width, height, sx, sy)
     radiance = _trace(_prepare(scene), scene, settings, origins, directions)
     return np.einsum("hwkc,k->hwc", radiance.reshape(height, width, len(weights), 3), weights)
+
+
+def with_half_texels(scene: Scene) -> Scene:
+    """``scene`` with every texture's texels rounded to half floats: what POV-Ray samples, as it
+    holds an EXR image map as half floats (docs/povray-3.7-semantics.md §16). Compare POV-Ray
+    images with the oracle of this scene."""
+    import dataclasses
+
+    def half_texture(t):
+        if t is None:
+            return None
+        return dataclasses.replace(t, image=np.asarray(t.image, dtype=np.float16).astype(np.float32))
+
+    def half(material):
+        return dataclasses.replace(
+            material, diffuse_texture=half_texture(material.diffuse_texture), specular_texture=half_texture(material.specular_texture)
+        )
+
+    return dataclasses.replace(
+        scene,
+        spheres=tuple(dataclasses.replace(s, material=half(s.material)) for s in scene.spheres),
+        meshes=tuple(dataclasses.replace(m, material=half(m.material)) for m in scene.meshes),
+    )

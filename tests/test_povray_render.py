@@ -71,14 +71,14 @@ def test_calibration_scene_matches_oracle(calibration_renders, name, mapping, mo
     scene, image = calibration_renders[0][(name, mapping)]
     s = scene.settings
     assert image.shape == (s.height, s.width, 3) and image.dtype == np.float32
-    ref = oracle.render(scene)
+    ref = oracle.render(oracle.with_half_texels(scene))
     ok = _within(image, ref)
     if ok.all():
         return
     outliers = np.argwhere(~ok)
     assert len(outliers) <= SHADOW_CACHE_MAX_PIXELS, f"{len(outliers)} pixels off, e.g. (row, col) {outliers[:5].tolist()}"
     monkeypatch.setattr(oracle, "SHADOW_TOLERANCE", SHADOW_CACHE_WINDOW)
-    cached = oracle.render(scene)
+    cached = oracle.render(oracle.with_half_texels(scene))
     explained = _within(image, cached)
     for row, col in outliers:
         assert explained[row, col], (

@@ -337,14 +337,15 @@ def test_preview_to_phong_metallic_and_specular_workflow():
     assert preview_to_phong((0.2, 0.2, 0.2), 0.0).exponent == PREVIEW_MAX_EXPONENT  # capped
 
 
-def test_texture_connected_input_uses_default_with_warning(tmp_path):
+def test_texture_without_an_image_uses_its_fallback_with_a_warning(tmp_path):
     inputs = 'color3f inputs:diffuseColor.connect = </M/T.outputs:rgb>\n float inputs:roughness = 0.5'
     body = PREVIEW.format(inputs=inputs).replace(
         'def Shader "S"', 'def Shader "T" { uniform token info:id = "UsdUVTexture"\n float3 outputs:rgb }\n    def Shader "S"'
     )
     result = read(tmp_path, body)
-    assert result.scene.spheres[0].material.diffuse_color == pytest.approx((0.18, 0.18, 0.18))  # UsdPreviewSurface default
-    assert any("texture-connected" in w and "/M/S.inputs:diffuseColor" in w for w in result.warnings)
+    # A texture without an image gives its fallback (UsdUVTexture's default: (0, 0, 0, 1)).
+    assert result.scene.spheres[0].material.diffuse_color == pytest.approx((0.0, 0.0, 0.0))
+    assert any("/M/T.inputs:file" in w and "fallback" in w for w in result.warnings)
 
 
 def test_phong_shader_unauthored_inputs_take_sdr_defaults(tmp_path):
@@ -558,6 +559,30 @@ def test_shaping_cone_on_a_point_light(tmp_path):
     assert wide.cone is None  # a hard 180° cone restricts nothing, and is not warned about
     assert not [w for w in result.warnings if "cone" in w]
 
+
+
+def test_shaping_focus_is_a_cosine_power_inside_the_cone(tmp_path):
+    body = """
+    def SphereLight "Focused" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 40
+        float inputs:shaping:focus = 6 }
+    def SphereLight "Tinted" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 40
+        float inputs:shaping:focus = 2
+        color3f inputs:shaping:focusTint = (0.2, 0.1, 0) }
+    def SphereLight "Everywhere" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
+        bool inputs:normalize = 1
+        float inputs:shaping:cone:angle = 180
+        float inputs:shaping:focus = 3 }
+    """
+    result = read(tmp_path, body)
+    focused, tinted, everywhere = result.scene.lights
+    assert focused.cone.focus == 6.0 and tinted.cone.focus == 2.0
+    assert everywhere.cone is None
+    assert any("focusTint" in w and "/Tinted" in w and "/Focused" not in w for w in result.warnings)
+    assert any("focus but no cone" in w and "/Everywhere" in w for w in result.warnings)
 
 TYPOS = """
 def SphereLight "L" {

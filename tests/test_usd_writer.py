@@ -17,6 +17,7 @@ from phongscene.cli import main
 from phongscene.scene import (
     AmbientLight,
     Camera,
+    Cone,
     DirectionalLight,
     PhongMaterial,
     PointLight,
@@ -44,6 +45,7 @@ def scene() -> Scene:
         ambient=AmbientLight((0.1, 0.2, 0.3)),
         lights=(
             PointLight((1, 2, 3), (math.pi,) * 3, 2.0, 1.0),
+            PointLight((0, 4, 1), (5.0, 6.0, 7.0), falloff="inverse-square", cone=Cone((0.6, -0.8, 0.0), 0.8, 0.9, 4.0)),
             DirectionalLight((0.0, -0.6, -0.8), (1.0, 0.5, 0.2), diffuse=0.5, specular=2.0),
             RectAreaLight((0, 5, 0), (1, 0, 0), (0, 0.5, 2), (2, 2, 2), 5),
             SphereAreaLight((3, 3, 3), 0.3, (1, 1, 1), 17),

@@ -49,6 +49,49 @@ def _material(m: PhongMaterial) -> _native.Material:
     )
 
 
+def _materials(models) -> list[_native.Material]:
+    """The native materials, each textured one numbered by its texture's position in
+    ``textures(scene)`` (first use in material order)."""
+    out, texture_ids = [], {}
+    for m in models:
+        native = _material(m)
+        if m.diffuse_texture is not None:
+            native.diffuse_texture = texture_ids.setdefault(id(m.diffuse_texture), len(texture_ids))
+        if m.specular_texture is not None:
+            native.specular_texture = texture_ids.setdefault(id(m.specular_texture), len(texture_ids))
+        out.append(native)
+    return out
+
+
+_WRAPS = {"repeat": _native.Wrap.repeat, "clamp": _native.Wrap.clamp, "mirror": _native.Wrap.mirror, "black": _native.Wrap.black}
+
+
+def texture_arrays(scene: Scene, *, half_texels: bool = False) -> dict | None:
+    """The arguments of ``_native.Scene.set_textures``, or None without textures: the textures
+    in the order ``_materials`` numbers them (materials in first-use order, spheres then
+    meshes), and each triangle's corner uvs (zeros for meshes without uvs). ``half_texels``:
+    texels rounded to half floats, as POV-Ray holds an EXR image map (ref §16)."""
+    models: dict[PhongMaterial, None] = {}
+    for obj in (*scene.spheres, *scene.meshes):
+        models.setdefault(obj.material, None)
+    textures: dict[int, object] = {}
+    for m in models:
+        for t in m.textures:  # diffuse first, as _materials numbers them
+            textures.setdefault(id(t), t)
+    if not textures:
+        return None
+    corner_uv = [
+        m.uvs[m.uv_indices] if m.uvs is not None else np.zeros((len(m.triangles), 3, 2)) for m in scene.meshes
+    ]
+    images = [t.image.astype(np.float16).astype(np.float32) if half_texels else t.image for t in textures.values()]
+    return {
+        "images": [np.ascontiguousarray(i, dtype=np.float32) for i in images],
+        "wrap_s": [_WRAPS[t.wrap_s] for t in textures.values()],
+        "wrap_t": [_WRAPS[t.wrap_t] for t in textures.values()],
+        "corner_uv": np.ascontiguousarray(np.concatenate(corner_uv) if corner_uv else np.zeros((0, 3, 2)), dtype=np.float64),
+    }
+
+
 def _light(light: Light):
     native = _native_light(light)
     if (light.diffuse, light.specular) != (1.0, 1.0):
@@ -65,6 +108,7 @@ def _native_light(light: Light):
         if light.cone is not None:
             native.cone_axis = light.cone.axis
             native.cone_cos_outer, native.cone_cos_inner = light.cone.cos_outer, light.cone.cos_inner
+            native.cone_focus = light.cone.focus
         return native
     if isinstance(light, DirectionalLight):
         return _native.DirectionalLight(direction=light.direction, color=light.color)
@@ -169,7 +213,7 @@ def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:
         "mesh_origins": c(np.array([m.local_origin() for m in meshes]).reshape(-1, 3), np.float64),
         "normals": c(normals, np.float64),
         "normal_indices": c(normal_indices, np.int32),
-        "materials": [_material(m) for m in material_ids],
+        "materials": _materials(material_ids),
         "lights": [_light(light) for light in scene.lights],
         "ambient": scene.ambient.color,
     }
@@ -177,7 +221,11 @@ def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:
 
 def build(scene: Scene) -> _native.Scene:
     """The C++ scene (geometry, materials, lights and BVH) of a validated ``scene``."""
-    return _native.Scene(**scene_arrays(scene))
+    native = _native.Scene(**scene_arrays(scene))
+    textures = texture_arrays(scene)
+    if textures is not None:
+        native.set_textures(**textures)
+    return native
 
 
 def render(
@@ -206,7 +254,11 @@ def render(
     arrays = scene_arrays(scene)
     if s.numerics != "scale-invariant":
         arrays = _as_povray_stores(arrays, scene)
-    return _native.Scene(**arrays).render(camera=_camera(scene.camera), settings=_settings(s), progress=progress)
+    native = _native.Scene(**arrays)
+    textures = texture_arrays(scene, half_texels=s.numerics != "scale-invariant")
+    if textures is not None:
+        native.set_textures(**textures)
+    return native.render(camera=_camera(scene.camera), settings=_settings(s), progress=progress)
 
 
 # POV-Ray's mesh2 shades a triangle smoothly only when its vertex normals differ by more than

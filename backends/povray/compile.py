@@ -40,7 +40,9 @@ appear in ``//`` comments after ``sanitize_comment``.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -54,6 +56,7 @@ from phongscene.scene import (
     Scene,
     Sphere,
     SphereAreaLight,
+    Texture,
     TriangleMesh,
 )
 
@@ -81,6 +84,105 @@ LAMBERT_SPOTLIGHT = "spotlight radius 90 falloff 90 tightness 1"
 # '#', '"', '*', '\\' and all control characters are escaped, so a comment can neither end early
 # nor carry a directive.
 _COMMENT_SAFE = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789/_.:-[]<>(), =+@")
+
+
+# The wrap rules as numpy pad modes: the image extended by whole tiles is exactly what the rule
+# samples there (np.pad "symmetric" repeats the edge texel: a mirror about the image edge).
+PAD_MODES = {"repeat": "wrap", "clamp": "edge", "mirror": "symmetric", "black": "constant"}
+# The most texels a texture may grow to when it is tiled to cover the scene's uvs (below):
+# 2^26 (400 MB as a half RGB EXR). Beyond, POV-Ray samples the image itself with ``once``.
+MAX_TILED_TEXELS = 2**26
+
+
+@dataclass(frozen=True)
+class UvFrame:
+    """How the SDL's uvs and images relate to the model's. POV-Ray has only repeat and ``once``
+    (clamp inside [0, 1]², clear outside, ref §16); every USD wrap rule, per axis, is exact in
+    POV-Ray when each image is extended, by its own rules (PAD_MODES), over a box that holds
+    every textured uv with a margin beyond the bilinear footprint (so the outer edge, where
+    ``once`` clamps, is never blended), the uvs are mapped into [0, 1]² by the affine
+    u' = (u − u_lo)/u_span (which commutes with the barycentric interpolation of the uvs, so the
+    lookup between texel centres is unchanged), and ``once`` is used. The box's edges are
+    multiples of 1/g, g the greatest common divisor of the textures' sides along that axis, so
+    that every image grows by whole texels. The identity frame (no extension, no ``once``) when
+    every texture repeats on both axes."""
+
+    g_u: int = 1  # the box along u: [lo_u/g_u, (lo_u + n_u)/g_u]
+    lo_u: int = 0
+    n_u: int = 1
+    g_v: int = 1  # along v: [lo_v/g_v, (lo_v + n_v)/g_v]
+    lo_v: int = 0
+    n_v: int = 1
+
+    @property
+    def identity(self) -> bool:
+        return (self.lo_u, self.n_u, self.lo_v, self.n_v) == (0, self.g_u, 0, self.g_v)
+
+    def apply(self, uvs: np.ndarray) -> np.ndarray:
+        if self.identity:
+            return uvs
+        lo = np.array([self.lo_u / self.g_u, self.lo_v / self.g_v])
+        return (uvs - lo) / np.array([self.n_u / self.g_u, self.n_v / self.g_v])
+
+    def tile(self, texture: Texture) -> np.ndarray:
+        """The texture's image extended over the frame's box by its own wrap rules (the image
+        itself covers [0, 1]², which the box contains)."""
+        h, w = texture.height, texture.width
+        per_u, per_v = w // self.g_u, h // self.g_v  # texels per 1/g
+        cols = (-self.lo_u * per_u, (self.lo_u + self.n_u) * per_u - w)
+        rows = ((self.lo_v + self.n_v) * per_v - h, -self.lo_v * per_v)  # row 0 is the top (v high)
+        image = np.pad(texture.image, (rows, (0, 0), (0, 0)), mode=PAD_MODES[texture.wrap_t])
+        return np.pad(image, ((0, 0), cols, (0, 0)), mode=PAD_MODES[texture.wrap_s])
+
+
+def uv_frame(scene: Scene) -> UvFrame:
+    """The scene's UvFrame: identity if every texture repeats (or none is used), else the box
+    around every textured mesh's uvs and [0, 1]², widened by 1/g on each side (beyond the half
+    texel a bilinear lookup reaches), unless an extended image would exceed MAX_TILED_TEXELS
+    (then identity: POV-Ray's ``once`` is exact for clamp and mirror inside [0, 1]² only)."""
+    textured = [m for m in scene.meshes if m.material.textures and m.uvs is not None and len(m.triangles)]
+    textures = {id(t): t for m in (*scene.spheres, *scene.meshes) for t in m.material.textures}
+    if all((t.wrap_s, t.wrap_t) == ("repeat", "repeat") for t in textures.values()) or not textured:
+        return UvFrame()
+    used = np.concatenate([m.uvs[np.unique(m.uv_indices)] for m in textured])
+    g_u = math.gcd(*(t.width for t in textures.values()))
+    g_v = math.gcd(*(t.height for t in textures.values()))
+    with np.errstate(over="ignore", invalid="ignore"):
+        lo = np.minimum(np.floor(used.min(axis=0) * (g_u, g_v)), 0.0) - 1.0
+        hi = np.maximum(np.ceil(used.max(axis=0) * (g_u, g_v)), (g_u, g_v)) + 1.0
+        n = hi - lo
+        growth = float(n[0] / g_u * n[1] / g_v)  # the area of the box, in images
+        largest = max(t.width * t.height for t in textures.values())
+        if not (np.all(np.isfinite(n)) and growth * largest <= MAX_TILED_TEXELS):
+            return UvFrame()
+    return UvFrame(g_u, int(lo[0]), int(n[0]), g_v, int(lo[1]), int(n[1]))
+
+
+def texture_file_name(image: np.ndarray) -> str:
+    """The file name an image is written to beside the SDL: from a hash of its texels, so that
+    it is deterministic, and scenes batched into one run share equal images."""
+    digest = hashlib.sha1(np.ascontiguousarray(image).tobytes())
+    digest.update(repr(image.shape).encode("ascii"))
+    return f"phongscene-texture-{digest.hexdigest()[:16]}.exr"
+
+
+def pov_images(scene: Scene) -> tuple[UvFrame, dict[int, tuple[str, np.ndarray]]]:
+    """The scene's UvFrame and, by ``id(texture)``, the file name and image POV-Ray reads for
+    each texture (tiled over the frame)."""
+    frame = uv_frame(scene)
+    out: dict[int, tuple[str, np.ndarray]] = {}
+    for obj in (*scene.spheres, *scene.meshes):
+        for t in obj.material.textures:
+            if id(t) not in out:
+                image = t.image if frame.identity else frame.tile(t)
+                out[id(t)] = (texture_file_name(image), image)
+    return frame, out
+
+
+def texture_files(scene: Scene) -> dict[str, np.ndarray]:
+    """The image files the SDL of ``scene`` reads (``image_map``), by file name: write each
+    image there as a half-float EXR (``PovJob.write_textures``) before rendering."""
+    return dict(pov_images(scene)[1].values())
 
 
 def sanitize_comment(text: str) -> str:
@@ -194,6 +296,7 @@ class _Compiler:
         # scaling the inverse-square fade: computed once, not once per light and pass.
         with np.errstate(over="ignore", invalid="ignore"):
             self.bounds = scene.bounds()
+        self.uv_frame, self.images = pov_images(scene)
 
     # -- numbers, with the prim named when one is not finite ---------------------------------
 
@@ -309,13 +412,14 @@ class _Compiler:
                 )
             if light.cone is not None:
                 # POV-Ray's spotlight: 1 inside `radius`, 0 outside `falloff`, a cubic (smoothstep)
-                # in cos between; tightness 0 adds no cos^n factor.
+                # in cos between, times cos^tightness (the cone's focus; 0 adds no factor).
                 cone = light.cone
                 target = np.asarray(light.position, dtype=np.float64) + np.asarray(cone.axis, dtype=np.float64)
                 text += (
                     f" spotlight point_at {self.vec(target, light, 'cone')}"
                     f" radius {self.num(math.degrees(math.acos(cone.cos_inner)), light, 'cone')}"
-                    f" falloff {self.num(math.degrees(math.acos(cone.cos_outer)), light, 'cone')} tightness 0"
+                    f" falloff {self.num(math.degrees(math.acos(cone.cos_outer)), light, 'cone')}"
+                    f" tightness {self.num(cone.focus, light, 'cone') if cone.focus > 0 else 0}"
                 )
             return text + fade + " }"
         if isinstance(light, DirectionalLight):
@@ -421,34 +525,54 @@ class _Compiler:
             texture = self.texture(m, name)
             self.lines.append(f"#declare {name} = {texture}")
 
+    def diffuse_pigment(self, m: PhongMaterial) -> str:
+        """cd as a pigment: a colour, or the texture as an ``image_map`` on the mesh's uvs. The
+        image is a half-float EXR (linear: POV-Ray applies no gamma to EXR; it holds EXR maps
+        as half floats anyway), looked up bilinearly between texel centres (interpolate 2),
+        extended and wrapped as ``UvFrame`` says (ref §16)."""
+        t = m.diffuse_texture
+        if t is None:
+            return f"pigment {{ rgb {self.rgb(m.diffuse_color, m, 'diffuse_color')} }}"
+        return f"pigment {{ {self.image_map(t)} }}"
+
+    def image_map(self, t: Texture, modifiers: str = "") -> str:
+        """The texture's image map (see UvFrame): ``once`` unless the image simply repeats."""
+        once = "" if self.uv_frame.identity and (t.wrap_s, t.wrap_t) == ("repeat", "repeat") else " once"
+        name = self.images[id(t)][0]
+        return f'uv_mapping image_map {{ exr "{name}" interpolate 2{once}{modifiers} }}'
+
     @property
     def diffuse_term(self) -> str:
         return " * Light_Diffuse" if self.light_terms else ""
 
     def texture(self, m: PhongMaterial, name: str) -> str:
-        cd = self.rgb(m.diffuse_color, m, "diffuse_color")
+        self.rgb(m.diffuse_color, m, "diffuse_color")  # checked also when a texture replaces it
+        pigment = self.diffuse_pigment(m)
         e = self.coef(m.exponent, m, "exponent")
         ks = self.coef(m.ks, m, "ks")  # checked even where no highlight is written
         if not self.exact or m.ks <= 0:
             # Classic: one idiomatic finish. Exact without a highlight: one plain texture is exact.
             phong = f" phong {ks} phong_size {e}" if m.ks > 0 else ""
             return (
-                f"texture {{ pigment {{ rgb {cd} }} finish {{ ambient {self.coef(m.ka, m, 'ka')}"
+                f"texture {{ {pigment} finish {{ ambient {self.coef(m.ka, m, 'ka')}"
                 f" diffuse {self.coef(m.kd / math.pi, m, 'kd')}{self.diffuse_term}{phong} }} }}"
             )
         # (A) the average of a diffuse texture and a layered specular texture, each doubled.
         # (A texture_map entry cannot hold a layered texture inline: it is declared first.)
         phong = self.coef(2 * m.ks, m, "ks") + (" * Light_Specular" if self.light_terms else "")
         layers = [f"texture {{ pigment {{ rgb 0 }} finish {{ ambient 0 diffuse 0 phong {phong} phong_size {e} }} }}"]
-        if tuple(m.specular_color) != (1.0, 1.0, 1.0):
-            cs = self.rgb(m.specular_color, m, "specular_color")
+        cs = self.rgb(m.specular_color, m, "specular_color")
+        if m.specular_texture is not None:
+            # cs per point: the image as a filter layer (filter all 1: rgbf <texel, 1>, ref §16).
+            layers.append(f"texture {{ pigment {{ {self.image_map(m.specular_texture, ' filter all 1')} }} finish {{ ambient 0 diffuse 0 }} }}")
+        elif tuple(m.specular_color) != (1.0, 1.0, 1.0):
             layers.append(f"texture {{ pigment {{ rgbf <{cs[1:-1]}, 1> }} finish {{ ambient 0 diffuse 0 }} }}")
         # (B) the specular n.l of this pass's light.
         layers.append("texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }")
         self.lines.append(f"#declare {name}_Specular =\n  " + "\n  ".join(layers))
         # (A texture_map entry holds a texture body without the 'texture' keyword.)
         diffuse = (
-            f"pigment {{ rgb {cd} }} finish {{ ambient {self.coef(2 * m.ka, m, 'ka')}"
+            f"{pigment} finish {{ ambient {self.coef(2 * m.ka, m, 'ka')}"
             f" diffuse {self.coef(2 * m.kd / math.pi, m, 'kd')}{self.diffuse_term} }}"
         )
         return f"texture {{ average texture_map {{\n  [1 {diffuse}]\n  [1 {name}_Specular]\n}} }}"
@@ -489,10 +613,18 @@ class _Compiler:
         )
         if normals is not None:
             out.append(f"  normal_vectors {{ {len(mesh.normals)},\n{normals}\n  }}")
+        if mesh.uvs is not None:
+            try:
+                uvs = ",\n".join(f"<{sdl_float(u)}, {sdl_float(v)}>" for u, v in self.uv_frame.apply(mesh.uvs))
+            except NonFiniteNumber as e:
+                raise self._error(mesh, "uvs", f"cannot be written to mesh2: {e}") from None
+            out.append(f"  uv_vectors {{ {len(mesh.uvs)},\n{uvs}\n  }}")
         out.append(f"  face_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.triangles)}\n  }}")
         if normals is not None and not same_indices:
             # Without normal_indices POV uses the face indices (ref §7); only write them when they differ.
             out.append(f"  normal_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.normal_indices)}\n  }}")
+        if mesh.uvs is not None:
+            out.append(f"  uv_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.uv_indices)}\n  }}")
         if origin.any():
             # Local coordinates keep float32 precision far from the origin; the translate comes
             # before the texture, so the texture (the exact mapping's slope) stays in world space.

@@ -27,10 +27,10 @@ from pathlib import Path
 import numpy as np
 
 from phongscene.errors import BackendError, PhongSceneError
-from phongscene.images import read_image
+from phongscene.images import read_image, write_image
 from phongscene.scene import RenderSettings, Scene
 
-from .compile import compile_body, compile_pov, pass_count, resolve_mapping
+from .compile import compile_body, compile_pov, pass_count, resolve_mapping, texture_files
 
 # The largest value of POV-Ray's half-float EXR output; brighter pixels are written as inf.
 HALF_MAX = 65504.0
@@ -54,6 +54,12 @@ class PovJob:
     height: int
     supersample: int  # "grid" anti-aliasing: average supersample² blocks (1 = none)
     switches: tuple[str, ...]  # everything except input, output and frames
+    # The image files the SDL reads, by file name: written beside it (write_textures).
+    textures: tuple[tuple[str, np.ndarray], ...] = ()
+
+    def write_textures(self, directory: str | os.PathLike) -> list[Path]:
+        """Write each image the SDL reads beside it as the half-float EXR it names (atomically)."""
+        return [write_image(Path(directory) / name, image, half=True) for name, image in self.textures]
 
     def frame_switches(self) -> tuple[str, ...]:
         return ("+KFI0", f"+KFF{self.frames - 1}") if self.frames > 1 else ()
@@ -100,7 +106,8 @@ def prepare(scene: Scene, settings: RenderSettings | None = None, mapping: str |
     settings = scene.settings if settings is None else settings
     mapping = resolve_mapping(settings, mapping)
     width, height, k, switches = render_switches(settings)
-    return PovJob(compile_pov(scene, settings, mapping), pass_count(scene, mapping), width, height, k, switches)
+    textures = tuple(texture_files(scene).items())
+    return PovJob(compile_pov(scene, settings, mapping), pass_count(scene, mapping), width, height, k, switches, textures)
 
 
 def render(
@@ -164,7 +171,10 @@ def render_many(
         else:
             sdl = _batch_sdl([jobs[i][:3] for i in members])
         passes = [pass_count(jobs[i][0], jobs[i][2]) for i in members]
-        job = PovJob(sdl, sum(passes), width, height, k, switches)
+        textures: dict = {}
+        for i in members:
+            textures.update(texture_files(jobs[i][0]))
+        job = PovJob(sdl, sum(passes), width, height, k, switches, tuple(textures.items()))
 
         def frame_done(frames: int, base: int = done) -> None:
             if progress:
@@ -221,6 +231,7 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
     workdir.mkdir(parents=True, exist_ok=True)
     pov, output, log = workdir / f"{stem}.pov", workdir / f"{stem}.exr", workdir / f"{stem}.log"
     pov.write_text(job.sdl, encoding="ascii")
+    job.write_textures(workdir)
     (workdir / f"{stem}.ini").write_text(job.ini(pov.name, output.name), encoding="ascii")
     home = workdir / "home"
     (home / ".povray" / "3.7").mkdir(parents=True, exist_ok=True)

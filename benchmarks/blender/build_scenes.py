@@ -392,12 +392,47 @@ def scene_suzanne_glossy(samples):
     return scene, [floor, suz_mat, gold]
 
 
+def textured(name, image, roughness):
+    """A Principled BSDF whose Base Color is an Image Texture node (the active UV map)."""
+    mat = principled(name, roughness=roughness)
+    nt = mat.node_tree
+    tex = nt.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tex.interpolation = 'Linear'
+    tex.extension = 'REPEAT'
+    nt.links.new(tex.outputs["Color"], nt.nodes.get("Principled BSDF").inputs["Base Color"])
+    return mat
+
+
+def scene_textured_glossy(samples):
+    # An image texture on a glossy material: Blender's generated colour grid (saved as an 8-bit
+    # sRGB PNG, exported beside the USD) on a floor plane (UVs tiled 2x) and a UV sphere.
+    scene = reset()
+    setup_render(scene, 320, 240, samples)
+    image = bpy.data.images.new("ColorGrid", 64, 64)
+    image.generated_type = 'COLOR_GRID'
+    image.filepath_raw = os.path.join(HERE, "textured_glossy_grid.png")
+    image.file_format = 'PNG'
+    image.save()
+    floor = textured("FloorTextured", image, roughness=0.6)
+    plane = add_plane("Floor", 8.0, floor)
+    for loop in plane.data.uv_layers.active.data:
+        loop.uv = (loop.uv[0] * 2.0, loop.uv[1] * 2.0)  # repeat wrap: the grid tiles twice
+    glossy = textured("SphereGlossy", image, roughness=0.25)
+    add_sphere("Sphere", 1.0, (0, 0, 1.0), glossy, segments=48, rings=24)
+    add_light(scene, "PointLight", 'POINT', (-2.5, -3.0, 4.0), 800.0, shadow_soft_size=0.0)
+    add_light(scene, "SunLight", 'SUN', (0, 0, 6), 1.5, rot=(math.radians(35), 0, math.radians(40)), angle=0.0)
+    add_camera(scene, (0, -6.5, 3.0), target=(0, 0, 0.7), lens=40.0)
+    return scene, [floor, glossy]
+
+
 SCENES = {
     "plane_point": scene_plane_point,
     "plane_sun": scene_plane_sun,
     "plane_area": scene_plane_area,
     "spheres_roughness": scene_spheres_roughness,
     "suzanne_glossy": scene_suzanne_glossy,
+    "textured_glossy": scene_textured_glossy,
 }
 
 

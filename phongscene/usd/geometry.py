@@ -22,6 +22,7 @@ from pxr import Usd, UsdGeom
 
 from ..scene import PhongMaterial, Sphere, TriangleMesh
 from ..tolerances import UNIT_TOLERANCE, is_singular
+from . import textures
 from .context import ReadContext, authored_type
 
 if TYPE_CHECKING:
@@ -170,11 +171,13 @@ def mesh(
     world: np.ndarray,
     material: PhongMaterial,
     subsets: list[tuple[str, PhongMaterial, np.ndarray]] = (),
+    st=None,
 ) -> tuple[TriangleMesh, ...]:
     """Fan-triangulate a UsdGeom.Mesh into world space: one TriangleMesh, or one per material
     GeomSubset (source: the subset's path; faces in no subset keep ``material``, a face in two
-    takes the first). Nothing (after recording problems) if broken."""
-    whole = _mesh(ctx, prim, world, material)
+    takes the first). ``st`` (a ``textures.StSource``): read that st primvar as the mesh's
+    uvs. Nothing (after recording problems) if broken."""
+    whole = _mesh(ctx, prim, world, material, st)
     if whole is None:
         return ()
     mesh_, face_of_tri, n_faces = whole
@@ -191,15 +194,18 @@ def mesh(
     out = []
     for j, (source, part_material) in enumerate([(mesh_.source, material)] + [(s, m) for s, m, _ in subsets], start=-1):
         keep = part_of_tri == j
+        if mesh_.uvs is None and part_material.textures:
+            part_material = part_material.without_textures()  # no st: the fallback colours
         if keep.any():
             out.append(TriangleMesh(
                 mesh_.points, mesh_.triangles[keep], mesh_.normals,
                 None if mesh_.normal_indices is None else mesh_.normal_indices[keep], part_material, source,
+                mesh_.uvs, None if mesh_.uv_indices is None else mesh_.uv_indices[keep],
             ))
     return tuple(out)
 
 
-def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial):
+def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial, st=None):
     """(TriangleMesh, face index of each triangle, face count), or None (after recording problems)."""
     n_problems = len(ctx.problems)
     path = str(prim.GetPath())
@@ -269,14 +275,20 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     normals = _mesh_normals(ctx, prim, len(p), len(idx), len(counts), fv, triangles, face_of_tri)
     if len(ctx.problems) > n_problems:
         return None
+    uvs = None if st is None else textures.mesh_uvs(ctx, prim, st, (len(p), len(idx), len(counts)), fv, triangles, face_of_tri)
+    if len(ctx.problems) > n_problems:
+        return None
+    uv_values, uv_indices = (None, None) if uvs is None else uvs
+    if uvs is None and material.textures:
+        material = material.without_textures()  # no st: the fallback colours
     world_points = _to_world(p, world)
     if normals is None:
-        return TriangleMesh(world_points, triangles, material=material, source=path), face_of_tri, len(counts)
+        return TriangleMesh(world_points, triangles, material=material, source=path, uvs=uv_values, uv_indices=uv_indices), face_of_tri, len(counts)
     values, normal_indices = normals
     world_normals = _normals_to_world(ctx, prim, values, world)
     if world_normals is None:
         return None
-    return TriangleMesh(world_points, triangles, world_normals, normal_indices, material, path), face_of_tri, len(counts)
+    return TriangleMesh(world_points, triangles, world_normals, normal_indices, material, path, uv_values, uv_indices), face_of_tri, len(counts)
 
 
 def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_of_tri):

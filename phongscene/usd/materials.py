@@ -4,13 +4,16 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from pxr import Sdf, Sdr, Usd, UsdGeom, UsdShade
 
-from ..scene import DEFAULT_MATERIAL, PhongMaterial
+from ..scene import DEFAULT_MATERIAL, PhongMaterial, Texture
 from .context import ReadContext, authored_type
 from .names import COLOR_TYPES, PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
 from .shader_defs import phong_input_defaults, phong_inputs
+from .textures import Connected, StSource, TextureReader
 
 PREVIEW_SHADER_ID = "UsdPreviewSurface"
 # Highest Phong exponent produced from a UsdPreviewSurface: e = 1/(2α²) − 2 reaches 1e6 at
@@ -85,6 +88,9 @@ class MaterialReader:
     def __init__(self, ctx: ReadContext):
         self.ctx = ctx
         self.cache: dict[str, PhongMaterial] = {}
+        self.textures = TextureReader(ctx)
+        # Where each textured material's st comes from (the mesh reader reads that primvar).
+        self.st_of: dict[PhongMaterial, StSource] = {}
         self.phong_defaults = phong_input_defaults()
         preview = Sdr.Registry().GetShaderNodeByIdentifier(PREVIEW_SHADER_ID)
         self.preview_defaults = {n: preview.GetShaderInput(n).GetDefaultValue() for n in PREVIEW_INPUTS}
@@ -127,8 +133,9 @@ class MaterialReader:
 
     def _input_value(self, shader: UsdShade.Shader, name: str, default):
         """An input's value: authored, through an interface connection, else ``default``.
-        A connection to another shader (a texture) is not evaluated: warn, use the input's own
-        value or default."""
+        An input fed by a UsdUVTexture that the model has no per-point form for (roughness,
+        an exponent): the texture's mean (of its fallback without an image), with a warning;
+        by another shader: its own value or default, with a warning."""
         inp = shader.GetInput(name)
         if not inp:
             return default
@@ -137,20 +144,46 @@ class MaterialReader:
             if attrs and UsdShade.Utils.GetType(attrs[0].GetName()) == UsdShade.AttributeType.Input:
                 value = attrs[0].Get(self.ctx.time)
                 return default if value is None else value
-            self.ctx.unsupported["texture-connected inputs (authored value or default used)"].append(
-                f"{shader.GetPath()}.inputs:{name}"
-            )
+            where = f"{shader.GetPath()}.inputs:{name}"
+            connected = self.textures.connected(shader, name)
+            if connected is not None:
+                self.ctx.unsupported["textured inputs without a per-point model (the texture's mean is used)"].append(where)
+                if connected.texture is None:
+                    value = connected.fallback
+                else:
+                    value = tuple(float(c) for c in connected.texture.image.mean(axis=(0, 1)))
+                return value if isinstance(default, tuple) else value[0]
+            self.ctx.unsupported["inputs connected to other shaders (authored value or default used)"].append(where)
         attr = inp.GetAttr()
         if attr.HasAuthoredValue():
             value = attr.Get(self.ctx.time)
             return default if value is None else value
         return default
 
+    def _textured(self, material: PhongMaterial, diffuse, specular=None) -> PhongMaterial:
+        """``material`` with the diffuse and specular textures of ``diffuse`` and ``specular``
+        (``textures.Connected``, where their images were read)."""
+        fields = {}
+        for field, connected in (("diffuse_texture", diffuse), ("specular_texture", specular)):
+            if connected is not None and connected.texture is not None:
+                fields[field] = connected.texture
+                st = connected.st
+        if not fields:
+            return material
+        textured = dataclasses.replace(material, **fields)
+        self.st_of[textured] = st  # one st per material: the specular texture's if both differ
+        return textured
+
     def _phong(self, shader: UsdShade.Shader) -> PhongMaterial:
         prim = shader.GetPrim()
         values = {}
+        connected = {n: self.textures.connected(shader, n) for n in ("diffuseColor", "specularColor", "ks")}
         for name, (field, sdf_type) in phong_inputs().items():
             default = self.phong_defaults[name]
+            if connected.get(name) is not None:
+                fallback = connected[name].fallback
+                values[field] = fallback if isinstance(default, tuple) else fallback[0]
+                continue
             inp = shader.GetInput(name)
             found = authored_type(inp.GetAttr()) if inp else ""
             if inp and Sdf.ValueTypeNames.Find(found).type != sdf_type.type:
@@ -164,14 +197,50 @@ class MaterialReader:
                 self.ctx.problem(
                     prim, f"inputs:{inp.GetBaseName()}", f"is not an input of {PHONG_SHADER_ID} (expected one of {', '.join(PHONG_INPUTS)})"
                 )
-        return PhongMaterial(source=str(prim.GetPath()), **values)
+        material = PhongMaterial(source=str(prim.GetPath()), **values)
+        specular = connected["specularColor"]
+        ks = connected["ks"]
+        if ks is not None and ks.texture is not None:
+            if specular is not None and specular.texture is not None:
+                self.ctx.unsupported["textured ks over a textured specularColor (ks's fallback is used)"].append(str(prim.GetPath()))
+            else:
+                # The highlight is ks·cs: a textured ks with a constant cs is the texture
+                # cs·ks(x)/max ks under ks = max ks (the same product at every point).
+                k = ks.texture.image[..., :1].astype(np.float64)
+                if k.min() < 0 or k.max() > 1:
+                    self.ctx.warn(f"{ks.texture.source}: ks texels outside [0, 1] (clipped)")
+                    k = np.clip(k, 0.0, 1.0)
+                top = float(k.max())
+                image = np.asarray(material.specular_color) * (k / top if top > 0 else k)
+                cs = Texture(image.astype(np.float32), ks.texture.wrap_s, ks.texture.wrap_t, source=ks.texture.source, file=ks.texture.file)
+                material = dataclasses.replace(material, ks=top)
+                specular = Connected(cs, material.specular_color, ks.st)
+        return self._textured(material, connected["diffuseColor"], specular)
 
     def _preview(self, shader: UsdShade.Shader) -> PhongMaterial:
         prim = shader.GetPrim()
         values = {}
+        diffuse_texture = self.textures.connected(shader, "diffuseColor")
+        specular_texture = self.textures.connected(shader, "specularColor")
+        metallic_texture = self.textures.connected(shader, "metallic")
         for name in PREVIEW_INPUTS:
             default = self.preview_defaults[name]
-            value = self._input_value(shader, name, default)
+            if name == "metallic" and metallic_texture is not None:
+                value = metallic_texture.fallback[0]
+                if metallic_texture.texture is not None:  # the mean, where one value stands for all
+                    value = float(np.clip(metallic_texture.texture.image[..., 0], 0.0, 1.0).mean())
+            elif name == "diffuseColor" and diffuse_texture is not None:
+                value = diffuse_texture.fallback
+                if diffuse_texture.texture is not None:
+                    # The metallic tint of F0 takes the texture's mean colour (one cs per material).
+                    value = tuple(float(c) for c in diffuse_texture.texture.image.mean(axis=(0, 1)))
+            elif name == "specularColor" and specular_texture is not None:
+                value = specular_texture.fallback
+                if specular_texture.texture is not None:
+                    # ks from the brightest texel (ks·cs stays the matched strength, ks <= 1).
+                    value = tuple(float(c) for c in specular_texture.texture.image.max(axis=(0, 1)))
+            else:
+                value = self._input_value(shader, name, default)
             shape = np.shape(default)
             try:
                 arr = np.asarray(value, dtype=np.float64)
@@ -203,7 +272,12 @@ class MaterialReader:
                 specular_level = float(value)
             else:
                 self.ctx.problem(prim, f"inputs:{BLENDER_SPECULAR_LEVEL}", f"must be a finite number, got {value!r}")
-        return preview_to_phong(
+        if diffuse_texture is not None and diffuse_texture.texture is not None and not int(values["useSpecularWorkflow"]):
+            # The spec's diffuse lobe is diffuseColor·(1 − metallic): the texels are scaled so.
+            factor = 1.0 - float(np.clip(values["metallic"], 0.0, 1.0))
+            if factor != 1.0:
+                diffuse_texture = self.textures.connected(shader, "diffuseColor", factor)
+        material = preview_to_phong(
             tuple(values["diffuseColor"]),
             float(values["roughness"]),
             float(values["metallic"]),
@@ -213,6 +287,55 @@ class MaterialReader:
             source=str(prim.GetPath()),
             specular_level=specular_level,
         )
+        metal = None if metallic_texture is None else metallic_texture.texture
+        if metal is not None and not int(values["useSpecularWorkflow"]):
+            if diffuse_texture is None or diffuse_texture.texture is None:
+                return self._metallic_textured(material, metallic_texture, values, specular_level)
+            self.ctx.unsupported["textured metallic over a textured diffuseColor (the mean metallic is used)"].append(
+                str(prim.GetPath())
+            )
+        if specular_texture is not None and specular_texture.texture is not None:
+            if int(values["useSpecularWorkflow"]):
+                # cs = strength/ks is linear in F0 = the texel: the texels are scaled by cs/F0.
+                f0 = np.asarray(values["specularColor"], dtype=np.float64)
+                c = int(np.argmax(f0))
+                factor = material.specular_color[c] / f0[c] if f0[c] > 0 else 0.0
+                specular_texture = self.textures.connected(shader, "specularColor", factor)
+            else:
+                specular_texture = None  # the metallic workflow does not read specularColor
+        return self._textured(material, diffuse_texture, specular_texture)
+
+    def _metallic_textured(self, material: PhongMaterial, connected, values: dict, specular_level: float) -> PhongMaterial:
+        """A UsdPreviewSurface with a textured metallic m (and a constant diffuseColor): the
+        mapping's diffuse colour cd·(1 − m) and highlight strength ks·cs (F0 = (1 − m)·F0_ior +
+        m·cd, times a factor of the roughness) are both linear in m, so they are two textures,
+        each the blend of the mapping at m = 0 and m = 1 (preview_to_phong) by the texel's m."""
+        metal = connected.texture
+        ends = [
+            preview_to_phong(
+                tuple(values["diffuseColor"]), float(values["roughness"]), m, ior=float(values["ior"]),
+                source=material.source, specular_level=specular_level,
+            )
+            for m in (0.0, 1.0)
+        ]
+        m = np.clip(metal.image[..., :1].astype(np.float64), 0.0, 1.0)
+        diffuse = [np.asarray(p.diffuse_color) for p in ends]
+        strength = [np.asarray(p.specular_color) * p.ks for p in ends]
+        diffuse_image = diffuse[0] + m * (diffuse[1] - diffuse[0])
+        strength_image = strength[0] + m * (strength[1] - strength[0])
+        ks = float(min(1.0, strength_image.max()))
+        cs_image = strength_image / ks if ks > 0 else np.ones_like(strength_image)
+        fallback_cs = np.asarray(material.specular_color) * material.ks / ks if ks > 0 else np.ones(3)
+
+        def texture(image):
+            return Texture(image.astype(np.float32), metal.wrap_s, metal.wrap_t, source=metal.source, file=metal.file)
+
+        textured = dataclasses.replace(
+            material, ks=ks, specular_color=tuple(float(c) for c in fallback_cs),
+            diffuse_texture=texture(diffuse_image), specular_texture=texture(cs_image),
+        )
+        self.st_of[textured] = connected.st
+        return textured
 
     def _display_color(self, prim: Usd.Prim) -> PhongMaterial:
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor")

@@ -126,7 +126,11 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "triangles": "faceVertexIndices",
         "normals": "normals",
         "normal_indices": "normals",
+        "uvs": "primvars:st",
+        "uv_indices": "primvars:st",
     },
+    # A texture's source is its UsdUVTexture; its texels come from the file (after scale, bias).
+    "Texture": {"image": "inputs:file", "wrap_s": "inputs:wrapS", "wrap_t": "inputs:wrapT"},
     "RenderSettings": {
         "width": "resolution",
         "height": "resolution",

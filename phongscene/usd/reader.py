@@ -441,27 +441,34 @@ FULL_CONE_DEG = 180.0
 HEMISPHERE_DEG = 90.0
 
 
-def _shaping(ctx: ReadContext, prim: Usd.Prim) -> tuple[float, float] | None:
-    """(cone angle in degrees, softness in [0, 1]) of a ShapingAPI light whose cone restricts its
-    emission; None when it restricts nothing (no ShapingAPI, or a hard 180° cone). A focus is
-    warned about (not modelled)."""
+def _shaping(ctx: ReadContext, prim: Usd.Prim) -> tuple[float, float, float] | None:
+    """(cone angle in degrees, softness in [0, 1], focus >= 0) of a ShapingAPI light whose cone
+    restricts its emission; None when it restricts nothing (no ShapingAPI, or a hard 180° cone).
+    A non-black focusTint is warned about (not modelled: the off-axis light fades to black)."""
     if not prim.HasAPI(UsdLux.ShapingAPI):
         return None
-    if (UsdLux.ShapingAPI(prim).GetShapingFocusAttr().Get(ctx.time) or 0.0) != 0.0:
-        ctx.unsupported["lights with shaping:focus (ignored)"].append(str(prim.GetPath()))
+    focus = ctx.number(prim, "inputs:shaping:focus", 0.0, minimum=0.0)
+    tint = ctx.color(prim, "inputs:shaping:focusTint", (0.0, 0.0, 0.0))
+    if focus > 0 and any(c != 0.0 for c in tint):
+        ctx.unsupported["lights with a shaping:focusTint (off-axis light fades to black)"].append(str(prim.GetPath()))
     angle = ctx.number(prim, "inputs:shaping:cone:angle", 90.0, minimum=0.0)
     softness = float(np.clip(ctx.number(prim, "inputs:shaping:cone:softness", 0.0), 0.0, 1.0))
-    return None if angle >= FULL_CONE_DEG and softness == 0.0 else (angle, softness)
+    if angle >= FULL_CONE_DEG and softness == 0.0:
+        if focus > 0:
+            ctx.unsupported["lights with shaping:focus but no cone (focus ignored)"].append(str(prim.GetPath()))
+        return None
+    return angle, softness, focus
 
 
 def _cone(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray) -> Cone | None:
     """A point light's ShapingAPI cone: zero beyond shaping:cone:angle θc off its −Z axis, full
     inside θc·(1 − softness) (UsdLux's smooth start), smoothstep in cos θ between (UsdLux
-    interpolates the angle; POV-Ray's spotlight the cosine, which both backends then share)."""
+    interpolates the angle; POV-Ray's spotlight the cosine, which both backends then share),
+    times cos θ^focus (UsdLux's "off-axis cosine power", POV-Ray's tightness)."""
     shape = _shaping(ctx, prim)
     if shape is None:
         return None
-    angle, softness = shape
+    angle, softness, focus = shape
     path = str(prim.GetPath())
     if angle >= HEMISPHERE_DEG:
         ctx.unsupported["spot cones of 90° or more (ignored: the light shines everywhere)"].append(path)
@@ -471,7 +478,7 @@ def _cone(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray) -> Cone | None:
         ctx.problem(prim, "xformOpOrder", "the light's transform is degenerate (no −Z direction for its cone)")
         return None
     outer = math.radians(angle)
-    return Cone(_rgb(axis), math.cos(outer), math.cos(outer * (1.0 - softness)))
+    return Cone(_rgb(axis), math.cos(outer), math.cos(outer * (1.0 - softness)), focus)
 
 
 def _shadow_samples(ctx: ReadContext, prim: Usd.Prim) -> int:
@@ -628,12 +635,21 @@ def _gprim(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, materials: Mater
         ctx.unsupported["unsupported geometry (ignored)"].append(f"{path} ({type_name})")
         return
     material = materials.for_gprim(prim)
+    if type_name != "Mesh" and material.textures:
+        # Only meshes carry st primvars here: the texture's fallback colour is used.
+        ctx.unsupported["textures on prims without texture coordinates (the fallback colour is used)"].append(path)
+        material = material.without_textures()
     if type_name == "Sphere":
         spheres.append(geometry.sphere(ctx, prim, world, material))
         ctx.nodes.append((path, "Sphere"))
         return
     if type_name == "Mesh":
-        built = geometry.mesh(ctx, prim, world, material, materials.face_subsets(prim))
+        subsets = materials.face_subsets(prim)
+        textured = [m for m in (material, *(m for _, m, _ in subsets)) if m.textures]
+        st = materials.st_of.get(textured[0]) if textured else None
+        if len({materials.st_of.get(m) for m in textured}) > 1:
+            ctx.warn(f"{path}: its materials read different st primvars; all use {st.primvar!r}")
+        built = geometry.mesh(ctx, prim, world, material, subsets, st)
     else:
         built = geometry.primitive(ctx, prim, world, material)
         built = () if built is None else (built,)

@@ -14,6 +14,7 @@ free, valid path, so reading a written scene and writing it again gives the same
 
 from __future__ import annotations
 
+import hashlib
 import math
 from pathlib import Path
 
@@ -22,6 +23,7 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
 from ..errors import SceneError, SceneFileNotFoundError
 from ..files import atomic_path
+from ..images import write_image
 from ..scene import (
     DEFAULT_MATERIAL,
     AmbientLight,
@@ -75,14 +77,50 @@ def _frame(x, y, origin) -> np.ndarray:
 # -- authoring helpers ----------------------------------------------------------------------
 
 
-def define_phong_material(stage: Usd.Stage, path: str, material: PhongMaterial = DEFAULT_MATERIAL) -> UsdShade.Material:
-    """A Material with our Phong shader (every input authored) and a UsdPreviewSurface fallback."""
+def _texture_shader(stage: Usd.Stage, path: str, texture, image_file: str, fallback, scale: float = 1.0) -> UsdShade.Shader:
+    """A UsdUVTexture reading ``image_file`` (a linear float EXR: sourceColorSpace raw) at the
+    mesh's ``st`` primvar (texCoord2d, faceVarying: what define_mesh writes), its texels × scale;
+    ``fallback`` (the material's own colour) where the image is missing."""
+    reader = UsdShade.Shader.Define(stage, f"{path}_St")
+    reader.SetShaderId("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+    reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
+    shader = UsdShade.Shader.Define(stage, path)
+    shader.SetShaderId("UsdUVTexture")
+    shader.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(image_file))
+    shader.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw")
+    shader.CreateInput("fallback", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(*map(float, fallback), 1.0))
+    shader.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set(texture.wrap_s)
+    shader.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set(texture.wrap_t)
+    if scale != 1.0:
+        shader.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(scale, scale, scale, 1.0))
+    shader.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
+    shader.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    return shader
+
+
+def define_phong_material(
+    stage: Usd.Stage, path: str, material: PhongMaterial = DEFAULT_MATERIAL, texture_file=None
+) -> UsdShade.Material:
+    """A Material with our Phong shader (every input authored) and a UsdPreviewSurface fallback.
+    A textured material's diffuseColor (specularColor) is connected to a UsdUVTexture reading
+    ``texture_file(texture)``, the image ``write_usd`` writes beside the layer."""
+    if material.textures and texture_file is None:
+        raise ValueError("a textured material needs the file its image is written to (write_usd writes it)")
     mat = UsdShade.Material.Define(stage, path)
     phong = UsdShade.Shader.Define(stage, f"{path}/Phong")
     phong.SetShaderId(PHONG_SHADER_ID)
     for name, (field, sdf_type) in phong_inputs().items():
         value = getattr(material, field)
         phong.CreateInput(name, sdf_type).Set(Gf.Vec3f(*map(float, value)) if isinstance(value, tuple) else float(value))
+    if material.diffuse_texture is not None:
+        t = material.diffuse_texture
+        texture = _texture_shader(stage, f"{path}/DiffuseTexture", t, texture_file(t), material.diffuse_color)
+        phong.GetInput("diffuseColor").ConnectToSource(texture.ConnectableAPI(), "rgb")
+    if material.specular_texture is not None:
+        t = material.specular_texture
+        texture = _texture_shader(stage, f"{path}/SpecularTexture", t, texture_file(t), material.specular_color)
+        phong.GetInput("specularColor").ConnectToSource(texture.ConnectableAPI(), "rgb")
     mat.CreateSurfaceOutput(PHONG_RENDER_CONTEXT).ConnectToSource(phong.ConnectableAPI(), "surface")
 
     # Preview fallback (for other tools): Lambert albedo kd·cd, and the reader's mapping
@@ -98,6 +136,12 @@ def define_phong_material(stage: Usd.Stage, path: str, material: PhongMaterial =
     preview.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
     preview.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*map(float, specular)))
     preview.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(float(math.sqrt(alpha)))
+    if material.diffuse_texture is not None:
+        albedo_texture = _texture_shader(
+            stage, f"{path}/PreviewDiffuseTexture", material.diffuse_texture, texture_file(material.diffuse_texture), albedo,
+            float(material.kd),
+        )
+        preview.GetInput("diffuseColor").ConnectToSource(albedo_texture.ConnectableAPI(), "rgb")
     mat.CreateSurfaceOutput().ConnectToSource(preview.ConnectableAPI(), "surface")
     return mat
 
@@ -144,6 +188,11 @@ def define_mesh(stage: Usd.Stage, path: str, mesh: TriangleMesh) -> UsdGeom.Mesh
             )
             primvar.Set(normals)
             primvar.SetIndices(Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.normal_indices.ravel(), dtype=np.int32)))
+    if mesh.uvs is not None:
+        # Double precision: the model's uvs read back unchanged.
+        st = UsdGeom.PrimvarsAPI(prim).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2dArray, UsdGeom.Tokens.faceVarying)
+        st.Set(Vt.Vec2dArray.FromNumpy(np.ascontiguousarray(mesh.uvs, dtype=np.float64)))
+        st.SetIndices(Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.uv_indices.ravel(), dtype=np.int32)))
     return prim
 
 
@@ -158,6 +207,25 @@ def _set_light_color(light: UsdLux.LightAPI, color) -> None:
     else:
         light.CreateIntensityAttr(1.0)
         light.CreateColorAttr(Gf.Vec3f(r, g, b))
+
+
+def _define_cone(prim: Usd.Prim, cone, position) -> None:
+    """A ShapingAPI cone the reader reads back as ``cone``: angle θo = acos(cos_outer), softness
+    1 − θi/θo, focus; the axis is the light's −Z (an aimed light's transform is a rotation)."""
+    outer, inner = math.acos(cone.cos_outer), math.acos(cone.cos_inner)
+    shaping = UsdLux.ShapingAPI.Apply(prim)
+    shaping.CreateShapingConeAngleAttr(math.degrees(outer))
+    shaping.CreateShapingConeSoftnessAttr(1.0 - inner / outer if outer > 0 else 0.0)
+    if cone.focus > 0:
+        shaping.CreateShapingFocusAttr(float(cone.focus))
+    axis = np.asarray(cone.axis, dtype=np.float64)
+    helper = np.array([0.0, 1.0, 0.0]) if abs(axis[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    x = np.cross(helper, -axis)
+    x /= np.linalg.norm(x)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2] = x, np.cross(-axis, x), -axis  # the light emits along its −Z
+    m[:3, 3] = position
+    _set_transform(UsdLux.SphereLight(prim), m)
 
 
 def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
@@ -185,6 +253,8 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
             p.CreateAttribute(names.FADE_POWER, Sdf.ValueTypeNames.Double).Set(float(light.fade_power))
         else:
             strength = strength * 4.0
+        if light.cone is not None:
+            _define_cone(p, light.cone, light.position)
     elif isinstance(light, SphereAreaLight):
         prim = UsdLux.SphereLight.Define(stage, path)
         prim.CreateTreatAsPointAttr(False)
@@ -313,8 +383,10 @@ class _Paths:
         return path
 
 
-def scene_to_stage(scene: Scene) -> Usd.Stage:
-    """Author every node of ``scene`` on a new in-memory stage."""
+def scene_to_stage(scene: Scene, texture_files: dict[int, str] | None = None) -> Usd.Stage:
+    """Author every node of ``scene`` on a new in-memory stage. ``texture_files``: the image
+    file of each texture, by ``id(texture)`` (``write_usd`` writes them)."""
+    texture_files = texture_files or {}
     stage = new_stage()
     paths = _Paths(stage)
     materials: list[tuple[PhongMaterial, UsdShade.Material]] = []
@@ -324,7 +396,8 @@ def scene_to_stage(scene: Scene) -> Usd.Stage:
             if known == m:
                 return usd
         source = m.source.rsplit("/", 1)[0] if m.source.endswith("/Phong") else ""
-        usd = define_phong_material(stage, paths.take(source, "/World/Looks", "Material"), m)
+        images = (lambda t: texture_files[id(t)]) if m.textures else None
+        usd = define_phong_material(stage, paths.take(source, "/World/Looks", "Material"), m, images)
         materials.append((m, usd))
         return usd
 
@@ -354,7 +427,16 @@ def write_usd(scene: Scene, path) -> Path:
         SceneError: the scene is invalid (nothing is written: a file with a NaN would not read back).
     """
     check(scene)
-    return save_stage(scene_to_stage(scene), path)
+    path = Path(path)
+    texture_files: dict[int, str] = {}
+    for t in (t for obj in (*scene.spheres, *scene.meshes) for t in obj.material.textures):
+        if id(t) not in texture_files:
+            # Beside the layer, named after it and the texels (float EXR: linear, exact).
+            digest = hashlib.sha1(np.ascontiguousarray(t.image).tobytes()).hexdigest()[:12]
+            name = f"{path.stem}-texture-{digest}.exr"
+            write_image(path.parent / name, t.image)
+            texture_files[id(t)] = f"./{name}"
+    return save_stage(scene_to_stage(scene, texture_files), path)
 
 
 # Faces meeting at a larger angle than this get split normals on import (a crease); smaller

@@ -93,11 +93,54 @@ std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_objec
 }
 
 using Image = nb::ndarray<nb::numpy, float, nb::shape<-1, -1, 3>>;
+using TextureImage = In<float, nb::shape<-1, -1, 3>>;
+using CornerUv = In<double, nb::shape<-1, 3, 2>>;
+
+// Every texture a material names exists, and every triangle has its corner uvs (so that a
+// Material built by hand with a texture index cannot make the shading read out of bounds).
+void check_textures(const phong::Scene& scene) {
+    bool textured = false;
+    for (const phong::Material& m : scene.materials) {
+        if (m.diffuse_texture >= int64_t(scene.textures.size()) || m.specular_texture >= int64_t(scene.textures.size()))
+            throw std::invalid_argument("a material's texture index is out of range (call set_textures)");
+        textured |= m.diffuse_texture >= 0 || m.specular_texture >= 0;
+    }
+    if (textured && scene.corner_uv.size() != 6 * scene.triangles.size())
+        throw std::invalid_argument("textured materials need corner_uv for every triangle (call set_textures)");
+}
+
+// Copies the textures and the per-corner uvs into the scene, checking what C++ indexes with.
+void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, const std::vector<phong::Wrap>& wrap_s,
+                  const std::vector<phong::Wrap>& wrap_t, const CornerUv& corner_uv) {
+    if (wrap_s.size() != images.size() || wrap_t.size() != images.size())
+        throw std::invalid_argument("one wrap_s and wrap_t per texture");
+    bool textured = false;
+    for (const phong::Material& m : scene.materials) {
+        if (m.diffuse_texture >= int64_t(images.size()) || m.specular_texture >= int64_t(images.size()))
+            throw std::invalid_argument("a material's texture index is out of range");
+        textured |= m.diffuse_texture >= 0 || m.specular_texture >= 0;
+    }
+    if (textured && corner_uv.shape(0) != scene.triangles.size())
+        throw std::invalid_argument("corner_uv needs one row per triangle");
+    std::vector<phong::Texture> textures(images.size());
+    for (size_t i = 0; i < images.size(); ++i) {
+        const TextureImage& image = images[i];
+        if (image.shape(0) < 1 || image.shape(1) < 1) throw std::invalid_argument("a texture has no texels");
+        textures[i].height = int(image.shape(0));
+        textures[i].width = int(image.shape(1));
+        textures[i].texels.assign(image.data(), image.data() + image.size());
+        textures[i].wrap_s = wrap_s[i];
+        textures[i].wrap_t = wrap_t[i];
+    }
+    scene.textures = std::move(textures);
+    scene.corner_uv.assign(corner_uv.data(), corner_uv.data() + corner_uv.size());
+}
 
 Image render(const phong::Scene& scene, const phong::CameraDescription& camera_description,
              const phong::RenderSettings& settings, nb::object progress) {
     if (settings.width < 1 || settings.height < 1 || settings.samples < 1)
         throw std::invalid_argument("width, height and samples must be >= 1");
+    check_textures(scene);
     const phong::Camera camera = phong::Camera::make(camera_description, settings.width, settings.height);
 
     const size_t count = size_t(settings.width) * size_t(settings.height) * 3;
@@ -201,7 +244,15 @@ NB_MODULE(_native, m) {
         .def_rw("ks", &Material::ks)
         .def_rw("exponent", &Material::exponent)
         .def_rw("diffuse_color", &Material::diffuse_color)
-        .def_rw("specular_color", &Material::specular_color);
+        .def_rw("specular_color", &Material::specular_color)
+        .def_rw("diffuse_texture", &Material::diffuse_texture)
+        .def_rw("specular_texture", &Material::specular_texture);
+
+    nb::enum_<phong::Wrap>(m, "Wrap", "How a texture continues outside [0, 1] (textures.hpp).")
+        .value("repeat", phong::Wrap::kRepeat)
+        .value("clamp", phong::Wrap::kClamp)
+        .value("mirror", phong::Wrap::kMirror)
+        .value("black", phong::Wrap::kBlack);
 
     using phong::LightTerms;
     nb::class_<LightTerms>(m, "LightTerms", "Multipliers of a light's diffuse and specular terms (lights.hpp).")
@@ -221,6 +272,7 @@ NB_MODULE(_native, m) {
         .def_rw("cone_axis", &PointLight::cone_axis)
         .def_rw("cone_cos_outer", &PointLight::cone_cos_outer)
         .def_rw("cone_cos_inner", &PointLight::cone_cos_inner)
+        .def_rw("cone_focus", &PointLight::cone_focus)
         .def_rw("terms", &PointLight::terms);
 
     using phong::DirectionalLight;
@@ -300,6 +352,9 @@ NB_MODULE(_native, m) {
              "Materials are indexed by sphere_material and triangle_material; lights are summed in list order. "
              "triangle_mesh and mesh_origins say which mesh (POV-Ray object) a triangle belongs to and its "
              "frame; with povray_triangles, triangles are tested as POV-Ray's mesh2 tests them.")
+        .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
+             "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and specular_texture, and the (u, v) "
+             "of each triangle corner, (T, 3, 2) in input order.")
         .def_prop_ro("magnitude", [](const phong::Scene& s) { return s.magnitude; })
         .def("render", &render, "camera"_a, "settings"_a, "progress"_a = nb::none(),
              "The image, float32 (height, width, 3), row 0 at the top. progress(done, total) is called from this "

@@ -34,6 +34,7 @@ struct PointLight {
     // smoothstep in cos between (POV-Ray's spotlight edge). cone_cos_outer <= -1: no cone.
     Vec3 cone_axis{0, 0, -1};
     double cone_cos_outer = -2.0, cone_cos_inner = -2.0;
+    double cone_focus = 0.0;  // × cos^focus inside the cone (POV-Ray's tightness)
     LightTerms terms;
 };
 
@@ -106,6 +107,7 @@ inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
                     double t = span > 0.0 ? (c - L.cone_cos_outer) / span : (c > L.cone_cos_outer ? 1.0 : 0.0);
                     t = std::fmin(1.0, std::fmax(0.0, t));
                     s.color = s.color * (t * t * (3.0 - 2.0 * t));
+                    if (L.cone_focus > 0.0) s.color = s.color * std::pow(std::fmax(c, 0.0), L.cone_focus);
                 }
                 return s;
             } else if constexpr (std::is_same_v<T, DirectionalLight>) {

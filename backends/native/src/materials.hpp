@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 
 #include "math.hpp"
 
@@ -23,6 +24,8 @@ struct Material {
     double ka, kd, ks, exponent;
     RGB diffuse_color;   // cd
     RGB specular_color;  // cs
+    int32_t diffuse_texture = -1;   // index into Scene::textures replacing cd, or -1
+    int32_t specular_texture = -1;  // ... replacing cs, or -1
 };
 
 enum class SpecularConvention { kSeed, kPovrayClassic };

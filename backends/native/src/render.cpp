@@ -50,6 +50,7 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
     const Vec3 p = ray.at(hit.t);
     Vec3 n;
     const Material* material;
+    Material textured;  // a textured material with this point's colours
     if (hit.ref < 0) {
         const SphereShape& s = scene.spheres[size_t(~hit.ref)];
         n = sphere_normal(s, p);
@@ -65,6 +66,18 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
             n = normalize(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
         }
         material = &scene.materials[size_t(sh.material)];
+        if (material->diffuse_texture >= 0 || material->specular_texture >= 0) {
+            // cd and cs from the textures at the hit's (u, v), interpolated like the normals.
+            const double* uv = scene.corner_uv.data() + 6 * size_t(scene.triangle_source[size_t(hit.ref)]);
+            const double u = uv[0] * hit.bary.b0 + uv[2] * hit.bary.b1 + uv[4] * hit.bary.b2;
+            const double v = uv[1] * hit.bary.b0 + uv[3] * hit.bary.b1 + uv[5] * hit.bary.b2;
+            textured = *material;
+            if (material->diffuse_texture >= 0)
+                textured.diffuse_color = scene.textures[size_t(material->diffuse_texture)].lookup(u, v);
+            if (material->specular_texture >= 0)
+                textured.specular_color = scene.textures[size_t(material->specular_texture)].lookup(u, v);
+            material = &textured;
+        }
     }
     // Two-sided: the shading normal faces the viewer (as POV-Ray).
     if (dot(n, ray.dir) > 0.0) n = -n;

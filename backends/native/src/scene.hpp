@@ -15,6 +15,7 @@
 #include "math.hpp"
 #include "povray_triangle.hpp"
 #include "shapes.hpp"
+#include "textures.hpp"
 
 namespace phong {
 
@@ -100,6 +101,10 @@ class Scene {
     std::vector<Material> materials;
     std::vector<Light> lights;
     RGB ambient;
+    // Textures (Material::diffuse_texture) and the (u, v) of each triangle corner, by input
+    // triangle row (triangle_source): 6 numbers per triangle; empty without textures.
+    std::vector<Texture> textures;
+    std::vector<double> corner_uv;
     Bounds bounds;           // of the geometry (empty without primitives)
     double magnitude = 0.0;  // largest absolute coordinate of the geometry bounds
 

@@ -1,0 +1,302 @@
+# SPDX-License-Identifier: Apache-2.0
+"""USD textures → ``Texture``: a ``UsdUVTexture`` connected (directly, or through node graphs
+and material interface inputs) to a surface input, its ``st`` from a
+``UsdPrimvarReader_float2`` (optionally through a ``UsdTransform2d``), and a mesh's st primvar
+as per-corner uvs.
+
+The image is read with OpenImageIO once per file (a ``.usdz``-packaged image through USD's
+asset resolver), then the texture's colour space, channel, ``scale`` and ``bias`` are applied
+to the texels: they commute with the bilinear lookup (the colour space is decoded before
+filtering, as GPU samplers do with sRGB textures), so the model holds only a linear image and
+its wrap rules.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+
+import numpy as np
+import OpenImageIO as oiio
+from OpenImageIO import ImageBuf, ImageBufAlgo
+from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
+
+from ..scene import Texture
+from .context import ReadContext, authored_type
+
+TEXTURE_SHADER_ID = "UsdUVTexture"
+PRIMVAR_READER_ID = "UsdPrimvarReader_float2"
+TRANSFORM_2D_ID = "UsdTransform2d"
+WRAP_TOKENS = ("repeat", "clamp", "mirror", "black")
+# The wrap modes an image file may carry (OpenImageIO's "wrapmodes" attribute, "s,t") → ours.
+FILE_WRAPS = {"periodic": "repeat", "clamp": "clamp", "mirror": "mirror", "black": "black"}
+CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3}
+UV_TYPES = tuple(t + "[]" for t in ("texCoord2f", "texCoord2d", "texCoord2h", "float2", "double2", "half2"))
+
+
+@dataclass(frozen=True)
+class StSource:
+    """Where a texture's st comes from: a mesh primvar, then an optional UsdTransform2d
+    (st' = R(rotation) · (st ⊙ scale) + translation, as the UsdTransform2d spec orders it)."""
+
+    primvar: str | None  # None: st is not read from a primvar (USD's fallback (0, 0))
+    scale: tuple[float, float] = (1.0, 1.0)
+    rotation_deg: float = 0.0
+    translation: tuple[float, float] = (0.0, 0.0)
+
+    def apply(self, st: np.ndarray) -> np.ndarray:
+        if (self.scale, self.rotation_deg, self.translation) == ((1.0, 1.0), 0.0, (0.0, 0.0)):
+            return st
+        a = math.radians(self.rotation_deg)
+        rotation = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+        return (st * np.asarray(self.scale)) @ rotation.T + np.asarray(self.translation)
+
+
+@dataclass(frozen=True)
+class Connected:
+    """A surface input fed by a texture: the texture (None when the image cannot be read: the
+    fallback is used), the value to use without it, and where its st comes from."""
+
+    texture: Texture | None
+    fallback: tuple[float, ...]
+    st: StSource
+
+
+def _value(inp: UsdShade.Input | None, time, default):
+    """An input's value, following connections to interface inputs (not to shader outputs)."""
+    if not inp:
+        return default
+    attrs = inp.GetValueProducingAttributes()
+    if attrs:
+        attr = attrs[0]
+        if UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output:
+            return default
+        value = attr.Get(time)
+        return default if value is None else value
+    value = inp.Get(time)
+    return default if value is None else value
+
+
+def _source_output(inp: UsdShade.Input | None) -> tuple[UsdShade.Shader, str] | None:
+    """The shader and output name that produce ``inp``'s value through connections, if any."""
+    if not inp or not inp.HasConnectedSource():
+        return None
+    for attr in inp.GetValueProducingAttributes():
+        name, kind = UsdShade.Utils.GetBaseNameAndType(attr.GetName())
+        if kind == UsdShade.AttributeType.Output:
+            return UsdShade.Shader(attr.GetPrim()), name
+    return None
+
+
+class TextureReader:
+    """Reads the textures of a stage; images are decoded once per file, textures shared."""
+
+    def __init__(self, ctx: ReadContext):
+        self.ctx = ctx
+        self.images: dict[str, tuple[np.ndarray, bool, str] | None] = {}
+        self.textures: dict[tuple, Texture] = {}
+
+    def connected(self, shader: UsdShade.Shader, name: str, factor: float = 1.0) -> Connected | None:
+        """The texture feeding colour input ``name`` of ``shader`` (times ``factor``), or None
+        when the input is not fed by a UsdUVTexture."""
+        source = _source_output(shader.GetInput(name))
+        if source is None:
+            return None
+        tex_shader, output = source
+        if tex_shader.GetShaderId() != TEXTURE_SHADER_ID:
+            return None
+        prim, time = tex_shader.GetPrim(), self.ctx.time
+        path = str(prim.GetPath())
+        fallback = np.asarray(_value(tex_shader.GetInput("fallback"), time, (0.0, 0.0, 0.0, 1.0)), dtype=np.float64)
+        fallback = np.resize(fallback, 4)
+        channel = CHANNELS.get(output)
+        value = tuple(float(c) for c in (fallback[:3] if channel is None else np.repeat(fallback[channel], 3)))
+        st = self._st(tex_shader)
+        if output not in ("rgb", *CHANNELS):
+            self.ctx.problem(prim, f"outputs:{output}", "is not an output of UsdUVTexture (rgb, r, g, b, a) a colour can use")
+            return Connected(None, value, st)
+        asset = _value(tex_shader.GetInput("file"), time, None)
+        resolved = asset.resolvedPath if isinstance(asset, Sdf.AssetPath) else ""
+        if not resolved:
+            shown = asset.path if isinstance(asset, Sdf.AssetPath) else asset
+            self.ctx.warn(f"{path}.inputs:file: cannot find the image {shown!r} (the fallback {value} is used)")
+            return Connected(None, value, st)
+        decoded = self._image(resolved, path)
+        if decoded is None:
+            return Connected(None, value, st)
+        pixels, eight_bit, file_wraps = decoded
+        if not np.all(np.isfinite(pixels)):
+            bad = int(np.count_nonzero(~np.isfinite(pixels)))
+            self.ctx.problem(prim, "inputs:file", f"{resolved}: {bad} texel values are not finite")
+            return Connected(None, value, st)
+        space = str(_value(tex_shader.GetInput("sourceColorSpace"), time, "auto"))
+        if space not in ("auto", "raw", "sRGB"):
+            self.ctx.problem(prim, "inputs:sourceColorSpace", f"must be auto, raw or sRGB, got {space!r}")
+            space = "auto"
+        srgb = space == "sRGB" or (space == "auto" and eight_bit)
+        scale = np.resize(np.asarray(_value(tex_shader.GetInput("scale"), time, (1.0,) * 4), dtype=np.float64), 4)
+        bias = np.resize(np.asarray(_value(tex_shader.GetInput("bias"), time, (0.0,) * 4), dtype=np.float64), 4)
+        wraps = []
+        for axis, attr in enumerate(("wrapS", "wrapT")):
+            wrap = str(_value(tex_shader.GetInput(attr), time, "useMetadata"))
+            if wrap == "useMetadata":
+                # The file's own wrap mode, else black (the UsdUVTexture spec).
+                wrap = file_wraps[axis] if file_wraps else "black"
+            elif wrap not in WRAP_TOKENS:
+                self.ctx.problem(prim, f"inputs:{attr}", f"must be one of {', '.join(WRAP_TOKENS)}, useMetadata; got {wrap!r}")
+                wrap = "black"
+            wraps.append(wrap)
+        key = (resolved, srgb, output, tuple(scale), tuple(bias), factor, *wraps)
+        if key not in self.textures:
+            image = _texels(pixels, srgb, channel)
+            sel = slice(0, 3) if channel is None else slice(channel, channel + 1)
+            image = (image * scale[sel] + bias[sel]) * factor
+            if image.min() < 0:
+                self.ctx.warn(f"{path}: scale and bias give negative colours (clipped to 0)")
+                image = np.clip(image, 0.0, None)
+            self.textures[key] = Texture(image.astype(np.float32), wraps[0], wraps[1], source=path, file=resolved)
+        return Connected(self.textures[key], value, st)
+
+    def _st(self, tex_shader: UsdShade.Shader) -> StSource:
+        source = _source_output(tex_shader.GetInput("st"))
+        if source is None:
+            return StSource(None)
+        shader, _ = source
+        time = self.ctx.time
+        transform = {}
+        if shader.GetShaderId() == TRANSFORM_2D_ID:
+            transform = {
+                "scale": tuple(float(x) for x in _value(shader.GetInput("scale"), time, (1.0, 1.0))),
+                "rotation_deg": float(_value(shader.GetInput("rotation"), time, 0.0)),
+                "translation": tuple(float(x) for x in _value(shader.GetInput("translation"), time, (0.0, 0.0))),
+            }
+            source = _source_output(shader.GetInput("in"))
+            if source is None:
+                return StSource(None, **transform)
+            shader, _ = source
+        if shader.GetShaderId() != PRIMVAR_READER_ID:
+            self.ctx.unsupported["texture coordinates from other shaders (st (0, 0) used)"].append(str(shader.GetPath()))
+            return StSource(None, **transform)
+        varname = _value(shader.GetInput("varname"), time, "")
+        return StSource(str(varname) or None, **transform)
+
+    def _image(self, resolved: str, prim_path: str) -> tuple[np.ndarray, bool, str] | None:
+        """(pixels (H, W, C) float32 as stored, 8-bit?, the file's wrap modes) of an image,
+        decoded once; None (after a warning) when OpenImageIO cannot read it."""
+        if resolved in self.images:
+            return self.images[resolved]
+        result = None
+        try:
+            if "[" in resolved and resolved.endswith("]"):
+                # Packaged in a .usdz: read through USD's resolver into a temporary file.
+                asset = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved))
+                if asset is None:
+                    raise OSError("USD cannot open it")
+                suffix = os.path.splitext(resolved[resolved.rindex("[") + 1 : -1])[1]
+                with tempfile.TemporaryDirectory(prefix="phongscene-texture-") as tmp:
+                    local = os.path.join(tmp, "image" + suffix)
+                    with open(local, "wb") as f:
+                        f.write(bytes(asset.GetBuffer()))
+                    result = _read(local)
+            else:
+                result = _read(resolved)
+        except OSError as e:
+            self.ctx.warn(f"{prim_path}.inputs:file: cannot read {resolved}: {e} (the fallback is used)")
+        self.images[resolved] = result
+        return result
+
+
+def _read(path: str) -> tuple[np.ndarray, bool, str]:
+    buf = ImageBuf(path)
+    if not buf.read(force=True) or buf.has_error:
+        error = buf.geterror().strip()  # (retrieving it clears it)
+        raise OSError(error.splitlines()[0] if error else "OpenImageIO cannot read it")
+    spec = buf.spec()
+    pixels = buf.get_pixels(oiio.TypeFloat)
+    if pixels is None:
+        raise OSError(buf.geterror() or "cannot decode its pixels")
+    pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    wraps = spec.get_string_attribute("wrapmodes", "")
+    parts = [FILE_WRAPS.get(w) for w in wraps.split(",")] if wraps else []
+    file_wraps = tuple(parts) if len(parts) == 2 and None not in parts else ()
+    return pixels, spec.format.basetype == oiio.UINT8, file_wraps
+
+
+def _texels(pixels: np.ndarray, srgb: bool, channel: int | None) -> np.ndarray:
+    """(H, W, 3) linear texels of the selected output: RGB (grey repeated), or one channel
+    repeated (a missing alpha is 1, a missing colour channel of a grey image is the grey)."""
+    n = pixels.shape[2]
+    colour_channels = 1 if n in (1, 2) else 3
+    rgb = np.repeat(pixels[:, :, :1], 3, axis=2) if colour_channels == 1 else pixels[:, :, :3]
+    if srgb:
+        # OpenImageIO's colour conversion (sRGB transfer function → linear), on colour only.
+        rgb = ImageBufAlgo.colorconvert(ImageBuf(np.ascontiguousarray(rgb)), "sRGB", "linear").get_pixels(oiio.TypeFloat)
+        rgb = np.asarray(rgb, dtype=np.float32).reshape(pixels.shape[0], pixels.shape[1], 3)
+    if channel is None:
+        return rgb.astype(np.float64)
+    if channel == 3:
+        alpha = pixels[:, :, n - 1 : n] if n in (2, 4) else np.ones_like(pixels[:, :, :1])
+        return np.repeat(alpha, 3, axis=2).astype(np.float64)
+    return np.repeat(rgb[:, :, channel : channel + 1], 3, axis=2).astype(np.float64)
+
+
+def corner_elements(interpolation: str, triangles: np.ndarray, fv: np.ndarray, face_of_tri: np.ndarray) -> np.ndarray | None:
+    """The primvar element of each triangle corner for an interpolation (None: unknown)."""
+    if interpolation in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
+        return triangles
+    if interpolation == UsdGeom.Tokens.faceVarying:
+        return fv
+    if interpolation == UsdGeom.Tokens.uniform:
+        return np.repeat(face_of_tri[:, None], 3, axis=1)
+    if interpolation == UsdGeom.Tokens.constant:
+        return np.zeros_like(fv)
+    return None
+
+
+def mesh_uvs(ctx: ReadContext, prim: Usd.Prim, st: StSource, counts: tuple[int, int, int], fv, triangles, face_of_tri):
+    """(uvs (L, 2), uv_indices (M, 3)) of the mesh's st primvar ``st.primvar`` through
+    ``st``'s transform; None (after a warning: the texture is not used) without a readable one."""
+    path = str(prim.GetPath())
+    if st.primvar is None:
+        values, element = np.zeros((1, 2)), np.zeros_like(fv)
+        return st.apply(values), element
+    primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(st.primvar)
+    if not primvar or not primvar.HasAuthoredValue():
+        ctx.unsupported["textured meshes without their st primvar (the fallback colour is used)"].append(f"{path} ({st.primvar})")
+        return None
+    name = f"primvars:{st.primvar}"
+    type_name = authored_type(primvar.GetAttr())
+    if type_name not in UV_TYPES:
+        ctx.problem(prim, name, f"has type {type_name}, expected texCoord2f[]")
+        return None
+    values = np.asarray(primvar.Get(ctx.time), dtype=np.float64).reshape(-1, 2)
+    interpolation = primvar.GetInterpolation()
+    n_points, n_corners, n_faces = counts
+    expected = {
+        UsdGeom.Tokens.vertex: n_points,
+        UsdGeom.Tokens.varying: n_points,
+        UsdGeom.Tokens.faceVarying: n_corners,
+        UsdGeom.Tokens.uniform: n_faces,
+        UsdGeom.Tokens.constant: 1,
+    }.get(interpolation)
+    element = corner_elements(interpolation, triangles, fv, face_of_tri)
+    if expected is None or element is None:
+        ctx.problem(prim, name, f"has unknown interpolation {interpolation!r}")
+        return None
+    indices = np.asarray(primvar.GetIndices(ctx.time), dtype=np.int64) if primvar.IsIndexed() else None
+    n_elements = len(indices) if indices is not None else len(values)
+    if n_elements != expected:
+        what = "indices" if indices is not None else "values"
+        ctx.problem(prim, name, f"has {n_elements} {what}, expected {expected} for {interpolation} interpolation")
+        return None
+    if indices is not None:
+        if ((indices < 0) | (indices >= len(values))).any():
+            ctx.problem(prim, f"{name}:indices", f"indices out of range [0, {len(values)})")
+            return None
+        element = indices[element]
+    if not np.all(np.isfinite(values)):
+        ctx.problem(prim, name, "values must be finite")
+        return None
+    return st.apply(values), element
