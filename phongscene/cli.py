@@ -48,11 +48,97 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+class Terminated(BaseException):
+    """SIGTERM or SIGHUP arrived: raised in the main thread, like KeyboardInterrupt for SIGINT, so
+    that every ``finally`` runs (POV-Ray is killed, its temporary folder removed) before exit.
+    A BaseException, so that no ``except Exception`` swallows it."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+# Signals that end phongscene with cleanup and exit status 128 + the signal number (the shell's
+# convention for "killed by signal N", as 130 is for Ctrl-C); SIGINT stays KeyboardInterrupt.
+TERMINATING_SIGNALS = ("SIGTERM", "SIGHUP")
+# Modules whose import a command needs, imported before the command runs with Ctrl-C deferred:
+# USD's Python bindings catch a KeyboardInterrupt raised while they import (Tf prints "Error
+# occurred postprocessing module" and the import goes on half-done), so an early Ctrl-C was lost.
+PREIMPORTS = {
+    "compare": ("OpenImageIO",),
+    **{command: ("pxr.Usd", "OpenImageIO") for command in ("diff", "info", "validate", "import", "render", "compile")},
+}
+
+
+def _on_terminating_signal(signum, frame) -> None:
+    import signal
+
+    # Cleanup is under way: a second SIGTERM must not interrupt it half-done.
+    for name in TERMINATING_SIGNALS:
+        signal.signal(getattr(signal, name), signal.SIG_IGN)
+    raise Terminated(signum)
+
+
+def _install_signal_handlers() -> dict:
+    """Handle TERMINATING_SIGNALS; returns the previous handlers (``main`` restores them, so
+    calling it in-process, as the tests do, leaves the caller's handlers as they were)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return {}  # main() called from a worker thread: Python allows handlers only in the main one
+    return {
+        signum: signal.signal(signum, _on_terminating_signal)
+        for signum in (getattr(signal, name) for name in TERMINATING_SIGNALS)
+    }
+
+
+def _preimport(modules) -> None:
+    """Import ``modules`` with SIGINT held back, then raise KeyboardInterrupt if one came."""
+    import importlib
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        for module in modules:
+            importlib.import_module(module)
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
     try:
+        for module in modules:
+            try:
+                importlib.import_module(module)
+            except ImportError:
+                pass  # a missing module is the command's to report, in its own words
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
+
+
+def main(argv: list[str] | None = None) -> int:
+    import signal
+
+    previous = _install_signal_handlers()
+    try:
+        return _main(argv)
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def _main(argv: list[str] | None) -> int:
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        _preimport(PREIMPORTS.get(args.command, ()))
         return int(args.func(args) or 0)
+    except Terminated as e:
+        import signal
+
+        print(f"terminated by {signal.Signals(e.signum).name}", file=sys.stderr)
+        return 128 + e.signum
     except SceneError as e:
         for p in in_file_terms(e).problems:
             print(f"error: {p}", file=sys.stderr)
@@ -107,6 +193,127 @@ def _add_size_options(p: argparse.ArgumentParser, spp_help: str = SPP_HELP) -> N
     p.add_argument("--spp", type=_samples_per_axis, metavar="N", help=spp_help)
 
 
+def _seconds(text: str) -> float:
+    """An argparse type: a number of seconds > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a number of seconds > 0, got {text}")
+    return value
+
+
+def _add_timeout_option(p: argparse.ArgumentParser, help: str) -> None:
+    p.add_argument("--timeout", type=_seconds, metavar="SECONDS", help=help)
+
+
+def _time_code(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number (a USD time code), got {text!r}") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def _frame_range(text: str) -> tuple[int, ...]:
+    from .animation import parse_frames
+
+    try:
+        return parse_frames(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _add_time_options(p: argparse.ArgumentParser, output: str) -> None:
+    group = p.add_argument_group("time (an animated stage; default: its start time, with a warning)")
+    when = group.add_mutually_exclusive_group()
+    when.add_argument("--time", type=_time_code, metavar="T", help="read the stage at USD time code T")
+    when.add_argument("--frames", type=_frame_range, metavar="START:END[:STEP]",
+                      help=f"frames START, START+STEP, ... END (whole time codes): {output}. Frames run as Dask "
+                      "tasks: a LocalCluster here, or --scheduler")
+    group.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                       help="with --frames: an existing Dask scheduler (default: $DASK_SCHEDULER_ADDRESS, else a "
+                       "LocalCluster); workers must see the scene and the output at the same paths")
+    group.add_argument("--workers", type=_int_in(1), metavar="N",
+                       help="with --frames: LocalCluster worker processes (default: one per core)")
+
+
+def _frame_options(args) -> dict:
+    """The plain options a frame task renders with. Each LocalCluster worker renders one frame at
+    a time; unless --threads says otherwise it gets its share of the cores (so workers x threads
+    = cores); on an existing cluster the scene's setting applies unless --threads is given."""
+    from .animation import scheduler_address
+
+    threads = getattr(args, "threads", None)
+    if threads is None and "threads" in args and scheduler_address(args.scheduler) is None:
+        cores = os.cpu_count() or 1
+        threads = max(1, cores // min(args.workers or cores, len(args.frames)))
+    return {"mapping": args.mapping, "width": args.width, "height": args.height, "samples": args.spp,
+            "threads": threads}
+
+
+def _run_frames(args, task, arguments, label: str):
+    """Run ``task`` for every frame of ``args.frames``: one frame in this process, more on Dask.
+    The stage is read once here first (at the first frame), so a bad file is one error before
+    any cluster starts, and its warnings are printed once."""
+    from .animation import TASK_RETRIES, run_frames, run_serially
+    from .progress import ProgressBar
+    from .rendering import load_scene
+
+    _, warnings = load_scene(args.scene, time=float(args.frames[0]))
+    _print_warnings(warnings)
+    bar = ProgressBar("frames")
+
+    def on_frame(frame, metrics, error):
+        if error is not None:
+            print(f"error: frame {frame}: {error}", file=sys.stderr)
+
+    # One frame, no cluster asked for: this process (a cluster's start-up would cost more).
+    if len(args.frames) == 1 and not (args.scheduler or args.workers):
+        run = run_serially(task, args.frames, arguments, progress=bar, on_frame=on_frame)
+    else:
+        run = run_frames(task, args.frames, arguments, scheduler=args.scheduler, workers=args.workers,
+                         progress=bar, on_frame=on_frame)
+    bar.done(run.seconds)
+    # Warnings the first frame did not have (a light that clips only later, ...), once each.
+    later: dict[str, list[int]] = {}
+    for frame in sorted(run.results):
+        for warning in run.results[frame].get("warnings", ()):
+            if warning not in warnings:
+                later.setdefault(warning, []).append(frame)
+    _print_warnings(f"frames {', '.join(map(str, frames))}: {warning}" for warning, frames in later.items())
+    where = f"on {run.workers} Dask workers ({run.cluster})" if run.cluster else "in this process"
+    print(f"{args.scene}: {len(run.results)} of {len(args.frames)} {label} {where} in {run.seconds:.2f} s")
+    if run.failures:
+        print(f"error: frames failed (each tried {1 + TASK_RETRIES} times): "
+              f"{', '.join(map(str, sorted(run.failures)))}", file=sys.stderr)
+    return run
+
+
+def _cluster_without_frames(args) -> bool:
+    """--scheduler/--workers without --frames: said (one error line), since nothing would use them."""
+    if (args.scheduler or args.workers) and not args.frames:
+        print("error: --scheduler and --workers run frames: give --frames START:END", file=sys.stderr)
+        return True
+    return False
+
+
+def _output_at_time(args, output: str) -> str | None:
+    """A single frame's output name: #### replaced by --time when it is a whole number. None
+    (after an error message) when the name has #### and there is no frame number for it."""
+    from .animation import frame_name, has_frame_pattern
+
+    if not has_frame_pattern(output):
+        return output
+    if args.time is None or args.time != int(args.time):
+        print(f"error: {output}: #### in the name needs --frames, or a whole --time", file=sys.stderr)
+        return None
+    return frame_name(output, int(args.time))
+
+
 def _add_threshold_options(p: argparse.ArgumentParser, by_format: bool = False) -> None:
     from .comparison import HALF_FLOAT as t  # OpenImageIO: only when a parser is built
 
@@ -146,7 +353,7 @@ def _scene_and_settings(args):
     mapping, size, sample and thread overrides."""
     from .rendering import load_scene, settings_with
 
-    scene, warnings = load_scene(args.scene)
+    scene, warnings = load_scene(args.scene, time=getattr(args, "time", None))
     _print_warnings(warnings)
     settings = settings_with(scene, args.mapping, width=args.width, height=args.height, samples=args.spp,
                              threads=getattr(args, "threads", None))
@@ -172,7 +379,10 @@ def _add_diff_command(sub) -> None:
                         default="exact")
     _add_size_options(p, spp_help=f"{SPP_HELP} (RenderSettings.samples; default: the scene's)")
     p.add_argument("--threads", type=_thread_count, metavar="N", help="native worker threads (0 = all cores)")
+    _add_timeout_option(p, "stop POV-Ray after SECONDS per process (exit 3)")
     _add_threshold_options(p)
+    _add_time_options(p, "a report per frame in OUTDIR/frame.####, and OUTDIR/index.html with a row per frame; "
+                      "exit 1 if any frame fails")
     p.set_defaults(func=_run_diff)
 
 
@@ -184,9 +394,13 @@ def _run_diff(args) -> int:
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_SCENE
+    if _cluster_without_frames(args):
+        return EXIT_SCENE
+    if args.frames:
+        return _diff_frames(args, thresholds)
     result = diff(
         args.scene, args.outdir, mapping=args.mapping, width=args.width, height=args.height, samples=args.spp,
-        threads=args.threads, thresholds=thresholds, progress=sys.stderr,
+        threads=args.threads, thresholds=thresholds, progress=sys.stderr, timeout=args.timeout, time=args.time,
     )
     s = result.settings
     print(f"{args.scene}: {s.width} x {s.height}, mapping {result.mapping} (native {s.specular})")
@@ -196,6 +410,28 @@ def _run_diff(args) -> int:
         print(result.explanation())
     print(f"report: {result.outdir / 'index.html'}")
     return EXIT_OK if result.ok else EXIT_DIFFERENT
+
+
+def _diff_frames(args, thresholds) -> int:
+    from .animation import FRAME_FOLDER, diff_frame, frame_name, write_frames_report
+    from .backends.povray import check_mapping
+
+    check_mapping(args.mapping)
+    options = _frame_options(args)
+    outdir = os.path.abspath(args.outdir)
+    folder = lambda f: os.path.join(outdir, frame_name(FRAME_FOLDER, f))  # noqa: E731
+    run = _run_frames(args, diff_frame, lambda f: (os.path.abspath(args.scene), f, folder(f), options, thresholds),
+                      "frames diffed")
+    for frame in sorted(run.results):
+        m = run.results[frame]
+        print(f"  frame {frame}: {'PASS' if m['ok'] else 'FAIL'}, max error {m['max_error']:.6g}, "
+              f"{m['failing_pixels']} failing pixels ({m['failing_percent']:.4g}%)")
+    index = write_frames_report(outdir, os.path.abspath(args.scene), run,
+                                {"mapping": args.mapping, "workers": run.workers, "seconds": run.seconds})
+    print(f"report: {index}")
+    if run.failures:
+        return EXIT_BACKEND
+    return EXIT_OK if all(m["ok"] for m in run.results.values()) else EXIT_DIFFERENT
 
 
 def _add_compare_command(sub) -> None:
@@ -395,6 +631,8 @@ def _add_render_command(sub) -> None:
                         "'povray-classic'); default: the scene's")
     _add_size_options(p)
     p.add_argument("--threads", type=_thread_count, metavar="N", help="worker threads (0 = all cores)")
+    _add_timeout_option(p, "--backend povray only: stop POV-Ray after SECONDS (exit 3)")
+    _add_time_options(p, "one image per frame, #### in IMAGE becomes the frame number")
     p.set_defaults(func=_run_render)
 
 
@@ -408,14 +646,44 @@ def _run_render(args) -> int:
     if not args.output.lower().endswith(WRITABLE):
         print(f"error: {args.output}: the output must end in one of {', '.join(WRITABLE)}", file=sys.stderr)
         return EXIT_SCENE
-    scene, settings = _scene_and_settings(args)
+    if args.timeout is not None and args.backend != "povray":
+        print("error: --timeout applies to --backend povray only (the native tracer stops on Ctrl-C)", file=sys.stderr)
+        return EXIT_SCENE
+    if _cluster_without_frames(args):
+        return EXIT_SCENE
+    if args.frames:
+        return _render_frames(args)
+    output = _output_at_time(args, args.output)
+    if output is None:
+        return EXIT_SCENE
+    args.output = output
     bar = ProgressBar(args.backend)
     start = time.perf_counter()
-    image = render(scene, args.backend, settings, progress=bar)
+    bar.phase(f"reading {Path(args.scene).name}")  # a big USD file takes seconds
+    scene, settings = _scene_and_settings(args)
+    image = render(scene, args.backend, settings, progress=bar, timeout=args.timeout)
     bar.done(time.perf_counter() - start)
     write_image(args.output, image)
     print(f"{args.output}: {settings.width} x {settings.height}, {args.backend}, specular {settings.specular}")
     return EXIT_OK
+
+
+def _render_frames(args) -> int:
+    from .animation import frame_name, has_frame_pattern, render_frame
+
+    if not has_frame_pattern(args.output):
+        print(f"error: {args.output}: with --frames the name needs #### for the frame number (e.g. out.####.exr)",
+              file=sys.stderr)
+        return EXIT_SCENE
+    options = _frame_options(args)
+    scene = os.path.abspath(args.scene)
+    run = _run_frames(args, render_frame,
+                      lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), args.backend, options),
+                      "frames rendered")
+    if run.results:
+        m = next(iter(run.results.values()))
+        print(f"{args.output}: {m['width']} x {m['height']}, {args.backend}, specular {m['specular']}")
+    return EXIT_BACKEND if run.failures else EXIT_OK
 
 
 def _add_compile_command(sub) -> None:
@@ -432,6 +700,7 @@ def _add_compile_command(sub) -> None:
     _add_mapping_option(p, "exact (the seed model, one pass per light) or classic (one plain POV-Ray finish per "
                         "material); default: the scene's specular convention")
     _add_size_options(p)
+    _add_time_options(p, "a .pov and an .ini per frame, #### in OUT.pov becomes the frame number")
     p.set_defaults(func=_run_compile)
 
 
@@ -446,6 +715,14 @@ def _run_compile(args) -> int:
     if out.suffix.lower() != ".pov":
         print(f"error: {out}: the output must end in .pov", file=sys.stderr)
         return EXIT_SCENE
+    if _cluster_without_frames(args):
+        return EXIT_SCENE
+    if args.frames:
+        return _compile_frames(args)
+    output = _output_at_time(args, args.output)
+    if output is None:
+        return EXIT_SCENE
+    out = Path(output)
     scene, settings = _scene_and_settings(args)
     job = prepare(scene, check_settings(scene, settings), args.mapping)
     ini, image = out.with_suffix(".ini"), out.with_suffix(".exr")
@@ -462,3 +739,19 @@ def _run_compile(args) -> int:
     if job.supersample > 1:
         print(f"  then average {job.supersample} x {job.supersample} pixel blocks (grid anti-aliasing)")
     return EXIT_OK
+
+
+def _compile_frames(args) -> int:
+    from .animation import compile_frame, frame_name, has_frame_pattern
+
+    if not has_frame_pattern(args.output):
+        print(f"error: {args.output}: with --frames the name needs #### for the frame number (e.g. out.####.pov)",
+              file=sys.stderr)
+        return EXIT_SCENE
+    options = _frame_options(args)
+    scene = os.path.abspath(args.scene)
+    run = _run_frames(args, compile_frame, lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), options),
+                      "frames compiled")
+    for frame in sorted(run.results):
+        print(f"  {run.results[frame]['output']}")
+    return EXIT_BACKEND if run.failures else EXIT_OK

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import os
-import time
+from time import perf_counter
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import TextIO
@@ -30,6 +30,7 @@ from .rendering import load_scene, render, settings_with
 from .scene import RenderSettings, Scene
 
 LABELS = ("povray", "native")
+SHADOW_CACHE_CAUSE = "POV-Ray's shadow cache"  # what explains a failing pixel (see _explain)
 
 
 @dataclass(frozen=True)
@@ -91,6 +92,7 @@ def diff(
     thresholds: Thresholds = HALF_FLOAT,
     progress: TextIO | None = None,
     timeout: float | None = None,
+    time: float | None = None,
 ) -> DiffResult:
     """Render a scene with both backends, compare, and write the report if ``outdir`` is given.
 
@@ -105,6 +107,7 @@ def diff(
         thresholds: when the images agree (default: half-float precision at every pixel).
         progress: stream for progress bars (e.g. ``sys.stderr``); None shows none.
         timeout: seconds before POV-Ray is abandoned.
+        time: the USD time code to read a USD file at (None: the reader's choice).
 
     Returns:
         A ``DiffResult``: the report, the folder, both timings and both images.
@@ -117,7 +120,14 @@ def diff(
     from .backends.povray import check_mapping
 
     check_mapping(mapping)  # before the scene is read
-    scene, warnings = load_scene(scene_or_path)
+    reading = None
+    if progress is not None and not isinstance(scene_or_path, Scene):
+        reading = ProgressBar("scene", progress)
+        reading.phase(f"reading {Path(scene_or_path).name}")  # a big USD file takes seconds
+    start = perf_counter()
+    scene, warnings = load_scene(scene_or_path, time)
+    if reading is not None:
+        reading.done(perf_counter() - start, "read")
     if progress is not None:
         for w in warnings:
             progress.write(f"warning: {w}\n")
@@ -127,9 +137,9 @@ def diff(
     images, timings = {}, {}
     for backend in LABELS:
         bar = ProgressBar(backend, progress) if progress is not None else None
-        start = time.perf_counter()
+        start = perf_counter()
         images[backend] = render(scene, backend, settings, progress=bar, timeout=timeout)
-        timings[backend] = time.perf_counter() - start
+        timings[backend] = perf_counter() - start
         if bar is not None:
             bar.done(timings[backend])
     try:
@@ -140,7 +150,8 @@ def diff(
     plain = render(scene, "native", replace(settings, numerics="scale-invariant"))
     numerics_differ = int(failing_mask(images["native"], plain, thresholds).sum())
 
-    written = None
+    result = DiffResult(report, None, timings, images["povray"], images["native"], settings, mapping, warnings,
+                        explained, unexplained, numerics_differ)
     if outdir is not None:
         from .report import write_report
 
@@ -153,8 +164,13 @@ def diff(
             labels=LABELS,
             title=f"phongscene diff: {Path(source).name if source else 'scene'} ({mapping} mapping)",
             timings=timings,
+            # Failing pixels are classified only when the comparison fails (_explain).
+            explained=None if report.ok else explained,
+            cause=SHADOW_CACHE_CAUSE,
+            ok=result.ok,
             meta={
                 "scene": source,
+                "time": time,
                 "mapping": mapping,
                 "native_specular": settings.specular,
                 "settings": _settings_dict(settings),
@@ -164,9 +180,8 @@ def diff(
                 "native_numerics_differ_pixels": numerics_differ,
             },
         )
-        written = index.parent
-    return DiffResult(report, written, timings, images["povray"], images["native"], settings, mapping, warnings,
-                      explained, unexplained, numerics_differ)
+        result = replace(result, outdir=index.parent)
+    return result
 
 
 def _explain(scene: Scene, settings: RenderSettings, images: dict, report: Report, thresholds: Thresholds):

@@ -57,14 +57,15 @@ def settings_with(
     return replace(s, **{k: v for k, v in changes.items() if v is not None})
 
 
-def load_scene(scene_or_path: Scene | str | os.PathLike) -> tuple[Scene, list[str]]:
-    """A Scene as given, or read from a USD file, with the reader's warnings (raises
-    SceneError for a bad file)."""
+def load_scene(scene_or_path: Scene | str | os.PathLike, time: float | None = None) -> tuple[Scene, list[str]]:
+    """A Scene as given, or read from a USD file at USD time code ``time`` (None: the reader's
+    choice, ``phongscene.usd.read_usd``), with the reader's warnings (raises SceneError for a bad
+    file)."""
     if isinstance(scene_or_path, Scene):
         return scene_or_path, []
     from .usd import read_usd  # lazily: the USD reader imports pxr
 
-    result = read_usd(os.fspath(scene_or_path))
+    result = read_usd(os.fspath(scene_or_path), time=time)
     return result.scene, list(result.warnings)
 
 

@@ -242,7 +242,8 @@ def render(
             convention; defaults to ``scene.settings``.
         progress: called as ``progress(tiles_done, tiles_total)`` from the calling thread
             while rendering (and once at the end). An exception it raises stops the render
-            and propagates.
+            and propagates. Its ``phase(text)`` method, if it has one, is called before the
+            BVH is built.
 
     Returns:
         The image: float32 (height, width, 3), linear RGB, row 0 at the top.
@@ -251,6 +252,11 @@ def render(
         KeyboardInterrupt: on Ctrl-C, promptly (the workers stop at their next tile).
     """
     s = scene.settings if settings is None else settings
+    # Building the BVH of a big mesh takes seconds and reports no fraction: say so
+    # (phongscene.progress.report_phase: a progress callable may have a phase method).
+    phase = getattr(progress, "phase", None)
+    if callable(phase):
+        phase(f"building the BVH ({scene.triangle_count} triangles)" if scene.meshes else "building the BVH")
     arrays = scene_arrays(scene)
     if s.numerics != "scale-invariant":
         arrays = _as_povray_stores(arrays, scene)

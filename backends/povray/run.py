@@ -17,8 +17,10 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import subprocess
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -41,6 +43,8 @@ INSTALL_HINT = "POV-Ray 3.7 is not installed ('povray' is not on PATH); install 
 # allows it (its own include and /tmp paths, and the working directory), no shell-outs.
 POVRAY_CONF = "[File I/O Security]\nrestricted\n[Shellout Security]\nforbidden\n[Permitted Paths]\nread+write = .\n"
 OUTPUT_TAIL_LINES = 25  # lines of POV-Ray's output quoted in an error
+# Held back while POV-Ray starts (see _run_in): Ctrl-C, and what phongscene's CLI turns into exceptions.
+HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
 POLL_SECONDS = 0.05  # how often a running render is checked for finished frames and the timeout
 
 
@@ -91,7 +95,8 @@ def render_switches(settings: RenderSettings) -> tuple[int, int, int, tuple[str,
     width, height = settings.width * k, settings.height * k
     # -GD -GR -GS silence the debug, render and statistics streams but keep the fatal and
     # warning streams: they carry "File 'x.pov' line N: Parse Error: ..." for error reports.
-    switches = ["+FE", f"+W{width}", f"+H{height}", "-D", "-V", "-GD", "-GR", "-GS", "+Q9", "-J"]
+    # +V keeps the "Rendered N of M pixels" lines (ref §17) the progress bar is drawn from.
+    switches = ["+FE", f"+W{width}", f"+H{height}", "-D", "+V", "-GD", "-GR", "-GS", "+Q9", "-J"]
     if n > 1 and settings.sample_pattern == "povray-am1":
         switches += ["+AM1", "+A0.0", f"+R{n}"]
     else:
@@ -125,7 +130,9 @@ def render(
         scene: the scene (validated on compilation).
         settings: render settings; default ``scene.settings``.
         mapping: "exact" or "classic"; default from ``settings.specular``.
-        progress: called with (passes done, passes) as frames finish.
+        progress: called with (passes done, passes) as POV-Ray renders (passes done is
+            fractional: the pixels of the current pass, from its "Rendered N of M pixels"
+            lines); its ``phase(text)`` method, if it has one, while POV-Ray parses.
         timeout: seconds before POV-Ray is stopped and a ``BackendError`` raised.
         keep_dir: render in this directory and keep the .pov, .ini and EXR files there.
 
@@ -164,7 +171,12 @@ def render_many(
     if progress:
         progress(0, total)
     images: list[np.ndarray | None] = [None] * len(jobs)
+    # A progress callable may have a phase(text) method (phongscene.progress.report_phase).
+    phase = getattr(progress, "phase", None) if progress else None
+    phase = phase if callable(phase) else None
     for g, ((width, height, k, switches), members) in enumerate(groups.items()):
+        if phase is not None:
+            phase("compiling the SDL")  # a million triangles take ~1 s
         if len(members) == 1:
             scene, settings, mapping, _ = jobs[members[0]]
             sdl = compile_pov(scene, settings, mapping)
@@ -176,11 +188,11 @@ def render_many(
             textures.update(texture_files(jobs[i][0]))
         job = PovJob(sdl, sum(passes), width, height, k, switches, tuple(textures.items()))
 
-        def frame_done(frames: int, base: int = done) -> None:
+        def frame_done(frames: float, base: int = done) -> None:
             if progress:
                 progress(base + frames, total)
 
-        frames = _run(job, f"group{g}-" if len(groups) > 1 else "scene", timeout, keep_dir, frame_done)
+        frames = _run(job, f"group{g}-" if len(groups) > 1 else "scene", timeout, keep_dir, frame_done, phase)
         done += job.frames
         start = 0
         for i, n in zip(members, passes):
@@ -210,12 +222,14 @@ def _batch_sdl(items: list[tuple[Scene, RenderSettings, str]]) -> str:
     return "\n".join(out) + "\n"
 
 
-def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, frame_done) -> list[np.ndarray]:
+def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, frame_done, phase=None) -> list[np.ndarray]:
     """Run one POV-Ray process for ``job``; return its frames as float32 images. The temporary
-    directory is removed afterwards, except after a ``BackendError`` (it holds the kept .pov)."""
+    directory is removed afterwards, except after a ``BackendError`` (it holds the kept .pov).
+    ``frame_done(frames)`` gets the frames done (fractional: pixels of the current one);
+    ``phase(text)``, when given, is told while POV-Ray parses."""
     workdir = Path(keep_dir) if keep_dir else Path(tempfile.mkdtemp(prefix="phongscene-povray-"))
     try:
-        frames = _run_in(job, workdir, stem, timeout, frame_done)
+        frames = _run_in(job, workdir, stem, timeout, frame_done, phase)
     except BackendError:
         raise
     except BaseException:  # Ctrl-C, a full disk, ...: nothing worth keeping
@@ -227,7 +241,7 @@ def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, fr
     return frames
 
 
-def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_done) -> list[np.ndarray]:
+def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_done, phase) -> list[np.ndarray]:
     workdir.mkdir(parents=True, exist_ok=True)
     pov, output, log = workdir / f"{stem}.pov", workdir / f"{stem}.exr", workdir / f"{stem}.log"
     pov.write_text(job.sdl, encoding="ascii")
@@ -245,36 +259,45 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
         return BackendError(message, detail=_tail(log), kept=str(pov))
 
     with open(log, "wb") as log_file:
-        proc = subprocess.Popen(
-            job.command(pov.name, output.name),
-            cwd=workdir,
-            env=env,
-            stdin=subprocess.DEVNULL,
-            stdout=log_file,
-            stderr=subprocess.STDOUT,
-        )
+        # Signals whose handlers raise (Ctrl-C; SIGTERM, SIGHUP in the CLI) are held back while
+        # POV-Ray starts: one handled inside Popen, after the fork but before it returns, would
+        # leave POV-Ray running with nothing to kill it (the SIGTERM test hit it, and a blocked
+        # signal mask alone did not help: another thread can take the signal).
+        held = _hold_signals()
         try:
+            proc = subprocess.Popen(
+                job.command(pov.name, output.name),
+                cwd=workdir,
+                env=env,
+                stdin=subprocess.DEVNULL,
+                stdout=log_file,
+                stderr=subprocess.STDOUT,
+            )
+        except BaseException:
+            _release_signals(held)
+            raise
+        try:
+            _release_signals(held)  # a held signal's handler runs here, where POV-Ray gets killed
             deadline = None if timeout is None else time.monotonic() + timeout
-            reported = 0
-            while True:
-                try:
-                    rc = proc.wait(timeout=POLL_SECONDS)
-                    break
-                except subprocess.TimeoutExpired:
-                    pass
-                # A frame's file appears when it is written; the newest one may be incomplete.
-                finished = max(0, len(_frame_files(workdir, stem)) - 1)
-                if finished > reported:
-                    reported = finished
-                    frame_done(finished)
-                if deadline is not None and time.monotonic() > deadline:
-                    proc.kill()
-                    proc.wait()
-                    raise fail(f"POV-Ray timed out after {timeout:g} s")
+            parser = PovLogParser()
+            with open(log, "r", encoding="utf-8", errors="replace", newline="") as console:
+                while True:
+                    try:
+                        rc = proc.wait(timeout=POLL_SECONDS)
+                        break
+                    except subprocess.TimeoutExpired:
+                        pass
+                    state = parser.feed(console.read())
+                    if state.parsing and phase is not None:
+                        phase("parsing" + (f" pass {state.frame} of {job.frames}" if job.frames > 1 else ""))
+                    elif not state.parsing:
+                        frame_done(job.frames * state.fraction(job.frames))
+                    if deadline is not None and time.monotonic() > deadline:
+                        proc.kill()
+                        proc.wait()
+                        raise fail(f"POV-Ray timed out after {timeout:g} s")
         finally:
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
+            _stop(proc)
     if rc != 0:
         raise fail(f"POV-Ray failed (exit code {rc})")
     files = _frame_files(workdir, stem)
@@ -298,6 +321,90 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
     return frames
 
 
+def _hold_signals() -> tuple[dict, list[int]]:
+    """Replace the Python handlers of HELD_SIGNALS by ones that only record the signal (main
+    thread only: Python runs handlers there alone). Returns (previous handlers, recorded)."""
+    recorded: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        return {}, recorded
+    previous = {}
+    for signum in HELD_SIGNALS:
+        handler = signal.getsignal(signum)
+        if callable(handler):  # SIG_DFL and SIG_IGN raise nothing: leave them
+            previous[signum] = signal.signal(signum, lambda n, frame: recorded.append(n))
+    return previous, recorded
+
+
+def _release_signals(held: tuple[dict, list[int]]) -> None:
+    """Put the handlers back, then deliver what was recorded meanwhile (their handlers run now)."""
+    previous, recorded = held
+    for signum, handler in previous.items():
+        signal.signal(signum, handler)
+    for signum in dict.fromkeys(recorded):
+        signal.raise_signal(signum)
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    """Kill and reap POV-Ray if it still runs (SIGKILL: it also ends a stopped process)."""
+    if proc.poll() is None:
+        proc.kill()
+        proc.wait()
+
+
+@dataclass(slots=True)
+class PovProgress:
+    """What POV-Ray's console output (``+V``, ref §17) says so far: the frame being rendered
+    (1-based, 0 before the first one) and the pixels of it done."""
+
+    frame: int = 0
+    pixels_done: int = 0
+    pixels_total: int = 0
+    parsing: bool = False  # in "==== [Parsing...]", before the frame's first pixel
+
+    def fraction(self, frames: int) -> float:
+        """Share of a job of ``frames`` frames done: finished frames plus this one's pixels."""
+        current = self.pixels_done / self.pixels_total if self.pixels_total else 0.0
+        return min(1.0, (max(self.frame, 1) - 1 + current) / max(frames, 1))
+
+
+_PROGRESS_EVENT = re.compile(
+    r"Rendering frame (?P<frame>\d+) of \d+|(?P<parsing>==== \[Parsing\.\.\.\])"
+    r"|Rendered (?P<done>\d+) of (?P<total>\d+) pixels"
+)
+
+
+class PovLogParser:
+    """Reads POV-Ray's console output as it grows (``feed`` each new chunk, split anywhere) and
+    keeps a ``PovProgress``. Pure: no I/O. POV-Ray ends each "Rendered N of M pixels" with a
+    carriage return and prints them from several threads, so N can step back by a block: the
+    largest N of the frame counts."""
+
+    def __init__(self) -> None:
+        self.progress = PovProgress()
+        self._partial = ""  # the text after the last line end, which the next chunk completes
+
+    def feed(self, chunk: str) -> PovProgress:
+        text = self._partial + chunk
+        end = max(text.rfind("\n"), text.rfind("\r"))
+        self._partial, complete = text[end + 1 :], text[: end + 1]
+        p = self.progress
+        for m in _PROGRESS_EVENT.finditer(complete):
+            if m.group("frame"):
+                p.frame, p.pixels_done, p.pixels_total, p.parsing = int(m.group("frame")), 0, 0, False
+            elif m.group("parsing"):
+                p.parsing = True
+            else:
+                # A run of one frame prints no "Rendering frame" line (ref §17).
+                p.frame = max(p.frame, 1)
+                p.pixels_done = max(p.pixels_done, int(m.group("done")))
+                p.pixels_total, p.parsing = int(m.group("total")), False
+        return p
+
+
+def _is_progress_line(line: str) -> bool:
+    return line.startswith("Rendered ") and " pixels" in line
+
+
 def _frame_files(workdir: Path, stem: str) -> list[Path]:
     """Output files in frame order: ``stem.exr``, or ``stemN.exr`` (zero-padded N) for animations."""
     pattern = re.compile(re.escape(stem) + r"(\d*)\.exr")
@@ -310,4 +417,6 @@ def _tail(log: Path) -> str:
         text = log.read_text(encoding="utf-8", errors="replace")
     except OSError:
         return ""
-    return "\n".join(text.rstrip().splitlines()[-OUTPUT_TAIL_LINES:])
+    # The progress lines ("Rendered N of M pixels", ref §17) say nothing about a failure.
+    lines = [line for line in text.rstrip().splitlines() if not _is_progress_line(line)]
+    return "\n".join(lines[-OUTPUT_TAIL_LINES:])
