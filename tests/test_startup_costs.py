@@ -60,3 +60,9 @@ def test_exr_is_written_with_the_speed_default_compression_and_reads_back_bit_id
     assert EXR_COMPRESSION == "none"
     assert oiio.ImageInput.open(str(path)).spec().get_string_attribute("compression") == EXR_COMPRESSION
     assert np.array_equal(read_image(path), image)
+
+
+def test_reading_an_untextured_usd_file_imports_no_openimageio(tmp_path):
+    path = tmp_path / "cube.usda"
+    path.write_text(CUBE_SCENE)
+    assert "OpenImageIO" not in loaded_modules(f"from phongscene.usd import read_usd\nread_usd({str(path)!r})")
