@@ -113,11 +113,14 @@ def s2_torus(triangles: int = 1_000_000) -> Scene:
     )
 
 
-FILES = {"S1": "s1_spheres.usda", "S2": "s2_torus.usdc", "S3": "s3_area.usda"}
+FILES = {"S1": "s1_spheres.usda", "S2": "s2_torus.usdc", "S3": "s3_area.usda",
+         # S2 with fewer triangles, for run.py's scaling table (not made by default)
+         "S2-10k": "s2_torus_10k.usdc", "S2-100k": "s2_torus_100k.usdc"}
 
 
 def make(outdir: Path = HERE / "scenes", triangles: int = 1_000_000, which=("S1", "S2", "S3")) -> dict[str, Path]:
-    builders = {"S1": s1_spheres, "S2": lambda: s2_torus(triangles), "S3": s3_area}
+    builders = {"S1": s1_spheres, "S2": lambda: s2_torus(triangles), "S3": s3_area,
+                "S2-10k": lambda: s2_torus(10_000), "S2-100k": lambda: s2_torus(100_000)}
     outdir.mkdir(parents=True, exist_ok=True)
     return {name: write_usd(builders[name](), outdir / FILES[name]) for name in which}
 

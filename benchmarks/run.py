@@ -1,19 +1,31 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Time the native tracer and POV-Ray side by side on the benchmark scenes (same machine, same
-moment, same thread count) and print the speed ratios.
+"""Time the native tracer, POV-Ray and the peers found installed side by side on the benchmark
+scenes (same machine, same moment, same thread counts) and print the speed ratios.
 
-Both are timed end to end from the loaded Scene to the image in memory: native = flatten +
-BVH build + render; POV-Ray = compile SDL + write + parse + render + read the EXR back (through
-``phongscene.backends.povray.render``). Each figure is the best of --repeat runs. The images are
-compared too (max |native − POV-Ray| relative to the image's max), so a fast wrong answer shows.
+Four tables, in one run:
 
-``--baseline-extension SO`` also times another build of the ``_native`` extension (say, a copy of
-the .so saved before a C++ change) on the same scene at the same moment, in a child process (two
-builds of one nanobind module cannot share a process), and checks that its image is
-bit-identical to the installed build's. ``--native-only`` skips POV-Ray.
+1. **In process**, from the loaded Scene to the image in memory, at each ``--threads`` count:
+   native = build (flatten + C++ scene + BVH) and render; POV-Ray = compile SDL + write + parse +
+   render + read the EXR back (``phongscene.backends.povray.render``); Embree (``embreex``, when
+   installed; triangle scenes only) = build, and the same camera's primary rays plus one shadow
+   ray per hit and light, single-ray queries on one thread. The max |native − POV-Ray| relative to
+   the image's max is printed too, so a fast wrong answer shows.
+2. **Whole process**: ``phongscene render SCENE -o x.exr`` against ``povray`` on the compiled
+   scene (``phongscene compile``'s job, written before timing), wall time and peak RSS of the
+   child; the "tiny" row is S1 at 32×18, i.e. the start-up costs.
+3. **Threads**: the native render's speed-up from 1 thread to the most asked for.
+4. **Triangles**: S2's native render (without build) at 10k, 100k and 1M triangles.
+
+Each figure is the best of --repeat runs (the least disturbed on a shared machine).
+Mitsuba 3 is not run: see benchmarks/README.md.
+
+``--baseline-extension SO`` instead times another build of the ``_native`` extension (say, a
+copy of the .so saved before a C++ change) on the same scenes at the same moment, in a child
+process (two builds of one nanobind module cannot share a process), and checks that its image is
+bit-identical to the installed build's.
 
     .venv/bin/python benchmarks/make_scenes.py       # once: writes benchmarks/scenes/*.usd*
-    .venv/bin/python benchmarks/run.py [--threads 0] [--repeat 3] [--mapping classic] [S1 S2 S3]
+    .venv/bin/python benchmarks/run.py [--threads 1 2] [--repeat 3] [--mapping classic] [S1 S2 S3]
     .venv/bin/python benchmarks/run.py --baseline-extension /tmp/baseline/_native.cpython-311-x86_64-linux-gnu.so
 
 Figures: see benchmarks/README.md.
@@ -29,6 +41,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +49,16 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from timing import best_time  # noqa: E402  (benchmarks/ is not a package)
+
 NATIVE_EXTENSION_MODULE = "phongscene.backends.native._native"
+# S2 at these triangle counts for the scaling table (make_scenes.FILES names).
+SCALING_SCENES = ("S2-10k", "S2-100k", "S2")
+# The "tiny" whole-process row: S1 at this size (start-up costs only).
+TINY_SIZE = (32, 18)
+# Embree's shadow rays start this far from the hit point, toward the light (and stop as far
+# before it): a peer's timing needs no more than a plausible offset, it is not compared.
+EMBREE_SHADOW_OFFSET = 1e-4
+GNU_TIME = "/usr/bin/time"  # Debian package "time"
 
 
 def use_extension(path: Path) -> None:
@@ -49,12 +71,21 @@ def use_extension(path: Path) -> None:
     sys.modules[NATIVE_EXTENSION_MODULE] = module
 
 
+def scene_path(name: str) -> Path:
+    from make_scenes import FILES, make
+
+    path = HERE / "scenes" / FILES[name]
+    if not path.exists():
+        make(which=(name,))
+    return path
+
+
 def time_baseline(args: argparse.Namespace, name: str, threads: int) -> tuple[float, np.ndarray]:
     """Best time and image of scene ``name`` rendered by the --baseline-extension build."""
     with tempfile.TemporaryDirectory() as tmp:
         image_path = Path(tmp) / "image.npy"
         out = subprocess.run(
-            [sys.executable, __file__, name, "--native-only", "--extension", str(args.baseline_extension),
+            [sys.executable, __file__, name, "--extension", str(args.baseline_extension),
              "--threads", str(threads), "--repeat", str(args.repeat), "--mapping", args.mapping,
              "--save-image", str(image_path)],
             check=True, capture_output=True, text=True,
@@ -62,71 +93,226 @@ def time_baseline(args: argparse.Namespace, name: str, threads: int) -> tuple[fl
         return json.loads(out.splitlines()[-1])["native"], np.load(image_path)
 
 
+def run_process(cmd: list[str], cwd: Path | None = None) -> tuple[float, float]:
+    """(wall seconds, peak RSS in MiB) of one child process, which must succeed. The peak comes
+    from GNU time, whose own child is measured: a child forked from this (large) process would
+    report this process's size, which ru_maxrss keeps across exec."""
+    with tempfile.NamedTemporaryFile("r", suffix=".time") as report:
+        start = time.perf_counter()
+        done = subprocess.run([GNU_TIME, "-f", "%M", "-o", report.name, *cmd], cwd=cwd,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        wall = time.perf_counter() - start
+        if done.returncode != 0:
+            raise SystemExit(f"{cmd[0]} failed ({done.returncode}): {done.stderr.strip()[-500:]}")
+        return wall, int(report.read().split()[-1]) / 1024.0  # KiB
+
+
+def best_process(cmd: list[str], repeat: int, cwd: Path | None = None) -> tuple[float, float]:
+    runs = [run_process(cmd, cwd) for _ in range(repeat)]
+    return min(r[0] for r in runs), max(r[1] for r in runs)
+
+
+# -- Embree (embreex), a peer for triangle scenes ------------------------------------------------
+
+
+def embree_available() -> bool:
+    return importlib.util.find_spec("embreex") is not None
+
+
+def primary_rays(scene, settings) -> tuple[np.ndarray, np.ndarray]:
+    """The native camera's rays through the pixel centres (camera.hpp), perspective only."""
+    cam = scene.camera
+    w, h = settings.width, settings.height
+    forward, up = np.asarray(cam.forward, float), np.asarray(cam.up, float)
+    aspect = w / h
+    right = np.cross(forward, up) * aspect
+    direction = forward * (aspect / (2.0 * np.tan(np.radians(cam.horizontal_fov_deg) / 2.0)))
+    j, i = np.mgrid[0:h, 0:w]
+    u = ((i + 0.5) / w - 0.5).reshape(-1, 1)
+    v = (0.5 - (j + 0.5) / h).reshape(-1, 1)
+    d = direction + right * u + up * v
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return np.broadcast_to(np.asarray(cam.position, float), d.shape).astype(np.float32), d.astype(np.float32)
+
+
+def embree_times(scene, settings, repeat: int) -> tuple[float, float, int] | None:
+    """(build s, render s, rays) of Embree on a triangle-only scene with point lights, or None."""
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh as EmbreeMesh
+
+    from phongscene.scene import PointLight
+
+    if scene.spheres or not all(isinstance(light, PointLight) for light in scene.lights):
+        return None
+    corners = np.concatenate([m.points[m.triangles] for m in scene.meshes]).astype(np.float32)
+    origins, dirs = primary_rays(scene, settings)
+
+    def build():
+        embree_scene = rtcore_scene.EmbreeScene()
+        EmbreeMesh(embree_scene, corners)
+        embree_scene.run(origins[:1], dirs[:1])  # commits the scene (builds its BVH)
+        return embree_scene
+
+    t_build, embree_scene = best_time(build, repeat)
+
+    def render():
+        hit = embree_scene.run(origins, dirs, output=1)
+        found = hit["geomID"] >= 0
+        points = origins[found] + dirs[found] * hit["tfar"][found, None]
+        rays = len(origins)
+        for light in scene.lights:
+            to_light = np.asarray(light.position, np.float32) - points
+            dist = np.linalg.norm(to_light, axis=1)
+            to_light /= dist[:, None]
+            embree_scene.run(points + to_light * EMBREE_SHADOW_OFFSET, to_light, dists=dist - 2 * EMBREE_SHADOW_OFFSET,
+                             query="OCCLUDED")
+            rays += len(points)
+        return rays
+
+    t_render, rays = best_time(render, repeat)
+    return t_build, t_render, rays
+
+
+# -- the tables ------------------------------------------------------------------------------------
+
+
+def in_process_table(args, names, thread_counts) -> dict:
+    from phongscene.backends import native, povray
+    from phongscene.backends.povray import SPECULAR_OF_MAPPING
+    from phongscene.usd import load_usd
+
+    with_embree = embree_available() and not args.native_only
+    print(f"\n1. In process (loaded Scene -> image), mapping {args.mapping}, best of {args.repeat}")
+    header = f"{'scene':<8}{'threads':>8}{'triangles':>10}{'build s':>9}{'render s':>9}{'native s':>9}"
+    if not args.native_only:
+        header += f"{'povray s':>9}{'ratio':>7}{'max rel diff':>13}"
+    if with_embree:
+        header += f"{'embree build/render s (1 thread)':>34}"
+    print(header)
+    render_times: dict = {}
+    for name in names:
+        scene = load_usd(scene_path(name))
+        for threads in thread_counts:
+            settings = dataclasses.replace(scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping])
+            camera, native_settings = native._camera(scene.camera), native._settings(settings)
+            t_build, built = best_time(lambda: native.build(scene), args.repeat)
+            t_render, image = best_time(lambda: built.render(camera=camera, settings=native_settings), args.repeat)
+            t_native, image = best_time(lambda: native.render(scene, settings), args.repeat)
+            render_times[name, threads] = t_render
+            row = f"{name:<8}{threads:>8}{scene.triangle_count:>10}{t_build:>9.3f}{t_render:>9.3f}{t_native:>9.3f}"
+            if not args.native_only:
+                t_pov, img_pov = best_time(lambda: povray.render(scene, settings, mapping=args.mapping), args.repeat)
+                diff = float(np.abs(image - img_pov).max() / max(float(np.abs(img_pov).max()), 1e-30))
+                row += f"{t_pov:>9.3f}{t_pov / t_native:>6.1f}x{diff:>13.2e}"
+            if with_embree:
+                peer = embree_times(scene, settings, args.repeat) if threads == thread_counts[0] else None
+                row += f"{f'{peer[0]:.3f} / {peer[1]:.3f} ({peer[2] / 1e6:.1f}M rays)' if peer else '-':>34}"
+            print(row, flush=True)
+    return render_times
+
+
+def whole_process_table(args, names, threads: int) -> None:
+    from phongscene.backends.povray import SPECULAR_OF_MAPPING, prepare
+    from phongscene.usd import load_usd
+
+    print(f"\n2. Whole process ({threads} threads, wall s and peak RSS MiB of the child, best of {args.repeat})")
+    header = f"{'scene':<8}{'phongscene render':>20}"
+    if not args.native_only:
+        header += f"{'povray':>18}{'ratio':>8}"
+    print(header)
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        for name in ["tiny", *names]:
+            path = scene_path("S1" if name == "tiny" else name)
+            size = ["--width", str(TINY_SIZE[0]), "--height", str(TINY_SIZE[1])] if name == "tiny" else []
+            cmd = [sys.executable, "-m", "phongscene", "render", str(path), "-o", str(work / "native.exr"),
+                   "--threads", str(threads), "--mapping", args.mapping, *size]
+            t_native, rss_native = best_process(cmd, args.repeat)
+            row = f"{name:<8}{t_native:>11.3f} s {rss_native:>4.0f} M"
+            if not args.native_only:
+                scene = load_usd(path)
+                settings = dataclasses.replace(scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping])
+                if name == "tiny":
+                    settings = dataclasses.replace(settings, width=TINY_SIZE[0], height=TINY_SIZE[1])
+                job = prepare(scene, settings, args.mapping)
+                (work / "scene.pov").write_text(job.sdl, encoding="ascii")
+                t_pov, rss_pov = best_process(job.command("scene.pov", "scene.exr"), args.repeat, cwd=work)
+                row += f"{t_pov:>9.3f} s {rss_pov:>4.0f} M{t_pov / t_native:>7.2f}x"
+            print(row, flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("scenes", nargs="*", metavar="SCENE", help="any of S1, S2, S3 (default: all)")
-    parser.add_argument("--threads", type=int, default=0, help="threads for both renderers (0 = all cores)")
+    parser.add_argument("--threads", type=int, nargs="+", help="thread counts (0 = all cores; default: 1 and all)")
     parser.add_argument("--repeat", type=int, default=3, help="runs per renderer; the best counts")
     parser.add_argument("--mapping", choices=("classic", "exact"), default="classic",
                         help="POV-Ray mapping (classic = one idiomatic pass; exact = one pass per light)")
     parser.add_argument("--native-only", action="store_true", help="time the native tracer only")
+    parser.add_argument("--no-scaling", action="store_true", help="skip the S2 triangle-count table")
     parser.add_argument("--baseline-extension", type=Path, metavar="SO",
-                        help="also time this build of the _native extension (in a child process)")
+                        help="only compare the installed extension with this build (in a child process)")
     parser.add_argument("--extension", type=Path, metavar="SO", help=argparse.SUPPRESS)  # the child's
     parser.add_argument("--save-image", type=Path, help=argparse.SUPPRESS)  # the child's: one scene, JSON
     args = parser.parse_args()
     if args.extension:
         use_extension(args.extension)
 
-    from make_scenes import FILES, make
+    from make_scenes import FILES
 
-    from phongscene.backends import native, povray
+    from phongscene.backends import native
     from phongscene.backends.povray import SPECULAR_OF_MAPPING
     from phongscene.usd import load_usd
 
-    args.scenes = args.scenes or list(FILES)
-    if unknown := set(args.scenes) - set(FILES):
+    names = args.scenes or ["S1", "S2", "S3"]
+    if unknown := set(names) - set(FILES):
         parser.error(f"unknown scenes {sorted(unknown)}")
-    threads = args.threads or os.cpu_count() or 1
+    cores = os.cpu_count() or 1
+    thread_counts = sorted({t or cores for t in (args.threads or [1, cores])})
 
-    missing = [name for name in args.scenes if not (HERE / "scenes" / FILES[name]).exists()]
-    if missing:
-        make(which=tuple(missing))
     if args.save_image:
-        (name,) = args.scenes
-        scene = load_usd(HERE / "scenes" / FILES[name])
-        settings = dataclasses.replace(scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping])
+        (name,) = names
+        scene = load_usd(scene_path(name))
+        settings = dataclasses.replace(scene.settings, threads=thread_counts[-1], specular=SPECULAR_OF_MAPPING[args.mapping])
         t_native, image = best_time(lambda: native.render(scene, settings), args.repeat)
         np.save(args.save_image, image)
         print(json.dumps({"native": t_native}))
         return
 
-    print(f"threads {threads}, mapping {args.mapping}, best of {args.repeat}")
-    header = f"{'scene':<6}{'pixels':>12}{'triangles':>11}"
     if args.baseline_extension:
-        header += f"{'baseline s':>12}{'native s':>10}{'gain':>7}{'identical':>11}"
-    else:
-        header += f"{'native s':>10}"
-    if not args.native_only:
-        header += f"{'povray s':>10}{'speed-up':>10}{'max rel diff':>14}"
-    print(header)
-    for name in args.scenes:
-        scene = load_usd(HERE / "scenes" / FILES[name])
-        settings = dataclasses.replace(scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping])
-        row = f"{name:<6}{settings.width:>6}x{settings.height:<5}{scene.triangle_count:>11}"
-        if args.baseline_extension:
-            t_baseline, img_baseline = time_baseline(args, name, threads)
-        t_native, img_native = best_time(lambda: native.render(scene, settings), args.repeat)
-        if args.baseline_extension:
+        print(f"threads {thread_counts[-1]}, mapping {args.mapping}, best of {args.repeat}; native = flatten + build + render")
+        print(f"{'scene':<8}{'triangles':>10}{'baseline s':>12}{'native s':>10}{'gain':>7}{'identical':>11}")
+        for name in names:
+            scene = load_usd(scene_path(name))
+            settings = dataclasses.replace(scene.settings, threads=thread_counts[-1], specular=SPECULAR_OF_MAPPING[args.mapping])
+            t_baseline, img_baseline = time_baseline(args, name, thread_counts[-1])
+            t_native, img_native = best_time(lambda: native.render(scene, settings), args.repeat)
             identical = "yes" if np.array_equal(img_native, img_baseline) else "NO"
-            row += f"{t_baseline:>12.3f}{t_native:>10.3f}{t_baseline / t_native:>6.2f}x{identical:>11}"
-        else:
-            row += f"{t_native:>10.3f}"
-        if not args.native_only:
-            t_povray, img_povray = best_time(lambda: povray.render(scene, settings, mapping=args.mapping), args.repeat)
-            diff = float(np.abs(img_native - img_povray).max() / max(float(np.abs(img_povray).max()), 1e-30))
-            row += f"{t_povray:>10.3f}{t_povray / t_native:>9.1f}x{diff:>14.2e}"
-        print(row, flush=True)
+            print(f"{name:<8}{scene.triangle_count:>10}{t_baseline:>12.3f}{t_native:>10.3f}"
+                  f"{t_baseline / t_native:>6.2f}x{identical:>11}", flush=True)
+        return
+
+    print(f"{cores} cores; peers: POV-Ray{', Embree (embreex)' if embree_available() else ''}")
+    render_times = in_process_table(args, names, thread_counts)
+    whole_process_table(args, names, thread_counts[-1])
+    if len(thread_counts) > 1:
+        lo, hi = thread_counts[0], thread_counts[-1]
+        print(f"\n3. Native render speed-up, {lo} -> {hi} threads")
+        for name in names:
+            print(f"{name:<8}{render_times[name, lo] / render_times[name, hi]:>6.2f}x")
+    if not args.no_scaling:
+        threads = thread_counts[-1]
+        print(f"\n4. S2's native render (no build) by triangle count, {threads} threads, best of {args.repeat}")
+        previous = None
+        for name in SCALING_SCENES:
+            scene = load_usd(scene_path(name))
+            settings = dataclasses.replace(scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping])
+            built = native.build(scene)
+            camera, native_settings = native._camera(scene.camera), native._settings(settings)
+            t, _ = best_time(lambda: built.render(camera=camera, settings=native_settings), args.repeat)
+            growth = f"{t / previous:>6.2f}x per 10x" if previous else ""
+            print(f"{name:<8}{scene.triangle_count:>10}{t:>9.3f} s {growth}", flush=True)
+            previous = t
 
 
 if __name__ == "__main__":

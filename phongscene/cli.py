@@ -9,6 +9,7 @@ phongscene.cli`` and ``phongscene --help`` stay fast."""
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from pathlib import Path
@@ -16,7 +17,7 @@ from pathlib import Path
 from . import __version__
 from .errors import BackendError, PhongSceneError, SceneError
 from .rendering import BACKENDS, in_file_terms
-from .validate import MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_THREADS
+from .validate import MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_STRATIFIED_SAMPLES, MAX_THREADS
 
 EXIT_OK, EXIT_DIFFERENT, EXIT_SCENE, EXIT_BACKEND, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -24,7 +25,11 @@ SCENE_HELP = "USD file (.usda, .usdc, .usd, .usdz)"
 # The POV-Ray backend's mappings (phongscene.backends.povray.MAPPINGS, which a test checks this
 # against), named here so that building the parser imports no backend.
 MAPPING_CHOICES = ("exact", "classic")
-SPP_HELP = f"anti-aliasing: N x N samples per pixel, N in 1..{MAX_SAMPLES}"
+SPP_HELP = (f"anti-aliasing: N x N samples per pixel, N in 1..{MAX_SAMPLES} "
+            f"(stratified: at most N x N, N up to {MAX_STRATIFIED_SAMPLES})")
+# `bench` renders its references at 27² samples per pixel: a small default image keeps that
+# to seconds.
+BENCH_WIDTH = 320
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -43,6 +48,7 @@ def build_parser() -> argparse.ArgumentParser:
         _add_import_command,
         _add_render_command,
         _add_compile_command,
+        _add_bench_command,
     ):
         add_command(sub)
     return parser
@@ -158,6 +164,21 @@ def _main(argv: list[str] | None) -> int:
 # Arguments more than one command takes
 
 
+def _float_in(low: float, high: float):
+    """An argparse type: a number in [low, high]."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if not low <= value <= high:  # also rejects nan
+            raise argparse.ArgumentTypeError(f"expected a number in [{low:g}, {high:g}], got {text}")
+        return value
+
+    return parse
+
+
 def _int_in(low: int, high: int | None = None):
     """An argparse type: a whole number in [low, high] (no upper bound when high is None)."""
 
@@ -176,7 +197,8 @@ def _int_in(low: int, high: int | None = None):
 
 _image_side = _int_in(1, MAX_IMAGE_SIDE)
 _thread_count = _int_in(0, MAX_THREADS)  # 0 = all cores
-_samples_per_axis = _int_in(1, MAX_SAMPLES)  # the model's anti-aliasing range (RenderSettings.samples)
+# The model's anti-aliasing range (RenderSettings.samples; above MAX_SAMPLES: stratified only).
+_samples_per_axis = _int_in(1, MAX_STRATIFIED_SAMPLES)
 
 
 def _add_scene_argument(p: argparse.ArgumentParser) -> None:
@@ -191,6 +213,20 @@ def _add_size_options(p: argparse.ArgumentParser, spp_help: str = SPP_HELP) -> N
     p.add_argument("--width", type=_image_side, metavar="W", help="image width (alone: keeps the aspect ratio)")
     p.add_argument("--height", type=_image_side, metavar="H", help="image height (alone: keeps the aspect ratio)")
     p.add_argument("--spp", type=_samples_per_axis, metavar="N", help=spp_help)
+    _add_estimator_options(p)
+
+
+def _add_estimator_options(p: argparse.ArgumentParser) -> None:
+    from .scene import SAMPLE_PATTERNS
+    from .validate import MAX_ADAPTIVE
+
+    p.add_argument("--sample-pattern", choices=SAMPLE_PATTERNS,
+                   help="anti-aliasing pattern (RenderSettings.sample_pattern; default: the scene's)")
+    p.add_argument("--aa-threshold", type=_float_in(0.0, 1.0), metavar="T",
+                   help="POV-Ray's +A threshold of povray-am1/am2: supersample where colours differ by >= T "
+                   "(0: everywhere)")
+    p.add_argument("--shadow-adaptive", type=_int_in(0, MAX_ADAPTIVE), metavar="N",
+                   help="POV-Ray's 'adaptive N' on every area light (default: each light's own)")
 
 
 def _seconds(text: str) -> float:
@@ -206,6 +242,112 @@ def _seconds(text: str) -> float:
 
 def _add_timeout_option(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS", help=help)
+
+
+def _time_code(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number (a USD time code), got {text!r}") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def _frame_range(text: str) -> tuple[int, ...]:
+    from .animation import parse_frames
+
+    try:
+        return parse_frames(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _add_time_options(p: argparse.ArgumentParser, output: str) -> None:
+    group = p.add_argument_group("time (an animated stage; default: its start time, with a warning)")
+    when = group.add_mutually_exclusive_group()
+    when.add_argument("--time", type=_time_code, metavar="T", help="read the stage at USD time code T")
+    when.add_argument("--frames", type=_frame_range, metavar="START:END[:STEP]",
+                      help=f"frames START, START+STEP, ... END (whole time codes): {output}. Frames run as Dask "
+                      "tasks: a LocalCluster here, or --scheduler")
+    group.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                       help="with --frames: an existing Dask scheduler (default: $DASK_SCHEDULER_ADDRESS, else a "
+                       "LocalCluster); workers must see the scene and the output at the same paths")
+    group.add_argument("--workers", type=_int_in(1), metavar="N",
+                       help="with --frames: LocalCluster worker processes (default: one per core)")
+
+
+def _frame_options(args) -> dict:
+    """The plain options a frame task renders with. Each LocalCluster worker renders one frame at
+    a time; unless --threads says otherwise it gets its share of the cores (so workers x threads
+    = cores); on an existing cluster the scene's setting applies unless --threads is given."""
+    from .animation import scheduler_address
+
+    threads = getattr(args, "threads", None)
+    if threads is None and "threads" in args and scheduler_address(args.scheduler) is None:
+        cores = os.cpu_count() or 1
+        threads = max(1, cores // min(args.workers or cores, len(args.frames)))
+    return {"mapping": args.mapping, "width": args.width, "height": args.height, "samples": args.spp,
+            "threads": threads}
+
+
+def _run_frames(args, task, arguments, label: str):
+    """Run ``task`` for every frame of ``args.frames``: one frame in this process, more on Dask.
+    The stage is read once here first (at the first frame), so a bad file is one error before
+    any cluster starts, and its warnings are printed once."""
+    from .animation import TASK_RETRIES, run_frames, run_serially
+    from .progress import ProgressBar
+    from .rendering import load_scene
+
+    _, warnings = load_scene(args.scene, time=float(args.frames[0]))
+    _print_warnings(warnings)
+    bar = ProgressBar("frames")
+
+    def on_frame(frame, metrics, error):
+        if error is not None:
+            print(f"error: frame {frame}: {error}", file=sys.stderr)
+
+    # One frame, no cluster asked for: this process (a cluster's start-up would cost more).
+    if len(args.frames) == 1 and not (args.scheduler or args.workers):
+        run = run_serially(task, args.frames, arguments, progress=bar, on_frame=on_frame)
+    else:
+        run = run_frames(task, args.frames, arguments, scheduler=args.scheduler, workers=args.workers,
+                         progress=bar, on_frame=on_frame)
+    bar.done(run.seconds)
+    # Warnings the first frame did not have (a light that clips only later, ...), once each.
+    later: dict[str, list[int]] = {}
+    for frame in sorted(run.results):
+        for warning in run.results[frame].get("warnings", ()):
+            if warning not in warnings:
+                later.setdefault(warning, []).append(frame)
+    _print_warnings(f"frames {', '.join(map(str, frames))}: {warning}" for warning, frames in later.items())
+    where = f"on {run.workers} Dask workers ({run.cluster})" if run.cluster else "in this process"
+    print(f"{args.scene}: {len(run.results)} of {len(args.frames)} {label} {where} in {run.seconds:.2f} s")
+    if run.failures:
+        print(f"error: frames failed (each tried {1 + TASK_RETRIES} times): "
+              f"{', '.join(map(str, sorted(run.failures)))}", file=sys.stderr)
+    return run
+
+
+def _cluster_without_frames(args) -> bool:
+    """--scheduler/--workers without --frames: said (one error line), since nothing would use them."""
+    if (args.scheduler or args.workers) and not args.frames:
+        print("error: --scheduler and --workers run frames: give --frames START:END", file=sys.stderr)
+        return True
+    return False
+
+
+def _output_at_time(args, output: str) -> str | None:
+    """A single frame's output name: #### replaced by --time when it is a whole number. None
+    (after an error message) when the name has #### and there is no frame number for it."""
+    from .animation import frame_name, has_frame_pattern
+
+    if not has_frame_pattern(output):
+        return output
+    if args.time is None or args.time != int(args.time):
+        print(f"error: {output}: #### in the name needs --frames, or a whole --time", file=sys.stderr)
+        return None
+    return frame_name(output, int(args.time))
 
 
 def _add_threshold_options(p: argparse.ArgumentParser, by_format: bool = False) -> None:
@@ -245,12 +387,14 @@ def _print_warnings(warnings, stream=None) -> None:
 def _scene_and_settings(args):
     """The scene of ``args.scene`` (its warnings printed) and its settings with the command's
     mapping, size, sample and thread overrides."""
-    from .rendering import load_scene, settings_with
+    from .rendering import load_scene, settings_with, with_shadow_adaptive
 
-    scene, warnings = load_scene(args.scene)
+    scene, warnings = load_scene(args.scene, time=getattr(args, "time", None))
     _print_warnings(warnings)
+    scene = with_shadow_adaptive(scene, args.shadow_adaptive)
     settings = settings_with(scene, args.mapping, width=args.width, height=args.height, samples=args.spp,
-                             threads=getattr(args, "threads", None))
+                             threads=getattr(args, "threads", None), sample_pattern=args.sample_pattern,
+                             aa_threshold=args.aa_threshold)
     return scene, settings
 
 
@@ -275,6 +419,8 @@ def _add_diff_command(sub) -> None:
     p.add_argument("--threads", type=_thread_count, metavar="N", help="native worker threads (0 = all cores)")
     _add_timeout_option(p, "stop POV-Ray after SECONDS per process (exit 3)")
     _add_threshold_options(p)
+    _add_time_options(p, "a report per frame in OUTDIR/frame.####, and OUTDIR/index.html with a row per frame; "
+                      "exit 1 if any frame fails")
     _add_sandbox_option(p)
     p.set_defaults(func=_run_diff)
 
@@ -289,10 +435,15 @@ def _run_diff(args) -> int:
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_SCENE
+    if _cluster_without_frames(args):
+        return EXIT_SCENE
+    if args.frames:
+        return _diff_frames(args, thresholds)
     check_output_folder(args.outdir)  # before the renders; OUTDIR may be new, its parent must exist
     result = diff(
         args.scene, args.outdir, mapping=args.mapping, width=args.width, height=args.height, samples=args.spp,
-        threads=args.threads, thresholds=thresholds, progress=sys.stderr, timeout=args.timeout,
+        threads=args.threads, thresholds=thresholds, progress=sys.stderr, timeout=args.timeout, time=args.time,
+        sample_pattern=args.sample_pattern, aa_threshold=args.aa_threshold, shadow_adaptive=args.shadow_adaptive,
         sandbox=args.sandbox,
     )
     s = result.settings
@@ -303,6 +454,28 @@ def _run_diff(args) -> int:
         print(result.explanation())
     print(f"report: {result.outdir / 'index.html'}")
     return EXIT_OK if result.ok else EXIT_DIFFERENT
+
+
+def _diff_frames(args, thresholds) -> int:
+    from .animation import FRAME_FOLDER, diff_frame, frame_name, write_frames_report
+    from .backends.povray import check_mapping
+
+    check_mapping(args.mapping)
+    options = _frame_options(args)
+    outdir = os.path.abspath(args.outdir)
+    folder = lambda f: os.path.join(outdir, frame_name(FRAME_FOLDER, f))  # noqa: E731
+    run = _run_frames(args, diff_frame, lambda f: (os.path.abspath(args.scene), f, folder(f), options, thresholds),
+                      "frames diffed")
+    for frame in sorted(run.results):
+        m = run.results[frame]
+        print(f"  frame {frame}: {'PASS' if m['ok'] else 'FAIL'}, max error {m['max_error']:.6g}, "
+              f"{m['failing_pixels']} failing pixels ({m['failing_percent']:.4g}%)")
+    index = write_frames_report(outdir, os.path.abspath(args.scene), run,
+                                {"mapping": args.mapping, "workers": run.workers, "seconds": run.seconds})
+    print(f"report: {index}")
+    if run.failures:
+        return EXIT_BACKEND
+    return EXIT_OK if all(m["ok"] for m in run.results.values()) else EXIT_DIFFERENT
 
 
 def _add_compare_command(sub) -> None:
@@ -409,7 +582,8 @@ def _run_info(args) -> int:
     )
     s = scene.settings
     print(
-        f"settings: {s.source or '(defaults)'}: {s.width}x{s.height}, samples {s.samples} ({s.sample_pattern}), "
+        f"settings: {s.source or '(defaults)'}: {s.width}x{s.height}, samples {s.samples} ({s.sample_pattern}"
+        f"{f', threshold {s.aa_threshold:g}' if s.aa_threshold else ''}), "
         f"specular {s.specular}, background {_vector(s.background)}"
     )
     _print_warnings(result.warnings, sys.stdout)
@@ -500,6 +674,58 @@ def _run_import(args) -> int:
 # render, compile
 
 
+def _add_bench_command(sub) -> None:
+    p = sub.add_parser(
+        "bench",
+        help="speed against error: every estimator of both backends, wall and CPU time",
+        description="Render SCENE with every anti-aliasing estimator (grid, POV-Ray's +AM1/+AM2 with thresholds) "
+        "and, if it has area lights, every shadow estimator (grids, POV-Ray's 'adaptive n') on both backends; "
+        "time each (wall and CPU, best of --repeat) and measure its RMS and max error against a reference "
+        "whose own error is measured too. Prints the table and writes OUTDIR/bench.csv, bench.json and "
+        "bench.png (log-log, with each backend's Pareto front).",
+        epilog="Exit codes: 0 ok, 2 bad scene or usage, 3 backend failure.",
+    )
+    _add_scene_argument(p)
+    p.add_argument("-o", "--outdir", required=True, metavar="OUTDIR", help="folder for bench.csv/.json/.png (created)")
+    _add_mapping_option(p, "POV-Ray mapping (default: the scene's specular convention)")
+    p.add_argument("--width", type=_image_side, metavar="W",
+                   help=f"image width (default {BENCH_WIDTH}; the height keeps the aspect ratio)")
+    p.add_argument("--threads", type=_thread_count, metavar="N", help="threads of both renderers (0 = all cores)")
+    p.add_argument("--repeat", type=_int_in(1, 100), default=3, metavar="N", help="runs per setting; the best counts")
+    p.add_argument("--quick", action="store_true", help="a few estimators of each kind")
+    p.add_argument("--native-only", action="store_true", help="measure the native tracer only")
+    p.add_argument("--family", choices=("anti-aliasing", "area-light shadows"), action="append",
+                   help="study only this family of estimators (repeatable; default: every one that applies; "
+                   "the anti-aliasing reference of a scene with area lights is slow)")
+    p.add_argument("--target-rms", type=_float_in(0.0, math.inf), metavar="E",
+                   help="say which setting of each backend reaches RMS error E fastest")
+    p.set_defaults(func=_run_bench)
+
+
+def _run_bench(args) -> int:
+    from pathlib import Path
+
+    from . import bench
+    from .rendering import check_settings, load_scene, settings_with
+
+    scene, warnings = load_scene(args.scene)
+    _print_warnings(warnings)
+    settings = check_settings(scene, settings_with(scene, args.mapping, width=args.width or BENCH_WIDTH,
+                                                   threads=args.threads))
+    backends = ("native",) if args.native_only else bench.BACKEND_NAMES
+    print(f"{args.scene}: {settings.width} x {settings.height}, specular {settings.specular}, "
+          f"threads {settings.threads or 'all'}, best of {args.repeat}", flush=True)
+    result = bench.run(scene, settings, repeat=args.repeat, quick=args.quick, backends=backends,
+                       log=lambda line: print(line, flush=True), families=args.family)
+    print()
+    print(bench.table(result), end="")
+    if args.target_rms is not None:
+        print("\n".join(bench.target(result, args.target_rms)))
+    paths = bench.write_all(result, Path(args.outdir), "bench", title=f"{Path(args.scene).name}: speed against error")
+    print("wrote " + ", ".join(str(p) for p in paths))
+    return EXIT_OK
+
+
 def _add_render_command(sub) -> None:
     p = sub.add_parser(
         "render",
@@ -516,6 +742,7 @@ def _add_render_command(sub) -> None:
     _add_size_options(p)
     p.add_argument("--threads", type=_thread_count, metavar="N", help="worker threads (0 = all cores)")
     _add_timeout_option(p, "--backend povray only: stop POV-Ray after SECONDS (exit 3)")
+    _add_time_options(p, "one image per frame, #### in IMAGE becomes the frame number")
     p.set_defaults(func=_run_render)
 
 
@@ -533,6 +760,14 @@ def _run_render(args) -> int:
     if args.timeout is not None and args.backend != "povray":
         print("error: --timeout applies to --backend povray only (the native tracer stops on Ctrl-C)", file=sys.stderr)
         return EXIT_SCENE
+    if _cluster_without_frames(args):
+        return EXIT_SCENE
+    if args.frames:
+        return _render_frames(args)
+    output = _output_at_time(args, args.output)
+    if output is None:
+        return EXIT_SCENE
+    args.output = output
     check_output(args.output)  # before the render, not after it
     bar = ProgressBar(args.backend)
     start = time.perf_counter()
@@ -543,6 +778,24 @@ def _run_render(args) -> int:
     write_image(args.output, image)
     print(f"{args.output}: {settings.width} x {settings.height}, {args.backend}, specular {settings.specular}")
     return EXIT_OK
+
+
+def _render_frames(args) -> int:
+    from .animation import frame_name, has_frame_pattern, render_frame
+
+    if not has_frame_pattern(args.output):
+        print(f"error: {args.output}: with --frames the name needs #### for the frame number (e.g. out.####.exr)",
+              file=sys.stderr)
+        return EXIT_SCENE
+    options = _frame_options(args)
+    scene = os.path.abspath(args.scene)
+    run = _run_frames(args, render_frame,
+                      lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), args.backend, options),
+                      "frames rendered")
+    if run.results:
+        m = next(iter(run.results.values()))
+        print(f"{args.output}: {m['width']} x {m['height']}, {args.backend}, specular {m['specular']}")
+    return EXIT_BACKEND if run.failures else EXIT_OK
 
 
 def _add_compile_command(sub) -> None:
@@ -559,6 +812,7 @@ def _add_compile_command(sub) -> None:
     _add_mapping_option(p, "exact (the seed model, one pass per light) or classic (one plain POV-Ray finish per "
                         "material); default: the scene's specular convention")
     _add_size_options(p)
+    _add_time_options(p, "a .pov and an .ini per frame, #### in OUT.pov becomes the frame number")
     p.set_defaults(func=_run_compile)
 
 
@@ -573,6 +827,14 @@ def _run_compile(args) -> int:
     if out.suffix.lower() != ".pov":
         print(f"error: {out}: the output must end in .pov", file=sys.stderr)
         return EXIT_SCENE
+    if _cluster_without_frames(args):
+        return EXIT_SCENE
+    if args.frames:
+        return _compile_frames(args)
+    output = _output_at_time(args, args.output)
+    if output is None:
+        return EXIT_SCENE
+    out = Path(output)
     ini, image = out.with_suffix(".ini"), out.with_suffix(".exr")
     if '"' in out.name:
         print(f"error: {out}: POV-Ray cannot read a file name with a double quote", file=sys.stderr)
@@ -594,6 +856,22 @@ def _run_compile(args) -> int:
     if job.supersample > 1:
         print(f"  then average {job.supersample} x {job.supersample} pixel blocks (grid anti-aliasing)")
     return EXIT_OK
+
+
+def _compile_frames(args) -> int:
+    from .animation import compile_frame, frame_name, has_frame_pattern
+
+    if not has_frame_pattern(args.output):
+        print(f"error: {args.output}: with --frames the name needs #### for the frame number (e.g. out.####.pov)",
+              file=sys.stderr)
+        return EXIT_SCENE
+    options = _frame_options(args)
+    scene = os.path.abspath(args.scene)
+    run = _run_frames(args, compile_frame, lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), options),
+                      "frames compiled")
+    for frame in sorted(run.results):
+        print(f"  {run.results[frame]['output']}")
+    return EXIT_BACKEND if run.failures else EXIT_OK
 
 
 def _pov_quoted(name: str) -> str:

@@ -31,7 +31,6 @@ import os
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
-from OpenImageIO import DOUBLE, FLOAT, HALF, ImageBuf, ImageBufAlgo
 
 from .errors import PhongSceneError
 from .images import as_image, read_image
@@ -145,7 +144,7 @@ class ImageFormat:
 
 def image_format(path: str | os.PathLike) -> ImageFormat:
     """The storage format of an image file, from its header (OpenImageIO)."""
-    from OpenImageIO import ImageInput
+    from OpenImageIO import DOUBLE, FLOAT, HALF, ImageInput
 
     path = os.fspath(path)
     inp = ImageInput.open(path)
@@ -306,6 +305,8 @@ def compare(a, b, thresholds: Thresholds | None = None) -> Report:
     Raises:
         ImageMismatchError: the images differ in size.
     """
+    from OpenImageIO import ImageBuf, ImageBufAlgo  # here: building the CLI's parser needs no OIIO
+
     if thresholds is None:
         paths = isinstance(a, (str, os.PathLike)) and isinstance(b, (str, os.PathLike))
         thresholds = thresholds_for_files(a, b)[0] if paths else HALF_FLOAT
@@ -379,6 +380,8 @@ def in_space(image: np.ndarray, space: str) -> np.ndarray:
     Non-finite values stay as they are, so that ``compare`` still judges them."""
     if space == "linear":
         return image
+    from OpenImageIO import FLOAT, ImageBuf, ImageBufAlgo
+
     finite = np.isfinite(image)
     clipped = np.clip(np.where(finite, image, np.float32(0)), 0.0, 1.0).astype(np.float32)
     encoded = ImageBufAlgo.colorconvert(ImageBuf(clipped), "linear", "sRGB")
@@ -389,6 +392,8 @@ def in_space(image: np.ndarray, space: str) -> np.ndarray:
 def channel_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """|a − b| per pixel, maximum over channels: (H, W) float32, computed by OIIO
     (``absdiff`` + ``maxchan``). NaN where either image has a NaN."""
+    from OpenImageIO import ImageBuf, ImageBufAlgo
+
     diff = ImageBufAlgo.maxchan(ImageBufAlgo.absdiff(ImageBuf(as_image(a)), ImageBuf(as_image(b))))
     out = np.asarray(diff.get_pixels(), dtype=np.float32).reshape(a.shape[0], a.shape[1])
     nan_any = np.isnan(a).any(axis=2) | np.isnan(b).any(axis=2)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import os
-import time
+from time import perf_counter
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import TextIO
@@ -26,7 +26,7 @@ import numpy as np
 from .comparison import HALF_FLOAT, POVRAY_SHADOW_CACHE, ImageMismatchError, Report, Thresholds, compare, failing_mask
 from .errors import BackendError
 from .progress import ProgressBar
-from .rendering import load_scene, render, settings_with
+from .rendering import load_scene, render, settings_with, with_shadow_adaptive
 from .scene import RenderSettings, Scene
 
 LABELS = ("povray", "native")
@@ -92,6 +92,10 @@ def diff(
     thresholds: Thresholds = HALF_FLOAT,
     progress: TextIO | None = None,
     timeout: float | None = None,
+    time: float | None = None,
+    sample_pattern: str | None = None,
+    aa_threshold: float | None = None,
+    shadow_adaptive: int | None = None,
     sandbox: bool = False,
 ) -> DiffResult:
     """Render a scene with both backends, compare, and write the report if ``outdir`` is given.
@@ -107,6 +111,9 @@ def diff(
         thresholds: when the images agree (default: half-float precision at every pixel).
         progress: stream for progress bars (e.g. ``sys.stderr``); None shows none.
         timeout: seconds before POV-Ray is abandoned.
+        time: the USD time code to read a USD file at (None: the reader's choice).
+        sample_pattern, aa_threshold: anti-aliasing overrides (``RenderSettings``).
+        shadow_adaptive: POV-Ray's ``adaptive n`` for every area light (None: each light's own).
         sandbox: read a USD file in a child process with a memory limit (``phongscene.sandbox``).
 
     Returns:
@@ -124,30 +131,35 @@ def diff(
     if progress is not None and not isinstance(scene_or_path, Scene):
         reading = ProgressBar("scene", progress)
         reading.phase(f"reading {Path(scene_or_path).name}")  # a big USD file takes seconds
-    start = time.perf_counter()
-    scene, warnings = load_scene(scene_or_path, sandbox=sandbox)
+    start = perf_counter()
+    scene, warnings = load_scene(scene_or_path, time, sandbox=sandbox)
     if reading is not None:
-        reading.done(time.perf_counter() - start, "read")
+        reading.done(perf_counter() - start, "read")
     if progress is not None:
         for w in warnings:
             progress.write(f"warning: {w}\n")
-    settings = settings_with(scene, mapping, width=width, height=height, samples=samples, threads=threads)
+    scene = with_shadow_adaptive(scene, shadow_adaptive)
+    settings = settings_with(scene, mapping, width=width, height=height, samples=samples, threads=threads,
+                             sample_pattern=sample_pattern, aa_threshold=aa_threshold)
 
     settings = replace(settings, numerics="povray")
     images, timings = {}, {}
     for backend in LABELS:
         bar = ProgressBar(backend, progress) if progress is not None else None
-        start = time.perf_counter()
-        images[backend] = render(scene, backend, settings, progress=bar, timeout=timeout)
-        timings[backend] = time.perf_counter() - start
+        start = perf_counter()
+        if backend == "native":
+            images[backend] = render_native_as_povray(scene, settings, mapping, progress=bar)
+        else:
+            images[backend] = render(scene, backend, settings, progress=bar, timeout=timeout)
+        timings[backend] = perf_counter() - start
         if bar is not None:
             bar.done(timings[backend])
     try:
         report = compare(images["povray"], images["native"], thresholds)
     except ImageMismatchError as e:
         raise BackendError(f"the backends returned images of different sizes: {e}") from e
-    explained, unexplained = _explain(scene, settings, images, report, thresholds)
-    plain = render(scene, "native", replace(settings, numerics="scale-invariant"))
+    explained, unexplained = _explain(scene, settings, mapping, images, report, thresholds)
+    plain = render_native_as_povray(scene, replace(settings, numerics="scale-invariant"), mapping)
     numerics_differ = int(failing_mask(images["native"], plain, thresholds).sum())
 
     result = DiffResult(report, None, timings, images["povray"], images["native"], settings, mapping, warnings,
@@ -172,6 +184,7 @@ def diff(
                 ok=result.ok,
                 meta={
                     "scene": source,
+                    "time": time,
                     "mapping": mapping,
                     "native_specular": settings.specular,
                     "settings": _settings_dict(settings),
@@ -185,13 +198,32 @@ def diff(
     return result
 
 
-def _explain(scene: Scene, settings: RenderSettings, images: dict, report: Report, thresholds: Thresholds):
+def render_native_as_povray(scene: Scene, settings: RenderSettings, mapping: str, progress=None) -> np.ndarray:
+    """The native image of what POV-Ray renders for ``mapping``. The same as a plain native render
+    except for adaptive anti-aliasing (a threshold > 0) under the exact mapping with several
+    lights: POV-Ray renders one pass per light and decides which pixels to supersample in each
+    pass from that pass's colours, so the native tracer renders the same passes and sums them."""
+    from .backends.povray import pass_scenes
+
+    adaptive_aa = settings.aa_threshold > 0 and settings.sample_pattern in ("povray-am1", "povray-am2")
+    passes = pass_scenes(scene, mapping) if adaptive_aa else (scene,)
+    if len(passes) == 1:
+        return render(scene, "native", settings, progress=progress)
+    total = np.zeros((settings.height, settings.width, 3), np.float64)
+    for i, one in enumerate(passes):
+        background = settings.background if i == 0 else (0.0, 0.0, 0.0)
+        total += render(one, "native", replace(settings, background=background), progress=progress)
+    return total.astype(np.float32)
+
+
+def _explain(scene: Scene, settings: RenderSettings, mapping: str, images: dict, report: Report,
+             thresholds: Thresholds):
     """(explained, unexplained) failing pixels: a failing pixel where POV-Ray agrees with a native
     render in its shadow cache's window is explained by the cache."""
     if report.ok or not report.failing_pixels:
         return (), ()
     failing = failing_mask(images["povray"], images["native"], thresholds)
-    cached = render(scene, "native", replace(settings, numerics="povray-shadow-cache"))
+    cached = render_native_as_povray(scene, replace(settings, numerics="povray-shadow-cache"), mapping)
     by_cache = failing & ~failing_mask(images["povray"], cached, thresholds)
     listed = lambda mask: tuple((int(x), int(y)) for y, x in np.argwhere(mask))  # noqa: E731
     return listed(by_cache), listed(failing & ~by_cache)

@@ -44,6 +44,8 @@ def settings_with(
     height: int | None = None,
     samples: int | None = None,
     threads: int | None = None,
+    sample_pattern: str | None = None,
+    aa_threshold: float | None = None,
 ) -> RenderSettings:
     """The scene's settings with the overrides that are not None applied, and the specular
     convention that the POV-Ray ``mapping`` reproduces (None: the scene's). Giving only one of
@@ -53,24 +55,39 @@ def settings_with(
         height = max(1, round(width * s.height / s.width))
     elif height is not None and width is None:
         width = max(1, round(height * s.width / s.height))
-    changes = {"width": width, "height": height, "samples": samples, "threads": threads}
+    changes = {"width": width, "height": height, "samples": samples, "threads": threads,
+               "sample_pattern": sample_pattern, "aa_threshold": aa_threshold}
     return replace(s, **{k: v for k, v in changes.items() if v is not None})
 
 
-def load_scene(scene_or_path: Scene | str | os.PathLike, *, sandbox: bool = False) -> tuple[Scene, list[str]]:
-    """A Scene as given, or read from a USD file, with the reader's warnings (raises
-    SceneError for a bad file). ``sandbox``: read the file in a child process with a memory
-    limit (``phongscene.sandbox``), so a crash inside USD is a SceneError."""
+def with_shadow_adaptive(scene, level: int | None):
+    """``scene`` with POV-Ray's ``adaptive level`` on every area light (None: unchanged)."""
+    from .scene import RectAreaLight, SphereAreaLight
+
+    if level is None:
+        return scene
+    lights = tuple(replace(light, adaptive=level) if isinstance(light, (RectAreaLight, SphereAreaLight)) else light
+                   for light in scene.lights)
+    return replace(scene, lights=lights)
+
+
+def load_scene(
+    scene_or_path: Scene | str | os.PathLike, time: float | None = None, *, sandbox: bool = False
+) -> tuple[Scene, list[str]]:
+    """A Scene as given, or read from a USD file at USD time code ``time`` (None: the reader's
+    choice, ``phongscene.usd.read_usd``), with the reader's warnings (raises SceneError for a bad
+    file). ``sandbox``: read the file in a child process with a memory limit
+    (``phongscene.sandbox``), so a crash inside USD is a SceneError."""
     if isinstance(scene_or_path, Scene):
         return scene_or_path, []
     if sandbox:
         from .sandbox import read_usd_sandboxed
 
-        result = read_usd_sandboxed(scene_or_path)
+        result = read_usd_sandboxed(scene_or_path, time=time)
         return result.scene, list(result.warnings)
     from .usd import read_usd  # lazily: the USD reader imports pxr
 
-    result = read_usd(os.fspath(scene_or_path))
+    result = read_usd(os.fspath(scene_or_path), time=time)
     return result.scene, list(result.warnings)
 
 

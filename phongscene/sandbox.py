@@ -61,8 +61,8 @@ def memory_limit_for(path: str | os.PathLike) -> int:
     return min(BASE_MEMORY + MEMORY_PER_FILE_BYTE * size, default_memory_limit())
 
 
-def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None):
-    """``phongscene.usd.read_usd(path)`` in a child process (see the module's doc).
+def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None, time: float | None = None):
+    """``phongscene.usd.read_usd(path, time)`` in a child process (see the module's doc).
 
     Raises:
         SceneError: the file is invalid, or reading it crashed USD or exceeded ``memory_limit``
@@ -71,7 +71,7 @@ def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None)
     path = os.fspath(path)
     limit = memory_limit_for(path) if memory_limit is None else int(memory_limit)
     proc = subprocess.run(
-        [sys.executable, "-m", "phongscene.sandbox", path, str(limit)],
+        [sys.executable, "-m", "phongscene.sandbox", path, str(limit), repr(time)],
         stdin=subprocess.DEVNULL, capture_output=True,
     )
     if proc.returncode == 0:
@@ -95,7 +95,7 @@ def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None)
     raise SceneError(Problem(f"the sandboxed reader failed (exit {proc.returncode}): {last}", file=path))
 
 
-def _child(path: str, limit: int) -> int:
+def _child(path: str, limit: int, time: float | None) -> int:
     import resource
 
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
@@ -104,7 +104,7 @@ def _child(path: str, limit: int) -> int:
     try:
         from .usd import read_usd
 
-        payload = ("ok", read_usd(path))
+        payload = ("ok", read_usd(path, time=time))
     except SceneError as e:
         payload = ("error", e.problems)
     except MemoryError:
@@ -121,4 +121,5 @@ def _child(path: str, limit: int) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(_child(sys.argv[1], int(sys.argv[2])))
+    # The time code travels as its repr (None, or a float's shortest exact text).
+    raise SystemExit(_child(sys.argv[1], int(sys.argv[2]), None if sys.argv[3] == "None" else float(sys.argv[3])))

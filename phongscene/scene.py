@@ -38,7 +38,10 @@ Vec3 = tuple[float, float, float]
 RGB = tuple[float, float, float]
 
 SpecularConvention = Literal["seed", "povray-classic"]
-SamplePattern = Literal["grid", "povray-am1"]
+SamplePattern = Literal["grid", "povray-am1", "povray-am2", "stratified"]
+SAMPLE_PATTERNS: tuple[str, ...] = ("grid", "povray-am1", "povray-am2", "stratified")
+# The patterns POV-Ray has ("stratified" is the native tracer's own).
+POVRAY_SAMPLE_PATTERNS: tuple[str, ...] = ("grid", "povray-am1", "povray-am2")
 # The native tracer's ray tolerances: "scale-invariant" (relative to the scene's size, so a scene
 # renders the same in any units), "povray" (POV-Ray's absolute 1e-4 / 1e-3 and its mesh2 data:
 # float32, flat where a triangle's normals are equal, to reproduce POV-Ray's images; ``diff``
@@ -290,6 +293,10 @@ class RectAreaLight:
     falloff: Falloff = "none"
     diffuse: float = 1.0  # multipliers of the two terms, as on PointLight
     specular: float = 1.0
+    # POV-Ray's ``adaptive n`` (ref §5): the grid is subdivided n levels deep, deeper only where
+    # two adjacent corners' light colours differ by more than 0.1; None: every grid point is
+    # traced (POV-Ray's default).
+    adaptive: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -306,6 +313,7 @@ class SphereAreaLight:
     falloff: Falloff = "none"  # "inverse-square": color / d²
     diffuse: float = 1.0  # multipliers of the two terms, as on PointLight
     specular: float = 1.0
+    adaptive: int | None = None  # as RectAreaLight.adaptive
 
 
 Light = Union[PointLight, DirectionalLight, RectAreaLight, SphereAreaLight]
@@ -422,8 +430,15 @@ class RenderSettings:
     samples: int = 1  # anti-aliasing: n per axis (1 = the pixel centre only), 1..9
     # "grid": an n×n cell-centred grid, box filtered (POV-Ray: render n× larger with -A and
     # average n×n blocks). "povray-am1": POV-Ray's +AM1 +A0.0 +R n -J, i.e. the pixel centre
-    # plus the n×n grid, divided by n²+1 (ref §8).
+    # plus the n×n grid, divided by n²+1 (ref §8), in pixels where the colour changes by at least
+    # ``aa_threshold`` (every pixel at 0). "povray-am2": POV-Ray's +AM2 +A t +R n -J, the pixel's
+    # corners, then 4-corner subdivision down to 2^(n−1) cells per side where the corners differ by
+    # at least ``aa_threshold`` (the full grid, trapezoid weights, at 0). "stratified" (native
+    # only): 4, 16, 64, … points of a per-pixel scrambled Sobol' (0,2)-sequence, up to n², while
+    # the estimate still changes by at least ``aa_threshold`` (linear |Δr|+|Δg|+|Δb|; all n² at 0).
     sample_pattern: SamplePattern = "grid"
+    # POV-Ray's +A: compared with |Δr|+|Δg|+|Δb| of colours encoded as c^(1/2.5), [0, 1].
+    aa_threshold: float = 0.0
     threads: int = 0  # native backend: worker threads, 0 = all cores
     background: RGB = (0.0, 0.0, 0.0)  # colour of rays that hit nothing, linear RGB
     specular: SpecularConvention = "seed"

@@ -16,6 +16,7 @@ from .errors import Problem, SceneError
 from .scene import (
     NUMERICS,
     AmbientLight,
+    SAMPLE_PATTERNS,
     Camera,
     DirectionalLight,
     PhongMaterial,
@@ -30,7 +31,9 @@ from .scene import (
 )
 from .tolerances import SINGULAR_RELATIVE_DET, UNIT_TOLERANCE, is_singular
 
-MAX_SAMPLES = 9  # anti-aliasing grid per axis (RenderSettings.samples)
+MAX_SAMPLES = 9  # anti-aliasing grid per axis (RenderSettings.samples): POV-Ray's +R limit
+# The native stratified estimator's budget is samples² points: up to 256 (its stages 4, 16, 64, 256).
+MAX_STRATIFIED_SAMPLES = 16
 # Positions the tracer can represent: every coordinate within ±1e150, so that differences stay
 # finite and squared distances (inverse-square falloff, sphere tests, box areas) stay below
 # 1e300 < the largest double; beyond that, bounds and extents overflow to inf.
@@ -47,6 +50,9 @@ MAX_TEXTURE_SIDE = 16384
 MAX_TEXEL = 65504.0
 # An area light's shadow grid per axis: 257 = 2^8 + 1 (66 049 shadow rays per light and point).
 MAX_SHADOW_SAMPLES = 257
+# An area light's `adaptive` level: POV-Ray's default, 100, is the deepest anyone writes (a grid of
+# MAX_SHADOW_SAMPLES is fully subdivided from level 8 on).
+MAX_ADAPTIVE = 100
 
 
 class _Collector:
@@ -122,6 +128,10 @@ class _Collector:
             self.add(node, "samples", f"must be 2^k + 1 with 1 <= k <= 8 (3, 5, 9, 17, ..., {MAX_SHADOW_SAMPLES}), got {_show(n)}")
 
 
+    def adaptive(self, node) -> None:
+        a = node.adaptive
+        if a is not None and (isinstance(a, bool) or not isinstance(a, (int, np.integer)) or not 0 <= a <= MAX_ADAPTIVE):
+            self.add(node, "adaptive", f"must be an integer in 0..{MAX_ADAPTIVE} (or unset: every grid point), got {_show(a)}")
 def _is_triple(value) -> bool:
     """A sequence of length 3 (of anything: ``finite`` then checks the numbers)."""
     return not isinstance(value, (str, bytes)) and hasattr(value, "__len__") and len(value) == 3
@@ -295,10 +305,12 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
             sides_ok = False
     if sides_ok and s.width * s.height > MAX_PIXELS:
         c.add(s, "width", f"width × height must be at most {MAX_PIXELS} pixels, got {s.width} × {s.height}")
-    if not isinstance(s.samples, (int, np.integer)) or not 1 <= s.samples <= MAX_SAMPLES:
-        c.add(s, "samples", f"must be an integer in 1..{MAX_SAMPLES}, got {_show(s.samples)}")
-    if s.sample_pattern not in ("grid", "povray-am1"):
-        c.add(s, "sample_pattern", f"must be 'grid' or 'povray-am1', got {_show(s.sample_pattern)}")
+    most = MAX_STRATIFIED_SAMPLES if s.sample_pattern == "stratified" else MAX_SAMPLES
+    if not isinstance(s.samples, (int, np.integer)) or not 1 <= s.samples <= most:
+        c.add(s, "samples", f"must be an integer in 1..{most}, got {_show(s.samples)}")
+    if s.sample_pattern not in SAMPLE_PATTERNS:
+        c.add(s, "sample_pattern", f"must be one of {', '.join(SAMPLE_PATTERNS)}, got {_show(s.sample_pattern)}")
+    c.unit_interval(s, "aa_threshold")  # POV-Ray clips +A to [0, 1]
     if s.specular not in ("seed", "povray-classic"):
         c.add(s, "specular", f"must be 'seed' or 'povray-classic', got {_show(s.specular)}")
     if s.numerics not in NUMERICS:
@@ -350,11 +362,13 @@ def _check_light(c: _Collector, light) -> None:
             if cross <= SINGULAR_RELATIVE_DET * float(np.linalg.norm(u) * np.linalg.norm(v)):
                 c.add(light, "axis_v", "must not be parallel to axis_u (the rectangle has no area)")
         c.samples_2k1(light)
+        c.adaptive(light)
     elif isinstance(light, SphereAreaLight):
         c.position(light, "center", light.center)
         if c.finite(light, "radius", light.radius) and light.radius <= 0:
             c.add(light, "radius", f"must be > 0, got {_show(light.radius)}")
         c.samples_2k1(light)
+        c.adaptive(light)
     else:
         c.add(light, "lights", f"unknown light type {type(light).__name__}")
 

@@ -525,3 +525,62 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "texture_clamp": texture_clamp,
     "texture_specular": texture_specular,
 }
+
+
+# ---------------------------------------------------------------------------------------------
+# POV-Ray's adaptive estimators (ref §5 `adaptive n`, §8 +AM1/+AM2 with a threshold). Not in
+# SCENES: the oracle models the full grids only; these are cross-validated against POV-Ray.
+
+
+def adaptive_rect_light_levels() -> Scene:
+    """`adaptive 1` on a 17×17 rect light too dim (|r|+|g|+|b| = 0.09 <= 0.1) for its corners to
+    ever differ enough: only the first split happens, so each quadrant is the mean of its 4
+    corners (9 grid points used of 289)."""
+    scene = rect_area_light()
+    light = dataclasses.replace(scene.lights[0], color=(0.031, 0.03, 0.029), samples=17, adaptive=1)
+    return dataclasses.replace(scene, lights=(light,))
+
+
+def adaptive_sphere_light_threshold() -> Scene:
+    """`adaptive 0` on a 9×9 spherical light: regions split only where two adjacent corners
+    differ (bright light: any visibility change is > 0.1), so partial shadows inside a region
+    whose corners agree are missed exactly as POV-Ray misses them."""
+    scene = sphere_area_light()
+    light = dataclasses.replace(scene.lights[0], samples=9, adaptive=0)
+    return dataclasses.replace(scene, lights=(light,))
+
+
+def adaptive_am1() -> Scene:
+    """+AM1 +A0.1 +R3: only pixels whose encoded colour differs from the left or top neighbour
+    by >= 0.1 are supersampled, decided per 32×32 POV-Ray block (80×60: 3×2 blocks)."""
+    scene = point_light()
+    return dataclasses.replace(
+        scene, settings=_settings(80, 60, samples=3, sample_pattern="povray-am1", aa_threshold=0.1)
+    )
+
+
+def adaptive_am2() -> Scene:
+    """+AM2 +A0.1 +R3: pixel corners, then 4-corner subdivision (down to 4×4 cells) where the
+    corners differ pairwise by >= 0.1."""
+    scene = point_light()
+    return dataclasses.replace(
+        scene, settings=_settings(80, 60, samples=3, sample_pattern="povray-am2", aa_threshold=0.1)
+    )
+
+
+def adaptive_am1_two_lights() -> Scene:
+    """+AM1 +A0.1 +R3 with two lights: under the exact mapping POV-Ray renders one pass per light
+    and decides supersampling per pass (crossvalidation.render_native_as_povray does the same)."""
+    scene = shadows_two_lights()
+    return dataclasses.replace(
+        scene, settings=_settings(80, 60, samples=3, sample_pattern="povray-am1", aa_threshold=0.1)
+    )
+
+
+ADAPTIVE_SCENES: dict[str, Callable[[], Scene]] = {
+    "adaptive_am1_two_lights": adaptive_am1_two_lights,
+    "adaptive_rect_light_levels": adaptive_rect_light_levels,
+    "adaptive_sphere_light_threshold": adaptive_sphere_light_threshold,
+    "adaptive_am1": adaptive_am1,
+    "adaptive_am2": adaptive_am2,
+}

@@ -9,7 +9,7 @@ import pytest
 from conftest import REPO
 from phongscene.cli import build_parser, main
 
-COMMANDS = ("diff", "compare", "info", "validate", "import", "render", "compile")
+COMMANDS = ("diff", "compare", "info", "validate", "import", "render", "compile", "bench")
 
 
 def test_every_command_is_registered_with_help():
@@ -21,7 +21,9 @@ def test_every_command_is_registered_with_help():
 
 
 OUTPUT = {"render": ["-o", "x.png"], "diff": ["-o", "outdir"], "compile": ["-o", "x.pov"]}
-BAD_OPTIONS = [["--spp", "0"], ["--spp", "10"], ["--width", "0"], ["--spp", "two"]]
+# --spp 10..16 is the stratified pattern's range: validation rejects it for the others (test_adaptive.py).
+BAD_OPTIONS = [["--spp", "0"], ["--spp", "17"], ["--width", "0"], ["--spp", "two"], ["--aa-threshold", "1.5"],
+               ["--shadow-adaptive", "-1"], ["--sample-pattern", "jitter"]]
 
 
 @pytest.mark.parametrize(

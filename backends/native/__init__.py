@@ -31,7 +31,14 @@ from . import _native
 
 __all__ = ["build", "render", "scene_arrays", "_native"]
 
-_SAMPLE_PATTERNS = {"grid": _native.SamplePattern.grid, "povray-am1": _native.SamplePattern.povray_am1}
+_SAMPLE_PATTERNS = {
+    "grid": _native.SamplePattern.grid,
+    "povray-am1": _native.SamplePattern.povray_am1,
+    "povray-am2": _native.SamplePattern.povray_am2,
+    "stratified": _native.SamplePattern.stratified,
+}
+# The C++ lights' `adaptive` for "every grid point" (lights.hpp: kFullSubdivision).
+_FULL_SUBDIVISION = -1
 _NUMERICS = {
     "scale-invariant": _native.Numerics.scale_invariant,
     "povray": _native.Numerics.povray,
@@ -113,15 +120,19 @@ def _native_light(light: Light):
     if isinstance(light, DirectionalLight):
         return _native.DirectionalLight(direction=light.direction, color=light.color)
     if isinstance(light, RectAreaLight):
-        return _native.RectAreaLight(
+        native = _native.RectAreaLight(
             center=light.center, axis_u=light.axis_u, axis_v=light.axis_v, color=light.color, samples=light.samples,
             inverse_square=light.falloff == "inverse-square",
         )
+        native.adaptive = _FULL_SUBDIVISION if light.adaptive is None else int(light.adaptive)
+        return native
     if isinstance(light, SphereAreaLight):
-        return _native.SphereAreaLight(
+        native = _native.SphereAreaLight(
             center=light.center, radius=light.radius, color=light.color, samples=light.samples,
             inverse_square=light.falloff == "inverse-square",
         )
+        native.adaptive = _FULL_SUBDIVISION if light.adaptive is None else int(light.adaptive)
+        return native
     # A validated scene has only the model's light types.
     raise TypeError(f"unsupported light {type(light).__name__}")
 
@@ -138,7 +149,7 @@ def _camera(camera: Camera) -> _native.CameraDescription:
 
 
 def _settings(s: RenderSettings) -> _native.RenderSettings:
-    return _native.RenderSettings(
+    native = _native.RenderSettings(
         width=s.width,
         height=s.height,
         samples=s.samples,
@@ -148,6 +159,8 @@ def _settings(s: RenderSettings) -> _native.RenderSettings:
         specular_convention=_SPECULAR_CONVENTIONS[s.specular],
         numerics=_NUMERICS[s.numerics],
     )
+    native.aa_threshold = float(s.aa_threshold)
+    return native
 
 
 def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:

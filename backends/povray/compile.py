@@ -42,12 +42,13 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from phongscene.errors import Problem, SceneError
 from phongscene.scene import (
+    AmbientLight,
     DirectionalLight,
     PhongMaterial,
     PointLight,
@@ -79,6 +80,11 @@ INVERSE_SQUARE_FADE_RADII = 1e-6
 # whose attenuation is cos θ¹ measured from the light's centre (checked against the native tracer
 # in tests/test_cross_backend.py).
 LAMBERT_SPOTLIGHT = "spotlight radius 90 falloff 90 tightness 1"
+
+
+def _adaptive(light) -> str:
+    """POV-Ray's ``adaptive n`` of an area light (absent: every grid point, its default)."""
+    return "" if light.adaptive is None else f" adaptive {int(light.adaptive)}"
 
 # Characters copied verbatim into a comment; everything else becomes \xNN / \uNNNN / \UNNNNNNNN.
 # '#', '"', '*', '\\' and all control characters are escaped, so a comment can neither end early
@@ -234,6 +240,24 @@ def pass_count(scene: Scene, mapping: str) -> int:
     """Render passes (animation frames) the SDL of ``mapping`` needs: one per light for
     ``exact`` (at least one, which carries the ambient term), one for ``classic``."""
     return max(1, len(scene.lights)) if mapping == "exact" else 1
+
+
+def pass_scenes(scene: Scene, mapping: str) -> tuple[Scene, ...]:
+    """What each render pass of ``mapping`` draws, as scenes whose linear images add up to the
+    picture: for ``exact`` with several lights, one light each, pass 0 with the ambient light and
+    the background, the others with neither (as the SDL's ``#switch (Pass)``); else the scene."""
+    if pass_count(scene, mapping) == 1:
+        return (scene,)
+    dark = AmbientLight((0.0, 0.0, 0.0), scene.ambient.source)
+    return tuple(
+        replace(
+            scene,
+            lights=(light,),
+            ambient=scene.ambient if i == 0 else dark,
+            settings=scene.settings if i == 0 else replace(scene.settings, background=(0.0, 0.0, 0.0)),
+        )
+        for i, light in enumerate(scene.lights)
+    )
 
 
 def compile_pov(scene: Scene, settings: RenderSettings | None = None, mapping: str | None = None) -> str:
@@ -431,7 +455,7 @@ class _Compiler:
             )
         if isinstance(light, RectAreaLight):
             n = int(light.samples)
-            # No 'adaptive': POV's default level (100) subdivides fully, giving trapezoid
+            # Without 'adaptive' POV's default level (100) subdivides fully, giving trapezoid
             # weights for n = 2^k + 1 (ref §5). No 'jitter' (not deterministic).
             spot = ""
             if light.falloff == "inverse-square":
@@ -440,14 +464,15 @@ class _Compiler:
                 spot = f" {LAMBERT_SPOTLIGHT} point_at {self.vec(target, light, 'axis_v')}"
             return (
                 f"light_source {{ {self.vec(light.center, light, 'center')} color rgb {colour}{spot}"
-                f" area_light {self.vec(light.axis_u, light, 'axis_u')}, {self.vec(light.axis_v, light, 'axis_v')}, {n}, {n}{fade} }}"
+                f" area_light {self.vec(light.axis_u, light, 'axis_u')}, {self.vec(light.axis_v, light, 'axis_v')}, {n}, {n}"
+                f"{_adaptive(light)}{fade} }}"
             )
         if isinstance(light, SphereAreaLight):
             n = int(light.samples)
             d = self.num(2.0 * light.radius, light, "radius")
             return (
                 f"light_source {{ {self.vec(light.center, light, 'center')} color rgb {colour}"
-                f" area_light <{d}, 0, 0>, <0, {d}, 0>, {n}, {n} circular orient{fade} }}"
+                f" area_light <{d}, 0, 0>, <0, {d}, 0>, {n}, {n}{_adaptive(light)} circular orient{fade} }}"
             )
         raise self._error(light, "lights", f"unknown light type {type(light).__name__}")
 

@@ -28,9 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from phongscene.errors import BackendError, PhongSceneError
+from phongscene.errors import BackendError, PhongSceneError, Problem, SceneError
 from phongscene.images import read_image, write_image
-from phongscene.scene import RenderSettings, Scene
+from phongscene.scene import POVRAY_SAMPLE_PATTERNS, RenderSettings, Scene
 
 from .compile import compile_body, compile_pov, pass_count, resolve_mapping, texture_files
 
@@ -88,8 +88,19 @@ class PovJob:
         return "\n".join(lines) + "\n"
 
 
-def render_switches(settings: RenderSettings) -> tuple[int, int, int, tuple[str, ...]]:
-    """(width, height, supersample, switches) POV-Ray needs for ``settings``."""
+def aa_threshold(value: float) -> str:
+    """POV-Ray's +A value: the shortest decimal that reads back as the same float32 (POV-Ray holds
+    it as a float), e.g. 0.03; 0 prints as 0.0."""
+    return np.format_float_positional(np.float32(value), trim="0")
+
+
+def render_switches(settings: RenderSettings, source_file: str = "") -> tuple[int, int, int, tuple[str, ...]]:
+    """(width, height, supersample, switches) POV-Ray needs for ``settings`` (a SceneError naming
+    ``source_file`` for a pattern POV-Ray does not have)."""
+    if settings.sample_pattern not in POVRAY_SAMPLE_PATTERNS:
+        raise SceneError(Problem(
+            f"{settings.sample_pattern!r} is the native tracer's own; POV-Ray renders {', '.join(POVRAY_SAMPLE_PATTERNS)}",
+            settings.source, "sample_pattern", source_file, node="RenderSettings"))
     n = int(settings.samples)
     k = n if n > 1 and settings.sample_pattern == "grid" else 1
     width, height = settings.width * k, settings.height * k
@@ -97,8 +108,9 @@ def render_switches(settings: RenderSettings) -> tuple[int, int, int, tuple[str,
     # warning streams: they carry "File 'x.pov' line N: Parse Error: ..." for error reports.
     # +V keeps the "Rendered N of M pixels" lines (ref §17) the progress bar is drawn from.
     switches = ["+FE", f"+W{width}", f"+H{height}", "-D", "+V", "-GD", "-GR", "-GS", "+Q9", "-J"]
-    if n > 1 and settings.sample_pattern == "povray-am1":
-        switches += ["+AM1", "+A0.0", f"+R{n}"]
+    if n > 1 and settings.sample_pattern == "povray-am1" or settings.sample_pattern == "povray-am2":
+        method = "+AM1" if settings.sample_pattern == "povray-am1" else "+AM2"
+        switches += [method, f"+A{aa_threshold(settings.aa_threshold)}", f"+R{n}"]
     else:
         switches.append("-A")
     if settings.threads > 0:
@@ -110,7 +122,7 @@ def prepare(scene: Scene, settings: RenderSettings | None = None, mapping: str |
     """Compile ``scene`` and work out how POV-Ray must render it (what the CLI prints)."""
     settings = scene.settings if settings is None else settings
     mapping = resolve_mapping(settings, mapping)
-    width, height, k, switches = render_switches(settings)
+    width, height, k, switches = render_switches(settings, scene.source_file)
     textures = tuple(texture_files(scene).items())
     return PovJob(compile_pov(scene, settings, mapping), pass_count(scene, mapping), width, height, k, switches, textures)
 
@@ -162,7 +174,7 @@ def render_many(
     for scene, settings, mapping in items:
         settings = scene.settings if settings is None else settings
         mapping = resolve_mapping(settings, mapping)
-        jobs.append((scene, settings, mapping, render_switches(settings)))
+        jobs.append((scene, settings, mapping, render_switches(settings, scene.source_file)))
     groups: dict[tuple, list[int]] = {}
     for i, job in enumerate(jobs):
         groups.setdefault(job[3], []).append(i)

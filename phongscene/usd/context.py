@@ -53,7 +53,7 @@ def gf_to_numpy(m: Gf.Matrix4d) -> np.ndarray:
 class ReadContext:
     """Problems, warnings and transforms for one stage being read."""
 
-    def __init__(self, stage: Usd.Stage, file: str):
+    def __init__(self, stage: Usd.Stage, file: str, time: Usd.TimeCode = Usd.TimeCode.Default()):
         self.stage = stage
         self.file = file
         self.problems: list[Problem] = []
@@ -61,7 +61,9 @@ class ReadContext:
         # One warning per kind of unsupported thing, listing every prim.
         self.unsupported: dict[str, list[str]] = defaultdict(list)
         self.nodes: list[tuple[str, str]] = []  # (prim path, model node) for `phongscene info`
-        self.time = stage.GetStartTimeCode() if stage.HasAuthoredTimeCodeRange() else Usd.TimeCode.Default()
+        # Every value is read at this one time code (the reader chooses it: reader._time_to_read);
+        # transforms through one cache at it, so USD's interpolation applies everywhere.
+        self.time = time
         self.xforms = UsdGeom.XformCache(self.time)
         self.z_up = UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.z
 

@@ -36,10 +36,12 @@ STRING_TYPES = ("token", "string")
 COLOR_TYPES = ("color3f", "color3d", "color3h", "float3", "double3", "half3")
 
 SHADOW_SAMPLES = "phong:shadowSamples"
+SHADOW_ADAPTIVE = "phong:shadowAdaptive"
 FADE_DISTANCE = "phong:fadeDistance"
 FADE_POWER = "phong:fadePower"
 SAMPLES = "phong:samples"
 SAMPLE_PATTERN = "phong:samplePattern"
+AA_THRESHOLD = "phong:aaThreshold"
 SPECULAR_CONVENTION = "phong:specularConvention"
 BACKGROUND = "phong:background"
 # A light's model: "usdlux" (the default: UsdLux's units, normalize and falloff) or "seed" (the
@@ -51,15 +53,22 @@ LIGHT_MODELS = (LIGHT_MODEL_USDLUX, LIGHT_MODEL_SEED)
 # Our attributes, by the prim types that may carry them, with the value types accepted.
 # Anything else in `phong:` is an error (a typo must not be ignored).
 PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
-    "SphereLight": {SHADOW_SAMPLES: INT_TYPES, FADE_DISTANCE: FLOAT_TYPES, FADE_POWER: FLOAT_TYPES, LIGHT_MODEL: STRING_TYPES},
-    "RectLight": {SHADOW_SAMPLES: INT_TYPES, LIGHT_MODEL: STRING_TYPES},
-    "DiskLight": {SHADOW_SAMPLES: INT_TYPES, LIGHT_MODEL: STRING_TYPES},
+    "SphereLight": {
+        SHADOW_SAMPLES: INT_TYPES,
+        SHADOW_ADAPTIVE: INT_TYPES,
+        FADE_DISTANCE: FLOAT_TYPES,
+        FADE_POWER: FLOAT_TYPES,
+        LIGHT_MODEL: STRING_TYPES,
+    },
+    "RectLight": {SHADOW_SAMPLES: INT_TYPES, SHADOW_ADAPTIVE: INT_TYPES, LIGHT_MODEL: STRING_TYPES},
+    "DiskLight": {SHADOW_SAMPLES: INT_TYPES, SHADOW_ADAPTIVE: INT_TYPES, LIGHT_MODEL: STRING_TYPES},
     "DistantLight": {LIGHT_MODEL: STRING_TYPES},
     "CylinderLight": {LIGHT_MODEL: STRING_TYPES},
     "DomeLight": {LIGHT_MODEL: STRING_TYPES},
     "RenderSettings": {
         SAMPLES: INT_TYPES,
         SAMPLE_PATTERN: STRING_TYPES,
+        AA_THRESHOLD: FLOAT_TYPES,
         SPECULAR_CONVENTION: STRING_TYPES,
         BACKGROUND: COLOR_TYPES,
     },
@@ -107,6 +116,7 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "axis_v": "inputs:height",
         "color": "inputs:color",
         "samples": SHADOW_SAMPLES,
+        "adaptive": SHADOW_ADAPTIVE,
         "falloff": LIGHT_MODEL,
         "diffuse": "inputs:diffuse",
         "specular": "inputs:specular",
@@ -116,6 +126,7 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "radius": "inputs:radius",
         "color": "inputs:color",
         "samples": SHADOW_SAMPLES,
+        "adaptive": SHADOW_ADAPTIVE,
         "falloff": LIGHT_MODEL,
         "diffuse": "inputs:diffuse",
         "specular": "inputs:specular",
@@ -136,6 +147,7 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "height": "resolution",
         "samples": SAMPLES,
         "sample_pattern": SAMPLE_PATTERN,
+        "aa_threshold": AA_THRESHOLD,
         "specular": SPECULAR_CONVENTION,
         "background": BACKGROUND,
     },

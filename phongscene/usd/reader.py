@@ -44,7 +44,7 @@ from .diagnostics import usd_diagnostics
 from .layers import not_regular, preflight
 from .context import ReadContext, gf_to_numpy, tf_error_text, unit
 from .materials import MaterialReader
-from .names import INT_TYPES, PHONG_ATTRIBUTES, STRING_TYPES, in_usd_terms
+from .names import FLOAT_TYPES, INT_TYPES, PHONG_ATTRIBUTES, STRING_TYPES, in_usd_terms
 
 DEFAULT_SHADOW_SAMPLES = 9  # phong:shadowSamples on area lights: a 9×9 grid (2^3 + 1)
 # Composition errors name their arc in the text; report it as the "attribute" (a metadata field).
@@ -61,22 +61,30 @@ class ReadResult:
     nodes: list[tuple[str, str]] = field(default_factory=list)  # (prim path, model node)
 
 
-def load_usd(source) -> Scene:
+def load_usd(source, time: float | None = None) -> Scene:
     """Read a USD file (.usda/.usdc/.usdz) or an open ``Usd.Stage`` into a validated Scene.
+
+    Args:
+        source: the file's path, or an open stage.
+        time: the USD time code to read every value at (camera, lights, materials, visibility,
+            transforms; USD interpolates between time samples). None: the stage's start time
+            when it is animated (with a warning), else its default values.
 
     Raises:
         SceneError: listing every problem found, each with file, prim path and attribute.
     """
-    return read_usd(source).scene
+    return read_usd(source, time=time).scene
 
 
-def read_usd(source) -> ReadResult:
+def read_usd(source, time: float | None = None) -> ReadResult:
     """Like ``load_usd`` but also returns the warnings and the prim → node mapping."""
     usd_warnings: list[str] = []
     with usd_diagnostics(usd_warnings):  # USD's own "Warning: in ..." lines become warnings
         stage, file = _open(source)
+        if time is not None and not (isinstance(time, (int, float)) and math.isfinite(time)):
+            raise SceneError(Problem(f"the time must be a finite number (a USD time code), got {time!r}", file=file))
         try:
-            result = _read(stage, file)
+            result = _read(stage, file, time)
         except Tf.ErrorException as e:
             # A value USD itself cannot produce while we read it (where no prim-level check caught
             # it first): one error naming the file, not a traceback.
@@ -85,8 +93,11 @@ def read_usd(source) -> ReadResult:
     return result
 
 
-def _read(stage: Usd.Stage, file: str) -> ReadResult:
-    ctx = ReadContext(stage, file)
+def _read(stage: Usd.Stage, file: str, time: float | None) -> ReadResult:
+    code, said = _time_to_read(stage, time)
+    ctx = ReadContext(stage, file, code)
+    if said:
+        ctx.warn(said)
     for error in stage.GetCompositionErrors():
         # As USD and usdview do: a reference, payload or sublayer that cannot be composed (a
         # missing file, a .mtlx without USD's MaterialX plugin) is said, and the rest is drawn.
@@ -98,11 +109,6 @@ def _read(stage: Usd.Stage, file: str) -> ReadResult:
     _check_phong_namespace(ctx)
     typos.check_names(ctx)
     stage = ctx.stage
-    if stage.HasAuthoredTimeCodeRange() and stage.GetEndTimeCode() > stage.GetStartTimeCode():
-        ctx.warn(
-            f"the stage is animated (time codes {stage.GetStartTimeCode():g} to {stage.GetEndTimeCode():g}): "
-            f"rendering its start time {stage.GetStartTimeCode():g}"
-        )
     settings, camera_prim = _render_settings(ctx)
     camera, lights, ambient, spheres, meshes = None, [], [], [], []
     materials = MaterialReader(ctx)
@@ -221,6 +227,47 @@ def _warn_single_sided(ctx: ReadContext, stage: Usd.Stage, scene: Scene) -> None
                         "sides as POV-Ray does (USD renderers would not draw the back)"].extend(seen)
 
 
+def _time_to_read(stage: Usd.Stage, time: float | None) -> tuple[Usd.TimeCode, str]:
+    """The time code to read the stage at, and a warning to give (or "").
+
+    Asked for a time: that time (outside the stage's authored range, USD holds the first or last
+    sample, which is said). Not asked: an animated stage (an authored range with end > start)
+    is read at its start time, said; a stage with time samples but no range at its earliest
+    sample (its default time would drop every value authored only as samples, putting an object
+    at the origin), said; any other stage at its default values, as before."""
+    ranged = stage.HasAuthoredTimeCodeRange()
+    start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+    if time is not None:
+        outside = ranged and not (start <= time <= end)
+        said = f"time {time:g} is outside the stage's time codes {start:g} to {end:g}: USD holds the nearest sample" if outside else ""
+        return Usd.TimeCode(float(time)), said
+    if ranged and end > start:
+        return Usd.TimeCode(start), (
+            f"the stage is animated (time codes {start:g} to {end:g}): rendering its start time {start:g} "
+            "(choose one with --time T, or all with --frames START:END)"
+        )
+    if not ranged:
+        earliest = _earliest_time_sample(stage)
+        if earliest is not None:
+            return Usd.TimeCode(earliest), (
+                f"the stage has time samples but no startTimeCode/endTimeCode: rendering its earliest sample, time {earliest:g} "
+                "(choose one with --time T)"
+            )
+    return (Usd.TimeCode(start) if ranged else Usd.TimeCode.Default()), ""
+
+
+def _earliest_time_sample(stage: Usd.Stage) -> float | None:
+    """The earliest time sample of any attribute on the stage, or None when nothing is sampled
+    (a walk over the attributes' sample metadata, values are not read)."""
+    earliest = None
+    for prim in Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)):
+        for attr in prim.GetAuthoredAttributes():
+            if attr.GetNumTimeSamples():
+                first = attr.GetTimeSamples()[0]
+                earliest = first if earliest is None else min(earliest, first)
+    return earliest
+
+
 def _open(source) -> tuple[Usd.Stage, str]:
     if isinstance(source, Usd.Stage):
         layer = source.GetRootLayer()
@@ -331,6 +378,9 @@ def _render_settings(ctx: ReadContext) -> tuple[RenderSettings, Usd.Prim | None]
     pattern = ctx.get(prim, names.SAMPLE_PATTERN, STRING_TYPES)
     if pattern is not None:
         values["sample_pattern"] = str(pattern)
+    threshold = ctx.get(prim, names.AA_THRESHOLD, FLOAT_TYPES)
+    if threshold is not None:
+        values["aa_threshold"] = float(threshold)
     convention = ctx.get(prim, names.SPECULAR_CONVENTION, STRING_TYPES)
     if convention is not None:
         values["specular"] = str(convention)
@@ -525,6 +575,11 @@ def _shadow_samples(ctx: ReadContext, prim: Usd.Prim) -> int:
     return int(ctx.get(prim, names.SHADOW_SAMPLES, INT_TYPES, DEFAULT_SHADOW_SAMPLES))
 
 
+def _shadow_adaptive(ctx: ReadContext, prim: Usd.Prim) -> int | None:
+    level = ctx.get(prim, names.SHADOW_ADAPTIVE, INT_TYPES)
+    return None if level is None else int(level)
+
+
 def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> None:
     """One UsdLux light into the model, in UsdLux's units (see README: lights) unless it asks for
     the seed's light. The emitted luminance L (normalized by the emitting area when
@@ -584,7 +639,12 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
             for name in (names.FADE_DISTANCE, names.FADE_POWER):
                 if prim.GetAttribute(name).HasAuthoredValue():
                     ctx.problem(prim, name, "applies to point lights only (treatAsPoint or radius 0)")
-            lights.append(SphereAreaLight(centre, radius_world, _rgb(colour), _shadow_samples(ctx, prim), path, falloff, **terms))
+            lights.append(
+                SphereAreaLight(
+                    centre, radius_world, _rgb(colour), _shadow_samples(ctx, prim), path, falloff,
+                    adaptive=_shadow_adaptive(ctx, prim), **terms,
+                )
+            )
             ctx.nodes.append((path, "SphereAreaLight" + ("" if seed else " (UsdLux)")))
     elif prim.IsA(UsdLux.CylinderLight):
         # A tube of radius r and length l along its X axis, emitting luminance L from its side:
@@ -637,7 +697,10 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
         else:
             colour = luminance * float(np.linalg.norm(np.cross(axis_u, axis_v)))
         lights.append(
-            RectAreaLight(centre, _rgb(axis_u), _rgb(axis_v), _rgb(colour), _shadow_samples(ctx, prim), path, falloff, **terms)
+            RectAreaLight(
+                centre, _rgb(axis_u), _rgb(axis_v), _rgb(colour), _shadow_samples(ctx, prim), path, falloff,
+                adaptive=_shadow_adaptive(ctx, prim), **terms,
+            )
         )
         ctx.nodes.append((path, "RectAreaLight" + ("" if seed else " (UsdLux)")))
 

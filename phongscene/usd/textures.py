@@ -19,8 +19,6 @@ import tempfile
 from dataclasses import dataclass
 
 import numpy as np
-import OpenImageIO as oiio
-from OpenImageIO import ImageBuf, ImageBufAlgo
 from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
 
 from ..scene import Texture
@@ -209,7 +207,9 @@ class TextureReader:
 
 
 def _read(path: str) -> tuple[np.ndarray, bool, str]:
-    buf = ImageBuf(path)
+    import OpenImageIO as oiio  # only for a scene with a texture (start-up cost, issue 15)
+
+    buf = oiio.ImageBuf(path)
     if not buf.read(force=True) or buf.has_error:
         error = buf.geterror().strip()  # (retrieving it clears it)
         raise OSError(error.splitlines()[0] if error else "OpenImageIO cannot read it")
@@ -231,8 +231,11 @@ def _texels(pixels: np.ndarray, srgb: bool, channel: int | None) -> np.ndarray:
     colour_channels = 1 if n in (1, 2) else 3
     rgb = np.repeat(pixels[:, :, :1], 3, axis=2) if colour_channels == 1 else pixels[:, :, :3]
     if srgb:
+        import OpenImageIO as oiio
+
         # OpenImageIO's colour conversion (sRGB transfer function → linear), on colour only.
-        rgb = ImageBufAlgo.colorconvert(ImageBuf(np.ascontiguousarray(rgb)), "sRGB", "linear").get_pixels(oiio.TypeFloat)
+        converted = oiio.ImageBufAlgo.colorconvert(oiio.ImageBuf(np.ascontiguousarray(rgb)), "sRGB", "linear")
+        rgb = converted.get_pixels(oiio.TypeFloat)
         rgb = np.asarray(rgb, dtype=np.float32).reshape(pixels.shape[0], pixels.shape[1], 3)
     if channel is None:
         return rgb.astype(np.float64)

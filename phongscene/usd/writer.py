@@ -261,6 +261,8 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
         prim.CreateRadiusAttr(float(light.radius))
         _set_translate(prim, light.center)
         prim.GetPrim().CreateAttribute(names.SHADOW_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.samples))
+        if light.adaptive is not None:
+            prim.GetPrim().CreateAttribute(names.SHADOW_ADAPTIVE, Sdf.ValueTypeNames.Int).Set(int(light.adaptive))
         if falloff != "none":
             strength = strength * 4.0
     elif isinstance(light, DirectionalLight):
@@ -278,6 +280,8 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
         prim.CreateHeightAttr(1.0)
         _set_transform(prim, _frame(light.axis_u, light.axis_v, light.center))
         prim.GetPrim().CreateAttribute(names.SHADOW_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.samples))
+        if light.adaptive is not None:
+            prim.GetPrim().CreateAttribute(names.SHADOW_ADAPTIVE, Sdf.ValueTypeNames.Int).Set(int(light.adaptive))
     else:
         raise TypeError(f"not a light: {light!r}")
     api = UsdLux.LightAPI(prim.GetPrim())
@@ -323,6 +327,8 @@ def define_render_settings(stage: Usd.Stage, path: str, settings: RenderSettings
     p = prim.GetPrim()
     p.CreateAttribute(names.SAMPLES, Sdf.ValueTypeNames.Int).Set(int(settings.samples))
     p.CreateAttribute(names.SAMPLE_PATTERN, Sdf.ValueTypeNames.Token).Set(settings.sample_pattern)
+    if settings.aa_threshold:
+        p.CreateAttribute(names.AA_THRESHOLD, Sdf.ValueTypeNames.Double).Set(float(settings.aa_threshold))
     p.CreateAttribute(names.SPECULAR_CONVENTION, Sdf.ValueTypeNames.Token).Set(settings.specular)
     p.CreateAttribute(names.BACKGROUND, Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*map(float, settings.background)))
     stage.SetMetadata("renderSettingsPrimPath", path)

@@ -140,6 +140,12 @@ Image render(const phong::Scene& scene, const phong::CameraDescription& camera_d
              const phong::RenderSettings& settings, nb::object progress) {
     if (settings.width < 1 || settings.height < 1 || settings.samples < 1)
         throw std::invalid_argument("width, height and samples must be >= 1");
+    // The Python model validates these (phongscene.validate); a direct caller gets an error, not
+    // a 2^(n-1)-sized +AM2 buffer or a NaN threshold.
+    const int most_samples = settings.sample_pattern == phong::SamplePattern::kStratified ? 16 : 9;
+    if (settings.samples > most_samples) throw std::invalid_argument("samples too large for the sample pattern");
+    if (!(settings.aa_threshold >= 0.0 && settings.aa_threshold <= 1.0))
+        throw std::invalid_argument("aa_threshold must be in [0, 1]");
     check_textures(scene);
     const phong::Camera camera = phong::Camera::make(camera_description, settings.width, settings.height);
 
@@ -226,7 +232,9 @@ NB_MODULE(_native, m) {
 
     nb::enum_<phong::SamplePattern>(m, "SamplePattern", "Where a pixel's primary rays go (render.hpp).")
         .value("grid", phong::SamplePattern::kGrid)
-        .value("povray_am1", phong::SamplePattern::kPovrayAm1);
+        .value("povray_am1", phong::SamplePattern::kPovrayAm1)
+        .value("povray_am2", phong::SamplePattern::kPovrayAm2)
+        .value("stratified", phong::SamplePattern::kStratified);
     nb::enum_<phong::SpecularConvention>(m, "SpecularConvention", "Which Phong specular term (materials.hpp).")
         .value("seed", phong::SpecularConvention::kSeed)
         .value("povray_classic", phong::SpecularConvention::kPovrayClassic);
@@ -296,7 +304,8 @@ NB_MODULE(_native, m) {
         .def_rw("axis_v", &RectAreaLight::axis_v)
         .def_rw("color", &RectAreaLight::color)
         .def_rw("samples", &RectAreaLight::samples)
-        .def_rw("terms", &RectAreaLight::terms);
+        .def_rw("terms", &RectAreaLight::terms)
+        .def_rw("adaptive", &RectAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)");
 
     using phong::SphereAreaLight;
     nb::class_<SphereAreaLight>(m, "SphereAreaLight", "A spherical light: POV-Ray's circular, oriented area light.")
@@ -307,7 +316,8 @@ NB_MODULE(_native, m) {
         .def_rw("radius", &SphereAreaLight::radius)
         .def_rw("color", &SphereAreaLight::color)
         .def_rw("samples", &SphereAreaLight::samples)
-        .def_rw("terms", &SphereAreaLight::terms);
+        .def_rw("terms", &SphereAreaLight::terms)
+        .def_rw("adaptive", &SphereAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)");
 
     using phong::CameraDescription;
     nb::class_<CameraDescription>(m, "CameraDescription", "The model's camera (camera.hpp).")
@@ -330,6 +340,7 @@ NB_MODULE(_native, m) {
         .def_rw("height", &RenderSettings::height)
         .def_rw("samples", &RenderSettings::samples)
         .def_rw("sample_pattern", &RenderSettings::sample_pattern)
+        .def_rw("aa_threshold", &RenderSettings::aa_threshold)
         .def_rw("threads", &RenderSettings::threads)
         .def_rw("background", &RenderSettings::background)
         .def_rw("specular_convention", &RenderSettings::specular_convention);

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <variant>
+#include <vector>
 
 #include "math.hpp"
 
@@ -55,6 +56,7 @@ struct RectAreaLight {
     int samples;  // per axis, 2^k + 1
     bool inverse_square = false;
     LightTerms terms;
+    int adaptive = kFullSubdivision;  // POV-Ray's `adaptive n`; kFullSubdivision: every grid point
 };
 
 // POV-Ray's `area_light <2r,0,0>, <0,2r,0>, n, n circular orient`.
@@ -65,6 +67,7 @@ struct SphereAreaLight {
     int samples;
     bool inverse_square = false;
     LightTerms terms;
+    int adaptive = kFullSubdivision;
 };
 
 using Light = std::variant<PointLight, DirectionalLight, RectAreaLight, SphereAreaLight>;
@@ -86,6 +89,37 @@ inline LightSample toward(const Vec3& target, const Vec3& p, const RGB& color) {
 
 // Trapezoid weight of grid index i of n (n >= 2).
 inline double trapezoid_weight(int i, int n) { return (i == 0 || i == n - 1 ? 0.5 : 1.0) / (n - 1); }
+
+// POV-Ray's `adaptive n` (trace.cpp, TraceAreaLightSubsetShadowRay): the region [u1, u2] x
+// [v1, v2] of the grid traces its four corners (each grid point once, cached in `grid`); it is
+// split into quadrants at floor/ceil of its middle when it spans more than one step and either
+// level < adaptive or two edge-adjacent corners differ by more than kAdaptiveAreaLightThreshold
+// (POV-Ray's colour distance, |dr| + |dg| + |db|, of the light's colour times visibility: for
+// opaque occluders |dvis| times `colour_sum`); its fraction is the mean of its 4 quadrants' or
+// else of its 4 corners' fractions. `visible(u, v)` traces grid point (u, v): 1 visible, 0 not.
+template <class Visible>
+double adaptive_fraction(int u1, int v1, int u2, int v2, int level, int adaptive, double colour_sum, int n,
+                         std::vector<signed char>& grid, Visible& visible) {
+    double corner[4];
+    const int us[4] = {u1, u2, u1, u2}, vs[4] = {v1, v1, v2, v2};
+    for (int k = 0; k < 4; ++k) {
+        signed char& g = grid[size_t(us[k]) * size_t(n) + size_t(vs[k])];
+        if (g < 0) g = visible(us[k], vs[k]) ? 1 : 0;
+        corner[k] = g;
+    }
+    if (u2 - u1 > 1 || v2 - v1 > 1) {
+        auto differ = [&](int a, int b) { return std::fabs(corner[a] - corner[b]) * colour_sum > kAdaptiveAreaLightThreshold; };
+        if (level < adaptive || differ(0, 1) || differ(1, 3) || differ(3, 2) || differ(2, 0)) {
+            const int ul = int(std::floor((u1 + u2) / 2.0)), uh = int(std::ceil((u1 + u2) / 2.0));
+            const int vl = int(std::floor((v1 + v2) / 2.0)), vh = int(std::ceil((v1 + v2) / 2.0));
+            corner[0] = adaptive_fraction(u1, v1, ul, vl, level + 1, adaptive, colour_sum, n, grid, visible);
+            corner[1] = adaptive_fraction(uh, v1, u2, vl, level + 1, adaptive, colour_sum, n, grid, visible);
+            corner[2] = adaptive_fraction(u1, vh, ul, v2, level + 1, adaptive, colour_sum, n, grid, visible);
+            corner[3] = adaptive_fraction(uh, vh, u2, v2, level + 1, adaptive, colour_sum, n, grid, visible);
+        }
+    }
+    return (corner[0] + corner[1] + corner[2] + corner[3]) * 0.25;
+}
 }  // namespace detail
 
 inline const LightTerms& light_terms(const Light& light) {
@@ -137,13 +171,42 @@ inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
 // same order, so the fraction is bit-identical).
 template <class Shadow>
 double visible_fraction(const Light& light, const Vec3& p, const LightSample& centre, Shadow&& shadow) {
-    auto grid = [&](int n, const Vec3& c, const Vec3& a1, const Vec3& a2, bool circular) {
+    auto grid = [&](int n, const Vec3& c, const Vec3& a1, const Vec3& a2, bool circular, int adaptive) {
         // Samples sit at c + ju·a1 + jv·a2 with |ju|, |jv| <= 1/2 (the circular mapping only
         // shrinks the nudged coordinates, so <= 1/2 + the nudge there).
         const double half = circular ? 0.5 + kCircularAreaLightNudge : 0.5;
         const Vec3 corners[4] = {c - a1 * half - a2 * half, c + a1 * half - a2 * half, c + a1 * half + a2 * half,
                                  c - a1 * half + a2 * half};
         const bool may_be_shadowed = shadow.begin_grid(corners);
+        auto target_of = [&](int a, int b) {
+            double ju = double(a) / (n - 1) - 0.5, jv = double(b) / (n - 1) - 0.5;
+            if (circular) {
+                // Map the square onto the disc (POV-Ray's shells: |(ju, jv)| -> max(|ju|, |jv|)).
+                ju += kCircularAreaLightNudge;
+                jv += kCircularAreaLightNudge;
+                const double scale = std::fmax(std::fabs(ju), std::fabs(jv)) / std::sqrt(ju * ju + jv * jv);
+                ju *= scale;
+                jv *= scale;
+            }
+            return c + a1 * ju + a2 * jv;
+        };
+        if (adaptive != kFullSubdivision) {
+            // Every grid point visible: every region's corners agree and the recursion's means of
+            // ones are exactly 1.
+            if (!may_be_shadowed) return 1.0;
+            // POV-Ray compares the (float) colour of the light as it arrives (fade, cone, falloff).
+            const double colour_sum = std::fabs(double(float(centre.color.x))) + std::fabs(double(float(centre.color.y))) +
+                                      std::fabs(double(float(centre.color.z)));
+            // Which grid points were traced (-1: not yet), per thread, reused point after point.
+            thread_local std::vector<signed char> cache;
+            cache.assign(size_t(n) * size_t(n), -1);
+            auto visible = [&](int a, int b) {
+                const Vec3 v = target_of(a, b) - p;
+                const double d = length(v);
+                return !shadow(v / d, d);
+            };
+            return detail::adaptive_fraction(0, 0, n - 1, n - 1, 0, adaptive, colour_sum, n, cache, visible);
+        }
         double visible = 0.0;
         for (int a = 0; a < n; ++a) {
             const double weight_a = detail::trapezoid_weight(a, n);
@@ -153,17 +216,7 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
                     visible += weight;
                     continue;
                 }
-                double ju = double(a) / (n - 1) - 0.5, jv = double(b) / (n - 1) - 0.5;
-                if (circular) {
-                    // Map the square onto the disc (POV-Ray's shells: |(ju, jv)| -> max(|ju|, |jv|)).
-                    ju += kCircularAreaLightNudge;
-                    jv += kCircularAreaLightNudge;
-                    const double scale = std::fmax(std::fabs(ju), std::fabs(jv)) / std::sqrt(ju * ju + jv * jv);
-                    ju *= scale;
-                    jv *= scale;
-                }
-                const Vec3 target = c + a1 * ju + a2 * jv;
-                const Vec3 v = target - p;
+                const Vec3 v = target_of(a, b) - p;
                 const double d = length(v);
                 if (!shadow(v / d, d)) visible += weight;
             }
@@ -176,7 +229,7 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
             if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
                 return shadow(centre.l, centre.distance) ? 0.0 : 1.0;
             } else if constexpr (std::is_same_v<T, RectAreaLight>) {
-                return grid(L.samples, L.center, L.axis_u, L.axis_v, false);
+                return grid(L.samples, L.center, L.axis_u, L.axis_v, false, L.adaptive);
             } else {
                 // `orient`: the disc faces p. Axis 1 is perpendicular to l and a helper axis
                 // (z, or y when l is nearly vertical), axis 2 to l and axis 1; both of length 2r.
@@ -186,7 +239,7 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
                 const Vec3 a1 = normalize(cross(l, helper));
                 const Vec3 a2 = normalize(cross(l, a1));
                 const double size = 2.0 * L.radius;
-                return grid(L.samples, L.center, a1 * size, a2 * size, true);
+                return grid(L.samples, L.center, a1 * size, a2 * size, true, L.adaptive);
             }
         },
         light);

@@ -154,6 +154,13 @@ constexpr double kCircularAreaLightNudge = 0.001;
 // within 0.01 of vertical in |l_z| (then y).
 constexpr double kOrientVerticalTolerance = 0.01;
 
+// POV-Ray's `adaptive n` area lights (trace.cpp, TraceAreaLightSubsetShadowRay) subdivide a grid
+// region when two adjacent corner samples' colours differ by more than 0.1 (|dr| + |dg| + |db|);
+// reproduced exactly. kFullSubdivision marks a light without `adaptive` (POV-Ray's default level
+// 100, deeper than any grid of at most 2^8 + 1 points per axis: every point is traced).
+constexpr double kAdaptiveAreaLightThreshold = 0.1;
+constexpr int kFullSubdivision = -1;
+
 // Separating-axis slack of a shadow-ray bundle's culling (Scene::shadow_candidates), relative to
 // |axis|_1 times the largest coordinate S involved: a leaf is dropped only when its box is
 // farther than this from the bundle's hull. The projections round by < 3 ulps (~7e-16·S) and a

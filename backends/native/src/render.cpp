@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
+#include <cstdint>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
@@ -19,6 +21,56 @@ namespace {
 constexpr int kTileSize = 16;
 // How often the calling thread wakes to report progress and check for Ctrl-C.
 constexpr auto kPollInterval = std::chrono::milliseconds(50);
+// POV-Ray renders in blocks of Render_Block_Size = 32 pixels from the top left (view.cpp), and
+// its adaptive +AM1 decides each block on its own (tracetask.cpp: the pixels left of and above a
+// block are traced, never supersampled): the adaptive AM1 tiles are those blocks.
+constexpr int kPovrayBlockSize = 32;
+// POV-Ray's Antialias_Gamma default (view.cpp): the +A threshold compares colours encoded as
+// max(c, 0)^(1/2.5), in float (colourspace.cpp: PowerLawGammaCurve).
+constexpr float kPovrayAntialiasEncodingExponent = 1.0f / 2.5f;
+
+// The native "stratified" pixel estimator's points: the 2-D Sobol' sequence, a (0,2)-sequence in
+// base 2 (its first 4^k points put one point in every elementary interval of area 4^-k: every
+// 2^a x 2^b cell grid with a + b = 2k), digitally shifted per pixel by a hash of its position (a
+// digital shift keeps that stratification; it decorrelates neighbouring pixels' patterns).
+inline uint32_t reverse_bits(uint32_t x) {
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
+    x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
+    return (x >> 16) | (x << 16);
+}
+// Sobol's second dimension: direction numbers v_1 = 2^31, v_k = v_(k-1) ^ (v_(k-1) >> 1).
+inline uint32_t sobol_second(uint32_t i) {
+    uint32_t y = 0;
+    for (uint32_t v = 1u << 31; i != 0; i >>= 1, v ^= v >> 1)
+        if (i & 1u) y ^= v;
+    return y;
+}
+// A 32-bit integer hash (Wellons' lowbias32): the per-pixel digital shifts.
+inline uint32_t hash32(uint32_t x) {
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+constexpr double kTwoToMinus32 = 1.0 / 4294967296.0;
+
+// A colour as POV-Ray's threshold test sees it: float, gamma-encoded.
+struct EncodedColour {
+    float r, g, b;
+    explicit EncodedColour(const RGB& c)
+        : r(std::pow(std::max(float(c.x), 0.0f), kPovrayAntialiasEncodingExponent)),
+          g(std::pow(std::max(float(c.y), 0.0f), kPovrayAntialiasEncodingExponent)),
+          b(std::pow(std::max(float(c.z), 0.0f), kPovrayAntialiasEncodingExponent)) {}
+};
+// POV-Ray's Colour_Distance_RGBT (the transmit of opaque hits and of the background is 0).
+inline double colour_distance(const EncodedColour& a, const EncodedColour& b) {
+    return std::fabs(double(a.r) - double(b.r)) + std::fabs(double(a.g) - double(b.g)) +
+           std::fabs(double(a.b) - double(b.b));
+}
 
 // visible_fraction()'s shadow rays from one shaded point p (lights.hpp). Shadow rays start at p;
 // occluders count inside the window (math.hpp). An area light's grid is traced as a bundle
@@ -119,34 +171,215 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         : settings.numerics == Numerics::kPovrayShadowCache ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowCacheWindow}
                                                             : ray_tolerances(box.lo, box.hi);
 
-    auto render_pixel = [&](int i, int j, std::vector<BundleCandidate>& scratch) {
-        auto trace_at = [&](double sx, double sy) {
-            return trace_primary(scene, camera.generate(sx, sy, width, height), settings, tolerances, scratch);
-        };
-        RGB sum;
-        int count = 0;
-        if (settings.sample_pattern == SamplePattern::kPovrayAm1) {
-            sum += trace_at(i + 0.5, j + 0.5);
-            ++count;
-        }
-        if (n == 1 && settings.sample_pattern == SamplePattern::kGrid) {
-            sum += trace_at(i + 0.5, j + 0.5);
-            ++count;
-        } else {
-            for (int b = 0; b < n; ++b)
-                for (int a = 0; a < n; ++a) {
-                    sum += trace_at(i + (a + 0.5) / n, j + (b + 0.5) / n);
-                    ++count;
-                }
-        }
-        const RGB c = sum / double(count);
+    auto store = [&](int i, int j, const RGB& c) {
         float* out = pixels + (size_t(j) * width + i) * 3;
         out[0] = float(c.x);
         out[1] = float(c.y);
         out[2] = float(c.z);
     };
+    auto trace_at = [&](double sx, double sy, std::vector<BundleCandidate>& scratch) {
+        return trace_primary(scene, camera.generate(sx, sy, width, height), settings, tolerances, scratch);
+    };
+    // POV-Ray's +AM1 supersampling of one pixel whose centre colour is `c` (SupersampleOnePixel).
+    auto am1_supersample = [&](int i, int j, const RGB& c, std::vector<BundleCandidate>& scratch) {
+        RGB sum = c;
+        for (int b = 0; b < n; ++b)
+            for (int a = 0; a < n; ++a) sum += trace_at(i + (a + 0.5) / n, j + (b + 0.5) / n, scratch);
+        return sum / double(n * n + 1);
+    };
 
-    const int tiles_x = (width + kTileSize - 1) / kTileSize, tiles_y = (height + kTileSize - 1) / kTileSize;
+    auto render_pixel = [&](int i, int j, std::vector<BundleCandidate>& scratch) {
+        RGB sum;
+        int count = 0;
+        if (settings.sample_pattern == SamplePattern::kPovrayAm1) {
+            sum += trace_at(i + 0.5, j + 0.5, scratch);
+            ++count;
+        }
+        if (n == 1 && settings.sample_pattern == SamplePattern::kGrid) {
+            sum += trace_at(i + 0.5, j + 0.5, scratch);
+            ++count;
+        } else {
+            for (int b = 0; b < n; ++b)
+                for (int a = 0; a < n; ++a) {
+                    sum += trace_at(i + (a + 0.5) / n, j + (b + 0.5) / n, scratch);
+                    ++count;
+                }
+        }
+        store(i, j, sum / double(count));
+    };
+
+    // The threshold as POV-Ray holds it (a float option).
+    const double threshold = double(float(settings.aa_threshold));
+
+    // POV-Ray's adaptive +AM1 over one block (NonAdaptiveSupersamplingM1 and ...ForOnePixel): the
+    // pixel centres, in rows; a pixel is supersampled (once) when its encoded colour differs from
+    // its left or top neighbour's, as they are then, by >= the threshold, and so is that
+    // neighbour unless it lies outside the block or was supersampled already.
+    auto render_block_am1 = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
+        const int stride = x1 - x0 + 1;
+        std::vector<RGB> colour(size_t(stride) * size_t(y1 - y0 + 1));
+        std::vector<char> supersampled(colour.size(), 0);
+        auto at = [&](int i, int j) { return size_t(j - y0 + 1) * size_t(stride) + size_t(i - x0 + 1); };
+        for (int i = x0; i < x1; ++i) {
+            colour[at(i, y0 - 1)] = trace_at(i + 0.5, y0 - 0.5, scratch);
+            supersampled[at(i, y0 - 1)] = 1;  // outside the block: never supersampled
+        }
+        for (int j = y0; j < y1; ++j) {
+            colour[at(x0 - 1, j)] = trace_at(x0 - 0.5, j + 0.5, scratch);
+            supersampled[at(x0 - 1, j)] = 1;
+            for (int i = x0; i < x1; ++i) {
+                const size_t cur = at(i, j), left = at(i - 1, j), top = at(i, j - 1);
+                colour[cur] = trace_at(i + 0.5, j + 0.5, scratch);
+                const EncodedColour e(colour[cur]);
+                const bool left_differs = colour_distance(EncodedColour(colour[left]), e) >= threshold;
+                const bool top_differs = colour_distance(EncodedColour(colour[top]), e) >= threshold;
+                if (!supersampled[left] && left_differs) {
+                    colour[left] = am1_supersample(i - 1, j, colour[left], scratch);
+                    supersampled[left] = 1;
+                }
+                if (!supersampled[top] && top_differs) {
+                    colour[top] = am1_supersample(i, j - 1, colour[top], scratch);
+                    supersampled[top] = 1;
+                }
+                if (left_differs || top_differs) {
+                    colour[cur] = am1_supersample(i, j, colour[cur], scratch);
+                    supersampled[cur] = 1;
+                }
+            }
+        }
+        for (int j = y0; j < y1; ++j)
+            for (int i = x0; i < x1; ++i) store(i, j, colour[at(i, j)]);
+    };
+
+    // POV-Ray's +AM2 (AdaptiveSupersamplingM2, SubdivideOnePixel): the pixel corners, then a
+    // square whose 4 corners' encoded colours differ pairwise by >= the threshold is split into
+    // 4, down to m = 2^(n-1) cells per side; a square's colour is the mean of its 4 sub-squares'
+    // or else of its 4 corners. Samples sit at (i + a/m, j + b/m); the corners are traced once
+    // per tile, the other samples once per pixel (as POV-Ray).
+    const int m = 1 << (n - 1);
+    // A traced sample and its encoding for the threshold tests (encoded once: powf dominated
+    // the subdivision's cost when every level re-encoded its corners).
+    struct Sample {
+        RGB colour;
+        EncodedColour encoded;
+        explicit Sample(const RGB& c = RGB()) : colour(c), encoded(c) {}
+    };
+    auto render_block_am2 = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
+        const int stride = x1 - x0 + 1;
+        std::vector<Sample> corners(size_t(stride) * size_t(y1 - y0 + 1));
+        for (int j = y0; j <= y1; ++j)
+            for (int i = x0; i <= x1; ++i)
+                corners[size_t(j - y0) * stride + size_t(i - x0)] = Sample(trace_at(i, j, scratch));
+        const int side = m + 1;
+        std::vector<Sample> sample(size_t(side) * side);
+        std::vector<int> stamp(sample.size(), -1);  // which pixel traced the sample (no clearing)
+        int pixel_id = 0;
+        for (int j = y0; j < y1; ++j)
+            for (int i = x0; i < x1; ++i, ++pixel_id) {
+                auto get = [&](int a, int b) -> const Sample& {
+                    const size_t k = size_t(b) * side + size_t(a);
+                    if (stamp[k] != pixel_id) {
+                        sample[k] = Sample(trace_at(i + double(a) / m, j + double(b) / m, scratch));
+                        stamp[k] = pixel_id;
+                    }
+                    return sample[k];
+                };
+                auto set = [&](int a, int b, const Sample& c) {
+                    const size_t k = size_t(b) * side + size_t(a);
+                    sample[k] = c;
+                    stamp[k] = pixel_id;
+                };
+                set(0, 0, corners[size_t(j - y0) * stride + size_t(i - x0)]);
+                set(m, 0, corners[size_t(j - y0) * stride + size_t(i + 1 - x0)]);
+                set(0, m, corners[size_t(j + 1 - y0) * stride + size_t(i - x0)]);
+                set(m, m, corners[size_t(j + 1 - y0) * stride + size_t(i + 1 - x0)]);
+                auto subdivide = [&](auto&& self, int a, int b, int step, int level) -> RGB {
+                    const Sample &s00 = get(a, b), &s02 = get(a, b + step), &s20 = get(a + step, b),
+                                 &s22 = get(a + step, b + step);
+                    if (level > 0) {
+                        const EncodedColour &e00 = s00.encoded, &e02 = s02.encoded, &e20 = s20.encoded,
+                                            &e22 = s22.encoded;
+                        if (colour_distance(e00, e02) >= threshold || colour_distance(e00, e20) >= threshold ||
+                            colour_distance(e00, e22) >= threshold || colour_distance(e02, e20) >= threshold ||
+                            colour_distance(e02, e22) >= threshold || colour_distance(e20, e22) >= threshold) {
+                            const int h = step / 2;
+                            return (self(self, a, b, h, level - 1) + self(self, a, b + h, h, level - 1) +
+                                    self(self, a + h, b, h, level - 1) + self(self, a + h, b + h, h, level - 1)) /
+                                   4.0;
+                        }
+                    }
+                    return (s00.colour + s02.colour + s20.colour + s22.colour) / 4.0;
+                };
+                store(i, j, subdivide(subdivide, 0, 0, m, n - 1));
+            }
+    };
+
+    // The native stratified estimator (render.hpp). With a threshold t > 0 it first looks at the
+    // pixel's 4 corners (traced once per tile, shared with the neighbours, as +AM2 does): a
+    // straight edge through the pixel always separates two corners, which 4 interior samples do
+    // not guarantee. Corners within t of each other (|dr| + |dg| + |db|, linear): the pixel is
+    // their mean (+AM2's level 0). Otherwise, and always at t = 0, it takes stages of 16, 64,
+    // 256 points of the scrambled (0,2)-sequence, up to n^2, stopping when a stage moved the
+    // estimate by less than t (that change estimates the previous stage's error).
+    const int budget = n * n;
+    const double settle = settings.aa_threshold;
+    auto colour_l1 = [](const RGB& a) { return std::fabs(a.x) + std::fabs(a.y) + std::fabs(a.z); };
+    auto stratified_pixel = [&](int i, int j, const RGB* corners, std::vector<BundleCandidate>& scratch) {
+        if (corners != nullptr) {
+            bool agree = true;
+            for (int a = 0; a < 4 && agree; ++a)
+                for (int b = a + 1; b < 4 && agree; ++b) agree = colour_l1(corners[a] - corners[b]) < settle;
+            if (agree) return store(i, j, (corners[0] + corners[1] + corners[2] + corners[3]) / 4.0);
+        }
+        const uint32_t key = uint32_t(j) * 0x9E3779B1u + uint32_t(i);
+        const uint32_t shift_x = hash32(key), shift_y = hash32(key ^ 0xA511E9B3u);
+        RGB sum, previous;
+        int count = 0;
+        for (int stage = std::min(16, budget);; stage = std::min(stage * 4, budget)) {
+            for (; count < stage; ++count) {
+                const double px = double(reverse_bits(uint32_t(count)) ^ shift_x) * kTwoToMinus32;
+                const double py = double(sobol_second(uint32_t(count)) ^ shift_y) * kTwoToMinus32;
+                sum += trace_at(i + px, j + py, scratch);
+            }
+            const RGB mean = sum / double(count);
+            if (count >= budget || (settle > 0.0 && count > 16 && colour_l1(mean - previous) < settle))
+                return store(i, j, mean);
+            previous = mean;
+        }
+    };
+    auto render_block_stratified = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
+        const int stride = x1 - x0 + 1;
+        std::vector<RGB> corners;
+        if (settle > 0.0) {
+            corners.resize(size_t(stride) * size_t(y1 - y0 + 1));
+            for (int j = y0; j <= y1; ++j)
+                for (int i = x0; i <= x1; ++i) corners[size_t(j - y0) * stride + size_t(i - x0)] = trace_at(i, j, scratch);
+        }
+        for (int j = y0; j < y1; ++j)
+            for (int i = x0; i < x1; ++i) {
+                if (corners.empty()) {
+                    stratified_pixel(i, j, nullptr, scratch);
+                    continue;
+                }
+                const size_t k = size_t(j - y0) * stride + size_t(i - x0);
+                const RGB four[4] = {corners[k], corners[k + 1], corners[k + stride], corners[k + stride + 1]};
+                stratified_pixel(i, j, four, scratch);
+            }
+    };
+
+    const bool adaptive_am1 = settings.sample_pattern == SamplePattern::kPovrayAm1 && threshold > 0.0;
+    const bool stratified = settings.sample_pattern == SamplePattern::kStratified;
+    const bool am2 = settings.sample_pattern == SamplePattern::kPovrayAm2;
+    auto render_tile = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
+        if (adaptive_am1) return render_block_am1(x0, y0, x1, y1, scratch);
+        if (am2) return render_block_am2(x0, y0, x1, y1, scratch);
+        if (stratified) return render_block_stratified(x0, y0, x1, y1, scratch);
+        for (int j = y0; j < y1; ++j)
+            for (int i = x0; i < x1; ++i) render_pixel(i, j, scratch);
+    };
+    const int tile_size = adaptive_am1 ? kPovrayBlockSize : kTileSize;
+
+    const int tiles_x = (width + tile_size - 1) / tile_size, tiles_y = (height + tile_size - 1) / tile_size;
     const int total = tiles_x * tiles_y;
     std::atomic<int> next{0}, done{0};
     std::atomic<bool> cancel{false};
@@ -158,10 +391,9 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         while (!cancel.load(std::memory_order_relaxed)) {
             const int tile = next.fetch_add(1);
             if (tile >= total) break;
-            const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;
-            const int x1 = std::min(width, x0 + kTileSize), y1 = std::min(height, y0 + kTileSize);
-            for (int j = y0; j < y1; ++j)
-                for (int i = x0; i < x1; ++i) render_pixel(i, j, scratch);
+            const int x0 = (tile % tiles_x) * tile_size, y0 = (tile / tiles_x) * tile_size;
+            const int x1 = std::min(width, x0 + tile_size), y1 = std::min(height, y0 + tile_size);
+            render_tile(x0, y0, x1, y1, scratch);
             // Only the last tile wakes the calling thread early: it polls on its own every
             // kPollInterval, and a wake-up per tile (thousands a second) took CPU from the
             // workers on a machine with as many cores as workers.

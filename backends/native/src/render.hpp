@@ -14,7 +14,10 @@ namespace phong {
 
 enum class SamplePattern {
     kGrid,       // n x n cell-centred grid, plain mean
-    kPovrayAm1,  // POV-Ray +AM1 +A0.0 +R n -J: (centre + n x n grid) / (n^2 + 1)
+    kPovrayAm1,  // POV-Ray +AM1 +A t +R n -J: (centre + n x n grid) / (n^2 + 1) where supersampled
+    kPovrayAm2,  // POV-Ray +AM2 +A t +R n -J: corners, recursive 4-corner subdivision to depth n - 1
+    kStratified,  // native only: pixel corners, then where they differ by >= the threshold a scrambled
+                  // (0,2)-sequence, 16, 64, 256 points up to n^2 (render.cpp: stratified_pixel)
 };
 
 struct RenderSettings {
@@ -25,6 +28,9 @@ struct RenderSettings {
     RGB background;
     SpecularConvention specular_convention = SpecularConvention::kSeed;
     Numerics numerics = Numerics::kScaleInvariant;  // which ray tolerances (math.hpp)
+    // POV-Ray's +A threshold of the adaptive patterns (0: every pixel is supersampled, AM1; the
+    // full grid, AM2): compared with the colour distance of Antialias_Gamma-encoded colours.
+    double aa_threshold = 0.0;
 };
 
 // Called on the rendering (calling) thread about every kPollInterval with (tiles done, tiles

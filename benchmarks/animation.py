@@ -1,0 +1,101 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Frames on Dask (issue 13): the speed-up of 2 LocalCluster workers over 1, and the per-task
+overhead (scheduling + stage load + write) against the frame itself.
+
+1. ``diff --frames 1:24`` of tests/scenes/animated.usda at 320×240 (POV-Ray and the native
+   tracer per frame, as ``phongscene diff --frames`` runs it), each worker one process with 1
+   render thread, with 1 worker and with 2, interleaved (1, 2, 1, 2, ...) because the machine
+   is shared; the ratio is taken per pair. Wall clock includes the cluster's start-up.
+2. S1 (benchmarks/scenes/s1_spheres.usda) at 640×360, native, 1 thread, ``--overhead-frames``
+   frames on 1 worker: per task, wall time after start-up divided by frames, against the render
+   inside the task (``render_seconds``); what is left is scheduling, the stage load, the write
+   and returning the metrics.
+
+    .venv/bin/python benchmarks/animation.py [--pairs 2] [--overhead-frames 12]
+
+Figures: benchmarks/README.md ("Frames on Dask").
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+ANIMATED = REPO / "tests" / "scenes" / "animated.usda"
+S1 = HERE / "scenes" / "s1_spheres.usda"
+
+
+def diff_frames(workers: int, frames: tuple[int, ...], width: int, height: int) -> float:
+    from phongscene.animation import FRAME_FOLDER, diff_frame, frame_name, run_frames
+    from phongscene.comparison import HALF_FLOAT
+
+    options = {"mapping": "exact", "width": width, "height": height, "samples": None, "threads": 1}
+    with tempfile.TemporaryDirectory() as tmp:
+        run = run_frames(diff_frame, frames,
+                         lambda f: (str(ANIMATED), f, os.path.join(tmp, frame_name(FRAME_FOLDER, f)), options, HALF_FLOAT),
+                         workers=workers)
+    if run.failures or run.workers != workers:
+        raise SystemExit(f"frames failed or wrong worker count: {run.failures}, {run.workers} workers")
+    return run.seconds
+
+
+def overhead(frames: int) -> dict:
+    """Per task in the steady state: the interval between frames finishing on one worker, from the
+    second frame on (the first also pays the worker's imports of pxr, OpenImageIO and the
+    extension, once per worker, like the start-up)."""
+    from phongscene.animation import render_frame, run_frames
+
+    options = {"mapping": None, "width": 640, "height": 360, "samples": None, "threads": 1}
+    finished = []
+    with tempfile.TemporaryDirectory() as tmp:
+        run = run_frames(render_frame, tuple(range(1, frames + 1)),
+                         lambda f: (str(S1), f, os.path.join(tmp, f"s1.{f:04d}.exr"), "native", options), workers=1,
+                         on_frame=lambda *_: finished.append(time.perf_counter()))
+    steady = [run.results[f] for f in range(2, frames + 1)]  # the frames the interval covers
+    per_task = (finished[-1] - finished[0]) / (frames - 1)
+    mean = lambda key: statistics.fmean(r[key] for r in steady)  # noqa: E731
+    render_s, write_s, load_s = mean("render_seconds"), mean("write_seconds"), mean("load_seconds")
+    return {"per_task": per_task, "render": render_s, "write": write_s, "load": load_s, "startup": run.startup_seconds,
+            "scheduling": per_task - render_s - write_s - load_s, "overhead": per_task - render_s - write_s}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--pairs", type=int, default=2, help="(1 worker, 2 workers) runs, interleaved (0: none)")
+    parser.add_argument("--overhead-frames", type=int, default=12)
+    args = parser.parse_args()
+    if not S1.exists():
+        import subprocess
+
+        subprocess.run([sys.executable, str(HERE / "make_scenes.py")], check=True)
+    print(f"{os.cpu_count()} cores; load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    frames = tuple(range(1, 25))
+    ratios = []
+    for pair in range(args.pairs):
+        one = diff_frames(1, frames, 320, 240)
+        two = diff_frames(2, frames, 320, 240)
+        ratios.append(one / two)
+        print(f"pair {pair + 1}: 24-frame diff at 320x240: 1 worker {one:.2f} s, 2 workers {two:.2f} s, "
+              f"speed-up {one / two:.2f}x (load average {os.getloadavg()[0]:.2f})")
+    if ratios:
+        print(f"speed-up of 2 workers over 1: median {statistics.median(ratios):.2f}x (min {min(ratios):.2f}x)")
+    o = overhead(args.overhead_frames)
+    print(f"S1 640x360 native, 1 thread, {args.overhead_frames} frames on 1 worker: per task {o['per_task']:.3f} s = "
+          f"render {o['render']:.4f} s + EXR write {o['write']:.4f} s + overhead {o['overhead']:.4f} s "
+          f"(stage load {o['load']:.4f} s + scheduling and the rest {o['scheduling']:.4f} s) = "
+          f"{100 * o['overhead'] / o['render']:.1f} % of the render, "
+          f"{100 * o['overhead'] / (o['render'] + o['write']):.1f} % of render + write; "
+          f"cluster start-up {o['startup']:.2f} s once")
+    print(f"load average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
