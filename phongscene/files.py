@@ -100,10 +100,17 @@ def atomic_files(*paths: str | os.PathLike) -> Iterator[tuple[Path, ...]]:
 @contextmanager
 def atomic_folder(outdir: str | os.PathLike) -> Iterator[Path]:
     """A temporary folder beside ``outdir`` to write a set of files into (a report); when the
-    block succeeds each file is renamed into ``outdir`` (created if missing; files already there
+    block succeeds each file is renamed into ``outdir`` (created, with its parents, if missing; files already there
     and not rewritten stay), and when it fails (a full disk) none is, and the temporary folder
     is removed: no half-written report."""
     outdir = Path(outdir)
+    # A report folder is created with its parents, as write_report always did (diff --frames
+    # writes OUTDIR/frame.####); the CLI checks that OUTDIR's parent exists before rendering.
+    if not outdir.parent.exists():
+        try:
+            outdir.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise PhongSceneError(f"{outdir}: cannot create its folder: {e.strerror or e}") from None
     check_output_folder(outdir)
     tmp = outdir.parent / f".{outdir.name}.{secrets.token_hex(TEMP_NAME_BYTES)}"
     tmp.mkdir()

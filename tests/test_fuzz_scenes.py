@@ -130,7 +130,7 @@ def scene(draw) -> Scene:
 @fuzz_settings(EXAMPLES)
 @given(st.lists(scene(), min_size=SCENES_PER_EXAMPLE, max_size=SCENES_PER_EXAMPLE))
 def test_random_valid_scenes_agree_on_both_backends(scenes):
-    from phongscene.backends.povray import render_many
+    from phongscene.backends.povray import MAPPING_OF_SPECULAR, render_many
 
     settings = [replace(settings_for(s), numerics="povray") for s in scenes]  # as `diff` renders
     povray = render_many([(s, st_, None) for s, st_ in zip(scenes, settings)])
@@ -140,6 +140,7 @@ def test_random_valid_scenes_agree_on_both_backends(scenes):
         assert np.isfinite(pov).all() and (pov >= 0).all(), f"scene {i}: POV-Ray pixel not finite or negative"
         report = compare(pov, native, HALF_FLOAT)
         images = {"povray": pov, "native": native}
-        explained, unexplained = _explain(s, st_, images, report, HALF_FLOAT)
-        result = DiffResult(report, None, {}, pov, native, st_, "", [], explained, unexplained)
+        mapping = MAPPING_OF_SPECULAR[st_.specular]
+        explained, unexplained = _explain(s, st_, mapping, images, report, HALF_FLOAT)
+        result = DiffResult(report, None, {}, pov, native, st_, mapping, [], explained, unexplained)
         assert result.ok, f"scene {i} ({st_.specular}): {report.summary()}\n{result.explanation()}\n{s}"
