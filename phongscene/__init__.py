@@ -6,29 +6,28 @@ import importlib as _importlib
 from typing import TYPE_CHECKING
 
 from .errors import BackendError, PhongSceneError, Problem, SceneError, SceneFileNotFoundError, SceneWarning
-from .scene import (
-    AmbientLight,
-    Camera,
-    Cone,
-    DirectionalLight,
-    PhongMaterial,
-    PointLight,
-    RectAreaLight,
-    RenderSettings,
-    Scene,
-    Sphere,
-    SphereAreaLight,
-    TriangleMesh,
-)
-
-# A perspective camera at an eye point looking at a target (``Camera.look_at``).
-look_at = Camera.look_at
 
 __version__ = "0.1.0"
 
 # Exported on first use, name -> (module, attribute) (PEP 562 module __getattr__): these modules
 # bring in OpenImageIO, pxr or a backend, which ``import phongscene`` does not need.
 _LAZY_EXPORTS = {
+    # The scene model (numpy): lazy too, so that the CLI's entry point imports nothing heavy
+    # before main() installs its Ctrl-C handling.
+    "AmbientLight": (".scene", "AmbientLight"),
+    "Camera": (".scene", "Camera"),
+    "Cone": (".scene", "Cone"),
+    "DirectionalLight": (".scene", "DirectionalLight"),
+    "PhongMaterial": (".scene", "PhongMaterial"),
+    "PointLight": (".scene", "PointLight"),
+    "RectAreaLight": (".scene", "RectAreaLight"),
+    "RenderSettings": (".scene", "RenderSettings"),
+    "Scene": (".scene", "Scene"),
+    "Sphere": (".scene", "Sphere"),
+    "SphereAreaLight": (".scene", "SphereAreaLight"),
+    "TriangleMesh": (".scene", "TriangleMesh"),
+    # A perspective camera at an eye point looking at a target.
+    "look_at": (".scene", "Camera.look_at"),
     "Image": (".images", "Image"),
     "Thresholds": (".comparison", "Thresholds"),
     "compare": (".comparison", "compare"),
@@ -43,6 +42,22 @@ _LAZY_EXPORTS = {
 }
 
 if TYPE_CHECKING:  # the lazy names, for type checkers and IDEs
+    from .scene import (
+        AmbientLight,
+        Camera,
+        Cone,
+        DirectionalLight,
+        PhongMaterial,
+        PointLight,
+        RectAreaLight,
+        RenderSettings,
+        Scene,
+        Sphere,
+        SphereAreaLight,
+        TriangleMesh,
+    )
+
+    look_at = Camera.look_at
     from .comparison import Thresholds, compare
     from .crossvalidation import diff
     from .images import Image, read_image, write_image
@@ -54,7 +69,9 @@ def __getattr__(name: str):
     if name not in _LAZY_EXPORTS:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     module, attribute = _LAZY_EXPORTS[name]
-    value = getattr(_importlib.import_module(module, __name__), attribute)
+    value = _importlib.import_module(module, __name__)
+    for part in attribute.split("."):
+        value = getattr(value, part)
     globals()[name] = value  # later lookups skip __getattr__
     return value
 

@@ -16,8 +16,7 @@ from pathlib import Path
 
 from . import __version__
 from .errors import BackendError, PhongSceneError, SceneError
-from .rendering import BACKENDS, in_file_terms
-from .validate import MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_STRATIFIED_SAMPLES, MAX_THREADS
+from .limits import MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_STRATIFIED_SAMPLES, MAX_THREADS
 
 EXIT_OK, EXIT_DIFFERENT, EXIT_SCENE, EXIT_BACKEND, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -25,6 +24,9 @@ SCENE_HELP = "USD file (.usda, .usdc, .usd, .usdz)"
 # The POV-Ray backend's mappings (phongscene.backends.povray.MAPPINGS, which a test checks this
 # against), named here so that building the parser imports no backend.
 MAPPING_CHOICES = ("exact", "classic")
+# The backends (phongscene.rendering.BACKENDS, checked by a test), named here so that importing
+# the CLI imports no numpy: Ctrl-C before main() has no handler yet.
+BACKEND_CHOICES = ("native", "povray")
 SPP_HELP = (f"anti-aliasing: N x N samples per pixel, N in 1..{MAX_SAMPLES} "
             f"(stratified: at most N x N, N up to {MAX_STRATIFIED_SAMPLES})")
 # `bench` renders its references at 27² samples per pixel: a small default image keeps that
@@ -146,6 +148,8 @@ def _main(argv: list[str] | None) -> int:
         print(f"terminated by {signal.Signals(e.signum).name}", file=sys.stderr)
         return 128 + e.signum
     except SceneError as e:
+        from .rendering import in_file_terms
+
         for p in in_file_terms(e).problems:
             print(f"error: {p}", file=sys.stderr)
         return EXIT_SCENE
@@ -218,7 +222,7 @@ def _add_size_options(p: argparse.ArgumentParser, spp_help: str = SPP_HELP) -> N
 
 def _add_estimator_options(p: argparse.ArgumentParser) -> None:
     from .scene import SAMPLE_PATTERNS
-    from .validate import MAX_ADAPTIVE
+    from .limits import MAX_ADAPTIVE
 
     p.add_argument("--sample-pattern", choices=SAMPLE_PATTERNS,
                    help="anti-aliasing pattern (RenderSettings.sample_pattern; default: the scene's)")
@@ -736,7 +740,7 @@ def _add_render_command(sub) -> None:
     )
     _add_scene_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="IMAGE", help="output image, .exr or .png (atomic write)")
-    p.add_argument("--backend", choices=BACKENDS, default="native", help="renderer (default: native)")
+    p.add_argument("--backend", choices=BACKEND_CHOICES, default="native", help="renderer (default: native)")
     _add_mapping_option(p, "specular convention: exact (the seed model) or classic (plain POV-Ray phong, native "
                         "'povray-classic'); default: the scene's")
     _add_size_options(p)

@@ -51,3 +51,10 @@ def test_mapping_choices_are_the_povray_backends():
     from phongscene.cli import MAPPING_CHOICES
 
     assert MAPPING_CHOICES == MAPPINGS
+
+
+def test_backend_choices_are_the_renderers():
+    from phongscene.cli import BACKEND_CHOICES
+    from phongscene.rendering import BACKENDS
+
+    assert BACKEND_CHOICES == BACKENDS

@@ -15,7 +15,8 @@ import pytest
 
 import phongscene
 
-HEAVY_MODULES = ("pxr", "OpenImageIO", "phongscene.backends.native", "phongscene.backends.povray")
+# numpy too: before main() installs its Ctrl-C handling, an import is a window for a traceback.
+HEAVY_MODULES = ("numpy", "pxr", "OpenImageIO", "phongscene.backends.native", "phongscene.backends.povray")
 
 
 def test_every_public_name_resolves_to_a_function_or_class():

@@ -172,6 +172,26 @@ def test_ctrl_c_while_usd_imports_exits_130_without_a_traceback(delay):
     assert "file:" not in out  # the command did not run on after the Ctrl-C
 
 
+# As above, but the signal comes when numpy starts to import: the first heavy import, which used to
+# happen while `from phongscene.cli import main` ran, before main() could turn Ctrl-C into exit 130.
+_SIGNAL_ME_DURING_NUMPY_IMPORT = _SIGNAL_ME_DURING_USD_IMPORT.replace('name == "pxr.Tf"', 'name == "numpy"')
+
+
+@pytest.mark.parametrize("delay", [0.0, 0.02, 0.05])
+def test_ctrl_c_at_the_first_heavy_import_exits_130_without_a_traceback(delay):
+    read, write = os.pipe()
+    proc = subprocess.Popen([sys.executable, "-c", _SIGNAL_ME_DURING_NUMPY_IMPORT, str(SCENE), str(write)],
+                            pass_fds=(write,), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    os.close(write)
+    assert os.read(read, 1) == b"!"
+    os.close(read)
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=WAIT_SECONDS)
+    assert proc.returncode == EXIT_INTERRUPTED, (proc.returncode, err)
+    assert "Traceback" not in err
+
+
 def test_preimport_finishes_the_import_then_raises_the_deferred_ctrl_c(tmp_path, monkeypatch):
     from phongscene import cli
 

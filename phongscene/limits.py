@@ -1,0 +1,27 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The upper bounds of every size, count and sample knob, in validation and the CLI (which
+imports this module before anything heavy: no numpy here)."""
+
+MAX_SAMPLES = 9  # anti-aliasing grid per axis (RenderSettings.samples): POV-Ray's +R limit
+# The native stratified estimator's budget is samples² points: up to 256 (its stages 4, 16, 64, 256).
+MAX_STRATIFIED_SAMPLES = 16
+# Positions the tracer can represent: every coordinate within ±1e150, so that differences stay
+# finite and squared distances (inverse-square falloff, sphere tests, box areas) stay below
+# 1e300 < the largest double; beyond that, bounds and extents overflow to inf.
+MAX_COORDINATE = 1e150
+# An image side: 16384 px (a 16K render); the pixel count: 2^28 (16384², 3.2 GB of float32 RGB):
+# beyond these a render would not fit this machine's memory (and C++ takes int sizes).
+MAX_IMAGE_SIDE = 16384
+MAX_PIXELS = 2**28
+MAX_THREADS = 1024  # worker threads (C++ int; far more than any machine here has cores)
+# A texture's side: as an image side (OpenImageIO reads bigger ones, but one 16K texture is
+# already 3.2 GB of float32 RGB here).
+MAX_TEXTURE_SIDE = 16384
+# The largest texel POV-Ray can hold: it stores an EXR image map as half floats (ref §16).
+MAX_TEXEL = 65504.0
+# An area light's shadow grid per axis: 257 = 2^8 + 1 (66 049 shadow rays per light and point).
+MAX_SHADOW_SAMPLES = 257
+# An area light's `adaptive` level: POV-Ray's default, 100, is the deepest anyone writes (a grid of
+# MAX_SHADOW_SAMPLES is fully subdivided from level 8 on).
+MAX_ADAPTIVE = 100
+
