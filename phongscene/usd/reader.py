@@ -214,13 +214,15 @@ def _warn_single_sided(ctx: ReadContext, stage: Usd.Stage, scene: Scene) -> None
         if not prim or not prim.IsA(UsdGeom.Mesh) or UsdGeom.Mesh(prim).GetDoubleSidedAttr().Get(ctx.time):
             continue
         tri = mesh.triangles.astype(np.int64)
-        edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-        _, uses = np.unique(edges, axis=0, return_counts=True)
-        if np.all(uses == 2):
-            continue  # closed: its back faces are hidden behind its front faces
         p = mesh.points[tri]
         facing = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 0] - eye)
-        if np.any(facing > 0):
+        if not np.any(facing > 0):
+            continue  # every triangle faces the camera: no back to see
+        # Closed (every edge used twice): its back faces are hidden behind its front faces. An
+        # edge is one int64 key (a 1-D unique is ~10x faster than np.unique(axis=0) on pairs).
+        edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+        _, uses = np.unique(edges[:, 0] * len(mesh.points) + edges[:, 1], return_counts=True)
+        if not np.all(uses == 2):
             seen.append(mesh.source)
     if seen:
         ctx.unsupported["single-sided meshes (doubleSided = false) whose back the camera may see, shaded from both "
