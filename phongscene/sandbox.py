@@ -42,6 +42,10 @@ EXIT_OUT_OF_MEMORY = 86
 EXIT_UNEXPECTED = 87
 
 
+# What the dynamic loader and the OS say when a mapping does not fit the address-space limit.
+OUT_OF_MEMORY_SIGNS = ("failed to map segment", "Cannot allocate memory")
+
+
 def default_memory_limit() -> int:
     """The most address space a sandboxed read may get: half the machine's memory."""
     try:
@@ -109,6 +113,13 @@ def _child(path: str, limit: int, time: float | None) -> int:
         payload = ("error", e.problems)
     except MemoryError:
         return EXIT_OUT_OF_MEMORY
+    except (ImportError, OSError) as e:
+        # Under the address-space limit the dynamic loader may fail to map USD's own libraries
+        # ("failed to map segment from shared object", ENOMEM): the limit, not the file.
+        if any(sign in str(e) for sign in OUT_OF_MEMORY_SIGNS):
+            return EXIT_OUT_OF_MEMORY
+        print(f"{type(e).__name__}: {e}", file=sys.stderr)
+        return EXIT_UNEXPECTED
     except Exception as e:  # noqa: BLE001 - reported by the parent as one line naming the file
         print(f"{type(e).__name__}: {e}", file=sys.stderr)
         return EXIT_UNEXPECTED
