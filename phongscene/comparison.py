@@ -92,6 +92,15 @@ class Thresholds:
 # The backends must agree at half-float precision at every pixel (POV-Ray's EXR output).
 HALF_FLOAT = Thresholds()
 
+def for_povray_passes(passes: int, thresholds: Thresholds = HALF_FLOAT) -> Thresholds:
+    """``thresholds`` for a POV-Ray image summed from ``passes`` half-float frames (the exact
+    mapping renders one per light). Below 2⁻¹⁴ half floats are subnormal: each frame rounds to
+    within half a step (2⁻²⁵) absolutely, so the sum is within passes·2⁻²⁵, which exceeds the
+    one-step floor from three passes on (a fuzzed scene with three lights failed one pixel by
+    6.04e-8 > 2⁻²⁴). Above the subnormal range the relative bound already holds for the sum."""
+    return replace(thresholds, fail=max(thresholds.fail, passes * HALF_SUBNORMAL_STEP / 2))
+
+
 # POV-Ray's per-thread shadow cache (ref §6): each thread retests the last opaque occluder
 # of a light first, with a looser window (t ≥ 1e-4 instead of t > 1e-3). A shadow ray that meets
 # an occluder at 1e-4 ≤ t ≤ 1e-3 is then lit or shadowed depending on the previously rendered

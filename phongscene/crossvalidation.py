@@ -23,7 +23,16 @@ from typing import TextIO
 
 import numpy as np
 
-from .comparison import HALF_FLOAT, POVRAY_SHADOW_CACHE, ImageMismatchError, Report, Thresholds, compare, failing_mask
+from .comparison import (
+    HALF_FLOAT,
+    POVRAY_SHADOW_CACHE,
+    ImageMismatchError,
+    Report,
+    Thresholds,
+    compare,
+    failing_mask,
+    for_povray_passes,
+)
 from .errors import BackendError
 from .progress import ProgressBar
 from .rendering import load_scene, render, settings_with, with_shadow_adaptive
@@ -143,6 +152,10 @@ def diff(
                              sample_pattern=sample_pattern, aa_threshold=aa_threshold)
 
     settings = replace(settings, numerics="povray")
+    if thresholds is HALF_FLOAT and mapping == "exact":
+        from .backends.povray import pass_count
+
+        thresholds = for_povray_passes(pass_count(scene, mapping))
     images, timings = {}, {}
     for backend in LABELS:
         bar = ProgressBar(backend, progress) if progress is not None else None

@@ -225,3 +225,15 @@ def test_png_decodes_to_linear_at_float_precision(tmp_path):
     c = codes / 255.0
     expected = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
     np.testing.assert_allclose(read_image(tmp_path / "ramp.png"), expected, rtol=SRGB_CURVE_TOLERANCE, atol=0)
+
+
+def test_thresholds_for_summed_povray_passes_allow_each_frames_subnormal_rounding():
+    from phongscene.comparison import HALF_FLOAT, HALF_SUBNORMAL_STEP, for_povray_passes
+
+    # Three frames, each rounded to the nearest half subnormal (within half a step): their sum
+    # can be 1.5 steps off, which the one-step floor fails and the three-pass floor passes.
+    exact = np.full((1, 1, 3), 3 * 0.49 * HALF_SUBNORMAL_STEP, np.float32)
+    summed = np.zeros((1, 1, 3), np.float32)
+    assert not compare(summed, exact, HALF_FLOAT).ok
+    assert compare(summed, exact, for_povray_passes(3)).ok
+    assert for_povray_passes(1) == HALF_FLOAT and for_povray_passes(2) == HALF_FLOAT

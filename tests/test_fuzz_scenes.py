@@ -28,7 +28,7 @@ from hypothesis import given, seed
 from hypothesis import strategies as st
 
 from fuzz import SEED, fuzz_settings
-from phongscene.comparison import HALF_FLOAT, compare
+from phongscene.comparison import compare, for_povray_passes
 from phongscene.crossvalidation import DiffResult, _explain
 from phongscene.rendering import render, settings_for
 from phongscene.scene import (
@@ -130,7 +130,7 @@ def scene(draw) -> Scene:
 @fuzz_settings(EXAMPLES)
 @given(st.lists(scene(), min_size=SCENES_PER_EXAMPLE, max_size=SCENES_PER_EXAMPLE))
 def test_random_valid_scenes_agree_on_both_backends(scenes):
-    from phongscene.backends.povray import MAPPING_OF_SPECULAR, render_many
+    from phongscene.backends.povray import MAPPING_OF_SPECULAR, pass_count, render_many
 
     settings = [replace(settings_for(s), numerics="povray") for s in scenes]  # as `diff` renders
     povray = render_many([(s, st_, None) for s, st_ in zip(scenes, settings)])
@@ -138,9 +138,10 @@ def test_random_valid_scenes_agree_on_both_backends(scenes):
         native = render(s, "native", st_)
         assert np.isfinite(native).all() and (native >= 0).all(), f"scene {i}: native pixel not finite or negative"
         assert np.isfinite(pov).all() and (pov >= 0).all(), f"scene {i}: POV-Ray pixel not finite or negative"
-        report = compare(pov, native, HALF_FLOAT)
-        images = {"povray": pov, "native": native}
         mapping = MAPPING_OF_SPECULAR[st_.specular]
-        explained, unexplained = _explain(s, st_, mapping, images, report, HALF_FLOAT)
+        thresholds = for_povray_passes(pass_count(s, mapping))  # as `diff` judges them
+        report = compare(pov, native, thresholds)
+        images = {"povray": pov, "native": native}
+        explained, unexplained = _explain(s, st_, mapping, images, report, thresholds)
         result = DiffResult(report, None, {}, pov, native, st_, mapping, [], explained, unexplained)
         assert result.ok, f"scene {i} ({st_.specular}): {report.summary()}\n{result.explanation()}\n{s}"
