@@ -155,9 +155,11 @@ _SIGNAL_ME_DURING_USD_IMPORT = textwrap.dedent(
 # code varies from run to run (without the fix, 3 of these 6 failed in each of two runs), and a
 # longer one risks the command finishing before the signal.
 @pytest.mark.parametrize("delay", [0.0, 0.01, 0.02, 0.04, 0.06, 0.08])
-def test_ctrl_c_while_usd_imports_exits_130_without_a_traceback(delay):
+def _interrupted(script: str, delay: float) -> tuple[subprocess.Popen, str, str]:
+    """Runs ``script`` (one of the _SIGNAL_ME_... programs), sends SIGINT ``delay`` s after it
+    announces its import, and returns the process and its output."""
     read, write = os.pipe()
-    proc = subprocess.Popen([sys.executable, "-c", _SIGNAL_ME_DURING_USD_IMPORT, str(SCENE), str(write)],
+    proc = subprocess.Popen([sys.executable, "-c", script, str(SCENE), str(write)],
                             pass_fds=(write,), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     os.close(write)
     assert os.read(read, 1) == b"!"
@@ -165,6 +167,11 @@ def test_ctrl_c_while_usd_imports_exits_130_without_a_traceback(delay):
     time.sleep(delay)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=WAIT_SECONDS)
+    return proc, out, err
+
+
+def test_ctrl_c_while_usd_imports_exits_130_without_a_traceback(delay):
+    proc, out, err = _interrupted(_SIGNAL_ME_DURING_USD_IMPORT, delay)
     # Before: USD's import machinery caught the KeyboardInterrupt ("Error occurred postprocessing
     # module"), finished half-initialised, and the command ran on to exit 0.
     assert proc.returncode == EXIT_INTERRUPTED, (proc.returncode, err)
@@ -179,15 +186,7 @@ _SIGNAL_ME_DURING_NUMPY_IMPORT = _SIGNAL_ME_DURING_USD_IMPORT.replace('name == "
 
 @pytest.mark.parametrize("delay", [0.0, 0.02, 0.05])
 def test_ctrl_c_at_the_first_heavy_import_exits_130_without_a_traceback(delay):
-    read, write = os.pipe()
-    proc = subprocess.Popen([sys.executable, "-c", _SIGNAL_ME_DURING_NUMPY_IMPORT, str(SCENE), str(write)],
-                            pass_fds=(write,), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    os.close(write)
-    assert os.read(read, 1) == b"!"
-    os.close(read)
-    time.sleep(delay)
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=WAIT_SECONDS)
+    proc, _, err = _interrupted(_SIGNAL_ME_DURING_NUMPY_IMPORT, delay)
     assert proc.returncode == EXIT_INTERRUPTED, (proc.returncode, err)
     assert "Traceback" not in err
 
