@@ -151,9 +151,6 @@ _SIGNAL_ME_DURING_USD_IMPORT = textwrap.dedent(
 )
 
 
-# Delays after pxr starts to import, all inside its ~0.1-0.3 s: which of them hit USD's swallowing
-# code varies from run to run (without the fix, 3 of these 6 failed in each of two runs), and a
-# longer one risks the command finishing before the signal.
 def _interrupted(script: str, delay: float) -> tuple[subprocess.Popen, str, str]:
     """Runs ``script`` (one of the _SIGNAL_ME_... programs), sends SIGINT ``delay`` s after it
     announces its import, and returns the process and its output."""
@@ -169,6 +166,9 @@ def _interrupted(script: str, delay: float) -> tuple[subprocess.Popen, str, str]
     return proc, out, err
 
 
+# Delays after pxr starts to import, all inside its ~0.1-0.3 s: which of them hit USD's swallowing
+# code varies from run to run (without the fix, 3 of these 6 failed in each of two runs), and a
+# longer one risks the command finishing before the signal.
 @pytest.mark.parametrize("delay", [0.0, 0.01, 0.02, 0.04, 0.06, 0.08])
 def test_ctrl_c_while_usd_imports_exits_130_without_a_traceback(delay):
     proc, out, err = _interrupted(_SIGNAL_ME_DURING_USD_IMPORT, delay)
