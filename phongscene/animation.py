@@ -81,12 +81,14 @@ def frame_name(template: str | os.PathLike, frame: int) -> str:
 
 
 def _load(scene: str, frame: int, options: dict):
-    from .rendering import load_scene, settings_with
+    from .rendering import load_scene, settings_with, with_shadow_adaptive
 
     start = _time.perf_counter()
     loaded, warnings = load_scene(scene, time=float(frame))
+    loaded = with_shadow_adaptive(loaded, options.get("shadow_adaptive"))
     settings = settings_with(loaded, options.get("mapping"), width=options.get("width"), height=options.get("height"),
-                             samples=options.get("samples"), threads=options.get("threads"))
+                             samples=options.get("samples"), threads=options.get("threads"),
+                             sample_pattern=options.get("sample_pattern"), aa_threshold=options.get("aa_threshold"))
     return loaded, settings, warnings, _time.perf_counter() - start
 
 
@@ -129,7 +131,8 @@ def diff_frame(scene: str, frame: int, outdir: str, options: dict, thresholds) -
     start = _time.perf_counter()
     result = diff(scene, outdir, mapping=options.get("mapping") or "exact", width=options.get("width"),
                   height=options.get("height"), samples=options.get("samples"), threads=options.get("threads"),
-                  thresholds=thresholds, time=float(frame))
+                  thresholds=thresholds, time=float(frame), sample_pattern=options.get("sample_pattern"),
+                  aa_threshold=options.get("aa_threshold"), shadow_adaptive=options.get("shadow_adaptive"))
     r = result.report
     return {"frame": frame, "outdir": outdir, "ok": result.ok, "max_error": r.max_error,
             "worst_pixel": [r.worst.x, r.worst.y] if r.worst else None,

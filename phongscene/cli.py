@@ -292,7 +292,8 @@ def _frame_options(args) -> dict:
         cores = os.cpu_count() or 1
         threads = max(1, cores // min(args.workers or cores, len(args.frames)))
     return {"mapping": args.mapping, "width": args.width, "height": args.height, "samples": args.spp,
-            "threads": threads}
+            "threads": threads, "sample_pattern": getattr(args, "sample_pattern", None),
+            "aa_threshold": getattr(args, "aa_threshold", None), "shadow_adaptive": getattr(args, "shadow_adaptive", None)}
 
 
 def _run_frames(args, task, arguments, label: str):

@@ -332,3 +332,14 @@ def test_diff_frames_exits_1_when_a_frame_fails_and_says_which(tmp_path, capsys)
     assert frame_report["report"]["max_error"] == row["max_error"]
     assert [frame_report["report"]["worst"][k] for k in ("x", "y")] == [x, y]
     assert "fail: 24" in metrics["summary"] and "FAIL" in (outdir / "index.html").read_text()
+
+
+def test_frames_carry_the_estimator_options(tmp_path):
+    """--frames renders each frame with the same anti-aliasing options as a single --time render."""
+    options = ["--width", "48", "--spp", "3", "--sample-pattern", "povray-am2", "--aa-threshold", "0.1"]
+    assert main(["render", str(ANIMATED), "-o", str(tmp_path / "f.####.exr"), "--frames", "24:24", *options]) == 0
+    assert main(["render", str(ANIMATED), "-o", str(tmp_path / "t.exr"), "--time", "24", *options]) == 0
+    assert main(["render", str(ANIMATED), "-o", str(tmp_path / "plain.exr"), "--time", "24", "--width", "48"]) == 0
+    framed, timed = read_image(tmp_path / "f.0024.exr"), read_image(tmp_path / "t.exr")
+    np.testing.assert_array_equal(framed, timed)
+    assert not np.array_equal(framed, read_image(tmp_path / "plain.exr"))  # the options did something
