@@ -785,12 +785,20 @@ def _run_render(args) -> int:
     return EXIT_OK
 
 
-def _render_frames(args) -> int:
-    from .animation import frame_name, has_frame_pattern, render_frame
+def _has_frame_pattern(output: str, example: str) -> bool:
+    """Whether an output name for --frames has #### for the frame number (else said, one line)."""
+    from .animation import has_frame_pattern
 
-    if not has_frame_pattern(args.output):
-        print(f"error: {args.output}: with --frames the name needs #### for the frame number (e.g. out.####.exr)",
-              file=sys.stderr)
+    if has_frame_pattern(output):
+        return True
+    print(f"error: {output}: with --frames the name needs #### for the frame number (e.g. {example})", file=sys.stderr)
+    return False
+
+
+def _render_frames(args) -> int:
+    from .animation import frame_name, render_frame
+
+    if not _has_frame_pattern(args.output, "out.####.exr"):
         return EXIT_SCENE
     options = _frame_options(args)
     scene = os.path.abspath(args.scene)
@@ -864,11 +872,9 @@ def _run_compile(args) -> int:
 
 
 def _compile_frames(args) -> int:
-    from .animation import compile_frame, frame_name, has_frame_pattern
+    from .animation import compile_frame, frame_name
 
-    if not has_frame_pattern(args.output):
-        print(f"error: {args.output}: with --frames the name needs #### for the frame number (e.g. out.####.pov)",
-              file=sys.stderr)
+    if not _has_frame_pattern(args.output, "out.####.pov"):
         return EXIT_SCENE
     options = _frame_options(args)
     scene = os.path.abspath(args.scene)
