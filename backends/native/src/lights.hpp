@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cmath>
+#include <type_traits>
 #include <variant>
 #include <vector>
 
@@ -122,6 +123,56 @@ double adaptive_fraction(int u1, int v1, int u2, int v2, int level, int adaptive
 }
 }  // namespace detail
 
+// An area light's grid points as offsets (ju, jv) along its two axes, |ju|, |jv| <= 1/2 (for a
+// circular light: nudged and mapped onto the disc, POV-Ray's shells), and their weights, at index
+// a·n + b in the order visible_fraction() visits them. They depend only on the sample count and
+// the mapping, so a render computes them once per light (render.cpp) rather than at every shaded
+// point; the same operations in the same order, so the same bits.
+struct AreaLightGrid {
+    int n = 0;  // samples per axis; 0 for a light without a grid
+    std::vector<double> ju, jv, weight;
+    double total_weight = 0.0;  // the weights summed in visiting order: the fraction of a grid no ray can shadow
+
+    AreaLightGrid() = default;
+    AreaLightGrid(int samples, bool circular) : n(samples) {
+        const size_t count = size_t(n) * size_t(n);
+        ju.resize(count);
+        jv.resize(count);
+        weight.resize(count);
+        for (int a = 0; a < n; ++a) {
+            const double weight_a = detail::trapezoid_weight(a, n);
+            for (int b = 0; b < n; ++b) {
+                const size_t k = size_t(a) * size_t(n) + size_t(b);
+                double u = double(a) / (n - 1) - 0.5, v = double(b) / (n - 1) - 0.5;
+                if (circular) {
+                    // Map the square onto the disc (POV-Ray's shells: |(ju, jv)| -> max(|ju|, |jv|)).
+                    u += kCircularAreaLightNudge;
+                    v += kCircularAreaLightNudge;
+                    const double scale = std::fmax(std::fabs(u), std::fabs(v)) / std::sqrt(u * u + v * v);
+                    u *= scale;
+                    v *= scale;
+                }
+                ju[k] = u;
+                jv[k] = v;
+                weight[k] = weight_a * detail::trapezoid_weight(b, n);
+                total_weight += weight[k];
+            }
+        }
+    }
+};
+
+// The grid of an area light (an empty one for point and directional lights).
+inline AreaLightGrid area_light_grid(const Light& light) {
+    return std::visit(
+        [](const auto& L) -> AreaLightGrid {
+            using T = std::decay_t<decltype(L)>;
+            if constexpr (std::is_same_v<T, RectAreaLight>) return AreaLightGrid(L.samples, false);
+            else if constexpr (std::is_same_v<T, SphereAreaLight>) return AreaLightGrid(L.samples, true);
+            else return AreaLightGrid();
+        },
+        light);
+}
+
 inline const LightTerms& light_terms(const Light& light) {
     return std::visit([](const auto& L) -> const LightTerms& { return L.terms; }, light);
 }
@@ -163,33 +214,24 @@ inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
         light);
 }
 
-// The unshadowed fraction of the light at p, in [0, 1]. `shadow(dir, distance)` traces one
-// shadow ray from p (unit dir; distance to the light sample, inf for directional lights).
-// Before an area light's grid, `shadow.begin_grid(corners)` is told the four corners of a
-// parallelogram that holds every sample of the grid; it returns false when no sample can be
-// shadowed (then no ray is traced, and the weights are summed as for visible samples, in the
-// same order, so the fraction is bit-identical).
+// The unshadowed fraction of the light at p, in [0, 1]. `grid` is area_light_grid(light).
+// `shadow(dir, distance)` traces one shadow ray from p (unit dir; distance to the light sample,
+// inf for directional lights). Before an area light's grid, `shadow.begin_grid(corners)` is told
+// the four corners of a parallelogram that holds every sample of the grid; it returns false when
+// no sample can be shadowed (then no ray is traced, and the fraction is the weights' sum in the
+// same order, so it is bit-identical).
 template <class Shadow>
-double visible_fraction(const Light& light, const Vec3& p, const LightSample& centre, Shadow&& shadow) {
-    auto grid = [&](int n, const Vec3& c, const Vec3& a1, const Vec3& a2, bool circular, int adaptive) {
+double visible_fraction(const Light& light, const AreaLightGrid& grid, const Vec3& p, const LightSample& centre,
+                        Shadow&& shadow) {
+    auto fraction_of_grid = [&](const Vec3& c, const Vec3& a1, const Vec3& a2, bool circular, int adaptive) {
+        const int n = grid.n;
         // Samples sit at c + ju·a1 + jv·a2 with |ju|, |jv| <= 1/2 (the circular mapping only
         // shrinks the nudged coordinates, so <= 1/2 + the nudge there).
         const double half = circular ? 0.5 + kCircularAreaLightNudge : 0.5;
         const Vec3 corners[4] = {c - a1 * half - a2 * half, c + a1 * half - a2 * half, c + a1 * half + a2 * half,
                                  c - a1 * half + a2 * half};
         const bool may_be_shadowed = shadow.begin_grid(corners);
-        auto target_of = [&](int a, int b) {
-            double ju = double(a) / (n - 1) - 0.5, jv = double(b) / (n - 1) - 0.5;
-            if (circular) {
-                // Map the square onto the disc (POV-Ray's shells: |(ju, jv)| -> max(|ju|, |jv|)).
-                ju += kCircularAreaLightNudge;
-                jv += kCircularAreaLightNudge;
-                const double scale = std::fmax(std::fabs(ju), std::fabs(jv)) / std::sqrt(ju * ju + jv * jv);
-                ju *= scale;
-                jv *= scale;
-            }
-            return c + a1 * ju + a2 * jv;
-        };
+        auto target_of = [&](size_t k) { return c + a1 * grid.ju[k] + a2 * grid.jv[k]; };
         if (adaptive != kFullSubdivision) {
             // Every grid point visible: every region's corners agree and the recursion's means of
             // ones are exactly 1.
@@ -201,25 +243,19 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
             thread_local std::vector<signed char> cache;
             cache.assign(size_t(n) * size_t(n), -1);
             auto visible = [&](int a, int b) {
-                const Vec3 v = target_of(a, b) - p;
+                const Vec3 v = target_of(size_t(a) * size_t(n) + size_t(b)) - p;
                 const double d = length(v);
                 return !shadow(v / d, d);
             };
             return detail::adaptive_fraction(0, 0, n - 1, n - 1, 0, adaptive, colour_sum, n, cache, visible);
         }
+        if (!may_be_shadowed) return grid.total_weight;
         double visible = 0.0;
-        for (int a = 0; a < n; ++a) {
-            const double weight_a = detail::trapezoid_weight(a, n);
-            for (int b = 0; b < n; ++b) {
-                const double weight = weight_a * detail::trapezoid_weight(b, n);
-                if (!may_be_shadowed) {
-                    visible += weight;
-                    continue;
-                }
-                const Vec3 v = target_of(a, b) - p;
-                const double d = length(v);
-                if (!shadow(v / d, d)) visible += weight;
-            }
+        const size_t count = size_t(n) * size_t(n);
+        for (size_t k = 0; k < count; ++k) {
+            const Vec3 v = target_of(k) - p;
+            const double d = length(v);
+            if (!shadow(v / d, d)) visible += grid.weight[k];
         }
         return visible;
     };
@@ -229,7 +265,7 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
             if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
                 return shadow(centre.l, centre.distance) ? 0.0 : 1.0;
             } else if constexpr (std::is_same_v<T, RectAreaLight>) {
-                return grid(L.samples, L.center, L.axis_u, L.axis_v, false, L.adaptive);
+                return fraction_of_grid(L.center, L.axis_u, L.axis_v, false, L.adaptive);
             } else {
                 // `orient`: the disc faces p. Axis 1 is perpendicular to l and a helper axis
                 // (z, or y when l is nearly vertical), axis 2 to l and axis 1; both of length 2r.
@@ -239,7 +275,7 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
                 const Vec3 a1 = normalize(cross(l, helper));
                 const Vec3 a2 = normalize(cross(l, a1));
                 const double size = 2.0 * L.radius;
-                return grid(L.samples, L.center, a1 * size, a2 * size, true, L.adaptive);
+                return fraction_of_grid(L.center, a1 * size, a2 * size, true, L.adaptive);
             }
         },
         light);

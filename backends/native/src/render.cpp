@@ -97,8 +97,10 @@ struct ShadowQuery {
     }
 };
 
-RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSettings& settings, double window,
-              std::vector<BundleCandidate>& candidates) {
+RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::vector<BundleCandidate>& candidates) {
+    const Scene& scene = context.scene;
+    const RenderSettings& settings = context.settings;
+    const double window = context.tolerances.shadow_window;
     const Vec3 p = ray.at(hit.t);
     Vec3 n;
     const Material* material;
@@ -136,13 +138,14 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
     const Vec3 wo = -ray.dir;
 
     RGB color = ambient_term(*material, scene.ambient);
-    for (const Light& light : scene.lights) {
+    for (size_t j = 0; j < scene.lights.size(); ++j) {
+        const Light& light = scene.lights[j];
         const LightSample centre = sample_light_centre(light, p);
         const double n_dot_l = dot(n, centre.l);
         // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at the point
         // (d = 0: the model's answer there is the ambient term only).
         if (!(n_dot_l >= kMinCosineToLight)) continue;
-        const double fraction = visible_fraction(light, p, centre, ShadowQuery{scene, p, window, candidates, settings.numerics != Numerics::kScaleInvariant});
+        const double fraction = visible_fraction(light, context.grids[j], p, centre, ShadowQuery{scene, p, window, candidates, settings.numerics != Numerics::kScaleInvariant});
         if (fraction == 0.0) continue;
         const LightTerms& terms = light_terms(light);
         color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l,
@@ -153,11 +156,15 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
 
 }  // namespace
 
-RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, const RayTolerances& tolerances,
-                  std::vector<BundleCandidate>& scratch) {
+TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_, const RayTolerances& tolerances_)
+    : scene(scene_), settings(settings_), tolerances(tolerances_) {
+    for (const Light& light : scene.lights) grids.push_back(area_light_grid(light));
+}
+
+RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch) {
     Hit hit;
-    if (!scene.closest_hit(ray, tolerances.primary_near, HUGE_VAL, hit)) return settings.background;
-    return shade_hit(scene, ray, hit, settings, tolerances.shadow_window, scratch);
+    if (!context.scene.closest_hit(ray, context.tolerances.primary_near, HUGE_VAL, hit)) return context.settings.background;
+    return shade_hit(context, ray, hit, scratch);
 }
 
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,
@@ -170,6 +177,7 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         settings.numerics == Numerics::kPovray              ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowWindow}
         : settings.numerics == Numerics::kPovrayShadowCache ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowCacheWindow}
                                                             : ray_tolerances(box.lo, box.hi);
+    const TraceContext context(scene, settings, tolerances);
 
     auto store = [&](int i, int j, const RGB& c) {
         float* out = pixels + (size_t(j) * width + i) * 3;
@@ -178,7 +186,7 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         out[2] = float(c.z);
     };
     auto trace_at = [&](double sx, double sy, std::vector<BundleCandidate>& scratch) {
-        return trace_primary(scene, camera.generate(sx, sy, width, height), settings, tolerances, scratch);
+        return trace_primary(context, camera.generate(sx, sy, width, height), scratch);
     };
     // POV-Ray's +AM1 supersampling of one pixel whose centre colour is `c` (SupersampleOnePixel).
     auto am1_supersample = [&](int i, int j, const RGB& c, std::vector<BundleCandidate>& scratch) {
