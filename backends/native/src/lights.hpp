@@ -127,11 +127,14 @@ double adaptive_fraction(int u1, int v1, int u2, int v2, int level, int adaptive
 // circular light: nudged and mapped onto the disc, POV-Ray's shells), and their weights, at index
 // a·n + b in the order visible_fraction() visits them. They depend only on the sample count and
 // the mapping, so a render computes them once per light (render.cpp) rather than at every shaded
-// point; the same operations in the same order, so the same bits.
+// point; the same operations in the same order, so the same bits. A rect light's axes are fixed,
+// so its samples' world positions c + ju·a1 + jv·a2 are computed once too (`targets`); a sphere
+// light's disc turns to face each shaded point.
 struct AreaLightGrid {
     int n = 0;  // samples per axis; 0 for a light without a grid
     std::vector<double> ju, jv, weight;
     double total_weight = 0.0;  // the weights summed in visiting order: the fraction of a grid no ray can shadow
+    std::vector<Vec3> targets;  // rect lights: the samples in world space; empty otherwise
 
     AreaLightGrid() = default;
     AreaLightGrid(int samples, bool circular) : n(samples) {
@@ -166,21 +169,21 @@ inline AreaLightGrid area_light_grid(const Light& light) {
     return std::visit(
         [](const auto& L) -> AreaLightGrid {
             using T = std::decay_t<decltype(L)>;
-            if constexpr (std::is_same_v<T, RectAreaLight>) return AreaLightGrid(L.samples, false);
-            else if constexpr (std::is_same_v<T, SphereAreaLight>) return AreaLightGrid(L.samples, true);
+            if constexpr (std::is_same_v<T, RectAreaLight>) {
+                AreaLightGrid grid(L.samples, false);
+                for (size_t k = 0; k < grid.weight.size(); ++k)
+                    grid.targets.push_back(L.center + L.axis_u * grid.ju[k] + L.axis_v * grid.jv[k]);
+                return grid;
+            } else if constexpr (std::is_same_v<T, SphereAreaLight>) return AreaLightGrid(L.samples, true);
             else return AreaLightGrid();
         },
         light);
 }
 
-inline const LightTerms& light_terms(const Light& light) {
-    return std::visit([](const auto& L) -> const LightTerms& { return L.terms; }, light);
-}
-
-inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
-    return std::visit(
-        [&](const auto& L) -> LightSample {
-            using T = std::decay_t<decltype(L)>;
+// sample_light_centre() and visible_fraction() take one alternative of Light (the caller visits
+// the variant once per light and shaded point; each of them visiting it again cost a jump table).
+template <class T>
+LightSample sample_light_centre(const T& L, const Vec3& p) {
             if constexpr (std::is_same_v<T, PointLight>) {
                 LightSample s = detail::toward(L.position, p, L.color);
                 if (L.fade_power > 0.0)  // POV-Ray: 2 / (1 + (d / fade_distance)^fade_power)
@@ -210,8 +213,6 @@ inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
                 if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
                 return s;
             }
-        },
-        light);
 }
 
 // The unshadowed fraction of the light at p, in [0, 1]. `grid` is area_light_grid(light).
@@ -220,8 +221,8 @@ inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
 // the four corners of a parallelogram that holds every sample of the grid; it returns false when
 // no sample can be shadowed (then no ray is traced, and the fraction is the weights' sum in the
 // same order, so it is bit-identical).
-template <class Shadow>
-double visible_fraction(const Light& light, const AreaLightGrid& grid, const Vec3& p, const LightSample& centre,
+template <class T, class Shadow>
+double visible_fraction(const T& L, const AreaLightGrid& grid, const Vec3& p, const LightSample& centre,
                         Shadow&& shadow) {
     auto fraction_of_grid = [&](const Vec3& c, const Vec3& a1, const Vec3& a2, bool circular, int adaptive) {
         const int n = grid.n;
@@ -231,7 +232,8 @@ double visible_fraction(const Light& light, const AreaLightGrid& grid, const Vec
         const Vec3 corners[4] = {c - a1 * half - a2 * half, c + a1 * half - a2 * half, c + a1 * half + a2 * half,
                                  c - a1 * half + a2 * half};
         const bool may_be_shadowed = shadow.begin_grid(corners);
-        auto target_of = [&](size_t k) { return c + a1 * grid.ju[k] + a2 * grid.jv[k]; };
+        const bool fixed = !grid.targets.empty();  // then c, a1, a2 are the light's own (a rect light)
+        auto target_of = [&](size_t k) { return fixed ? grid.targets[k] : c + a1 * grid.ju[k] + a2 * grid.jv[k]; };
         if (adaptive != kFullSubdivision) {
             // Every grid point visible: every region's corners agree and the recursion's means of
             // ones are exactly 1.
@@ -259,9 +261,6 @@ double visible_fraction(const Light& light, const AreaLightGrid& grid, const Vec
         }
         return visible;
     };
-    return std::visit(
-        [&](const auto& L) -> double {
-            using T = std::decay_t<decltype(L)>;
             if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
                 return shadow(centre.l, centre.distance) ? 0.0 : 1.0;
             } else if constexpr (std::is_same_v<T, RectAreaLight>) {
@@ -277,8 +276,6 @@ double visible_fraction(const Light& light, const AreaLightGrid& grid, const Vec
                 const double size = 2.0 * L.radius;
                 return fraction_of_grid(L.center, a1 * size, a2 * size, true, L.adaptive);
             }
-        },
-        light);
 }
 
 }  // namespace phong

@@ -138,18 +138,22 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     const Vec3 wo = -ray.dir;
 
     RGB color = ambient_term(*material, scene.ambient);
+    const bool povray_walk = settings.numerics != Numerics::kScaleInvariant;
     for (size_t j = 0; j < scene.lights.size(); ++j) {
-        const Light& light = scene.lights[j];
-        const LightSample centre = sample_light_centre(light, p);
-        const double n_dot_l = dot(n, centre.l);
-        // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at the point
-        // (d = 0: the model's answer there is the ambient term only).
-        if (!(n_dot_l >= kMinCosineToLight)) continue;
-        const double fraction = visible_fraction(light, context.grids[j], p, centre, ShadowQuery{scene, p, window, candidates, settings.numerics != Numerics::kScaleInvariant});
-        if (fraction == 0.0) continue;
-        const LightTerms& terms = light_terms(light);
-        color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l,
-                             centre.color * fraction, terms.diffuse, terms.specular);
+        std::visit(
+            [&](const auto& light) {
+                const LightSample centre = sample_light_centre(light, p);
+                const double n_dot_l = dot(n, centre.l);
+                // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at
+                // the point (d = 0: the model's answer there is the ambient term only).
+                if (!(n_dot_l >= kMinCosineToLight)) return;
+                const double fraction =
+                    visible_fraction(light, context.grids[j], p, centre, ShadowQuery{scene, p, window, candidates, povray_walk});
+                if (fraction == 0.0) return;
+                color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l,
+                                     centre.color * fraction, light.terms.diffuse, light.terms.specular);
+            },
+            scene.lights[j]);
     }
     return color;
 }
