@@ -184,35 +184,35 @@ inline AreaLightGrid area_light_grid(const Light& light) {
 // the variant once per light and shaded point; each of them visiting it again cost a jump table).
 template <class T>
 LightSample sample_light_centre(const T& L, const Vec3& p) {
-            if constexpr (std::is_same_v<T, PointLight>) {
-                LightSample s = detail::toward(L.position, p, L.color);
-                if (L.fade_power > 0.0)  // POV-Ray: 2 / (1 + (d / fade_distance)^fade_power)
-                    s.color = s.color * (2.0 / (1.0 + std::pow(s.distance / L.fade_distance, L.fade_power)));
-                if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
-                if (L.cone_cos_outer > -1.0) {
-                    const double c = -dot(s.l, L.cone_axis);
-                    const double span = L.cone_cos_inner - L.cone_cos_outer;
-                    double t = span > 0.0 ? (c - L.cone_cos_outer) / span : (c > L.cone_cos_outer ? 1.0 : 0.0);
-                    t = std::fmin(1.0, std::fmax(0.0, t));
-                    s.color = s.color * (t * t * (3.0 - 2.0 * t));
-                    if (L.cone_focus > 0.0) s.color = s.color * std::pow(std::fmax(c, 0.0), L.cone_focus);
-                }
-                return s;
-            } else if constexpr (std::is_same_v<T, DirectionalLight>) {
-                return {L.to_light, HUGE_VAL, L.color};
-            } else if constexpr (std::is_same_v<T, RectAreaLight>) {
-                LightSample s = detail::toward(L.center, p, L.color);
-                if (L.inverse_square) {
-                    // cos at the light = (p - c)·emit / d with emit = -unit(axis_u × axis_v) = l·unit(u × v).
-                    const double cos_light = dot(s.l, normalize(cross(L.axis_u, L.axis_v)));
-                    s.color = s.color * (std::fmax(0.0, cos_light) / (s.distance * s.distance));
-                }
-                return s;
-            } else {
-                LightSample s = detail::toward(L.center, p, L.color);
-                if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
-                return s;
-            }
+    if constexpr (std::is_same_v<T, PointLight>) {
+        LightSample s = detail::toward(L.position, p, L.color);
+        if (L.fade_power > 0.0)  // POV-Ray: 2 / (1 + (d / fade_distance)^fade_power)
+            s.color = s.color * (2.0 / (1.0 + std::pow(s.distance / L.fade_distance, L.fade_power)));
+        if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
+        if (L.cone_cos_outer > -1.0) {
+            const double c = -dot(s.l, L.cone_axis);
+            const double span = L.cone_cos_inner - L.cone_cos_outer;
+            double t = span > 0.0 ? (c - L.cone_cos_outer) / span : (c > L.cone_cos_outer ? 1.0 : 0.0);
+            t = std::fmin(1.0, std::fmax(0.0, t));
+            s.color = s.color * (t * t * (3.0 - 2.0 * t));
+            if (L.cone_focus > 0.0) s.color = s.color * std::pow(std::fmax(c, 0.0), L.cone_focus);
+        }
+        return s;
+    } else if constexpr (std::is_same_v<T, DirectionalLight>) {
+        return {L.to_light, HUGE_VAL, L.color};
+    } else if constexpr (std::is_same_v<T, RectAreaLight>) {
+        LightSample s = detail::toward(L.center, p, L.color);
+        if (L.inverse_square) {
+            // cos at the light = (p - c)·emit / d with emit = -unit(axis_u × axis_v) = l·unit(u × v).
+            const double cos_light = dot(s.l, normalize(cross(L.axis_u, L.axis_v)));
+            s.color = s.color * (std::fmax(0.0, cos_light) / (s.distance * s.distance));
+        }
+        return s;
+    } else {
+        LightSample s = detail::toward(L.center, p, L.color);
+        if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
+        return s;
+    }
 }
 
 // The unshadowed fraction of the light at p, in [0, 1]. `grid` is area_light_grid(light).
@@ -261,21 +261,21 @@ double visible_fraction(const T& L, const AreaLightGrid& grid, const Vec3& p, co
         }
         return visible;
     };
-            if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
-                return shadow(centre.l, centre.distance) ? 0.0 : 1.0;
-            } else if constexpr (std::is_same_v<T, RectAreaLight>) {
-                return fraction_of_grid(L.center, L.axis_u, L.axis_v, false, L.adaptive);
-            } else {
-                // `orient`: the disc faces p. Axis 1 is perpendicular to l and a helper axis
-                // (z, or y when l is nearly vertical), axis 2 to l and axis 1; both of length 2r.
-                const Vec3& l = centre.l;
-                const Vec3 helper = std::fabs(std::fabs(l.z) - 1.0) < kOrientVerticalTolerance ? Vec3{0, 1, 0}
-                                                                                                  : Vec3{0, 0, 1};
-                const Vec3 a1 = normalize(cross(l, helper));
-                const Vec3 a2 = normalize(cross(l, a1));
-                const double size = 2.0 * L.radius;
-                return fraction_of_grid(L.center, a1 * size, a2 * size, true, L.adaptive);
-            }
+    if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
+        return shadow(centre.l, centre.distance) ? 0.0 : 1.0;
+    } else if constexpr (std::is_same_v<T, RectAreaLight>) {
+        return fraction_of_grid(L.center, L.axis_u, L.axis_v, false, L.adaptive);
+    } else {
+        // `orient`: the disc faces p. Axis 1 is perpendicular to l and a helper axis
+        // (z, or y when l is nearly vertical), axis 2 to l and axis 1; both of length 2r.
+        const Vec3& l = centre.l;
+        const Vec3 helper =
+            std::fabs(std::fabs(l.z) - 1.0) < kOrientVerticalTolerance ? Vec3{0, 1, 0} : Vec3{0, 0, 1};
+        const Vec3 a1 = normalize(cross(l, helper));
+        const Vec3 a2 = normalize(cross(l, a1));
+        const double size = 2.0 * L.radius;
+        return fraction_of_grid(L.center, a1 * size, a2 * size, true, L.adaptive);
+    }
 }
 
 }  // namespace phong
