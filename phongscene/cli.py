@@ -28,7 +28,8 @@ MAPPING_CHOICES = ("exact", "classic")
 # the CLI imports no numpy: Ctrl-C before main() has no handler yet.
 BACKEND_CHOICES = ("native", "povray")
 SPP_HELP = (f"anti-aliasing: N x N samples per pixel, N in 1..{MAX_SAMPLES} "
-            f"(stratified: at most N x N, N up to {MAX_STRATIFIED_SAMPLES})")
+            f"(stratified: at most N x N, N up to {MAX_STRATIFIED_SAMPLES}; adaptive: cells down to 1/N pixel, "
+            f"N a power of 2 up to {MAX_STRATIFIED_SAMPLES})")
 # `bench` renders its references at 27² samples per pixel: a small default image keeps that
 # to seconds.
 BENCH_WIDTH = 320
@@ -201,7 +202,7 @@ def _int_in(low: int, high: int | None = None):
 
 _image_side = _int_in(1, MAX_IMAGE_SIDE)
 _thread_count = _int_in(0, MAX_THREADS)  # 0 = all cores
-# The model's anti-aliasing range (RenderSettings.samples; above MAX_SAMPLES: stratified only).
+# The model's anti-aliasing range (RenderSettings.samples; above MAX_SAMPLES: stratified and adaptive only).
 _samples_per_axis = _int_in(1, MAX_STRATIFIED_SAMPLES)
 
 
@@ -228,7 +229,8 @@ def _add_estimator_options(p: argparse.ArgumentParser) -> None:
                    help="anti-aliasing pattern (RenderSettings.sample_pattern; default: the scene's)")
     p.add_argument("--aa-threshold", type=_float_in(0.0, 1.0), metavar="T",
                    help="POV-Ray's +A threshold of povray-am1/am2: supersample where colours differ by >= T "
-                   "(0: everywhere)")
+                   "(0: everywhere); stratified: its stopping tolerance; adaptive: split a cell of side s while "
+                   "its corners' spread x s^1.5 >= T")
     p.add_argument("--shadow-adaptive", type=_int_in(0, MAX_ADAPTIVE), metavar="N",
                    help="POV-Ray's 'adaptive N' on every area light (default: each light's own)")
 

@@ -296,9 +296,12 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
             sides_ok = False
     if sides_ok and s.width * s.height > MAX_PIXELS:
         c.add(s, "width", f"width × height must be at most {MAX_PIXELS} pixels, got {s.width} × {s.height}")
-    most = MAX_STRATIFIED_SAMPLES if s.sample_pattern == "stratified" else MAX_SAMPLES
+    most = MAX_STRATIFIED_SAMPLES if s.sample_pattern in ("stratified", "adaptive") else MAX_SAMPLES
     if not isinstance(s.samples, (int, np.integer)) or not 1 <= s.samples <= most:
         c.add(s, "samples", f"must be an integer in 1..{most}, got {_show(s.samples)}")
+    elif s.sample_pattern == "adaptive" and s.samples & (s.samples - 1):
+        # its cells halve down to 1/samples of a pixel
+        c.add(s, "samples", f"must be a power of 2 for the adaptive pattern (1, 2, 4, 8, 16), got {_show(s.samples)}")
     if s.sample_pattern not in SAMPLE_PATTERNS:
         c.add(s, "sample_pattern", f"must be one of {', '.join(SAMPLE_PATTERNS)}, got {_show(s.sample_pattern)}")
     c.unit_interval(s, "aa_threshold")  # POV-Ray clips +A to [0, 1]

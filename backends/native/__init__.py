@@ -36,6 +36,7 @@ _SAMPLE_PATTERNS = {
     "povray-am1": _native.SamplePattern.povray_am1,
     "povray-am2": _native.SamplePattern.povray_am2,
     "stratified": _native.SamplePattern.stratified,
+    "adaptive": _native.SamplePattern.adaptive,
 }
 # The C++ lights' `adaptive` for "every grid point" (lights.hpp: kFullSubdivision).
 _FULL_SUBDIVISION = -1

@@ -2,6 +2,8 @@
 // Pixel loop, shading of a hit, and the tile-based thread pool.
 #include "render.hpp"
 
+#include "adaptive_pixels.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -370,8 +372,13 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     const bool adaptive_am1 = settings.sample_pattern == SamplePattern::kPovrayAm1 && threshold > 0.0;
     const bool stratified = settings.sample_pattern == SamplePattern::kStratified;
     const bool am2 = settings.sample_pattern == SamplePattern::kPovrayAm2;
+    const bool adaptive = settings.sample_pattern == SamplePattern::kAdaptive;
     auto render_tile = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
         if (adaptive_am1) return render_block_am1(x0, y0, x1, y1, scratch);
+        if (adaptive)
+            return render_adaptive_tile(
+                x0, y0, x1, y1, n, settings.aa_threshold, [&](double sx, double sy) { return trace_at(sx, sy, scratch); },
+                store);
         if (am2) return render_block_am2(x0, y0, x1, y1, scratch);
         if (stratified) return render_block_stratified(x0, y0, x1, y1, scratch);
         for (int j = y0; j < y1; ++j)
