@@ -37,6 +37,9 @@ MESH_TRIANGLES = 100_000  # enough for a BVH to matter, small enough to build in
 # (48²) the bound on their own RMS error (7.3e-5 on S1) was above a tenth of POV-Ray's lowest
 # errors (~4e-4); 6x quadruples the reference's cost (~2.5 min per scene on 2 cores).
 REFERENCE_RESOLUTION = 6
+# The shadow reference: the 257² grid (the model's largest; its twin 129²): at 129² (twin 65²) the
+# bound (1.6e-5 on S3) was above a tenth of POV-Ray's lowest errors (~7e-5).
+REFERENCE_SHADOW_SAMPLES = 257
 
 # (name, what, how to get the scene, the families studied)
 STUDIES = (
@@ -158,6 +161,7 @@ def main() -> None:
         print(f"{name}: {what}", flush=True)
         result = bench.run(scene, settings, repeat=args.repeat, families=families,
                            reference_resolution=REFERENCE_RESOLUTION,
+                           reference_shadow_samples=REFERENCE_SHADOW_SAMPLES,
                            log=lambda line: print("  " + line, flush=True))
         results[name] = {"what": what, "result": result}
         print(bench.table(result), flush=True)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from . import __version__
 from .errors import BackendError, PhongSceneError, SceneError
-from .limits import MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_STRATIFIED_SAMPLES, MAX_THREADS
+from .limits import MAX_CELL_SAMPLES, MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_STRATIFIED_SAMPLES, MAX_THREADS
 
 EXIT_OK, EXIT_DIFFERENT, EXIT_SCENE, EXIT_BACKEND, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -184,6 +184,19 @@ def _float_in(low: float, high: float):
     return parse
 
 
+def _power_of_two_in(low: int, high: int):
+    """An argparse type: a power of 2 in [low, high]."""
+    whole = _int_in(low, high)
+
+    def parse(text: str) -> int:
+        value = whole(text)
+        if value & (value - 1):
+            raise argparse.ArgumentTypeError(f"expected a power of 2, got {value}")
+        return value
+
+    return parse
+
+
 def _int_in(low: int, high: int | None = None):
     """An argparse type: a whole number in [low, high] (no upper bound when high is None)."""
 
@@ -295,7 +308,8 @@ def _frame_options(args) -> dict:
         threads = max(1, cores // min(args.workers or cores, len(args.frames)))
     return {"mapping": args.mapping, "width": args.width, "height": args.height, "samples": args.spp,
             "threads": threads, "sample_pattern": getattr(args, "sample_pattern", None),
-            "aa_threshold": getattr(args, "aa_threshold", None), "shadow_adaptive": getattr(args, "shadow_adaptive", None)}
+            "aa_threshold": getattr(args, "aa_threshold", None), "shadow_adaptive": getattr(args, "shadow_adaptive", None),
+            "shadow_cells": getattr(args, "shadow_cells", None)}
 
 
 def _run_frames(args, task, arguments, label: str):
@@ -394,11 +408,12 @@ def _print_warnings(warnings, stream=None) -> None:
 def _scene_and_settings(args):
     """The scene of ``args.scene`` (its warnings printed) and its settings with the command's
     mapping, size, sample and thread overrides."""
-    from .rendering import load_scene, settings_with, with_shadow_adaptive
+    from .rendering import load_scene, settings_with, with_shadow_adaptive, with_shadow_cells
 
     scene, warnings = load_scene(args.scene, time=getattr(args, "time", None))
     _print_warnings(warnings)
     scene = with_shadow_adaptive(scene, args.shadow_adaptive)
+    scene = with_shadow_cells(scene, getattr(args, "shadow_cells", None))
     settings = settings_with(scene, args.mapping, width=args.width, height=args.height, samples=args.spp,
                              threads=getattr(args, "threads", None), sample_pattern=args.sample_pattern,
                              aa_threshold=args.aa_threshold)
@@ -747,6 +762,9 @@ def _add_render_command(sub) -> None:
     _add_mapping_option(p, "specular convention: exact (the seed model) or classic (plain POV-Ray phong, native "
                         "'povray-classic'); default: the scene's")
     _add_size_options(p)
+    p.add_argument("--shadow-cells", type=_power_of_two_in(2, MAX_CELL_SAMPLES), metavar="K",
+                   help="native only: the cells shadow estimator on every area light, K x K points in each grid "
+                   "cell whose corners disagree (K a power of 2; phong:shadowCellSamples)")
     p.add_argument("--threads", type=_thread_count, metavar="N", help="worker threads (0 = all cores)")
     _add_timeout_option(p, "--backend povray only: stop POV-Ray after SECONDS (exit 3)")
     _add_time_options(p, "one image per frame, #### in IMAGE becomes the frame number")

@@ -25,4 +25,6 @@ MAX_SHADOW_SAMPLES = 257
 # An area light's `adaptive` level: POV-Ray's default, 100, is the deepest anyone writes (a grid of
 # MAX_SHADOW_SAMPLES is fully subdivided from level 8 on).
 MAX_ADAPTIVE = 100
+# The cells estimator's points per partial cell per axis (256 per cell at most, as stratified's budget).
+MAX_CELL_SAMPLES = 16
 

@@ -297,6 +297,12 @@ class RectAreaLight:
     # two adjacent corners' light colours differ by more than 0.1; None: every grid point is
     # traced (POV-Ray's default).
     adaptive: int | None = None
+    # The native tracer's cells estimator (POV-Ray has none): the grid points (all of them, or
+    # with ``adaptive`` those POV-Ray's recursion reaches), and in each grid cell whose 4 corners
+    # disagree (a partial shadow) cell_samples² points of a shifted (0,2)-sequence instead of the
+    # corners' mean; a cell whose corners agree counts as wholly lit or shadowed. None: POV-Ray's
+    # estimators. A power of 2 in 2..16.
+    cell_samples: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -314,6 +320,7 @@ class SphereAreaLight:
     diffuse: float = 1.0  # multipliers of the two terms, as on PointLight
     specular: float = 1.0
     adaptive: int | None = None  # as RectAreaLight.adaptive
+    cell_samples: int | None = None  # as RectAreaLight.cell_samples
 
 
 Light = Union[PointLight, DirectionalLight, RectAreaLight, SphereAreaLight]

@@ -35,6 +35,7 @@ from .tolerances import SINGULAR_RELATIVE_DET, UNIT_TOLERANCE, is_singular
 # without numpy).
 from .limits import (  # noqa: E402  (re-exported: validation's bounds)
     MAX_ADAPTIVE,
+    MAX_CELL_SAMPLES,
     MAX_COORDINATE,
     MAX_IMAGE_SIDE,
     MAX_PIXELS,
@@ -123,6 +124,12 @@ class _Collector:
         a = node.adaptive
         if a is not None and (isinstance(a, bool) or not isinstance(a, (int, np.integer)) or not 0 <= a <= MAX_ADAPTIVE):
             self.add(node, "adaptive", f"must be an integer in 0..{MAX_ADAPTIVE} (or unset: every grid point), got {_show(a)}")
+        k = node.cell_samples
+        if k is None:
+            return
+        # a power of 2: the (0,2)-sequence's k² points then stratify the cell evenly
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 2 <= k <= MAX_CELL_SAMPLES or k & (k - 1):
+            self.add(node, "cell_samples", f"must be a power of 2 in 2..{MAX_CELL_SAMPLES} (or unset), got {_show(k)}")
 def _is_triple(value) -> bool:
     """A sequence of length 3 (of anything: ``finite`` then checks the numbers)."""
     return not isinstance(value, (str, bytes)) and hasattr(value, "__len__") and len(value) == 3

@@ -288,3 +288,70 @@ def test_adaptive_needs_a_power_of_two_and_is_native_only(tmp_path, capsys):
                  "--aa-threshold", "0.01"]) == 0
     assert main(["render", str(path), "-o", str(tmp_path / "b.exr"), "--spp", "6", "--sample-pattern", "adaptive"]) == 2
     assert "power of 2" in capsys.readouterr().err
+
+
+# -- the native cells shadow estimator (area_cells.hpp) ---------------------------------------------
+
+
+def _with_light(scene, **change):
+    return R(scene, lights=tuple(R(light, **change) if hasattr(light, "cell_samples") else light
+                                 for light in scene.lights))
+
+
+def _shadow_rms(scene, reference, **change):
+    image = render(_with_light(scene, **change), "native").astype(np.float64)
+    return float(np.sqrt(np.mean((image - reference) ** 2)))
+
+
+@pytest.mark.parametrize("light", ["rect_area_light", "sphere_area_light"])
+def test_cells_beat_their_grid_and_change_only_the_penumbra(light):
+    """Against the 129² grid: the cells estimator on a 9² grid (4² points per partial cell) errs
+    less than the 9² grid alone, and less than the 17² grid, which traces more rays everywhere;
+    pixels in full light or full shadow (every grid point agrees) are the grid's, bit for bit."""
+    scene = getattr(calibration, light)()
+    reference = render(_with_light(scene, samples=129, adaptive=None), "native").astype(np.float64)
+    cells = _shadow_rms(scene, reference, samples=9, adaptive=None, cell_samples=4)
+    assert cells < _shadow_rms(scene, reference, samples=9, adaptive=None)
+    assert cells < _shadow_rms(scene, reference, samples=17, adaptive=None)
+    grid9 = render(_with_light(scene, samples=9, adaptive=None), "native")
+    with_cells = render(_with_light(scene, samples=9, adaptive=None, cell_samples=4), "native")
+    grid17 = render(_with_light(scene, samples=17, adaptive=None), "native")
+    settled = (grid9 == grid17).all(axis=2) & (grid9 == reference.astype(np.float32)).all(axis=2)
+    assert settled.mean() > 0.5
+    assert np.array_equal(with_cells[settled], grid9[settled])
+    assert not np.array_equal(with_cells, grid9)
+
+
+def test_cells_on_povray_adaptive_refine_only_its_partial_cells():
+    """`adaptive 2` with cells: POV-Ray's recursion, then the grid cells whose corners disagree
+    are sampled inside; closer to the reference than `adaptive 2` alone."""
+    scene = calibration.rect_area_light()
+    reference = render(_with_light(scene, samples=129, adaptive=None), "native").astype(np.float64)
+    alone = _shadow_rms(scene, reference, samples=17, adaptive=2)
+    assert _shadow_rms(scene, reference, samples=17, adaptive=2, cell_samples=4) < alone
+
+
+def test_cells_are_the_same_for_any_thread_count():
+    scene = _with_light(calibration.sphere_area_light(), samples=9, adaptive=1, cell_samples=4)
+    images = [render(scene, "native", R(scene.settings, threads=t)) for t in (1, 3)]
+    assert np.array_equal(images[0], images[1])
+
+
+def test_cells_knob_is_validated_travels_through_usd_and_the_cli_and_povray_refuses_it(tmp_path, capsys):
+    from phongscene.cli import main
+
+    scene = _with_light(calibration.rect_area_light(), cell_samples=4)
+    assert not validate(scene)
+    for bad in (3, 1, 32, True):
+        assert [p.attribute for p in validate(_with_light(scene, cell_samples=bad))] == ["cell_samples"]
+    path = write_usd(scene, tmp_path / "s.usda")
+    assert "phong:shadowCellSamples = 4" in path.read_text()
+    assert load_usd(path).lights[0].cell_samples == 4
+    with pytest.raises(SceneError, match="shadowCellSamples|cell_samples"):
+        compile_pov(scene, mapping="classic")
+    plain = write_usd(calibration.rect_area_light(), tmp_path / "plain.usda")
+    out = tmp_path / "a.exr"
+    assert main(["render", str(plain), "-o", str(out), "--width", "24", "--shadow-cells", "4"]) == 0
+    with pytest.raises(SystemExit) as usage:  # argparse's usage error
+        main(["render", str(plain), "-o", str(out), "--width", "24", "--shadow-cells", "3"])
+    assert usage.value.code == 2 and "power of 2" in capsys.readouterr().err

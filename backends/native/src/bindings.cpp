@@ -311,7 +311,8 @@ NB_MODULE(_native, m) {
         .def_rw("color", &RectAreaLight::color)
         .def_rw("samples", &RectAreaLight::samples)
         .def_rw("terms", &RectAreaLight::terms)
-        .def_rw("adaptive", &RectAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)");
+        .def_rw("adaptive", &RectAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)")
+        .def_rw("cell_samples", &RectAreaLight::cell_samples, "> 0: the native cells estimator, cell_samples^2 points per partial cell");
 
     using phong::SphereAreaLight;
     nb::class_<SphereAreaLight>(m, "SphereAreaLight", "A spherical light: POV-Ray's circular, oriented area light.")
@@ -323,7 +324,8 @@ NB_MODULE(_native, m) {
         .def_rw("color", &SphereAreaLight::color)
         .def_rw("samples", &SphereAreaLight::samples)
         .def_rw("terms", &SphereAreaLight::terms)
-        .def_rw("adaptive", &SphereAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)");
+        .def_rw("adaptive", &SphereAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)")
+        .def_rw("cell_samples", &SphereAreaLight::cell_samples, "> 0: the native cells estimator, cell_samples^2 points per partial cell");
 
     using phong::CameraDescription;
     nb::class_<CameraDescription>(m, "CameraDescription", "The model's camera (camera.hpp).")
