@@ -700,8 +700,9 @@ def _add_bench_command(sub) -> None:
     p = sub.add_parser(
         "bench",
         help="speed against error: every estimator of both backends, wall and CPU time",
-        description="Render SCENE with every anti-aliasing estimator (grid, POV-Ray's +AM1/+AM2 with thresholds) "
-        "and, if it has area lights, every shadow estimator (grids, POV-Ray's 'adaptive n') on both backends; "
+        description="Render SCENE with every anti-aliasing estimator (grid, POV-Ray's +AM1/+AM2 with thresholds, "
+        "the native stratified and adaptive ones) and, if it has area lights, every shadow estimator (grids, "
+        "POV-Ray's 'adaptive n', the native cells) on both backends; "
         "time each (wall and CPU, best of --repeat) and measure its RMS and max error against a reference "
         "whose own error is measured too. Prints the table and writes OUTDIR/bench.csv, bench.json and "
         "bench.png (log-log, with each backend's Pareto front).",
