@@ -22,10 +22,10 @@ namespace phong {
 // disagree by D is off by up to ~D/2 over its area s², and along an edge about 1/s such leaves
 // err with random signs: the pixel's error from that edge is ~D·s²·sqrt(1/s) = D·s^1.5. Splitting
 // where D·s^1.5 >= t spends rays where they reduce the RMS error most (p = 0 is +AM2's rule:
-// the same D at every depth). Measured at 320x180, 2 threads, CPU s to RMS ~4e-4 on S1: p = 0
-// 0.054 s (n 8, t 0.03), p = 1 0.068 s, p = 1.5 0.052 s, p = 2 0.046 s (n 8, t 0.01); to ~1.4e-4
-// (n 16): p = 1 0.206 s, p = 1.5 0.119 s, p = 2 0.175 s; on the mesh scene M p = 1.5 reached
-// 4.2e-4 and 2.7e-4 at 0.40 / 0.46 s, p = 2 4.7e-4 / 3.9e-4 at 0.34 / 0.35 s.
+// the same D at every depth). Measured at 320x180, 2 threads, CPU s to RMS ~4e-4 on S1 (n 8):
+// p = 0 0.054 s, p = 1 0.038 s, p = 1.5 0.052 s, p = 2 0.046 s; to ~1.4e-4 (n 16): p = 0 0.67 s,
+// p = 1 0.206 s, p = 1.5 0.119 s, p = 2 0.175 s; on the mesh scene M p = 1.5 reached 4.2e-4 and
+// 2.7e-4 at 0.40 / 0.46 s, p = 2 4.7e-4 / 3.9e-4 at 0.34 / 0.35 s (benchmarks/README.md).
 constexpr double kAdaptiveSideExponent = 1.5;
 
 // Renders the pixels [x0, x1) x [y0, y1) of one tile. `trace(sx, sy)` is the colour of the primary
