@@ -200,16 +200,17 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
             return c + a1 * ju + a2 * jv;
         };
         auto target_of = [&](int a, int b) { return target_at(double(a) / (n - 1), double(b) / (n - 1)); };
+        // The cells estimator's points inside a grid cell (area_cells.hpp).
+        auto visible_at = [&](double fu, double fv) {
+            const Vec3 v = target_at(fu, fv) - p;
+            const double d = length(v);
+            return !shadow(v / d, d);
+        };
         if (cell_samples > 0 && adaptive == kFullSubdivision) {
             if (!may_be_shadowed) return 1.0;
             thread_local std::vector<signed char> cache;
             cache.assign(size_t(n) * size_t(n), -1);
-            auto visible = [&](double fu, double fv) {
-                const Vec3 v = target_at(fu, fv) - p;
-                const double d = length(v);
-                return !shadow(v / d, d);
-            };
-            return cells_fraction(n, cell_samples, point_key(p), cache, visible);
+            return cells_fraction(n, cell_samples, point_key(p), cache, visible_at);
         }
         if (adaptive != kFullSubdivision) {
             // Every grid point visible: every region's corners agree and the recursion's means of
@@ -223,11 +224,6 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
             cache.assign(size_t(n) * size_t(n), -1);
             auto visible = [&](int a, int b) {
                 const Vec3 v = target_of(a, b) - p;
-                const double d = length(v);
-                return !shadow(v / d, d);
-            };
-            auto visible_at = [&](double fu, double fv) {
-                const Vec3 v = target_at(fu, fv) - p;
                 const double d = length(v);
                 return !shadow(v / d, d);
             };
