@@ -12,7 +12,10 @@ atomically and returns only a small dict of metrics. A task that raises is retri
 
 The tasks call the same functions as a serial render of one frame (``load_scene`` at the time,
 ``settings_with``, ``render``, ``write_image``), so a frame is bit-identical to
-``phongscene render --time T`` with the same options.
+``phongscene render --time T`` with the same options. A worker keeps the stage it opened last
+(``phongscene.workers``: reopened when the file or a layer of it changes) and reads each task's
+frame from it; its imports are made when it joins the cluster (a worker plugin), not in its first
+task.
 
 Dask is imported only here, and only when frames run on a cluster: a one-frame render never
 starts it.
@@ -82,9 +85,10 @@ def frame_name(template: str | os.PathLike, frame: int) -> str:
 
 def _load(scene: str, frame: int, options: dict):
     from .rendering import load_scene, settings_with, with_shadow_adaptive
+    from .workers import open_stage
 
     start = _time.perf_counter()
-    loaded, warnings = load_scene(scene, time=float(frame))
+    loaded, warnings = load_scene(open_stage(scene), time=float(frame))
     loaded = with_shadow_adaptive(loaded, options.get("shadow_adaptive"))
     settings = settings_with(loaded, options.get("mapping"), width=options.get("width"), height=options.get("height"),
                              samples=options.get("samples"), threads=options.get("threads"),
@@ -127,9 +131,10 @@ def compile_frame(scene: str, frame: int, output: str, options: dict) -> dict:
 def diff_frame(scene: str, frame: int, outdir: str, options: dict, thresholds) -> dict:
     """Diff both backends on ``scene`` at time ``frame``; the frame's report goes to ``outdir``."""
     from .crossvalidation import diff
+    from .workers import open_stage
 
     start = _time.perf_counter()
-    result = diff(scene, outdir, mapping=options.get("mapping") or "exact", width=options.get("width"),
+    result = diff(open_stage(scene), outdir, mapping=options.get("mapping") or "exact", width=options.get("width"),
                   height=options.get("height"), samples=options.get("samples"), threads=options.get("threads"),
                   thresholds=thresholds, time=float(frame), sample_pattern=options.get("sample_pattern"),
                   aa_threshold=options.get("aa_threshold"), shadow_adaptive=options.get("shadow_adaptive"))
@@ -153,7 +158,7 @@ class FramesRun:
     results: dict[int, dict] = field(default_factory=dict)
     failures: dict[int, str] = field(default_factory=dict)
     seconds: float = 0.0  # wall clock, cluster start-up included
-    startup_seconds: float = 0.0  # connecting to (or starting) the cluster
+    startup_seconds: float = 0.0  # connecting to (or starting) the cluster, and warming its workers
     workers: int = 0  # Dask workers when the frames were submitted
     cluster: str = ""  # "LocalCluster", the scheduler's address, or "" (run in this process)
 
@@ -193,6 +198,8 @@ def run_frames(
 
     from distributed import Client, LocalCluster, as_completed
 
+    from .workers import warm_plugin
+
     run = FramesRun()
     began = _time.perf_counter()
     address = scheduler_address(scheduler)
@@ -210,6 +217,8 @@ def run_frames(
         with client:
             run.cluster = "LocalCluster" if cluster is not None else address
             run.workers = len(client.scheduler_info().get("workers", {}))
+            # Each worker imports what the tasks need now (and any that joins later, when it joins).
+            client.register_plugin(warm_plugin())
             run.startup_seconds = _time.perf_counter() - began
             # pure=False: a frame is an action (it writes a file); never deduplicate or cache it.
             futures = {client.submit(task, *arguments(f), key=f"{task.__name__}-frame-{f}-{os.getpid()}-{_time.time_ns()}",
