@@ -87,6 +87,7 @@ class OpenStage:
     file: str
     usd_output: str = ""  # USD's diagnostics while opening (raw: each read makes warnings of it)
     checks: tuple[list[Problem], list[str]] | None = None  # (problems, warnings) of _stage_checks
+    types: dict = field(default_factory=dict)  # ReadContext.types: each attribute's authored type
 
     def __fspath__(self) -> str:
         return self.file
@@ -141,7 +142,7 @@ def _stage_checks(ctx: ReadContext) -> None:
 def _read(opened: OpenStage, time: float | None) -> ReadResult:
     stage, file = opened.stage, opened.file
     code, said = _time_to_read(stage, time)
-    ctx = ReadContext(stage, file, code)
+    ctx = ReadContext(stage, file, code, opened.types)
     if said:
         ctx.warn(said)
     if opened.checks is None:
