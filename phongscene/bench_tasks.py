@@ -91,7 +91,7 @@ def run(
             used = _workers_to_use(client, settings.threads, workers)
             log(f"{len(used)} setting{'s' if len(used) > 1 else ''} at once: {len(used)} Dask worker"
                 f"{'s' if len(used) > 1 else ''} ({'LocalCluster' if cluster is not None else address}), one task "
-                f"each, each rendering with {settings.threads or 'all'} threads")
+                f"each, each rendering with {settings.threads or 'all'} thread{'' if settings.threads == 1 else 's'}")
             references: dict = {}
             refs = {}
 
