@@ -83,6 +83,27 @@ def overhead(frames: int) -> dict:
             "overhead_cpu": per(1) - render_c - write_c, "client_cpu": per(2)}
 
 
+def stage_load(frames: int) -> dict:
+    """The stage load inside a frame task, the worker's kept stage against the file opened anew,
+    interleaved frame by frame in this process (each after a render and a write, as in a
+    worker): median CPU and wall seconds of each."""
+    from phongscene import workers
+    from phongscene.animation import render_frame
+
+    options = {"mapping": None, "width": 640, "height": 360, "samples": None, "threads": 1}
+    loads: dict[str, list[tuple[float, float]]] = {"kept": [], "anew": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        for frame in range(frames + 1):
+            for how in ("kept", "anew"):
+                if how == "anew":
+                    workers.forget()
+                m = render_frame(str(S1), frame + 1, os.path.join(tmp, "s1.exr"), "native", options)
+                if frame:  # the first pair warms both
+                    loads[how].append((m["cpu_seconds"]["load"], m["load_seconds"]))
+    workers.forget()
+    return {how: tuple(statistics.median(x[i] for x in v) for i in (0, 1)) for how, v in loads.items()}
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--pairs", type=int, default=2, help="(1 worker, 2 workers) runs, interleaved (0: none)")
@@ -115,6 +136,11 @@ def main() -> int:
           f"{100 * o['overhead_cpu'] / (o['render_cpu'] + o['write_cpu']):.1f} % of render + write; "
           f"client and scheduler CPU {o['client_cpu']:.4f} s per task")
     print(f"  cluster start-up (workers importing phongscene included) {o['startup']:.2f} s once")
+    loads = stage_load(args.overhead_frames)
+    print(f"stage load per frame of S1, interleaved, median of {args.overhead_frames}: kept stage "
+          f"{loads['kept'][0] * 1e3:.2f} ms CPU ({loads['kept'][1] * 1e3:.2f} ms wall), opened anew "
+          f"{loads['anew'][0] * 1e3:.2f} ms CPU ({loads['anew'][1] * 1e3:.2f} ms wall): "
+          f"{loads['anew'][0] / loads['kept'][0]:.2f}x")
     print(f"load average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
 
