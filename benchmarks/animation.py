@@ -11,6 +11,10 @@ overhead (scheduling + stage load + write) against the frame itself.
    against the render and the EXR write inside the task; what is left is the stage load (from
    the worker's kept stage), scheduling and returning the metrics.
 
+3. The stage load inside a frame task, the worker's kept stage against the file opened anew,
+   interleaved in this process; and (with ``--pairs``) one diff frame in this process: wall and
+   CPU seconds of the task and of POV-Ray in it (its own CPU is small: it mostly waits).
+
     .venv/bin/python benchmarks/animation.py [--pairs 2] [--overhead-frames 12]
 
 Figures: benchmarks/README.md ("Frames on Dask").
@@ -43,7 +47,27 @@ def diff_frames(workers: int, frames: tuple[int, ...], width: int, height: int) 
                          workers=workers)
     if run.failures or run.workers != workers:
         raise SystemExit(f"frames failed or wrong worker count: {run.failures}, {run.workers} workers")
-    return run.seconds
+    return run.seconds, run.startup_seconds
+
+
+def diff_anatomy(frames: int) -> dict:
+    """One diff frame in this process (after a first one that imports): median wall and CPU
+    seconds (this process and its waited-for children, POV-Ray) of the whole task and of POV-Ray."""
+    import resource
+
+    from phongscene.animation import diff_frame
+    from phongscene.comparison import HALF_FLOAT
+
+    options = {"mapping": "exact", "width": 320, "height": 240, "samples": None, "threads": 1}
+    children = lambda: (lambda r: r.ru_utime + r.ru_stime)(resource.getrusage(resource.RUSAGE_CHILDREN))  # noqa: E731
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for frame in range(1, frames + 2):
+            wall, cpu, pov = time.perf_counter(), time.process_time(), children()
+            m = diff_frame(str(ANIMATED), frame, os.path.join(tmp, f"frame.{frame}"), options, HALF_FLOAT)
+            pov = children() - pov
+            rows.append((time.perf_counter() - wall, time.process_time() - cpu + pov, m["timings"]["povray"], pov))
+    return dict(zip(("wall", "cpu", "povray_wall", "povray_cpu"), (statistics.median(r[i] for r in rows[1:]) for i in range(4))))
 
 
 def _process_cpu(pid: int) -> float:
@@ -116,12 +140,17 @@ def main() -> int:
     print(f"{os.cpu_count()} cores; load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     frames = tuple(range(1, 25))
     ratios = []
+    if args.pairs:
+        d = diff_anatomy(4)
+        print(f"one diff frame at 320x240 in process, median of 4: {d['wall']:.3f} s wall, {d['cpu']:.3f} s CPU; "
+              f"of it POV-Ray {d['povray_wall']:.3f} s wall, {d['povray_cpu']:.3f} s CPU")
     for pair in range(args.pairs):
-        one = diff_frames(1, frames, 320, 240)
-        two = diff_frames(2, frames, 320, 240)
+        one, one_startup = diff_frames(1, frames, 320, 240)
+        two, two_startup = diff_frames(2, frames, 320, 240)
         ratios.append(one / two)
         print(f"pair {pair + 1}: 24-frame diff at 320x240: 1 worker {one:.2f} s, 2 workers {two:.2f} s, "
-              f"speed-up {one / two:.2f}x (load average {os.getloadavg()[0]:.2f})")
+              f"speed-up {one / two:.2f}x (cluster start-up {one_startup:.2f} s, {two_startup:.2f} s; "
+              f"load average {os.getloadavg()[0]:.2f})")
     if ratios:
         print(f"speed-up of 2 workers over 1: median {statistics.median(ratios):.2f}x (min {min(ratios):.2f}x)")
     o = overhead(args.overhead_frames)
