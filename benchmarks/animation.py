@@ -10,7 +10,6 @@ overhead (scheduling + stage load + write) against the frame itself.
    frames on 1 worker: per task, wall time and the worker's CPU time after the first frame,
    against the render and the EXR write inside the task; what is left is the stage load (from
    the worker's kept stage), scheduling and returning the metrics.
-
 3. The stage load inside a frame task, the worker's kept stage against the file opened anew,
    interleaved in this process; and (with ``--pairs``) one diff frame in this process: wall and
    CPU seconds of the task and of POV-Ray in it (its own CPU is small: it mostly waits).

@@ -202,9 +202,7 @@ def run_frames(
         progress: called as ``progress(done, total)`` after each frame.
         on_frame: called as ``on_frame(frame, metrics, error)`` as each frame finishes.
     """
-    import logging
-
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import Client, as_completed
 
     from .workers import warm_plugin
 
@@ -213,10 +211,7 @@ def run_frames(
     address = scheduler_address(scheduler)
     cluster = None
     if address is None:
-        # Processes, not threads: the USD reader and the task's Python hold the GIL. One task at a
-        # time per worker; its renderer uses the threads the options give (the CLI: cores / workers).
-        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.CRITICAL)
+        cluster = local_cluster(workers or os.cpu_count() or 1)
     try:
         try:
             client = Client(cluster if cluster is not None else address)
@@ -248,6 +243,21 @@ def run_frames(
             cluster.close()
     run.seconds = _time.perf_counter() - began
     return run
+
+
+def local_cluster(workers: int):
+    """A Dask ``LocalCluster`` of ``workers`` processes on this machine, one task at a time each.
+
+    Processes, not threads: the USD reader and the task's Python hold the GIL; each task's
+    renderer uses the threads its options give. The scheduler's HTTP server (its /metrics and
+    /health routes; no dashboard without bokeh) takes a free port: Dask's default, 8787, is
+    taken by any other cluster on the machine, and falling back from it is a warning."""
+    import logging
+
+    from distributed import LocalCluster
+
+    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                        silence_logs=logging.CRITICAL)
 
 
 def run_serially(

@@ -15,7 +15,6 @@ only the row's metrics. A reference image is computed by a task and sent once to
 
 from __future__ import annotations
 
-import logging
 import os
 from collections import deque
 from collections.abc import Callable, Sequence
@@ -65,9 +64,9 @@ def run(
     """``bench.run`` of the USD file ``scene_path`` (whose model ``scene`` the caller read, to
     choose the estimators) with its settings as Dask tasks. The result is ``bench.run``'s, rows in
     its order, plus ``concurrency`` (tasks at once), ``workers`` and ``cluster``."""
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import Client, as_completed
 
-    from .animation import scheduler_address
+    from .animation import local_cluster, scheduler_address
     from .workers import warm_plugin
 
     chosen = bench.estimators(scene, quick)
@@ -79,8 +78,7 @@ def run(
     if address is None:
         cores = os.cpu_count() or 1
         count = min(workers or cores, slots_per_host(cores, settings.threads))
-        cluster = LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.CRITICAL)
+        cluster = local_cluster(count)
     try:
         try:
             client = Client(cluster if cluster is not None else address)

@@ -192,14 +192,11 @@ def test_frames_read_from_the_kept_stage_are_bit_identical_to_render_time(tmp_pa
 
 
 def test_a_worker_has_made_its_imports_when_it_joins():
-    import logging
-
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     from phongscene.workers import WARM_IMPORTS, warm_plugin
 
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=logging.CRITICAL) as cluster, Client(cluster) as client:
+    with animation.local_cluster(1) as cluster, Client(cluster) as client:
         before = client.run(lambda: [m for m in WARM_IMPORTS if m in sys.modules])
         client.register_plugin(warm_plugin())
         after = client.run(lambda: [m for m in WARM_IMPORTS if m in sys.modules])

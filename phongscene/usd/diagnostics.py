@@ -29,17 +29,6 @@ _ALREADY_REPORTED = ("in _ReportErrors at line",)
 
 
 @contextmanager
-def usd_diagnostics(warnings: list[str]) -> Iterator[None]:
-    """Capture what USD writes to descriptor 2 within the block; append it to ``warnings``."""
-    texts: list[str] = []
-    try:
-        with usd_output(texts):
-            yield
-    finally:
-        warnings.extend(as_warnings("".join(texts)))
-
-
-@contextmanager
 def usd_output(texts: list[str]) -> Iterator[None]:
     """Capture what USD writes to descriptor 2 within the block; append the raw text to ``texts``
     (a stage opened once and read many times keeps what USD said while opening it, and each read
