@@ -6,6 +6,7 @@
 #include <cmath>
 #include <exception>
 #include <future>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -74,7 +75,7 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     for (size_t i = 0; i < in.normal_count; ++i) normals.push_back(row3(in.normals + 3 * i));
 
     const size_t n_spheres = in.sphere_count, n_triangles = in.triangle_count;
-    std::vector<Bounds> prim_bounds(n_spheres + n_triangles);
+    std::vector<PrimRef> prims(n_spheres + n_triangles);
     spheres.resize(n_spheres);
     for (size_t i = 0; i < n_spheres; ++i) {
         const double* w = in.sphere_world_from_object + 16 * i;
@@ -88,17 +89,24 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         const Vec3 r{length(row3(w)), length(row3(w + 4)), length(row3(w + 8))};
         s.bounds_lo = c - r;
         s.bounds_hi = c + r;
-        prim_bounds[i].lo = s.bounds_lo;
-        prim_bounds[i].hi = s.bounds_hi;
+        Bounds b;
+        b.lo = s.bounds_lo;
+        b.hi = s.bounds_hi;
+        bounds.grow(b);
+        prims[i] = PrimRef(b, uint32_t(i));
     }
+    std::mutex bounds_mutex;  // each chunk's union of double bounds joins `bounds` (min/max: any order)
     for_chunks(n_triangles, [&](size_t begin, size_t end) {
+        Bounds chunk_bounds;
         for (size_t i = begin; i < end; ++i) {
             const int32_t* t = in.triangles + 3 * i;
-            Bounds& b = prim_bounds[n_spheres + i];
+            Bounds b;
             for (int k = 0; k < 3; ++k) {
                 check_index(t[k], in.point_count, "triangle vertex");
                 b.grow(row3(in.points + 3 * size_t(t[k])));
             }
+            chunk_bounds.grow(b);
+            prims[n_spheres + i] = PrimRef(b, uint32_t(n_spheres + i));
             check_index(in.triangle_material[i], materials.size(), "triangle material");
             if (in.povray_triangles) check_index(in.triangle_mesh[i], in.mesh_count, "triangle mesh");
             if (in.normal_indices) {
@@ -107,15 +115,14 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
                     for (int k = 0; k < 3; ++k) check_index(n[k], normals.size(), "normal");
             }
         }
+        const std::lock_guard<std::mutex> lock(bounds_mutex);
+        bounds.grow(chunk_bounds);
     });
-
-    bvh_.build(prim_bounds);
-
-    for (const Bounds& b : prim_bounds) bounds.grow(b);
     magnitude = bounds.empty() ? 0.0 : std::fmax(max_abs_component(bounds.lo), max_abs_component(bounds.hi));
-    // Freed before the leaf-order copies below are allocated: 48 bytes a primitive (48 MB of
-    // S2's peak memory at 1M triangles).
-    std::vector<Bounds>().swap(prim_bounds);
+
+    // The build consumes (and frees) the primitive boxes before the leaf-order copies below are
+    // allocated.
+    bvh_.build(std::move(prims));
 
     // Primitive refs and triangle data in leaf order, so leaves read memory sequentially.
     // Leaf position k holds triangle slot k − (spheres before k).
