@@ -23,11 +23,13 @@ Mitsuba 3 is not run: see benchmarks/README.md.
 ``--baseline-extension SO`` instead times another build of the ``_native`` extension (say, a
 copy of the .so saved before a C++ change) on the same scenes at the same moment, in a child
 process (two builds of one nanobind module cannot share a process), and checks that its image is
-bit-identical to the installed build's.
+bit-identical to the installed build's. ``--baseline-wrapper PY`` gives that build's own
+``backends/native/__init__.py`` when the extension's arguments changed since.
 
     .venv/bin/python benchmarks/make_scenes.py       # once: writes benchmarks/scenes/*.usd*
     .venv/bin/python benchmarks/run.py [--threads 1 2] [--repeat 3] [--mapping classic] [S1 S2 S3]
-    .venv/bin/python benchmarks/run.py --baseline-extension /tmp/baseline/_native.cpython-311-x86_64-linux-gnu.so
+    .venv/bin/python benchmarks/run.py --baseline-extension /tmp/baseline/_native.cpython-311-x86_64-linux-gnu.so \
+        [--baseline-wrapper old_native.py]
 
 Figures: see benchmarks/README.md.
 """
@@ -62,14 +64,26 @@ EMBREE_SHADOW_OFFSET = 1e-4
 GNU_TIME = "/usr/bin/time"  # Debian package "time"
 
 
-def use_extension(path: Path) -> None:
-    """Make ``phongscene.backends.native`` use the ``_native`` extension at ``path``."""
+def use_extension(path: Path, wrapper: Path | None = None) -> None:
+    """Make ``phongscene.backends.native`` use the ``_native`` extension at ``path``, and the
+    wrapper module at ``wrapper`` (that build's ``backends/native/__init__.py``) when given: for
+    a baseline whose extension takes other arguments than today's wrapper passes."""
     spec = importlib.util.spec_from_file_location(NATIVE_EXTENSION_MODULE, path)
     if spec is None or spec.loader is None:
         raise SystemExit(f"{path}: not a loadable extension module")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     sys.modules[NATIVE_EXTENSION_MODULE] = module
+    if wrapper is not None:
+        import phongscene.backends  # noqa: F401  (the parent package of the wrapper)
+
+        name = NATIVE_EXTENSION_MODULE.rsplit(".", 1)[0]
+        spec = importlib.util.spec_from_file_location(name, wrapper, submodule_search_locations=[])
+        if spec is None or spec.loader is None:
+            raise SystemExit(f"{wrapper}: not a loadable module")
+        package = importlib.util.module_from_spec(spec)
+        sys.modules[name] = package
+        spec.loader.exec_module(package)
 
 
 def scene_path(name: str) -> Path:
@@ -87,6 +101,7 @@ def time_baseline(args: argparse.Namespace, name: str, threads: int) -> tuple[fl
         image_path = Path(tmp) / "image.npy"
         out = subprocess.run(
             [sys.executable, __file__, name, "--extension", str(args.baseline_extension),
+             *(["--wrapper", str(args.baseline_wrapper)] if args.baseline_wrapper else []),
              "--threads", str(threads), "--repeat", str(args.repeat), "--mapping", args.mapping,
              "--save-image", str(image_path)],
             check=True, capture_output=True, text=True,
@@ -263,11 +278,15 @@ def main() -> None:
     parser.add_argument("--no-scaling", action="store_true", help="skip the S2 triangle-count table")
     parser.add_argument("--baseline-extension", type=Path, metavar="SO",
                         help="only compare the installed extension with this build (in a child process)")
+    parser.add_argument("--baseline-wrapper", type=Path, metavar="PY",
+                        help="the baseline's backends/native/__init__.py, when its extension's arguments differ "
+                        "from today's (git show COMMIT:backends/native/__init__.py > old_native.py)")
     parser.add_argument("--extension", type=Path, metavar="SO", help=argparse.SUPPRESS)  # the child's
+    parser.add_argument("--wrapper", type=Path, metavar="PY", help=argparse.SUPPRESS)  # the child's
     parser.add_argument("--save-image", type=Path, help=argparse.SUPPRESS)  # the child's: one scene, JSON
     args = parser.parse_args()
     if args.extension:
-        use_extension(args.extension)
+        use_extension(args.extension, args.wrapper)
 
     from make_scenes import FILES
 
