@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstring>
 #include <future>
-#include <numeric>
 #include <thread>
 #include <utility>
 

@@ -85,7 +85,8 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     normals.reserve(first_normal[n_meshes]);
     for (const MeshArrays& mesh : in.meshes)
         for (size_t i = 0; i < mesh.normal_count; ++i) normals.push_back(row3(mesh.normals + 3 * i));
-    // The mesh of triangle i (global number), found once per chunk and then stepped.
+    // The mesh of triangle i (global number): looked up once per chunk (then stepped) in the
+    // pass below, per triangle in the leaf-order pass.
     auto mesh_of = [&](size_t i) {
         return size_t(std::upper_bound(first_triangle.begin() + 1, first_triangle.end(), i) - first_triangle.begin() - 1);
     };
