@@ -541,7 +541,7 @@ def _add_info_command(sub) -> None:
         "info",
         help="show what phongscene reads from a USD scene",
         description="Read SCENE and print which prims became which model nodes, the counts of meshes, "
-        "triangles, spheres, lights and materials, the camera, the render settings and every warning "
+        "triangles, spheres, lights and materials, the textures each material samples, the camera, the render settings and every warning "
         "(unsupported prims, defaults used).",
         epilog="Exit codes: 0 ok, 2 the scene is invalid (one problem per line on stderr).",
     )
@@ -578,6 +578,15 @@ def _run_info(args) -> int:
         f"{len(scene.lights)} lights ({', '.join(f'{n} {k}' for k, n in sorted(kinds.items())) or 'none'}), "
         f"{len(materials)} materials"
     )
+    textured = [m for m in materials if m.textures]
+    if textured:
+        print("textures:")
+        for m in sorted(textured, key=lambda m: m.source):
+            for role, t in (("diffuseColor", m.diffuse_texture), ("specularColor", m.specular_texture)):
+                if t is not None:
+                    # The file, not t.source: equal textures are shared, and source is the first prim read.
+                    print(f"  {m.source or '(material)'} {role} <- {t.file or '(no file)'}, "
+                          f"{t.width}x{t.height}, wrap {t.wrap_s}/{t.wrap_t}")
     print(f"ambient: {_vector(scene.ambient.color)}")
     cam = scene.camera
     extent = f"hfov {cam.horizontal_fov_deg:.6g} deg" if cam.projection == "perspective" else f"width {cam.ortho_width:.6g}"

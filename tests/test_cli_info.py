@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from conftest import EXAMPLES, SHARED_ASSETS
@@ -38,3 +40,18 @@ def test_help_texts():
     sub = next(a for a in parser._actions if a.dest == "command")
     for name in ("info", "validate", "import"):
         assert len(sub.choices[name].format_help()) > 200
+
+
+def test_info_lists_each_materials_textures(capsys):
+    scene = Path(__file__).parent / "scenes" / "blender_textured" / "textured_glossy.usdc"
+    assert main(["info", str(scene)]) == 0
+    out = capsys.readouterr().out
+    grid = "textures/textured_glossy_grid.png, 64x64, wrap repeat/repeat"
+    assert "/root/_materials/SphereGlossy/Principled_BSDF diffuseColor <- " in out
+    assert "/root/_materials/FloorTextured/Principled_BSDF diffuseColor <- " in out
+    assert out.count(grid) == 2
+
+
+def test_info_has_no_texture_block_without_textures(capsys):
+    assert main(["info", str(EXAMPLES / "seed_exponents.usda")]) == 0
+    assert "textures:" not in capsys.readouterr().out
