@@ -110,14 +110,16 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     });
 
     bvh_.build(prim_bounds);
-    bvh4_ = collapse_to_bvh4(bvh_.nodes);
-    std::vector<BvhNode>().swap(bvh_.nodes);
 
     for (const Bounds& b : prim_bounds) bounds.grow(b);
     magnitude = bounds.empty() ? 0.0 : std::fmax(max_abs_component(bounds.lo), max_abs_component(bounds.hi));
     // Freed before the leaf-order copies below are allocated: 48 bytes a primitive (48 MB of
     // S2's peak memory at 1M triangles).
     std::vector<Bounds>().swap(prim_bounds);
+    // The rays walk the 4-wide tree; the binary one's nodes are freed once it is collapsed (after
+    // the bounds, so that the two trees and the bounds are never held at once).
+    bvh4_ = collapse_to_bvh4(bvh_.nodes);
+    std::vector<BvhNode>().swap(bvh_.nodes);
 
     // Primitive refs and triangle data in leaf order, so leaves read memory sequentially.
     // Leaf position k holds triangle slot k − (spheres before k).
