@@ -81,11 +81,12 @@ def frame_name(template: str | os.PathLike, frame: int) -> str:
 
 
 def _load(scene: str, frame: int, options: dict):
-    from .rendering import load_scene, settings_with, with_shadow_adaptive
+    from .rendering import load_scene, settings_with, with_shadow_adaptive, with_shadow_cells
 
     start = _time.perf_counter()
     loaded, warnings = load_scene(scene, time=float(frame))
     loaded = with_shadow_adaptive(loaded, options.get("shadow_adaptive"))
+    loaded = with_shadow_cells(loaded, options.get("shadow_cells"))
     settings = settings_with(loaded, options.get("mapping"), width=options.get("width"), height=options.get("height"),
                              samples=options.get("samples"), threads=options.get("threads"),
                              sample_pattern=options.get("sample_pattern"), aa_threshold=options.get("aa_threshold"))

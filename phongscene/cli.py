@@ -16,7 +16,7 @@ from pathlib import Path
 
 from . import __version__
 from .errors import BackendError, PhongSceneError, SceneError
-from .limits import MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_STRATIFIED_SAMPLES, MAX_THREADS
+from .limits import MAX_CELL_SAMPLES, MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_STRATIFIED_SAMPLES, MAX_THREADS
 
 EXIT_OK, EXIT_DIFFERENT, EXIT_SCENE, EXIT_BACKEND, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -28,7 +28,8 @@ MAPPING_CHOICES = ("exact", "classic")
 # the CLI imports no numpy: Ctrl-C before main() has no handler yet.
 BACKEND_CHOICES = ("native", "povray")
 SPP_HELP = (f"anti-aliasing: N x N samples per pixel, N in 1..{MAX_SAMPLES} "
-            f"(stratified: at most N x N, N up to {MAX_STRATIFIED_SAMPLES})")
+            f"(stratified: at most N x N, N up to {MAX_STRATIFIED_SAMPLES}; adaptive: cells down to 1/N pixel, "
+            f"N a power of 2 up to {MAX_STRATIFIED_SAMPLES})")
 # `bench` renders its references at 27² samples per pixel: a small default image keeps that
 # to seconds.
 BENCH_WIDTH = 320
@@ -183,6 +184,19 @@ def _float_in(low: float, high: float):
     return parse
 
 
+def _power_of_two_in(low: int, high: int):
+    """An argparse type: a power of 2 in [low, high]."""
+    whole = _int_in(low, high)
+
+    def parse(text: str) -> int:
+        value = whole(text)
+        if value & (value - 1):
+            raise argparse.ArgumentTypeError(f"expected a power of 2, got {value}")
+        return value
+
+    return parse
+
+
 def _int_in(low: int, high: int | None = None):
     """An argparse type: a whole number in [low, high] (no upper bound when high is None)."""
 
@@ -201,7 +215,7 @@ def _int_in(low: int, high: int | None = None):
 
 _image_side = _int_in(1, MAX_IMAGE_SIDE)
 _thread_count = _int_in(0, MAX_THREADS)  # 0 = all cores
-# The model's anti-aliasing range (RenderSettings.samples; above MAX_SAMPLES: stratified only).
+# The model's anti-aliasing range (RenderSettings.samples; above MAX_SAMPLES: stratified and adaptive only).
 _samples_per_axis = _int_in(1, MAX_STRATIFIED_SAMPLES)
 
 
@@ -228,7 +242,8 @@ def _add_estimator_options(p: argparse.ArgumentParser) -> None:
                    help="anti-aliasing pattern (RenderSettings.sample_pattern; default: the scene's)")
     p.add_argument("--aa-threshold", type=_float_in(0.0, 1.0), metavar="T",
                    help="POV-Ray's +A threshold of povray-am1/am2: supersample where colours differ by >= T "
-                   "(0: everywhere)")
+                   "(0: everywhere); stratified: its stopping tolerance; adaptive: split a cell of side s while "
+                   "its corners' spread x s^1.5 >= T")
     p.add_argument("--shadow-adaptive", type=_int_in(0, MAX_ADAPTIVE), metavar="N",
                    help="POV-Ray's 'adaptive N' on every area light (default: each light's own)")
 
@@ -293,7 +308,8 @@ def _frame_options(args) -> dict:
         threads = max(1, cores // min(args.workers or cores, len(args.frames)))
     return {"mapping": args.mapping, "width": args.width, "height": args.height, "samples": args.spp,
             "threads": threads, "sample_pattern": getattr(args, "sample_pattern", None),
-            "aa_threshold": getattr(args, "aa_threshold", None), "shadow_adaptive": getattr(args, "shadow_adaptive", None)}
+            "aa_threshold": getattr(args, "aa_threshold", None), "shadow_adaptive": getattr(args, "shadow_adaptive", None),
+            "shadow_cells": getattr(args, "shadow_cells", None)}
 
 
 def _run_frames(args, task, arguments, label: str):
@@ -392,11 +408,12 @@ def _print_warnings(warnings, stream=None) -> None:
 def _scene_and_settings(args):
     """The scene of ``args.scene`` (its warnings printed) and its settings with the command's
     mapping, size, sample and thread overrides."""
-    from .rendering import load_scene, settings_with, with_shadow_adaptive
+    from .rendering import load_scene, settings_with, with_shadow_adaptive, with_shadow_cells
 
     scene, warnings = load_scene(args.scene, time=getattr(args, "time", None))
     _print_warnings(warnings)
     scene = with_shadow_adaptive(scene, args.shadow_adaptive)
+    scene = with_shadow_cells(scene, getattr(args, "shadow_cells", None))
     settings = settings_with(scene, args.mapping, width=args.width, height=args.height, samples=args.spp,
                              threads=getattr(args, "threads", None), sample_pattern=args.sample_pattern,
                              aa_threshold=args.aa_threshold)
@@ -692,8 +709,9 @@ def _add_bench_command(sub) -> None:
     p = sub.add_parser(
         "bench",
         help="speed against error: every estimator of both backends, wall and CPU time",
-        description="Render SCENE with every anti-aliasing estimator (grid, POV-Ray's +AM1/+AM2 with thresholds) "
-        "and, if it has area lights, every shadow estimator (grids, POV-Ray's 'adaptive n') on both backends; "
+        description="Render SCENE with every anti-aliasing estimator (grid, POV-Ray's +AM1/+AM2 with thresholds, "
+        "the native stratified and adaptive ones) and, if it has area lights, every shadow estimator (grids, "
+        "POV-Ray's 'adaptive n', the native cells) on both backends; "
         "time each (wall and CPU, best of --repeat) and measure its RMS and max error against a reference "
         "whose own error is measured too. Prints the table and writes OUTDIR/bench.csv, bench.json and "
         "bench.png (log-log, with each backend's Pareto front).",
@@ -754,6 +772,9 @@ def _add_render_command(sub) -> None:
     _add_mapping_option(p, "specular convention: exact (the seed model) or classic (plain POV-Ray phong, native "
                         "'povray-classic'); default: the scene's")
     _add_size_options(p)
+    p.add_argument("--shadow-cells", type=_power_of_two_in(2, MAX_CELL_SAMPLES), metavar="K",
+                   help="native only: the cells shadow estimator on every area light, K x K points in each grid "
+                   "cell whose corners disagree (K a power of 2; phong:shadowCellSamples)")
     p.add_argument("--threads", type=_thread_count, metavar="N", help="worker threads (0 = all cores)")
     _add_timeout_option(p, "--backend povray only: stop POV-Ray after SECONDS (exit 3)")
     _add_time_options(p, "one image per frame, #### in IMAGE becomes the frame number")

@@ -3,7 +3,8 @@
 imports this module before anything heavy: no numpy here)."""
 
 MAX_SAMPLES = 9  # anti-aliasing grid per axis (RenderSettings.samples): POV-Ray's +R limit
-# The native stratified estimator's budget is samples² points: up to 256 (its stages 4, 16, 64, 256).
+# The native stratified estimator's budget is samples² points: up to 256 (its stages 4, 16, 64, 256);
+# the native adaptive one's finest cell is 1/samples of a pixel (a power of 2).
 MAX_STRATIFIED_SAMPLES = 16
 # Positions the tracer can represent: every coordinate within ±1e150, so that differences stay
 # finite and squared distances (inverse-square falloff, sphere tests, box areas) stay below
@@ -24,4 +25,6 @@ MAX_SHADOW_SAMPLES = 257
 # An area light's `adaptive` level: POV-Ray's default, 100, is the deepest anyone writes (a grid of
 # MAX_SHADOW_SAMPLES is fully subdivided from level 8 on).
 MAX_ADAPTIVE = 100
+# The cells estimator's points per partial cell per axis (256 per cell at most, as stratified's budget).
+MAX_CELL_SAMPLES = 16
 

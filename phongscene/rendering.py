@@ -62,11 +62,21 @@ def settings_with(
 
 def with_shadow_adaptive(scene, level: int | None):
     """``scene`` with POV-Ray's ``adaptive level`` on every area light (None: unchanged)."""
+    return _with_area_estimator(scene, level, {"adaptive": level})
+
+
+def with_shadow_cells(scene, cell_samples: int | None):
+    """``scene`` with the native cells estimator (``cell_samples``² points per partial cell) on
+    every area light (None: unchanged)."""
+    return _with_area_estimator(scene, cell_samples, {"cell_samples": cell_samples})
+
+
+def _with_area_estimator(scene, value, changes: dict):
     from .scene import RectAreaLight, SphereAreaLight
 
-    if level is None:
+    if value is None:
         return scene
-    lights = tuple(replace(light, adaptive=level) if isinstance(light, (RectAreaLight, SphereAreaLight)) else light
+    lights = tuple(replace(light, **changes) if isinstance(light, (RectAreaLight, SphereAreaLight)) else light
                    for light in scene.lights)
     return replace(scene, lights=lights)
 

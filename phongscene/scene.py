@@ -38,8 +38,8 @@ Vec3 = tuple[float, float, float]
 RGB = tuple[float, float, float]
 
 SpecularConvention = Literal["seed", "povray-classic"]
-SamplePattern = Literal["grid", "povray-am1", "povray-am2", "stratified"]
-SAMPLE_PATTERNS: tuple[str, ...] = ("grid", "povray-am1", "povray-am2", "stratified")
+SamplePattern = Literal["grid", "povray-am1", "povray-am2", "stratified", "adaptive"]
+SAMPLE_PATTERNS: tuple[str, ...] = ("grid", "povray-am1", "povray-am2", "stratified", "adaptive")
 # The patterns POV-Ray has ("stratified" is the native tracer's own).
 POVRAY_SAMPLE_PATTERNS: tuple[str, ...] = ("grid", "povray-am1", "povray-am2")
 # The native tracer's ray tolerances: "scale-invariant" (relative to the scene's size, so a scene
@@ -297,6 +297,12 @@ class RectAreaLight:
     # two adjacent corners' light colours differ by more than 0.1; None: every grid point is
     # traced (POV-Ray's default).
     adaptive: int | None = None
+    # The native tracer's cells estimator (POV-Ray has none): the grid points (all of them, or
+    # with ``adaptive`` those POV-Ray's recursion reaches), and in each grid cell whose 4 corners
+    # disagree (a partial shadow) cell_samples² points of a shifted (0,2)-sequence instead of the
+    # corners' mean; a cell whose corners agree counts as wholly lit or shadowed. None: POV-Ray's
+    # estimators. A power of 2 in 2..16.
+    cell_samples: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -314,6 +320,7 @@ class SphereAreaLight:
     diffuse: float = 1.0  # multipliers of the two terms, as on PointLight
     specular: float = 1.0
     adaptive: int | None = None  # as RectAreaLight.adaptive
+    cell_samples: int | None = None  # as RectAreaLight.cell_samples
 
 
 Light = Union[PointLight, DirectionalLight, RectAreaLight, SphereAreaLight]
@@ -436,6 +443,9 @@ class RenderSettings:
     # at least ``aa_threshold`` (the full grid, trapezoid weights, at 0). "stratified" (native
     # only): 4, 16, 64, … points of a per-pixel scrambled Sobol' (0,2)-sequence, up to n², while
     # the estimate still changes by at least ``aa_threshold`` (linear |Δr|+|Δg|+|Δb|; all n² at 0).
+    # "adaptive" (native only): the pixel's corners, then 4-way splits of a cell of side s while
+    # its corners' spread (linear, summed over channels) times s^1.5 is at least ``aa_threshold``,
+    # down to 1/n of a pixel (n a power of 2); samples shared across the pixels of a tile.
     sample_pattern: SamplePattern = "grid"
     # POV-Ray's +A: compared with |Δr|+|Δg|+|Δb| of colours encoded as c^(1/2.5), [0, 1].
     aa_threshold: float = 0.0

@@ -35,6 +35,7 @@ from .tolerances import SINGULAR_RELATIVE_DET, UNIT_TOLERANCE, is_singular
 # without numpy).
 from .limits import (  # noqa: E402  (re-exported: validation's bounds)
     MAX_ADAPTIVE,
+    MAX_CELL_SAMPLES,
     MAX_COORDINATE,
     MAX_IMAGE_SIDE,
     MAX_PIXELS,
@@ -123,6 +124,12 @@ class _Collector:
         a = node.adaptive
         if a is not None and (isinstance(a, bool) or not isinstance(a, (int, np.integer)) or not 0 <= a <= MAX_ADAPTIVE):
             self.add(node, "adaptive", f"must be an integer in 0..{MAX_ADAPTIVE} (or unset: every grid point), got {_show(a)}")
+        k = node.cell_samples
+        if k is None:
+            return
+        # a power of 2: the (0,2)-sequence's k² points then stratify the cell evenly
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 2 <= k <= MAX_CELL_SAMPLES or k & (k - 1):
+            self.add(node, "cell_samples", f"must be a power of 2 in 2..{MAX_CELL_SAMPLES} (or unset), got {_show(k)}")
 def _is_triple(value) -> bool:
     """A sequence of length 3 (of anything: ``finite`` then checks the numbers)."""
     return not isinstance(value, (str, bytes)) and hasattr(value, "__len__") and len(value) == 3
@@ -296,9 +303,12 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
             sides_ok = False
     if sides_ok and s.width * s.height > MAX_PIXELS:
         c.add(s, "width", f"width × height must be at most {MAX_PIXELS} pixels, got {s.width} × {s.height}")
-    most = MAX_STRATIFIED_SAMPLES if s.sample_pattern == "stratified" else MAX_SAMPLES
+    most = MAX_STRATIFIED_SAMPLES if s.sample_pattern in ("stratified", "adaptive") else MAX_SAMPLES
     if not isinstance(s.samples, (int, np.integer)) or not 1 <= s.samples <= most:
         c.add(s, "samples", f"must be an integer in 1..{most}, got {_show(s.samples)}")
+    elif s.sample_pattern == "adaptive" and s.samples & (s.samples - 1):
+        # its cells halve down to 1/samples of a pixel
+        c.add(s, "samples", f"must be a power of 2 for the adaptive pattern (1, 2, 4, 8, 16), got {_show(s.samples)}")
     if s.sample_pattern not in SAMPLE_PATTERNS:
         c.add(s, "sample_pattern", f"must be one of {', '.join(SAMPLE_PATTERNS)}, got {_show(s.sample_pattern)}")
     c.unit_interval(s, "aa_threshold")  # POV-Ray clips +A to [0, 1]

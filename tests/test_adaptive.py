@@ -183,3 +183,175 @@ def test_the_extension_refuses_settings_validation_would_reject(change):
     settings = native._settings(R(scene.settings, width=4, height=3, **change))
     with pytest.raises(ValueError):
         built.render(native._camera(scene.camera), settings)
+
+
+# -- the native adaptive quadtree (adaptive_pixels.hpp) -------------------------------------------
+
+# The split rule's side exponent (adaptive_pixels.hpp, kAdaptiveSideExponent).
+SIDE_EXPONENT = 1.5
+# A cell whose weighted spread is this close to the threshold (relative) may split in one
+# implementation and not the other from float rounding alone (native and oracle agree to ~1e-7):
+# its pixel is not compared.
+DECISION_MARGIN = 1e-5
+# Native against the oracle: the project's 1e-6 relative (plus an absolute floor for zeros).
+ORACLE_RELATIVE, ORACLE_ABSOLUTE = 1e-6, 1e-9
+
+
+def _quadtree_from_lattice(lattice, width, height, n, threshold):
+    """The adaptive estimator written from its definition over a traced lattice (spacing 1/n):
+    (image, mask of the pixels whose every split decision is clear of the threshold)."""
+    image = np.zeros((height, width, 3))
+    clear = np.ones((height, width), dtype=bool)
+
+    def cell(j, i, x, y, s):
+        c = lattice[[y, y, y + s, y + s], [x, x + s, x, x + s]]
+        if s > 1:
+            weighted = float(np.sum(c.max(axis=0) - c.min(axis=0))) * (s / n) ** SIDE_EXPONENT
+            if threshold > 0 and abs(weighted - threshold) <= DECISION_MARGIN * threshold:  # at 0 all split
+                clear[j, i] = False
+            if weighted >= threshold:
+                h = s // 2
+                return (cell(j, i, x, y, h) + cell(j, i, x + h, y, h) + cell(j, i, x, y + h, h)
+                        + cell(j, i, x + h, y + h, h)) / 4
+        return c.mean(axis=0)
+
+    for j in range(height):
+        for i in range(width):
+            image[j, i] = cell(j, i, i * n, j * n, n)
+    return image, clear
+
+
+@pytest.mark.parametrize("n, threshold", [(4, 0.05), (8, 0.01), (2, 0.0)])
+def test_adaptive_equals_the_quadtree_over_oracle_rays(n, threshold):
+    import oracle
+
+    scene = calibration.point_light()
+    width, height = 32, 24
+    settings = R(scene.settings, width=width, height=height, samples=n, sample_pattern="adaptive",
+                 aa_threshold=threshold)
+    xs, ys = np.meshgrid(np.arange(width * n + 1) / n, np.arange(height * n + 1) / n, indexing="xy")
+    origins, directions = oracle.camera_rays(scene.camera, width, height, xs, ys)
+    lattice = oracle.trace_rays(scene, origins, directions, settings).reshape(height * n + 1, width * n + 1, 3)
+    expected, clear = _quadtree_from_lattice(lattice, width, height, n, threshold)
+    native = render(scene, "native", settings).astype(np.float64)
+    assert clear.mean() > 0.95
+    np.testing.assert_allclose(native[clear], expected[clear], rtol=ORACLE_RELATIVE, atol=ORACLE_ABSOLUTE)
+    if threshold > 0:  # the rule really is adaptive here: some pixels split, most do not
+        full, _ = _quadtree_from_lattice(lattice, width, height, n, 0.0)
+        split = (np.abs(expected - full) > CHANGED).any(axis=2)
+        assert 0.01 < split.mean() < 0.9
+
+
+def test_adaptive_error_falls_with_depth_and_threshold():
+    """Against a 48²-point stratified reference: finer cells (n) and lower thresholds reduce the
+    RMS error; n = 16 at t = 0.001 ends below the 6×6 grid's error."""
+    from phongscene.bench import box_down
+
+    scene = calibration.point_light()
+    big = R(scene.settings, width=144, height=108, samples=16, sample_pattern="stratified", aa_threshold=0.0)
+    reference = box_down(render(scene, "native", big), 3)
+
+    def error(**change):
+        s = R(scene.settings, width=48, height=36, sample_pattern="adaptive", **change)
+        return float(np.sqrt(np.mean((render(scene, "native", s) - reference) ** 2)))
+
+    by_depth = [error(samples=n, aa_threshold=0.001) for n in (1, 2, 4, 8, 16)]
+    assert all(b < a for a, b in zip(by_depth, by_depth[1:])), by_depth
+    assert error(samples=8, aa_threshold=0.001) <= error(samples=8, aa_threshold=0.1)
+    grid6 = render(scene, "native", R(scene.settings, width=48, height=36, samples=6, sample_pattern="grid"))
+    assert by_depth[-1] < float(np.sqrt(np.mean((grid6 - reference) ** 2)))
+
+
+def test_adaptive_is_the_same_for_any_thread_count():
+    scene = calibration.ADAPTIVE_SCENES["adaptive_am1"]()
+    settings = R(scene.settings, sample_pattern="adaptive", samples=16, aa_threshold=0.003)
+    images = [render(scene, "native", R(settings, threads=t)) for t in (1, 3)]
+    assert np.array_equal(images[0], images[1])
+
+
+def test_adaptive_needs_a_power_of_two_and_is_native_only(tmp_path, capsys):
+    from phongscene.backends import native
+    from phongscene.cli import main
+
+    scene = calibration.point_light()
+    ok = R(scene.settings, width=8, height=6, samples=16, sample_pattern="adaptive", aa_threshold=0.01)
+    assert not validate(R(scene, settings=ok))
+    problems = validate(R(scene, settings=R(ok, samples=6)))
+    assert [p.attribute for p in problems] == ["samples"] and "power of 2" in problems[0].message
+    with pytest.raises(SceneError, match="native tracer's own"):
+        render_switches(ok)
+    with pytest.raises(ValueError, match="power of 2"):
+        native.build(scene).render(native._camera(scene.camera), native._settings(R(ok, samples=6)))
+    path = write_usd(R(scene, settings=ok), tmp_path / "scene.usda")
+    assert load_usd(path).settings.sample_pattern == "adaptive"
+    assert main(["render", str(path), "-o", str(tmp_path / "a.exr"), "--spp", "8", "--sample-pattern", "adaptive",
+                 "--aa-threshold", "0.01"]) == 0
+    assert main(["render", str(path), "-o", str(tmp_path / "b.exr"), "--spp", "6", "--sample-pattern", "adaptive"]) == 2
+    assert "power of 2" in capsys.readouterr().err
+
+
+# -- the native cells shadow estimator (area_cells.hpp) ---------------------------------------------
+
+
+def _with_light(scene, **change):
+    return R(scene, lights=tuple(R(light, **change) if hasattr(light, "cell_samples") else light
+                                 for light in scene.lights))
+
+
+def _shadow_rms(scene, reference, **change):
+    image = render(_with_light(scene, **change), "native").astype(np.float64)
+    return float(np.sqrt(np.mean((image - reference) ** 2)))
+
+
+@pytest.mark.parametrize("light", ["rect_area_light", "sphere_area_light"])
+def test_cells_beat_their_grid_and_change_only_the_penumbra(light):
+    """Against the 129² grid: the cells estimator on a 9² grid (4² points per partial cell) errs
+    less than the 9² grid alone, and less than the 17² grid, which traces more rays everywhere;
+    pixels in full light or full shadow (every grid point agrees) are the grid's, bit for bit."""
+    scene = getattr(calibration, light)()
+    reference = render(_with_light(scene, samples=129, adaptive=None), "native").astype(np.float64)
+    cells = _shadow_rms(scene, reference, samples=9, adaptive=None, cell_samples=4)
+    assert cells < _shadow_rms(scene, reference, samples=9, adaptive=None)
+    assert cells < _shadow_rms(scene, reference, samples=17, adaptive=None)
+    grid9 = render(_with_light(scene, samples=9, adaptive=None), "native")
+    with_cells = render(_with_light(scene, samples=9, adaptive=None, cell_samples=4), "native")
+    grid17 = render(_with_light(scene, samples=17, adaptive=None), "native")
+    settled = (grid9 == grid17).all(axis=2) & (grid9 == reference.astype(np.float32)).all(axis=2)
+    assert settled.mean() > 0.5
+    assert np.array_equal(with_cells[settled], grid9[settled])
+    assert not np.array_equal(with_cells, grid9)
+
+
+def test_cells_on_povray_adaptive_refine_only_its_partial_cells():
+    """`adaptive 2` with cells: POV-Ray's recursion, then the grid cells whose corners disagree
+    are sampled inside; closer to the reference than `adaptive 2` alone."""
+    scene = calibration.rect_area_light()
+    reference = render(_with_light(scene, samples=129, adaptive=None), "native").astype(np.float64)
+    alone = _shadow_rms(scene, reference, samples=17, adaptive=2)
+    assert _shadow_rms(scene, reference, samples=17, adaptive=2, cell_samples=4) < alone
+
+
+def test_cells_are_the_same_for_any_thread_count():
+    scene = _with_light(calibration.sphere_area_light(), samples=9, adaptive=1, cell_samples=4)
+    images = [render(scene, "native", R(scene.settings, threads=t)) for t in (1, 3)]
+    assert np.array_equal(images[0], images[1])
+
+
+def test_cells_knob_is_validated_travels_through_usd_and_the_cli_and_povray_refuses_it(tmp_path, capsys):
+    from phongscene.cli import main
+
+    scene = _with_light(calibration.rect_area_light(), cell_samples=4)
+    assert not validate(scene)
+    for bad in (3, 1, 32, True):
+        assert [p.attribute for p in validate(_with_light(scene, cell_samples=bad))] == ["cell_samples"]
+    path = write_usd(scene, tmp_path / "s.usda")
+    assert "phong:shadowCellSamples = 4" in path.read_text()
+    assert load_usd(path).lights[0].cell_samples == 4
+    with pytest.raises(SceneError, match="shadowCellSamples|cell_samples"):
+        compile_pov(scene, mapping="classic")
+    plain = write_usd(calibration.rect_area_light(), tmp_path / "plain.usda")
+    out = tmp_path / "a.exr"
+    assert main(["render", str(plain), "-o", str(out), "--width", "24", "--shadow-cells", "4"]) == 0
+    with pytest.raises(SystemExit) as usage:  # argparse's usage error
+        main(["render", str(plain), "-o", str(out), "--width", "24", "--shadow-cells", "3"])
+    assert usage.value.code == 2 and "power of 2" in capsys.readouterr().err

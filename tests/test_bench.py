@@ -40,6 +40,17 @@ def test_dominance_is_povrays_cost_over_natives_cheapest_at_each_povray_level():
     assert d["min_ratio"] == pytest.approx(4.0)
 
 
+def test_dominance_counts_only_levels_the_reference_resolves():
+    rows = [_row("povray", "p1", 1.0, 1e-2), _row("povray", "p2", 4.0, 1e-3), _row("native", "n1", 0.1, 1e-2),
+            _row("native", "n2", 2.0, 1e-3)]
+    rows[1]["resolved"] = False  # p2's error is within 10x of the reference's own
+    d = bench.dominance(rows, bench.AA, "cpu")
+    assert [x["resolved"] for x in d["levels"]] == [True, False]
+    assert d["min_ratio"] == pytest.approx(10.0)  # p2's 2x is listed, not counted
+    assert "1 level(s) below what the reference resolves not counted" in bench.table(
+        {"rows": [], "dominance": {bench.AA: {"cpu": d}}})
+
+
 def test_target_names_the_cheapest_setting_that_reaches_the_error():
     rows = [_row("native", "a", 0.3, 1e-3), _row("native", "b", 0.2, 2e-3), _row("povray", "c", 1.0, 5e-3)]
     lines = bench.target({"rows": rows}, 2e-3)

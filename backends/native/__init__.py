@@ -36,6 +36,7 @@ _SAMPLE_PATTERNS = {
     "povray-am1": _native.SamplePattern.povray_am1,
     "povray-am2": _native.SamplePattern.povray_am2,
     "stratified": _native.SamplePattern.stratified,
+    "adaptive": _native.SamplePattern.adaptive,
 }
 # The C++ lights' `adaptive` for "every grid point" (lights.hpp: kFullSubdivision).
 _FULL_SUBDIVISION = -1
@@ -125,6 +126,7 @@ def _native_light(light: Light):
             inverse_square=light.falloff == "inverse-square",
         )
         native.adaptive = _FULL_SUBDIVISION if light.adaptive is None else int(light.adaptive)
+        native.cell_samples = 0 if light.cell_samples is None else int(light.cell_samples)
         return native
     if isinstance(light, SphereAreaLight):
         native = _native.SphereAreaLight(
@@ -132,6 +134,7 @@ def _native_light(light: Light):
             inverse_square=light.falloff == "inverse-square",
         )
         native.adaptive = _FULL_SUBDIVISION if light.adaptive is None else int(light.adaptive)
+        native.cell_samples = 0 if light.cell_samples is None else int(light.cell_samples)
         return native
     # A validated scene has only the model's light types.
     raise TypeError(f"unsupported light {type(light).__name__}")

@@ -82,6 +82,13 @@ INVERSE_SQUARE_FADE_RADII = 1e-6
 LAMBERT_SPOTLIGHT = "spotlight radius 90 falloff 90 tightness 1"
 
 
+def _native_only(compiler, light) -> None:
+    """POV-Ray has no cells estimator (the native tracer's own): an error naming the light."""
+    if light.cell_samples is not None:
+        raise compiler._error(light, "cell_samples", "the cells shadow estimator is the native tracer's own; POV-Ray "
+                              "renders the grid or 'adaptive n' (unset phong:shadowCellSamples)")
+
+
 def _adaptive(light) -> str:
     """POV-Ray's ``adaptive n`` of an area light (absent: every grid point, its default)."""
     return "" if light.adaptive is None else f" adaptive {int(light.adaptive)}"
@@ -454,6 +461,7 @@ class _Compiler:
                 f" parallel point_at {self.vec(target, light, 'direction')} }}"
             )
         if isinstance(light, RectAreaLight):
+            _native_only(self, light)
             n = int(light.samples)
             # Without 'adaptive' POV's default level (100) subdivides fully, giving trapezoid
             # weights for n = 2^k + 1 (ref §5). No 'jitter' (not deterministic).
@@ -468,6 +476,7 @@ class _Compiler:
                 f"{_adaptive(light)}{fade} }}"
             )
         if isinstance(light, SphereAreaLight):
+            _native_only(self, light)
             n = int(light.samples)
             d = self.num(2.0 * light.radius, light, "radius")
             return (

@@ -37,6 +37,7 @@ COLOR_TYPES = ("color3f", "color3d", "color3h", "float3", "double3", "half3")
 
 SHADOW_SAMPLES = "phong:shadowSamples"
 SHADOW_ADAPTIVE = "phong:shadowAdaptive"
+SHADOW_CELL_SAMPLES = "phong:shadowCellSamples"
 FADE_DISTANCE = "phong:fadeDistance"
 FADE_POWER = "phong:fadePower"
 SAMPLES = "phong:samples"
@@ -56,12 +57,15 @@ PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
     "SphereLight": {
         SHADOW_SAMPLES: INT_TYPES,
         SHADOW_ADAPTIVE: INT_TYPES,
+        SHADOW_CELL_SAMPLES: INT_TYPES,
         FADE_DISTANCE: FLOAT_TYPES,
         FADE_POWER: FLOAT_TYPES,
         LIGHT_MODEL: STRING_TYPES,
     },
-    "RectLight": {SHADOW_SAMPLES: INT_TYPES, SHADOW_ADAPTIVE: INT_TYPES, LIGHT_MODEL: STRING_TYPES},
-    "DiskLight": {SHADOW_SAMPLES: INT_TYPES, SHADOW_ADAPTIVE: INT_TYPES, LIGHT_MODEL: STRING_TYPES},
+    "RectLight": {SHADOW_SAMPLES: INT_TYPES, SHADOW_ADAPTIVE: INT_TYPES, SHADOW_CELL_SAMPLES: INT_TYPES,
+                  LIGHT_MODEL: STRING_TYPES},
+    "DiskLight": {SHADOW_SAMPLES: INT_TYPES, SHADOW_ADAPTIVE: INT_TYPES, SHADOW_CELL_SAMPLES: INT_TYPES,
+                  LIGHT_MODEL: STRING_TYPES},
     "DistantLight": {LIGHT_MODEL: STRING_TYPES},
     "CylinderLight": {LIGHT_MODEL: STRING_TYPES},
     "DomeLight": {LIGHT_MODEL: STRING_TYPES},
@@ -117,6 +121,7 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "color": "inputs:color",
         "samples": SHADOW_SAMPLES,
         "adaptive": SHADOW_ADAPTIVE,
+        "cell_samples": SHADOW_CELL_SAMPLES,
         "falloff": LIGHT_MODEL,
         "diffuse": "inputs:diffuse",
         "specular": "inputs:specular",
@@ -127,6 +132,7 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "color": "inputs:color",
         "samples": SHADOW_SAMPLES,
         "adaptive": SHADOW_ADAPTIVE,
+        "cell_samples": SHADOW_CELL_SAMPLES,
         "falloff": LIGHT_MODEL,
         "diffuse": "inputs:diffuse",
         "specular": "inputs:specular",

@@ -582,6 +582,11 @@ def _shadow_adaptive(ctx: ReadContext, prim: Usd.Prim) -> int | None:
     return None if level is None else int(level)
 
 
+def _shadow_cell_samples(ctx: ReadContext, prim: Usd.Prim) -> int | None:
+    k = ctx.get(prim, names.SHADOW_CELL_SAMPLES, INT_TYPES)
+    return None if k is None else int(k)
+
+
 def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> None:
     """One UsdLux light into the model, in UsdLux's units (see README: lights) unless it asks for
     the seed's light. The emitted luminance L (normalized by the emitting area when
@@ -644,7 +649,7 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
             lights.append(
                 SphereAreaLight(
                     centre, radius_world, _rgb(colour), _shadow_samples(ctx, prim), path, falloff,
-                    adaptive=_shadow_adaptive(ctx, prim), **terms,
+                    adaptive=_shadow_adaptive(ctx, prim), cell_samples=_shadow_cell_samples(ctx, prim), **terms,
                 )
             )
             ctx.nodes.append((path, "SphereAreaLight" + ("" if seed else " (UsdLux)")))
@@ -701,7 +706,7 @@ def _light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> Non
         lights.append(
             RectAreaLight(
                 centre, _rgb(axis_u), _rgb(axis_v), _rgb(colour), _shadow_samples(ctx, prim), path, falloff,
-                adaptive=_shadow_adaptive(ctx, prim), **terms,
+                adaptive=_shadow_adaptive(ctx, prim), cell_samples=_shadow_cell_samples(ctx, prim), **terms,
             )
         )
         ctx.nodes.append((path, "RectAreaLight" + ("" if seed else " (UsdLux)")))

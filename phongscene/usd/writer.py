@@ -263,6 +263,8 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
         prim.GetPrim().CreateAttribute(names.SHADOW_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.samples))
         if light.adaptive is not None:
             prim.GetPrim().CreateAttribute(names.SHADOW_ADAPTIVE, Sdf.ValueTypeNames.Int).Set(int(light.adaptive))
+        if light.cell_samples is not None:
+            prim.GetPrim().CreateAttribute(names.SHADOW_CELL_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.cell_samples))
         if falloff != "none":
             strength = strength * 4.0
     elif isinstance(light, DirectionalLight):
@@ -282,6 +284,8 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
         prim.GetPrim().CreateAttribute(names.SHADOW_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.samples))
         if light.adaptive is not None:
             prim.GetPrim().CreateAttribute(names.SHADOW_ADAPTIVE, Sdf.ValueTypeNames.Int).Set(int(light.adaptive))
+        if light.cell_samples is not None:
+            prim.GetPrim().CreateAttribute(names.SHADOW_CELL_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.cell_samples))
     else:
         raise TypeError(f"not a light: {light!r}")
     api = UsdLux.LightAPI(prim.GetPrim())

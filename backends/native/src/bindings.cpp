@@ -142,8 +142,13 @@ Image render(const phong::Scene& scene, const phong::CameraDescription& camera_d
         throw std::invalid_argument("width, height and samples must be >= 1");
     // The Python model validates these (phongscene.validate); a direct caller gets an error, not
     // a 2^(n-1)-sized +AM2 buffer or a NaN threshold.
-    const int most_samples = settings.sample_pattern == phong::SamplePattern::kStratified ? 16 : 9;
+    const bool native_pattern = settings.sample_pattern == phong::SamplePattern::kStratified ||
+                                settings.sample_pattern == phong::SamplePattern::kAdaptive;
+    const int most_samples = native_pattern ? 16 : 9;
     if (settings.samples > most_samples) throw std::invalid_argument("samples too large for the sample pattern");
+    // The adaptive quadtree halves cells down to 1/samples of a pixel.
+    if (settings.sample_pattern == phong::SamplePattern::kAdaptive && (settings.samples & (settings.samples - 1)) != 0)
+        throw std::invalid_argument("adaptive: samples must be a power of 2");
     if (!(settings.aa_threshold >= 0.0 && settings.aa_threshold <= 1.0))
         throw std::invalid_argument("aa_threshold must be in [0, 1]");
     check_textures(scene);
@@ -234,7 +239,8 @@ NB_MODULE(_native, m) {
         .value("grid", phong::SamplePattern::kGrid)
         .value("povray_am1", phong::SamplePattern::kPovrayAm1)
         .value("povray_am2", phong::SamplePattern::kPovrayAm2)
-        .value("stratified", phong::SamplePattern::kStratified);
+        .value("stratified", phong::SamplePattern::kStratified)
+        .value("adaptive", phong::SamplePattern::kAdaptive);
     nb::enum_<phong::SpecularConvention>(m, "SpecularConvention", "Which Phong specular term (materials.hpp).")
         .value("seed", phong::SpecularConvention::kSeed)
         .value("povray_classic", phong::SpecularConvention::kPovrayClassic);
@@ -305,7 +311,8 @@ NB_MODULE(_native, m) {
         .def_rw("color", &RectAreaLight::color)
         .def_rw("samples", &RectAreaLight::samples)
         .def_rw("terms", &RectAreaLight::terms)
-        .def_rw("adaptive", &RectAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)");
+        .def_rw("adaptive", &RectAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)")
+        .def_rw("cell_samples", &RectAreaLight::cell_samples, "> 0: the native cells estimator, cell_samples^2 points per partial cell");
 
     using phong::SphereAreaLight;
     nb::class_<SphereAreaLight>(m, "SphereAreaLight", "A spherical light: POV-Ray's circular, oriented area light.")
@@ -317,7 +324,8 @@ NB_MODULE(_native, m) {
         .def_rw("color", &SphereAreaLight::color)
         .def_rw("samples", &SphereAreaLight::samples)
         .def_rw("terms", &SphereAreaLight::terms)
-        .def_rw("adaptive", &SphereAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)");
+        .def_rw("adaptive", &SphereAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)")
+        .def_rw("cell_samples", &SphereAreaLight::cell_samples, "> 0: the native cells estimator, cell_samples^2 points per partial cell");
 
     using phong::CameraDescription;
     nb::class_<CameraDescription>(m, "CameraDescription", "The model's camera (camera.hpp).")

@@ -11,6 +11,7 @@
 #include <variant>
 #include <vector>
 
+#include "area_cells.hpp"
 #include "math.hpp"
 
 namespace phong {
@@ -57,6 +58,7 @@ struct RectAreaLight {
     bool inverse_square = false;
     LightTerms terms;
     int adaptive = kFullSubdivision;  // POV-Ray's `adaptive n`; kFullSubdivision: every grid point
+    int cell_samples = 0;  // > 0: the native cells estimator (area_cells.hpp), cell_samples^2 per partial cell
 };
 
 // POV-Ray's `area_light <2r,0,0>, <0,2r,0>, n, n circular orient`.
@@ -68,6 +70,7 @@ struct SphereAreaLight {
     bool inverse_square = false;
     LightTerms terms;
     int adaptive = kFullSubdivision;
+    int cell_samples = 0;
 };
 
 using Light = std::variant<PointLight, DirectionalLight, RectAreaLight, SphereAreaLight>;
@@ -97,9 +100,11 @@ inline double trapezoid_weight(int i, int n) { return (i == 0 || i == n - 1 ? 0.
 // (POV-Ray's colour distance, |dr| + |dg| + |db|, of the light's colour times visibility: for
 // opaque occluders |dvis| times `colour_sum`); its fraction is the mean of its 4 quadrants' or
 // else of its 4 corners' fractions. `visible(u, v)` traces grid point (u, v): 1 visible, 0 not.
-template <class Visible>
+// A grid cell (one step each way) whose corners disagree is `partial(u1, v1)` when given (the
+// native cells estimator, area_cells.hpp), else the mean of its corners (POV-Ray).
+template <class Visible, class Partial>
 double adaptive_fraction(int u1, int v1, int u2, int v2, int level, int adaptive, double colour_sum, int n,
-                         std::vector<signed char>& grid, Visible& visible) {
+                         std::vector<signed char>& grid, Visible& visible, Partial* partial) {
     double corner[4];
     const int us[4] = {u1, u2, u1, u2}, vs[4] = {v1, v1, v2, v2};
     for (int k = 0; k < 4; ++k) {
@@ -112,11 +117,13 @@ double adaptive_fraction(int u1, int v1, int u2, int v2, int level, int adaptive
         if (level < adaptive || differ(0, 1) || differ(1, 3) || differ(3, 2) || differ(2, 0)) {
             const int ul = int(std::floor((u1 + u2) / 2.0)), uh = int(std::ceil((u1 + u2) / 2.0));
             const int vl = int(std::floor((v1 + v2) / 2.0)), vh = int(std::ceil((v1 + v2) / 2.0));
-            corner[0] = adaptive_fraction(u1, v1, ul, vl, level + 1, adaptive, colour_sum, n, grid, visible);
-            corner[1] = adaptive_fraction(uh, v1, u2, vl, level + 1, adaptive, colour_sum, n, grid, visible);
-            corner[2] = adaptive_fraction(u1, vh, ul, v2, level + 1, adaptive, colour_sum, n, grid, visible);
-            corner[3] = adaptive_fraction(uh, vh, u2, v2, level + 1, adaptive, colour_sum, n, grid, visible);
+            corner[0] = adaptive_fraction(u1, v1, ul, vl, level + 1, adaptive, colour_sum, n, grid, visible, partial);
+            corner[1] = adaptive_fraction(uh, v1, u2, vl, level + 1, adaptive, colour_sum, n, grid, visible, partial);
+            corner[2] = adaptive_fraction(u1, vh, ul, v2, level + 1, adaptive, colour_sum, n, grid, visible, partial);
+            corner[3] = adaptive_fraction(uh, vh, u2, v2, level + 1, adaptive, colour_sum, n, grid, visible, partial);
         }
+    } else if (partial != nullptr && !(corner[0] == corner[1] && corner[1] == corner[2] && corner[2] == corner[3])) {
+        return (*partial)(u1, v1);
     }
     return (corner[0] + corner[1] + corner[2] + corner[3]) * 0.25;
 }
@@ -171,15 +178,17 @@ inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
 // same order, so the fraction is bit-identical).
 template <class Shadow>
 double visible_fraction(const Light& light, const Vec3& p, const LightSample& centre, Shadow&& shadow) {
-    auto grid = [&](int n, const Vec3& c, const Vec3& a1, const Vec3& a2, bool circular, int adaptive) {
+    auto grid = [&](int n, const Vec3& c, const Vec3& a1, const Vec3& a2, bool circular, int adaptive,
+                    int cell_samples) {
         // Samples sit at c + ju·a1 + jv·a2 with |ju|, |jv| <= 1/2 (the circular mapping only
         // shrinks the nudged coordinates, so <= 1/2 + the nudge there).
         const double half = circular ? 0.5 + kCircularAreaLightNudge : 0.5;
         const Vec3 corners[4] = {c - a1 * half - a2 * half, c + a1 * half - a2 * half, c + a1 * half + a2 * half,
                                  c - a1 * half + a2 * half};
         const bool may_be_shadowed = shadow.begin_grid(corners);
-        auto target_of = [&](int a, int b) {
-            double ju = double(a) / (n - 1) - 0.5, jv = double(b) / (n - 1) - 0.5;
+        // The light point at grid parameters (fu, fv) in [0, 1]^2 (grid point a at a / (n - 1)).
+        auto target_at = [&](double fu, double fv) {
+            double ju = fu - 0.5, jv = fv - 0.5;
             if (circular) {
                 // Map the square onto the disc (POV-Ray's shells: |(ju, jv)| -> max(|ju|, |jv|)).
                 ju += kCircularAreaLightNudge;
@@ -190,6 +199,19 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
             }
             return c + a1 * ju + a2 * jv;
         };
+        auto target_of = [&](int a, int b) { return target_at(double(a) / (n - 1), double(b) / (n - 1)); };
+        // The cells estimator's points inside a grid cell (area_cells.hpp).
+        auto visible_at = [&](double fu, double fv) {
+            const Vec3 v = target_at(fu, fv) - p;
+            const double d = length(v);
+            return !shadow(v / d, d);
+        };
+        if (cell_samples > 0 && adaptive == kFullSubdivision) {
+            if (!may_be_shadowed) return 1.0;
+            thread_local std::vector<signed char> cache;
+            cache.assign(size_t(n) * size_t(n), -1);
+            return cells_fraction(n, cell_samples, point_key(p), cache, visible_at);
+        }
         if (adaptive != kFullSubdivision) {
             // Every grid point visible: every region's corners agree and the recursion's means of
             // ones are exactly 1.
@@ -205,7 +227,10 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
                 const double d = length(v);
                 return !shadow(v / d, d);
             };
-            return detail::adaptive_fraction(0, 0, n - 1, n - 1, 0, adaptive, colour_sum, n, cache, visible);
+            const uint32_t key = cell_samples > 0 ? point_key(p) : 0;
+            auto partial = [&](int a, int b) { return partial_cell_fraction(a, b, n, cell_samples, key, visible_at); };
+            return detail::adaptive_fraction(0, 0, n - 1, n - 1, 0, adaptive, colour_sum, n, cache, visible,
+                                             cell_samples > 0 ? &partial : nullptr);
         }
         double visible = 0.0;
         for (int a = 0; a < n; ++a) {
@@ -229,7 +254,7 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
             if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
                 return shadow(centre.l, centre.distance) ? 0.0 : 1.0;
             } else if constexpr (std::is_same_v<T, RectAreaLight>) {
-                return grid(L.samples, L.center, L.axis_u, L.axis_v, false, L.adaptive);
+                return grid(L.samples, L.center, L.axis_u, L.axis_v, false, L.adaptive, L.cell_samples);
             } else {
                 // `orient`: the disc faces p. Axis 1 is perpendicular to l and a helper axis
                 // (z, or y when l is nearly vertical), axis 2 to l and axis 1; both of length 2r.
@@ -239,7 +264,7 @@ double visible_fraction(const Light& light, const Vec3& p, const LightSample& ce
                 const Vec3 a1 = normalize(cross(l, helper));
                 const Vec3 a2 = normalize(cross(l, a1));
                 const double size = 2.0 * L.radius;
-                return grid(L.samples, L.center, a1 * size, a2 * size, true, L.adaptive);
+                return grid(L.samples, L.center, a1 * size, a2 * size, true, L.adaptive, L.cell_samples);
             }
         },
         light);

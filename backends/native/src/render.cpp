@@ -2,6 +2,9 @@
 // Pixel loop, shading of a hit, and the tile-based thread pool.
 #include "render.hpp"
 
+#include "adaptive_pixels.hpp"
+#include "low_discrepancy.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -29,34 +32,7 @@ constexpr int kPovrayBlockSize = 32;
 // max(c, 0)^(1/2.5), in float (colourspace.cpp: PowerLawGammaCurve).
 constexpr float kPovrayAntialiasEncodingExponent = 1.0f / 2.5f;
 
-// The native "stratified" pixel estimator's points: the 2-D Sobol' sequence, a (0,2)-sequence in
-// base 2 (its first 4^k points put one point in every elementary interval of area 4^-k: every
-// 2^a x 2^b cell grid with a + b = 2k), digitally shifted per pixel by a hash of its position (a
-// digital shift keeps that stratification; it decorrelates neighbouring pixels' patterns).
-inline uint32_t reverse_bits(uint32_t x) {
-    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
-    x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
-    x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
-    return (x >> 16) | (x << 16);
-}
-// Sobol's second dimension: direction numbers v_1 = 2^31, v_k = v_(k-1) ^ (v_(k-1) >> 1).
-inline uint32_t sobol_second(uint32_t i) {
-    uint32_t y = 0;
-    for (uint32_t v = 1u << 31; i != 0; i >>= 1, v ^= v >> 1)
-        if (i & 1u) y ^= v;
-    return y;
-}
-// A 32-bit integer hash (Wellons' lowbias32): the per-pixel digital shifts.
-inline uint32_t hash32(uint32_t x) {
-    x ^= x >> 16;
-    x *= 0x7feb352du;
-    x ^= x >> 15;
-    x *= 0x846ca68bu;
-    x ^= x >> 16;
-    return x;
-}
-constexpr double kTwoToMinus32 = 1.0 / 4294967296.0;
+// The native "stratified" pixel estimator's points: low_discrepancy.hpp.
 
 // A colour as POV-Ray's threshold test sees it: float, gamma-encoded.
 struct EncodedColour {
@@ -370,8 +346,13 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     const bool adaptive_am1 = settings.sample_pattern == SamplePattern::kPovrayAm1 && threshold > 0.0;
     const bool stratified = settings.sample_pattern == SamplePattern::kStratified;
     const bool am2 = settings.sample_pattern == SamplePattern::kPovrayAm2;
+    const bool adaptive = settings.sample_pattern == SamplePattern::kAdaptive;
     auto render_tile = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
         if (adaptive_am1) return render_block_am1(x0, y0, x1, y1, scratch);
+        if (adaptive)
+            return render_adaptive_tile(
+                x0, y0, x1, y1, n, settings.aa_threshold, [&](double sx, double sy) { return trace_at(sx, sy, scratch); },
+                store);
         if (am2) return render_block_am2(x0, y0, x1, y1, scratch);
         if (stratified) return render_block_stratified(x0, y0, x1, y1, scratch);
         for (int j = y0; j < y1; ++j)

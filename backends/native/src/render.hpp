@@ -18,6 +18,8 @@ enum class SamplePattern {
     kPovrayAm2,  // POV-Ray +AM2 +A t +R n -J: corners, recursive 4-corner subdivision to depth n - 1
     kStratified,  // native only: pixel corners, then where they differ by >= the threshold a scrambled
                   // (0,2)-sequence, 16, 64, 256 points up to n^2 (render.cpp: stratified_pixel)
+    kAdaptive,    // native only: error-driven quadtree on a tile-wide lattice, cells down to 1/n pixel
+                  // (adaptive_pixels.hpp)
 };
 
 struct RenderSettings {
