@@ -12,7 +12,8 @@ Four tables, in one run:
    the image's max is printed too, so a fast wrong answer shows.
 2. **Whole process**: ``phongscene render SCENE -o x.exr`` against ``povray`` on the compiled
    scene (``phongscene compile``'s job, written before timing), wall time and peak RSS of the
-   child; the "tiny" row is S1 at 32×18, i.e. the start-up costs.
+   child; the "tiny" row is S1 at 32×18, i.e. the start-up costs. The children cache compiled
+   bytecode as an installation does (the best of --repeat runs is a cached one).
 3. **Threads**: the native render's speed-up from 1 thread to the most asked for.
 4. **Triangles**: S2's native render (without build) at 10k, 100k and 1M triangles.
 
@@ -22,11 +23,13 @@ Mitsuba 3 is not run: see benchmarks/README.md.
 ``--baseline-extension SO`` instead times another build of the ``_native`` extension (say, a
 copy of the .so saved before a C++ change) on the same scenes at the same moment, in a child
 process (two builds of one nanobind module cannot share a process), and checks that its image is
-bit-identical to the installed build's.
+bit-identical to the installed build's. ``--baseline-wrapper PY`` gives that build's own
+``backends/native/__init__.py`` when the extension's arguments changed since.
 
     .venv/bin/python benchmarks/make_scenes.py       # once: writes benchmarks/scenes/*.usd*
     .venv/bin/python benchmarks/run.py [--threads 1 2] [--repeat 3] [--mapping classic] [S1 S2 S3]
-    .venv/bin/python benchmarks/run.py --baseline-extension /tmp/baseline/_native.cpython-311-x86_64-linux-gnu.so
+    .venv/bin/python benchmarks/run.py --baseline-extension /tmp/baseline/_native.cpython-311-x86_64-linux-gnu.so \
+        [--baseline-wrapper old_native.py]
 
 Figures: see benchmarks/README.md.
 """
@@ -61,14 +64,26 @@ EMBREE_SHADOW_OFFSET = 1e-4
 GNU_TIME = "/usr/bin/time"  # Debian package "time"
 
 
-def use_extension(path: Path) -> None:
-    """Make ``phongscene.backends.native`` use the ``_native`` extension at ``path``."""
+def use_extension(path: Path, wrapper: Path | None = None) -> None:
+    """Make ``phongscene.backends.native`` use the ``_native`` extension at ``path``, and the
+    wrapper module at ``wrapper`` (that build's ``backends/native/__init__.py``) when given: for
+    a baseline whose extension takes other arguments than today's wrapper passes."""
     spec = importlib.util.spec_from_file_location(NATIVE_EXTENSION_MODULE, path)
     if spec is None or spec.loader is None:
         raise SystemExit(f"{path}: not a loadable extension module")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     sys.modules[NATIVE_EXTENSION_MODULE] = module
+    if wrapper is not None:
+        import phongscene.backends  # noqa: F401  (the parent package of the wrapper)
+
+        name = NATIVE_EXTENSION_MODULE.rsplit(".", 1)[0]
+        spec = importlib.util.spec_from_file_location(name, wrapper, submodule_search_locations=[])
+        if spec is None or spec.loader is None:
+            raise SystemExit(f"{wrapper}: not a loadable module")
+        package = importlib.util.module_from_spec(spec)
+        sys.modules[name] = package
+        spec.loader.exec_module(package)
 
 
 def scene_path(name: str) -> Path:
@@ -86,6 +101,7 @@ def time_baseline(args: argparse.Namespace, name: str, threads: int) -> tuple[fl
         image_path = Path(tmp) / "image.npy"
         out = subprocess.run(
             [sys.executable, __file__, name, "--extension", str(args.baseline_extension),
+             *(["--wrapper", str(args.baseline_wrapper)] if args.baseline_wrapper else []),
              "--threads", str(threads), "--repeat", str(args.repeat), "--mapping", args.mapping,
              "--save-image", str(image_path)],
             check=True, capture_output=True, text=True,
@@ -93,13 +109,13 @@ def time_baseline(args: argparse.Namespace, name: str, threads: int) -> tuple[fl
         return json.loads(out.splitlines()[-1])["native"], np.load(image_path)
 
 
-def run_process(cmd: list[str], cwd: Path | None = None) -> tuple[float, float]:
+def run_process(cmd: list[str], cwd: Path | None = None, env: dict | None = None) -> tuple[float, float]:
     """(wall seconds, peak RSS in MiB) of one child process, which must succeed. The peak comes
     from GNU time, whose own child is measured: a child forked from this (large) process would
     report this process's size, which ru_maxrss keeps across exec."""
     with tempfile.NamedTemporaryFile("r", suffix=".time") as report:
         start = time.perf_counter()
-        done = subprocess.run([GNU_TIME, "-f", "%M", "-o", report.name, *cmd], cwd=cwd,
+        done = subprocess.run([GNU_TIME, "-f", "%M", "-o", report.name, *cmd], cwd=cwd, env=env,
                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         wall = time.perf_counter() - start
         if done.returncode != 0:
@@ -107,9 +123,19 @@ def run_process(cmd: list[str], cwd: Path | None = None) -> tuple[float, float]:
         return wall, int(report.read().split()[-1]) / 1024.0  # KiB
 
 
-def best_process(cmd: list[str], repeat: int, cwd: Path | None = None) -> tuple[float, float]:
-    runs = [run_process(cmd, cwd) for _ in range(repeat)]
+def best_process(cmd: list[str], repeat: int, cwd: Path | None = None, env: dict | None = None) -> tuple[float, float]:
+    runs = [run_process(cmd, cwd, env) for _ in range(repeat)]
     return min(r[0] for r in runs), max(r[1] for r in runs)
+
+
+def cached_bytecode_env(cache: Path) -> dict:
+    """The environment for a ``phongscene`` child that caches compiled bytecode (in ``cache``, not
+    beside the sources), as a user's installation does: with PYTHONDONTWRITEBYTECODE set (some
+    harnesses set it) every run would compile the package's modules again (~0.07 s CPU of the
+    tiny render, measured)."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPYCACHEPREFIX"] = str(cache)
+    return env
 
 
 # -- Embree (embreex), a peer for triangle scenes ------------------------------------------------
@@ -227,7 +253,7 @@ def whole_process_table(args, names, threads: int) -> None:
             size = ["--width", str(TINY_SIZE[0]), "--height", str(TINY_SIZE[1])] if name == "tiny" else []
             cmd = [sys.executable, "-m", "phongscene", "render", str(path), "-o", str(work / "native.exr"),
                    "--threads", str(threads), "--mapping", args.mapping, *size]
-            t_native, rss_native = best_process(cmd, args.repeat)
+            t_native, rss_native = best_process(cmd, args.repeat, env=cached_bytecode_env(work / "pycache"))
             row = f"{name:<8}{t_native:>11.3f} s {rss_native:>4.0f} M"
             if not args.native_only:
                 scene = load_usd(path)
@@ -252,11 +278,15 @@ def main() -> None:
     parser.add_argument("--no-scaling", action="store_true", help="skip the S2 triangle-count table")
     parser.add_argument("--baseline-extension", type=Path, metavar="SO",
                         help="only compare the installed extension with this build (in a child process)")
+    parser.add_argument("--baseline-wrapper", type=Path, metavar="PY",
+                        help="the baseline's backends/native/__init__.py, when its extension's arguments differ "
+                        "from today's (git show COMMIT:backends/native/__init__.py > old_native.py)")
     parser.add_argument("--extension", type=Path, metavar="SO", help=argparse.SUPPRESS)  # the child's
+    parser.add_argument("--wrapper", type=Path, metavar="PY", help=argparse.SUPPRESS)  # the child's
     parser.add_argument("--save-image", type=Path, help=argparse.SUPPRESS)  # the child's: one scene, JSON
     args = parser.parse_args()
     if args.extension:
-        use_extension(args.extension)
+        use_extension(args.extension, args.wrapper)
 
     from make_scenes import FILES
 

@@ -191,7 +191,38 @@ def test_a_million_triangles_flatten_fast_and_build():
     start = time.perf_counter()
     arrays = native.scene_arrays(scene)
     assert time.perf_counter() - start < FLATTEN_1M_TRIANGLES_BUDGET_S
-    assert arrays["triangles"].shape == (scene.triangle_count, 3)
+    assert sum(len(t) for t in arrays["triangles"]) == scene.triangle_count
+    assert arrays["triangles"][0] is mesh.triangles and arrays["points"][0] is mesh.points  # no copies
     built = native._native.Scene(**arrays)
     t, prim = built.intersect(np.array([[0.37, 0.61, 1.0]]), np.array([[0.0, 0.0, -1.0]]))
     assert t[0] == pytest.approx(1.0) and prim[0] >= 0
+
+
+def test_triangles_are_numbered_across_the_meshes_in_order():
+    # Each mesh's arrays go to C++ as they are (one list entry per mesh); primitive ids count
+    # spheres, then every mesh's triangles in mesh order.
+    meshes = tuple(
+        TriangleMesh(points=jittered_grid(6, seed=k).points + (0.0, 0.0, float(k)), triangles=jittered_grid(6, seed=k).triangles)
+        for k in range(3)
+    )
+    spheres = (Sphere.at((3.0, 3.0, 10.0), 0.5),)
+    built = native.build(Scene(spheres=spheres, meshes=meshes))
+    rng = np.random.default_rng(3)
+    origins = np.column_stack([rng.uniform(0.5, 5.5, (500, 2)), np.full(500, 20.0)])
+    t, prim = built.intersect(origins, np.tile([0.0, 0.0, -1.0], (500, 1)))
+    count, t_brute = built.count_hits(origins, np.tile([0.0, 0.0, -1.0], (500, 1)))
+    assert np.array_equal(t, t_brute) and (count >= 3).all()
+    # From z = 20 the first hit is the sphere (top at z = 10.5) or the top grid (z = 2, t = 18).
+    on_sphere = t < 15.0
+    assert on_sphere.any() and (~on_sphere).any() and (prim[on_sphere] == 0).all()
+    assert np.allclose(t[~on_sphere], 18.0)
+    per_mesh = len(meshes[0].triangles)
+    assert ((prim[~on_sphere] >= 1 + 2 * per_mesh) & (prim[~on_sphere] < 1 + 3 * per_mesh)).all()
+
+
+def test_mesh_lists_of_different_lengths_are_an_error_not_a_crash():
+    arrays = native.scene_arrays(Scene(meshes=(jittered_grid(2),)))
+    with pytest.raises(ValueError, match="mesh lists differ in length"):
+        native._native.Scene(**dict(arrays, normals=[]))
+    with pytest.raises(ValueError, match="one row per triangle"):
+        native._native.Scene(**dict(arrays, normal_indices=[np.zeros((1, 3), np.int32)]))

@@ -3,10 +3,10 @@
 
 ``render(scene)`` turns a validated :class:`phongscene.Scene` into the extension's objects:
 materials, lights, camera and settings as the bound C++ structs (``_native.Material``,
-``_native.PointLight``, ...), and the geometry as a few numpy arrays (meshes concatenated with
-index offsets, per-primitive material ids, sphere matrices and their inverses) built with
-vectorised numpy only. C++ copies them and builds a SAH BVH with the GIL released, then renders
-on a thread pool. This module is the only code that knows both sides.
+``_native.PointLight``, ...), and the geometry as numpy arrays: the sphere matrices and their
+inverses, and each mesh's own arrays (the model's, handed over without a copy). C++ reads them in
+place into its leaf-order copies and builds a SAH BVH with the GIL released, then renders on a
+thread pool. This module is the only code that knows both sides.
 """
 
 from __future__ import annotations
@@ -166,10 +166,10 @@ def _settings(s: RenderSettings) -> _native.RenderSettings:
     return native
 
 
-def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:
-    """The arguments ``_native.Scene`` takes, by keyword: the geometry as numpy arrays, the
-    materials (indexed by ``sphere_material`` and ``triangle_material``), the lights and the
-    ambient colour."""
+def scene_arrays(scene: Scene) -> dict:
+    """The arguments ``_native.Scene`` takes, by keyword: the spheres as numpy arrays, each mesh's
+    own arrays (the model's, read in place by C++: lists with one entry per mesh), the materials
+    (indexed by ``sphere_material`` and ``mesh_material``), the lights and the ambient colour."""
     material_ids: dict[PhongMaterial, int] = {}
 
     def material_id(m: PhongMaterial) -> int:
@@ -180,55 +180,23 @@ def scene_arrays(scene: Scene) -> dict[str, np.ndarray]:
     object_from_world = np.linalg.inv(world_from_object) if len(spheres) else world_from_object.copy()
     sphere_material = np.array([material_id(s.material) for s in spheres], dtype=np.int32)
 
-    meshes = scene.meshes
-    point_offsets = np.cumsum([0] + [len(m.points) for m in meshes])
-    normal_offsets = np.cumsum([0] + [0 if m.normals is None else len(m.normals) for m in meshes])
-    points = np.concatenate([m.points for m in meshes]) if meshes else np.zeros((0, 3))
-    triangles = (
-        np.concatenate([m.triangles + np.int32(off) for m, off in zip(meshes, point_offsets)])
-        if meshes
-        else np.zeros((0, 3), np.int32)
-    )
-    triangle_material = (
-        np.concatenate([np.full(len(m.triangles), material_id(m.material), np.int32) for m in meshes])
-        if meshes
-        else np.zeros(0, np.int32)
-    )
-    # Each mesh is one POV-Ray object, whose shadow test the POV-Ray numerics reproduce.
-    triangle_mesh = (
-        np.concatenate([np.full(len(m.triangles), i, np.int32) for i, m in enumerate(meshes)])
-        if meshes
-        else np.zeros(0, np.int32)
-    )
-    with_normals = [m for m in meshes if m.normals is not None]
-    normals = np.concatenate([m.normals for m in with_normals]) if with_normals else np.zeros((0, 3))
-    normal_indices = (
-        np.concatenate(
-            [
-                np.full((len(m.triangles), 3), -1, np.int32)
-                if m.normals is None
-                else m.normal_indices + np.int32(off)
-                for m, off in zip(meshes, normal_offsets)
-            ]
-        )
-        if meshes
-        else np.zeros((0, 3), np.int32)
-    )
-
     def c(a, dtype):
         return np.ascontiguousarray(a, dtype=dtype)
 
+    meshes = scene.meshes
+    no_rows3 = np.zeros((0, 3), np.int32)
     return {
         "sphere_world_from_object": c(world_from_object, np.float64),
         "sphere_object_from_world": c(object_from_world, np.float64),
         "sphere_material": c(sphere_material, np.int32),
-        "points": c(points, np.float64),
-        "triangles": c(triangles, np.int32),
-        "triangle_material": c(triangle_material, np.int32),
-        "triangle_mesh": c(triangle_mesh, np.int32),
+        # The model's arrays are already C-contiguous float64 / int32 (scene._readonly): no copies.
+        "points": [c(m.points, np.float64) for m in meshes],
+        "triangles": [c(m.triangles, np.int32) for m in meshes],
+        "normals": [c(np.zeros((0, 3)) if m.normals is None else m.normals, np.float64) for m in meshes],
+        "normal_indices": [no_rows3 if m.normals is None else c(m.normal_indices, np.int32) for m in meshes],
+        "mesh_material": np.array([material_id(m.material) for m in meshes], dtype=np.int32),
+        # Each mesh is one POV-Ray object, whose shadow test the POV-Ray numerics reproduce.
         "mesh_origins": c(np.array([m.local_origin() for m in meshes]).reshape(-1, 3), np.float64),
-        "normals": c(normals, np.float64),
-        "normal_indices": c(normal_indices, np.int32),
         "materials": _materials(material_ids),
         "lights": [_light(light) for light in scene.lights],
         "ambient": scene.ambient.color,
@@ -295,18 +263,24 @@ def _as_povray_stores(arrays: dict, scene: Scene) -> dict:
     (normal index -1), and triangles tested as mesh2 tests them (``povray_triangles``: a plane
     with a float32 normal, not watertight; src/povray_triangle.hpp)."""
     out = dict(arrays, povray_triangles=True)
-    origins = np.concatenate([np.broadcast_to(m.local_origin(), m.points.shape) for m in scene.meshes]) if scene.meshes else 0.0
-    out["points"] = np.ascontiguousarray((arrays["points"] - origins).astype(np.float32).astype(np.float64) + origins)
-    normals = arrays["normals"].astype(np.float32).astype(np.float64)
-    if len(normals):
-        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-        ni = arrays["normal_indices"].copy()
-        smooth = ni[:, 0] >= 0
-        n3 = normals[np.where(smooth[:, None], ni, 0)]
-        same = (((n3[:, 0] - n3[:, 1]) ** 2).sum(axis=1) <= POVRAY_SMOOTH_NORMAL_DIFFERENCE) & (
-            ((n3[:, 0] - n3[:, 2]) ** 2).sum(axis=1) <= POVRAY_SMOOTH_NORMAL_DIFFERENCE
-        )
-        ni[smooth & same] = -1
-        out["normal_indices"] = ni
-    out["normals"] = np.ascontiguousarray(normals)
+    out["points"] = [
+        np.ascontiguousarray((m.points - m.local_origin()).astype(np.float32).astype(np.float64) + m.local_origin())
+        for m in scene.meshes
+    ]
+    out["normals"], out["normal_indices"] = [], []
+    for normals, ni in zip(arrays["normals"], arrays["normal_indices"]):
+        normals = normals.astype(np.float32).astype(np.float64)
+        if len(normals) and len(ni):
+            normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+            ni = ni.copy()
+            smooth = ni[:, 0] >= 0
+            n3 = normals[np.where(smooth[:, None], ni, 0)]
+            same = (((n3[:, 0] - n3[:, 1]) ** 2).sum(axis=1) <= POVRAY_SMOOTH_NORMAL_DIFFERENCE) & (
+                ((n3[:, 0] - n3[:, 2]) ** 2).sum(axis=1) <= POVRAY_SMOOTH_NORMAL_DIFFERENCE
+            )
+            ni[smooth & same] = -1
+        elif len(normals):
+            normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        out["normals"].append(np.ascontiguousarray(normals))
+        out["normal_indices"].append(ni)
     return out

@@ -219,7 +219,8 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
         return None
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     counts = np.asarray(counts, dtype=np.int64)
-    idx = np.asarray(indices, dtype=np.int64)
+    # USD's int[] is 32-bit: kept so (an int64 copy was 24 MB of a 1M-triangle mesh's peak).
+    idx = np.asarray(indices, dtype=np.int32)
     if not np.all(np.isfinite(p)):
         ctx.problem(prim, "points", f"{int(np.count_nonzero(~np.isfinite(p).all(axis=1)))} points are not finite")
     if (counts < 0).any():
@@ -253,7 +254,8 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
         # A triangle mesh (the common case): the fan below is the identity, built without its
         # ~150 MB of temporaries at 1M triangles; the same arrays.
         faces = face_of_tri = np.arange(len(counts))
-        fv = np.arange(len(idx)).reshape(-1, 3)
+        fv = np.arange(len(idx), dtype=np.int32 if len(idx) <= np.iinfo(np.int32).max else np.int64).reshape(-1, 3)
+        identity = True
     else:
         faces = np.flatnonzero(keep)
         per_face = counts[faces] - 2
@@ -262,11 +264,14 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
         k = np.arange(len(face_of_tri)) - np.repeat(first_tri, per_face) + 1
         s = starts[face_of_tri]
         fv = np.stack([s, s + k, s + k + 1], axis=1)  # face-vertex (corner) ids
+        identity = False
         _ear_clip_concave_faces(fv, p[idx], counts[faces], first_tri)
     left = ctx.get(prim, "orientation", ("token",), UsdGeom.Tokens.rightHanded) == UsdGeom.Tokens.leftHanded
     if left != _winding_flipped(world):
         fv = fv[:, [0, 2, 1]]
-    triangles = idx[fv]
+        identity = False
+    # The identity fan's triangles are the indices themselves (a view, not a 1M-row gather).
+    triangles = idx.reshape(-1, 3) if identity else idx[fv]
 
     scheme = ctx.get(prim, "subdivisionScheme", ("token",), UsdGeom.Tokens.catmullClark)
     if scheme != UsdGeom.Tokens.none:

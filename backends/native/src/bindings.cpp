@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -58,35 +59,48 @@ using Rows3 = In<double, nb::shape<-1, 3>>;
 using Index3 = In<int32_t, nb::shape<-1, 3>>;
 using Index1 = In<int32_t, nb::shape<-1>>;
 
+// The meshes' arrays are the model's own (one list entry per mesh), read in place: no
+// concatenated copy on either side.
 std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_object,
                                          const Matrices& sphere_object_from_world, const Index1& sphere_material,
-                                         const Rows3& points, const Index3& triangles, const Index1& triangle_material,
-                                         const Index1& triangle_mesh, const Rows3& mesh_origins, const Rows3& normals, const Index3& normal_indices,
+                                         const std::vector<Rows3>& points, const std::vector<Index3>& triangles,
+                                         const std::vector<Rows3>& normals, const std::vector<Index3>& normal_indices,
+                                         const Index1& mesh_material, const Rows3& mesh_origins,
                                          std::vector<phong::Material> materials, std::vector<phong::Light> lights,
                                          const phong::RGB& ambient, bool povray_triangles) {
-    const size_t n_spheres = sphere_world_from_object.shape(0), n_triangles = triangles.shape(0);
+    const size_t n_spheres = sphere_world_from_object.shape(0), n_meshes = points.size();
     if (sphere_object_from_world.shape(0) != n_spheres || sphere_material.shape(0) != n_spheres)
         throw std::invalid_argument("sphere arrays differ in length");
-    if (triangle_material.shape(0) != n_triangles || triangle_mesh.shape(0) != n_triangles ||
-        normal_indices.shape(0) != n_triangles)
-        throw std::invalid_argument("triangle arrays differ in length");
+    if (triangles.size() != n_meshes || normals.size() != n_meshes || normal_indices.size() != n_meshes ||
+        mesh_material.shape(0) != n_meshes || mesh_origins.shape(0) != n_meshes)
+        throw std::invalid_argument("mesh lists differ in length");
     phong::GeometryArrays a;
     a.sphere_world_from_object = sphere_world_from_object.data();
     a.sphere_object_from_world = sphere_object_from_world.data();
     a.sphere_material = sphere_material.data();
     a.sphere_count = n_spheres;
-    a.points = points.data();
-    a.point_count = points.shape(0);
-    a.triangles = triangles.data();
-    a.triangle_material = triangle_material.data();
-    a.triangle_mesh = triangle_mesh.data();
-    a.mesh_origins = mesh_origins.data();
-    a.mesh_count = mesh_origins.shape(0);
     a.povray_triangles = povray_triangles;
-    a.normal_indices = normal_indices.data();
-    a.triangle_count = n_triangles;
-    a.normals = normals.data();
-    a.normal_count = normals.shape(0);
+    size_t n_triangles = 0;
+    for (size_t m = 0; m < n_meshes; ++m) {
+        phong::MeshArrays mesh;
+        mesh.points = points[m].data();
+        mesh.point_count = points[m].shape(0);
+        mesh.triangles = triangles[m].data();
+        mesh.triangle_count = triangles[m].shape(0);
+        mesh.normals = normals[m].data();
+        mesh.normal_count = normals[m].shape(0);
+        if (normal_indices[m].shape(0) != 0) {
+            if (normal_indices[m].shape(0) != mesh.triangle_count)
+                throw std::invalid_argument("a mesh's normal_indices must have one row per triangle (or none: flat)");
+            mesh.normal_indices = normal_indices[m].data();
+        }
+        mesh.material = mesh_material(m);
+        mesh.origin = {mesh_origins(m, 0), mesh_origins(m, 1), mesh_origins(m, 2)};
+        n_triangles += mesh.triangle_count;
+        a.meshes.push_back(mesh);
+    }
+    // Triangles are numbered in int32 (leaf refs) and their ids in uint32 (primitive refs).
+    if (n_spheres + n_triangles > size_t(INT32_MAX)) throw std::invalid_argument("too many primitives");
     // The arrays stay alive (held by the caller's frame) while the GIL is released.
     nb::gil_scoped_release release;
     return std::make_unique<phong::Scene>(a, std::move(materials), std::move(lights), ambient);
@@ -355,22 +369,24 @@ NB_MODULE(_native, m) {
 
     nb::class_<phong::Scene>(m, "Scene", "Geometry from flat arrays, materials and lights, with the BVH.")
         .def("__init__",
-             [](phong::Scene* self, const Matrices& swo, const Matrices& sow, const Index1& smat, const Rows3& points,
-                const Index3& triangles, const Index1& tmat, const Index1& tmesh, const Rows3& origins,
-                const Rows3& normals, const Index3& nidx,
+             [](phong::Scene* self, const Matrices& swo, const Matrices& sow, const Index1& smat,
+                const std::vector<Rows3>& points, const std::vector<Index3>& triangles, const std::vector<Rows3>& normals,
+                const std::vector<Index3>& normal_indices, const Index1& mesh_material, const Rows3& mesh_origins,
                 std::vector<phong::Material> materials, std::vector<phong::Light> lights, const phong::RGB& ambient,
                 bool povray_triangles) {
                  std::unique_ptr<phong::Scene> built =
-                     make_scene(swo, sow, smat, points, triangles, tmat, tmesh, origins, normals, nidx,
+                     make_scene(swo, sow, smat, points, triangles, normals, normal_indices, mesh_material, mesh_origins,
                                 std::move(materials), std::move(lights), ambient, povray_triangles);
                  new (self) phong::Scene(std::move(*built));
              },
              "sphere_world_from_object"_a, "sphere_object_from_world"_a, "sphere_material"_a, "points"_a,
-             "triangles"_a, "triangle_material"_a, "triangle_mesh"_a, "mesh_origins"_a, "normals"_a,
-             "normal_indices"_a, "materials"_a, "lights"_a, "ambient"_a, "povray_triangles"_a = false,
-             "Materials are indexed by sphere_material and triangle_material; lights are summed in list order. "
-             "triangle_mesh and mesh_origins say which mesh (POV-Ray object) a triangle belongs to and its "
-             "frame; with povray_triangles, triangles are tested as POV-Ray's mesh2 tests them.")
+             "triangles"_a, "normals"_a, "normal_indices"_a, "mesh_material"_a, "mesh_origins"_a, "materials"_a,
+             "lights"_a, "ambient"_a, "povray_triangles"_a = false,
+             "points, triangles, normals and normal_indices are lists with one array per mesh (normal_indices "
+             "(T, 3) or empty: flat; -1 rows: flat), read in place; triangles are numbered across the meshes in "
+             "order. Materials are indexed by sphere_material and mesh_material; lights are summed in list order. "
+             "Each mesh is one POV-Ray object with its frame's origin in mesh_origins; with povray_triangles, "
+             "triangles are tested as POV-Ray's mesh2 tests them.")
         .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
              "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and specular_texture, and the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order.")

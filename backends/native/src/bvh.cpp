@@ -5,8 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <future>
-#include <numeric>
 #include <thread>
 #include <utility>
 
@@ -39,54 +39,140 @@ double Bounds::half_area() const {
 
 namespace {
 
+// Four floats in one SSE register (a GCC/Clang vector extension, so no intrinsics and no
+// x86-only code): a box's lo or hi in lanes 0-2; lane 3 is ignored.
+typedef float Float4 __attribute__((vector_size(16)));
+typedef int32_t Int4 __attribute__((vector_size(16)));
+
+inline Float4 min4(Float4 a, Float4 b) { return b < a ? b : a; }
+inline Float4 max4(Float4 a, Float4 b) { return b > a ? b : a; }
+inline Float4 load_lo(const PrimRef& p) {
+    Float4 v;
+    std::memcpy(&v, &p.lo, sizeof v);  // lo[3] and id: lane 3 (the id's bits) is never used
+    return v;
+}
+inline Float4 load_hi(const PrimRef& p) {
+    Float4 v;
+    std::memcpy(&v, &p.hi, sizeof v);
+    return v;
+}
+
+constexpr float kHugeF = HUGE_VALF;
+
+struct Box4 {
+    Float4 lo{kHugeF, kHugeF, kHugeF, kHugeF};
+    Float4 hi{-kHugeF, -kHugeF, -kHugeF, -kHugeF};
+
+    void grow(Float4 l, Float4 h) {
+        lo = min4(lo, l);
+        hi = max4(hi, h);
+    }
+    void grow(const Box4& b) { grow(b.lo, b.hi); }
+    bool empty() const { return lo[0] > hi[0]; }
+    // Half the surface area (the SAH only needs ratios).
+    float half_area() const {
+        if (empty()) return 0.0f;
+        const Float4 e = hi - lo;
+        return e[0] * e[1] + e[1] * e[2] + e[2] * e[0];
+    }
+};
+
 // SAH constants: a node visit costs about as much as one primitive test (both are a few
 // dozen flops on data that is already in cache); leaves stop at kMaxLeafSize primitives.
 constexpr int kBins = 16;
-
-// The bin of a centroid coordinate c along an axis whose centroids start at lo, with
-// scale = kBins / extent. Validated scenes have finite, representable bounds; this stays in
-// range whatever slips through (an infinite extent gives scale 0 and inf·0 = NaN; a NaN or a
-// negative offset goes to bin 0, anything past the end to the last bin), never out of bounds.
-inline int bin_of(double c, double lo, double scale) {
-    const double f = (c - lo) * scale;
-    if (!(f > 0.0)) return 0;
-    return f >= double(kBins - 1) ? kBins - 1 : int(f);
-}
 constexpr int kMaxLeafSize = 4;
-constexpr double kTraversalCost = 1.0;
-constexpr double kIntersectionCost = 1.0;
+constexpr float kTraversalCost = 1.0f;
+constexpr float kIntersectionCost = 1.0f;
 // Below this depth the SAH decides; deeper, nodes split at the median on the widest centroid
 // axis, so adversarial inputs (e.g. exponentially spaced primitives) keep the tree depth below
-// kMaxSahDepth + log2(N) < kMaxTraversalDepth (bvh.hpp).
+// kMaxSahDepth + log2(N / kExactSahMaxPrimitives) + kExactSahMaxPrimitives - 1
+// <= 44 + log2(N) < kMaxTraversalDepth (bvh.hpp).
 constexpr int kMaxSahDepth = 40;
+// Nodes of at most this many primitives evaluate every split instead of binning (each such
+// split removes at least one primitive: at most kExactSahMaxPrimitives - 1 more levels).
+constexpr uint32_t kExactSahMaxPrimitives = 8;
 
 // Subtrees of at least this many primitives build on their own thread (the two children of a
-// node are independent: disjoint ranges of `order`, separate node arrays spliced afterwards, so
-// the tree is the same as a sequential build's). Below it a subtree takes < ~10 ms, next to
-// ~0.1 ms to start a thread.
+// node are independent: disjoint ranges of the primitives, separate node arrays spliced
+// afterwards, so the tree is the same as a sequential build's). Below it a subtree takes
+// < ~10 ms, next to ~0.1 ms to start a thread.
 constexpr uint32_t kParallelBuildMinPrimitives = 1u << 15;
-// Nodes of at least this many primitives bin all three axes in one pass (see build()); 256
-// primitives' data (~20 kB) is where it stops being in L1 cache.
-constexpr uint32_t kOnePassBinningMinPrimitives = 256;
+// A node this large, while no other thread builds (the root, before its children split across
+// threads), bins its primitives in one chunk per hardware thread (merged bins are the same as
+// one pass's: counts add, boxes unite).
+constexpr uint32_t kParallelBinningMinPrimitives = 1u << 16;
 
-struct Bin {
-    Bounds bounds, centres;
-    uint32_t count = 0;
+// Twice a primitive's centroid (lo + hi): the build only compares and bins centroids, so the
+// halving would change nothing but cost a multiply.
+inline Float4 centroid2(const PrimRef& p) { return load_lo(p) + load_hi(p); }
+
+// Bins along the three axes of a node whose doubled centroids span [lo, lo + kBins / scale).
+// bin() is the one classification both binning and partitioning use (so a split's sides hold
+// exactly its bins' primitives). An unbinned axis (zero extent) has scale 0: every centroid
+// falls in bin 0. A NaN (only from an input that escaped validation) goes to bin 0 too, and
+// anything past the end to the last bin: never out of range.
+struct BinGrid {
+    Float4 lo, scale;
+
+    Int4 bin(Float4 c) const {
+        Float4 f = (c - lo) * scale;
+        f = f > 0.0f ? f : Float4{0.0f, 0.0f, 0.0f, 0.0f};  // NaN compares false: 0
+        const Float4 last = {float(kBins - 1), float(kBins - 1), float(kBins - 1), float(kBins - 1)};
+        f = f < last ? f : last;
+        return __builtin_convertvector(f, Int4);
+    }
+};
+
+// A box as plain data (Box4 without its initialisers), so that Bins is trivially constructible.
+struct RawBox {
+    Float4 lo, hi;
+};
+
+struct Bins {
+    RawBox box[3][kBins];
+    uint32_t count[3][kBins];
+
+    // Empty bins (boxes empty, counts 0), copied in one memcpy: initialising 48 boxes member by
+    // member was the build's largest per-node cost (~280 instructions a node).
+    static const Bins& empty() {
+        static const Bins bins = [] {
+            Bins b;
+            const Box4 none;
+            for (int axis = 0; axis < 3; ++axis)
+                for (int k = 0; k < kBins; ++k) {
+                    b.box[axis][k] = {none.lo, none.hi};
+                    b.count[axis][k] = 0;
+                }
+            return b;
+        }();
+        return bins;
+    }
+    static void grow(RawBox& r, Float4 l, Float4 h) {
+        r.lo = min4(r.lo, l);
+        r.hi = max4(r.hi, h);
+    }
+
+    void add(const PrimRef* prims, uint32_t begin, uint32_t end, const BinGrid& grid) {
+        for (uint32_t i = begin; i < end; ++i) {
+            const Float4 l = load_lo(prims[i]), h = load_hi(prims[i]);
+            const Int4 b = grid.bin(l + h);
+            for (int axis = 0; axis < 3; ++axis) {
+                count[axis][b[axis]]++;
+                grow(box[axis][b[axis]], l, h);
+            }
+        }
+    }
+    void add(const Bins& other) {
+        for (int axis = 0; axis < 3; ++axis)
+            for (int b = 0; b < kBins; ++b) {
+                count[axis][b] += other.count[axis][b];
+                grow(box[axis][b], other.box[axis][b].lo, other.box[axis][b].hi);
+            }
+    }
 };
 
 struct Builder {
-    const std::vector<Bounds>& prim_bounds;
-    std::vector<Vec3> centroids;
-    std::vector<uint32_t>& order;
-    int parallel_splits = 0;  // how many more times a subtree may split across threads
-
-    static void set_bounds(BvhNode& node, const Bounds& b) {
-        const double lo[3] = {b.lo.x, b.lo.y, b.lo.z}, hi[3] = {b.hi.x, b.hi.y, b.hi.z};
-        for (int k = 0; k < 3; ++k) {
-            node.lo[k] = round_down(lo[k]);
-            node.hi[k] = round_up(hi[k]);
-        }
-    }
+    std::vector<PrimRef>& prims;
 
     static void make_leaf(BvhNode& node, uint32_t begin, uint32_t end) {
         node.offset = int32_t(begin);
@@ -94,124 +180,134 @@ struct Builder {
         node.axis = 0;
     }
 
-    void measure(uint32_t begin, uint32_t end, Bounds& bounds, Bounds& centre_bounds) const {
+    // Bounds and doubled-centroid bounds of prims[begin, end).
+    void measure(uint32_t begin, uint32_t end, Box4& bounds, Box4& centres) const {
         for (uint32_t i = begin; i < end; ++i) {
-            bounds.grow(prim_bounds[order[i]]);
-            centre_bounds.grow(centroids[order[i]]);
+            const Float4 l = load_lo(prims[i]), h = load_hi(prims[i]);
+            bounds.grow(l, h);
+            centres.grow(l + h, l + h);
         }
     }
 
-    // Builds the subtree of order[begin, end) into nodes[index] (already allocated), appending
-    // its descendants depth-first. `bounds` and `centre_bounds` are those of the primitives.
-    void build(std::vector<BvhNode>& nodes, int32_t index, uint32_t begin, uint32_t end, int depth,
-               const Bounds& bounds, const Bounds& centre_bounds, int parallel_splits) {
-        set_bounds(nodes[index], bounds);
+    void bin(Bins& bins, uint32_t begin, uint32_t end, const BinGrid& grid, bool parallel) const {
         const uint32_t n = end - begin;
-        if (n <= 1) { make_leaf(nodes[index], begin, end); return; }
-
-        // Bins of the three axes: large nodes in one pass over the primitives (their data comes
-        // from memory; the bins also collect centroid bounds, so the children need no pass of
-        // their own); small ones (in cache) one axis at a time (fewer bins to initialise).
-        Bin bins[3][kBins];
-        const Vec3 extent = centre_bounds.hi - centre_bounds.lo;
-        const double lo[3] = {centre_bounds.lo.x, centre_bounds.lo.y, centre_bounds.lo.z};
-        const bool binned[3] = {extent.x > 0.0, extent.y > 0.0, extent.z > 0.0};
-        const double scale[3] = {kBins / extent.x, kBins / extent.y, kBins / extent.z};
-        const bool one_pass = n >= kOnePassBinningMinPrimitives;
-        if (one_pass) {
-            for (uint32_t i = begin; i < end; ++i) {
-                const uint32_t prim = order[i];
-                const Vec3& c = centroids[prim];
-                const double cs[3] = {c.x, c.y, c.z};
-                for (int axis = 0; axis < 3; ++axis) {
-                    if (!binned[axis]) continue;
-                    Bin& bin = bins[axis][bin_of(cs[axis], lo[axis], scale[axis])];
-                    bin.count++;
-                    bin.bounds.grow(prim_bounds[prim]);
-                    bin.centres.grow(c);
-                }
-            }
+        // hardware_concurrency() reads sysfs: asked only of the few nodes large enough.
+        const unsigned threads = parallel && n >= kParallelBinningMinPrimitives ? std::thread::hardware_concurrency() : 1;
+        if (threads < 2) {
+            bins.add(prims.data(), begin, end, grid);
+            return;
         }
+        std::vector<Bins> partial(threads - 1, Bins::empty());
+        std::vector<std::future<void>> running;
+        for (unsigned c = 1; c < threads; ++c)
+            running.push_back(std::async(std::launch::async, [&, c] {
+                partial[c - 1].add(prims.data(), begin + uint32_t(uint64_t(n) * c / threads),
+                                   begin + uint32_t(uint64_t(n) * (c + 1) / threads), grid);
+            }));
+        bins.add(prims.data(), begin, begin + n / threads, grid);
+        for (unsigned c = 1; c < threads; ++c) {
+            running[c - 1].get();
+            bins.add(partial[c - 1]);
+        }
+    }
+
+    // Builds the subtree of prims[begin, end) into nodes[index] (already allocated), appending
+    // its descendants depth-first. `bounds` and `centres` are those of the primitives (centres:
+    // doubled centroids). `alone`: no other thread is building now.
+    void build(std::vector<BvhNode>& nodes, int32_t index, uint32_t begin, uint32_t end, int depth,
+               const Box4& bounds, const Box4& centres, int parallel_splits, bool alone) {
+        BvhNode& node = nodes[size_t(index)];
+        for (int k = 0; k < 3; ++k) {
+            node.lo[k] = bounds.lo[k];
+            node.hi[k] = bounds.hi[k];
+        }
+        const uint32_t n = end - begin;
+        if (n <= 1) { make_leaf(node, begin, end); return; }
+
+        if (n <= kExactSahMaxPrimitives) {
+            build_small(nodes, index, begin, end, depth, bounds, parallel_splits, alone);
+            return;
+        }
+        const Float4 extent = centres.hi - centres.lo;
+        const bool binned[3] = {extent[0] > 0.0f, extent[1] > 0.0f, extent[2] > 0.0f};
+        BinGrid grid{centres.lo, {}};
+        for (int k = 0; k < 3; ++k) grid.scale[k] = binned[k] ? float(kBins) / extent[k] : 0.0f;
+        grid.scale[3] = 0.0f;
 
         // Best binned split over the three axes.
-        double best_cost = HUGE_VAL;
+        float best_cost = kHugeF;
         int best_axis = -1, best_split = 0;
-        for (int axis = 0; axis < 3; ++axis) {
-            if (!binned[axis]) continue;
-            Bin* bin = bins[axis];
-            if (!one_pass) {
-                for (uint32_t i = begin; i < end; ++i) {
-                    Bin& b = bin[bin_of(centroids[order[i]][axis], lo[axis], scale[axis])];
-                    b.count++;
-                    b.bounds.grow(prim_bounds[order[i]]);
+        Bins bins;  // uninitialised: set from Bins::empty() only where binned
+        const bool any_binned = binned[0] || binned[1] || binned[2];
+        if (any_binned && depth < kMaxSahDepth) {
+            std::memcpy(static_cast<void*>(&bins), &Bins::empty(), sizeof bins);
+            bin(bins, begin, end, grid, alone);
+            for (int axis = 0; axis < 3; ++axis) {
+                if (!binned[axis]) continue;
+                const uint32_t* count = bins.count[axis];
+                const RawBox* box = bins.box[axis];
+                // Sweep over the non-empty bins only: a small node (most nodes) fills few of
+                // the kBins, and an empty bin changes neither a side's union nor its count, so
+                // every split between two consecutive non-empty bins j and j' costs the same;
+                // the strict `<` keeps the first of them, split = j + 1.
+                int filled[kBins];
+                int k = 0;
+                for (int b = 0; b < kBins; ++b) {  // branch-free: whether a bin is filled is random
+                    filled[k] = b;
+                    k += count[b] > 0;
                 }
-            }
-            // Sweep over the non-empty bins only: a small node (most nodes) fills few of the
-            // kBins, and the sweep's unions and areas were the build's largest per-node cost.
-            // The result is the same as a sweep over every bin: an empty bin changes neither a
-            // side's union (Bounds::grow by an empty box is exact identity) nor its count, so
-            // every split between two consecutive non-empty bins j and j' costs the same, and
-            // the full sweep's strict `<` kept the first of them, split = j + 1, as here.
-            int filled[kBins];
-            int k = 0;
-            for (int b = 0; b < kBins; ++b)
-                if (bin[b].count > 0) filled[k++] = b;
-            // Right-side areas and counts (position j: the filled bins from j on), then left side.
-            double right_area[kBins];
-            uint32_t right_count[kBins];
-            Bounds acc;
-            uint32_t count = 0;
-            for (int j = k - 1; j > 0; --j) {
-                acc.grow(bin[filled[j]].bounds);
-                count += bin[filled[j]].count;
-                right_area[j] = acc.half_area();
-                right_count[j] = count;
-            }
-            acc = Bounds();
-            count = 0;
-            for (int j = 0; j < k - 1; ++j) {
-                acc.grow(bin[filled[j]].bounds);
-                count += bin[filled[j]].count;
-                const double cost = count * acc.half_area() + right_count[j + 1] * right_area[j + 1];
-                if (cost < best_cost) { best_cost = cost; best_axis = axis; best_split = filled[j] + 1; }
+                // Right-side areas and counts (position j: the filled bins from j on), then left side.
+                float right_area[kBins];
+                uint32_t right_count[kBins];
+                Box4 acc;
+                uint32_t sum = 0;
+                for (int j = k - 1; j > 0; --j) {
+                    acc.grow(box[filled[j]].lo, box[filled[j]].hi);
+                    sum += count[filled[j]];
+                    right_area[j] = acc.half_area();
+                    right_count[j] = sum;
+                }
+                acc = Box4();
+                sum = 0;
+                for (int j = 0; j < k - 1; ++j) {
+                    acc.grow(box[filled[j]].lo, box[filled[j]].hi);
+                    sum += count[filled[j]];
+                    const float cost = float(sum) * acc.half_area() + float(right_count[j + 1]) * right_area[j + 1];
+                    if (cost < best_cost) { best_cost = cost; best_axis = axis; best_split = filled[j] + 1; }
+                }
             }
         }
 
-        const double area = bounds.half_area();
-        const double leaf_cost = kIntersectionCost * n;
-        const double split_cost = area > 0.0 ? kTraversalCost + kIntersectionCost * best_cost / area : HUGE_VAL;
         uint32_t mid;
-        // The children's bounds: from the bins after a binned split, else measured.
-        Bounds left_bounds, left_centres, right_bounds, right_centres;
+        Box4 left_bounds, left_centres, right_bounds, right_centres;
         bool measured = false;
-        if (best_axis < 0) {
+        if (!any_binned) {
             // All centroids coincide: split by count when too many for one leaf.
-            if (n <= kMaxLeafSize) { make_leaf(nodes[index], begin, end); return; }
+            if (n <= kMaxLeafSize) { make_leaf(node, begin, end); return; }
             mid = begin + n / 2;
             best_axis = 0;
-        } else if (depth >= kMaxSahDepth) {
-            if (n <= kMaxLeafSize) { make_leaf(nodes[index], begin, end); return; }
-            const int axis = extent.x >= extent.y ? (extent.x >= extent.z ? 0 : 2) : (extent.y >= extent.z ? 1 : 2);
+        } else if (depth >= kMaxSahDepth || best_axis < 0) {
+            // (best_axis < 0: every split's cost overflowed float, on boxes beyond ~1e19.)
+            if (n <= kMaxLeafSize) { make_leaf(node, begin, end); return; }
+            const int axis = extent[0] >= extent[1] ? (extent[0] >= extent[2] ? 0 : 2) : (extent[1] >= extent[2] ? 1 : 2);
             mid = begin + n / 2;
-            std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
-                             [&](uint32_t p, uint32_t q) { return centroids[p][axis] < centroids[q][axis]; });
+            std::nth_element(prims.begin() + begin, prims.begin() + mid, prims.begin() + end,
+                             [axis](const PrimRef& p, const PrimRef& q) {
+                                 return p.lo[axis] + p.hi[axis] < q.lo[axis] + q.hi[axis];
+                             });
             best_axis = axis;
         } else {
-            if (n <= kMaxLeafSize && leaf_cost <= split_cost) { make_leaf(nodes[index], begin, end); return; }
-            const int axis = best_axis, split = best_split;
-            const double axis_lo = lo[axis], axis_scale = scale[axis];
-            auto it = std::partition(order.begin() + begin, order.begin() + end, [&](uint32_t p) {
-                return bin_of(centroids[p][axis], axis_lo, axis_scale) < split;
-            });
-            mid = uint32_t(it - order.begin());
+            const float area = bounds.half_area();
+            const float leaf_cost = kIntersectionCost * float(n);
+            const float split_cost = area > 0.0f ? kTraversalCost + kIntersectionCost * best_cost / area : kHugeF;
+            if (n <= kMaxLeafSize && leaf_cost <= split_cost) { make_leaf(node, begin, end); return; }
+            mid = partition(begin, end, grid, best_axis, best_split, left_centres, right_centres);
             if (mid == begin || mid == end) {
-                mid = begin + n / 2;  // cannot happen; stay safe
-            } else if (one_pass) {
-                for (int b = 0; b < kBins; ++b) {
-                    const Bin& bin = bins[axis][b];
-                    (b < split ? left_bounds : right_bounds).grow(bin.bounds);
-                    (b < split ? left_centres : right_centres).grow(bin.centres);
-                }
+                mid = begin + n / 2;  // cannot happen (both sides' bins are non-empty); stay safe
+                left_centres = right_centres = Box4();
+            } else {
+                for (int b = 0; b < kBins; ++b)
+                    (b < best_split ? left_bounds : right_bounds).grow(bins.box[best_axis][b].lo, bins.box[best_axis][b].hi);
                 measured = true;
             }
         }
@@ -219,8 +315,8 @@ struct Builder {
             measure(begin, mid, left_bounds, left_centres);
             measure(mid, end, right_bounds, right_centres);
         }
-        nodes[index].count = 0;
-        nodes[index].axis = int16_t(best_axis);
+        nodes[size_t(index)].count = 0;
+        nodes[size_t(index)].axis = int16_t(best_axis);
         const int32_t left = int32_t(nodes.size());
         nodes.emplace_back();
         if (parallel_splits > 0 && std::min(mid - begin, end - mid) >= kParallelBuildMinPrimitives) {
@@ -228,45 +324,129 @@ struct Builder {
             std::vector<BvhNode> right_nodes(1);
             right_nodes.reserve(2 * size_t(end - mid));
             auto right_built = std::async(std::launch::async, [&] {
-                build(right_nodes, 0, mid, end, depth + 1, right_bounds, right_centres, parallel_splits - 1);
+                build(right_nodes, 0, mid, end, depth + 1, right_bounds, right_centres, parallel_splits - 1, false);
             });
-            build(nodes, left, begin, mid, depth + 1, left_bounds, left_centres, parallel_splits - 1);
+            build(nodes, left, begin, mid, depth + 1, left_bounds, left_centres, parallel_splits - 1, false);
             right_built.get();
             const int32_t right = int32_t(nodes.size());
-            for (BvhNode& node : right_nodes)
-                if (node.count == 0) node.offset += right;  // interior: the second child's index
+            for (BvhNode& child : right_nodes)
+                if (child.count == 0) child.offset += right;  // interior: the second child's index
             nodes.insert(nodes.end(), right_nodes.begin(), right_nodes.end());
-            nodes[index].offset = right;
+            nodes[size_t(index)].offset = right;
         } else {
-            build(nodes, left, begin, mid, depth + 1, left_bounds, left_centres, parallel_splits);
+            build(nodes, left, begin, mid, depth + 1, left_bounds, left_centres, parallel_splits, alone);
             const int32_t right = int32_t(nodes.size());
             nodes.emplace_back();
-            build(nodes, right, mid, end, depth + 1, right_bounds, right_centres, parallel_splits);
-            nodes[index].offset = right;
+            build(nodes, right, mid, end, depth + 1, right_bounds, right_centres, parallel_splits, alone);
+            nodes[size_t(index)].offset = right;
+        }
+    }
+
+    // A node of at most kExactSahMaxPrimitives: the exact SAH over every split of the primitives
+    // sorted by centroid, on each axis (cheaper than 48 bins at this size, and no worse a tree).
+    void build_small(std::vector<BvhNode>& nodes, int32_t index, uint32_t begin, uint32_t end, int depth,
+                     const Box4& bounds, int parallel_splits, bool alone) {
+        const uint32_t n = end - begin;
+        PrimRef* p = prims.data() + begin;
+        float best_cost = kHugeF;
+        int best_axis = -1;
+        uint32_t best_count = 0;
+        float right_area[kExactSahMaxPrimitives];
+        for (int axis = 0; axis < 3; ++axis) {
+            sort_by_centroid(p, n, axis);
+            Box4 acc;
+            for (uint32_t j = n - 1; j > 0; --j) {
+                acc.grow(load_lo(p[j]), load_hi(p[j]));
+                right_area[j] = acc.half_area();
+            }
+            acc = Box4();
+            for (uint32_t j = 0; j + 1 < n; ++j) {
+                acc.grow(load_lo(p[j]), load_hi(p[j]));
+                const float cost = float(j + 1) * acc.half_area() + float(n - j - 1) * right_area[j + 1];
+                if (cost < best_cost) { best_cost = cost; best_axis = axis; best_count = j + 1; }
+            }
+        }
+        const float area = bounds.half_area();
+        const float split_cost = area > 0.0f ? kTraversalCost + kIntersectionCost * best_cost / area : kHugeF;
+        if (n <= kMaxLeafSize && (best_axis < 0 || kIntersectionCost * float(n) <= split_cost)) {
+            make_leaf(nodes[size_t(index)], begin, end);
+            return;
+        }
+        if (best_axis < 0) best_axis = 0, best_count = n / 2;  // costs overflowed float: by count
+        if (best_axis != 2) sort_by_centroid(p, n, best_axis);  // (the last sort was along axis 2)
+        const uint32_t mid = begin + best_count;
+        Box4 left_bounds, left_centres, right_bounds, right_centres;
+        measure(begin, mid, left_bounds, left_centres);
+        measure(mid, end, right_bounds, right_centres);
+        BvhNode& node = nodes[size_t(index)];
+        node.count = 0;
+        node.axis = int16_t(best_axis);
+        const int32_t left = int32_t(nodes.size());
+        nodes.emplace_back();
+        build(nodes, left, begin, mid, depth + 1, left_bounds, left_centres, parallel_splits, alone);
+        const int32_t right = int32_t(nodes.size());
+        nodes.emplace_back();
+        build(nodes, right, mid, end, depth + 1, right_bounds, right_centres, parallel_splits, alone);
+        nodes[size_t(index)].offset = right;
+    }
+
+    // Insertion sort (n is small) by doubled centroid along `axis`; stable, so ties keep their order.
+    static void sort_by_centroid(PrimRef* p, uint32_t n, int axis) {
+        for (uint32_t i = 1; i < n; ++i) {
+            const PrimRef x = p[i];
+            const float key = x.lo[axis] + x.hi[axis];
+            uint32_t j = i;
+            for (; j > 0 && p[j - 1].lo[axis] + p[j - 1].hi[axis] > key; --j) p[j] = p[j - 1];
+            p[j] = x;
+        }
+    }
+
+    // Moves the primitives whose bin along `axis` is below `split` to the front and returns
+    // where the others start; collects both sides' centroid bounds on the way (the pass the
+    // children would otherwise spend measuring them).
+    uint32_t partition(uint32_t begin, uint32_t end, const BinGrid& grid, int axis, int split, Box4& left_centres,
+                       Box4& right_centres) {
+        auto goes_left = [&](const PrimRef& p, Float4& c) {
+            c = centroid2(p);
+            return grid.bin(c)[axis] < split;
+        };
+        uint32_t i = begin, j = end;
+        Float4 c;
+        while (true) {
+            while (i < j && goes_left(prims[i], c)) { left_centres.grow(c, c); ++i; }
+            while (i < j && !goes_left(prims[j - 1], c)) { right_centres.grow(c, c); --j; }
+            if (i >= j) return i;
+            // prims[i] goes right and prims[j - 1] left: swap them into place.
+            std::swap(prims[i], prims[j - 1]);
+            const Float4 cl = centroid2(prims[i]), cr = centroid2(prims[j - 1]);
+            left_centres.grow(cl, cl);
+            right_centres.grow(cr, cr);
+            ++i;
+            --j;
         }
     }
 };
 
 }  // namespace
 
-void Bvh::build(const std::vector<Bounds>& prim_bounds) {
+void Bvh::build(std::vector<PrimRef> prims) {
     nodes.clear();
-    order.resize(prim_bounds.size());
-    std::iota(order.begin(), order.end(), 0u);
-    if (prim_bounds.empty()) return;
-    nodes.reserve(2 * prim_bounds.size());
-    Builder builder{prim_bounds, {}, order};
-    builder.centroids.resize(prim_bounds.size());
-    for (size_t i = 0; i < prim_bounds.size(); ++i)
-        builder.centroids[i] = (prim_bounds[i].lo + prim_bounds[i].hi) * 0.5;
+    order.clear();
+    if (prims.empty()) return;
+    const uint32_t n = uint32_t(prims.size());
+    // At most 2n - 1 nodes; capacity that is never written is never resident, so no
+    // shrink_to_fit (its copy would double the nodes' peak memory).
+    nodes.reserve(2 * size_t(n));
+    Builder builder{prims};
     // Up to two subtrees per hardware thread (the halves of a split are rarely equal).
     int parallel_splits = 1;
     for (unsigned threads = std::thread::hardware_concurrency(); threads > 1; threads /= 2) parallel_splits++;
-    Bounds bounds, centre_bounds;
-    builder.measure(0, uint32_t(prim_bounds.size()), bounds, centre_bounds);
+    Box4 bounds, centres;
+    builder.measure(0, n, bounds, centres);
     nodes.emplace_back();
-    builder.build(nodes, 0, 0, uint32_t(prim_bounds.size()), 0, bounds, centre_bounds, parallel_splits);
-    nodes.shrink_to_fit();
+    builder.build(nodes, 0, 0, n, 0, bounds, centres, parallel_splits, true);
+    order.resize(n);
+    for (uint32_t k = 0; k < n; ++k) order[k] = prims[k].id;
 }
 
 }  // namespace phong

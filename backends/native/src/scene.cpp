@@ -6,6 +6,7 @@
 #include <cmath>
 #include <exception>
 #include <future>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -71,10 +72,27 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
              const RGB& ambient_light)
     : materials(std::move(scene_materials)), lights(std::move(scene_lights)), ambient(ambient_light) {
     for (const Light& light : lights) check_area_light_samples(light);
-    for (size_t i = 0; i < in.normal_count; ++i) normals.push_back(row3(in.normals + 3 * i));
+    // Triangles and normals are numbered across the meshes in order: mesh m's start at
+    // first_triangle[m] and first_normal[m].
+    const size_t n_meshes = in.meshes.size();
+    std::vector<size_t> first_triangle(n_meshes + 1, 0), first_normal(n_meshes + 1, 0);
+    for (size_t m = 0; m < n_meshes; ++m) {
+        const MeshArrays& mesh = in.meshes[m];
+        check_index(mesh.material, materials.size(), "mesh material");
+        first_triangle[m + 1] = first_triangle[m] + mesh.triangle_count;
+        first_normal[m + 1] = first_normal[m] + mesh.normal_count;
+    }
+    normals.reserve(first_normal[n_meshes]);
+    for (const MeshArrays& mesh : in.meshes)
+        for (size_t i = 0; i < mesh.normal_count; ++i) normals.push_back(row3(mesh.normals + 3 * i));
+    // The mesh of triangle i (global number): looked up once per chunk (then stepped) in the
+    // pass below, per triangle in the leaf-order pass.
+    auto mesh_of = [&](size_t i) {
+        return size_t(std::upper_bound(first_triangle.begin() + 1, first_triangle.end(), i) - first_triangle.begin() - 1);
+    };
 
-    const size_t n_spheres = in.sphere_count, n_triangles = in.triangle_count;
-    std::vector<Bounds> prim_bounds(n_spheres + n_triangles);
+    const size_t n_spheres = in.sphere_count, n_triangles = first_triangle[n_meshes];
+    std::vector<PrimRef> prims(n_spheres + n_triangles);
     spheres.resize(n_spheres);
     for (size_t i = 0; i < n_spheres; ++i) {
         const double* w = in.sphere_world_from_object + 16 * i;
@@ -88,36 +106,42 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         const Vec3 r{length(row3(w)), length(row3(w + 4)), length(row3(w + 8))};
         s.bounds_lo = c - r;
         s.bounds_hi = c + r;
-        prim_bounds[i].lo = s.bounds_lo;
-        prim_bounds[i].hi = s.bounds_hi;
+        Bounds b;
+        b.lo = s.bounds_lo;
+        b.hi = s.bounds_hi;
+        bounds.grow(b);
+        prims[i] = PrimRef(b, uint32_t(i));
     }
+    std::mutex bounds_mutex;  // each chunk's union of double bounds joins `bounds` (min/max: any order)
     for_chunks(n_triangles, [&](size_t begin, size_t end) {
+        Bounds chunk_bounds;
+        size_t m = begin < end ? mesh_of(begin) : 0;
         for (size_t i = begin; i < end; ++i) {
-            const int32_t* t = in.triangles + 3 * i;
-            Bounds& b = prim_bounds[n_spheres + i];
+            while (i >= first_triangle[m + 1]) ++m;
+            const MeshArrays& mesh = in.meshes[m];
+            const size_t local = i - first_triangle[m];
+            const int32_t* t = mesh.triangles + 3 * local;
+            Bounds b;
             for (int k = 0; k < 3; ++k) {
-                check_index(t[k], in.point_count, "triangle vertex");
-                b.grow(row3(in.points + 3 * size_t(t[k])));
+                check_index(t[k], mesh.point_count, "triangle vertex");
+                b.grow(row3(mesh.points + 3 * size_t(t[k])));
             }
-            check_index(in.triangle_material[i], materials.size(), "triangle material");
-            if (in.povray_triangles) check_index(in.triangle_mesh[i], in.mesh_count, "triangle mesh");
-            if (in.normal_indices) {
-                const int32_t* n = in.normal_indices + 3 * i;
+            chunk_bounds.grow(b);
+            prims[n_spheres + i] = PrimRef(b, uint32_t(n_spheres + i));
+            if (mesh.normal_indices) {
+                const int32_t* n = mesh.normal_indices + 3 * local;
                 if (n[0] >= 0 || n[1] >= 0 || n[2] >= 0)
-                    for (int k = 0; k < 3; ++k) check_index(n[k], normals.size(), "normal");
+                    for (int k = 0; k < 3; ++k) check_index(n[k], mesh.normal_count, "normal");
             }
         }
+        const std::lock_guard<std::mutex> lock(bounds_mutex);
+        bounds.grow(chunk_bounds);
     });
-
-    bvh_.build(prim_bounds);
-
-    for (const Bounds& b : prim_bounds) bounds.grow(b);
     magnitude = bounds.empty() ? 0.0 : std::fmax(max_abs_component(bounds.lo), max_abs_component(bounds.hi));
-    // Freed before the leaf-order copies below are allocated: 48 bytes a primitive (48 MB of
-    // S2's peak memory at 1M triangles).
-    std::vector<Bounds>().swap(prim_bounds);
-    // The rays walk the 4-wide tree; the binary one's nodes are freed once it is collapsed (after
-    // the bounds, so that the two trees and the bounds are never held at once).
+    // The build consumes (and frees) the primitive boxes before the leaf-order copies below are
+    // allocated.
+    bvh_.build(std::move(prims));
+    // The rays walk the 4-wide tree; the binary one's nodes are freed once it is collapsed.
     bvh4_ = collapse_to_bvh4(bvh_.nodes);
     std::vector<BvhNode>().swap(bvh_.nodes);
 
@@ -145,23 +169,25 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
                 continue;
             }
             const size_t i = id - n_spheres, slot = k - spheres_before;
-            const int32_t* t = in.triangles + 3 * i;
+            const size_t m = n_meshes == 1 ? 0 : mesh_of(i);
+            const MeshArrays& mesh = in.meshes[m];
+            const size_t local = i - first_triangle[m];
+            const int32_t* t = mesh.triangles + 3 * local;
             refs_[k] = int32_t(slot);
-            triangles[slot] = {row3(in.points + 3 * size_t(t[0])), row3(in.points + 3 * size_t(t[1])),
-                               row3(in.points + 3 * size_t(t[2]))};
-            TriangleShading sh{-1, -1, -1, in.triangle_material[i]};
-            if (in.normal_indices && in.normal_indices[3 * i] >= 0) {
-                sh.n0 = in.normal_indices[3 * i];
-                sh.n1 = in.normal_indices[3 * i + 1];
-                sh.n2 = in.normal_indices[3 * i + 2];
+            triangles[slot] = {row3(mesh.points + 3 * size_t(t[0])), row3(mesh.points + 3 * size_t(t[1])),
+                               row3(mesh.points + 3 * size_t(t[2]))};
+            TriangleShading sh{-1, -1, -1, mesh.material};
+            if (mesh.normal_indices && mesh.normal_indices[3 * local] >= 0) {
+                const int32_t* n = mesh.normal_indices + 3 * local;
+                const int32_t offset = int32_t(first_normal[m]);
+                sh.n0 = n[0] + offset;
+                sh.n1 = n[1] + offset;
+                sh.n2 = n[2] + offset;
             }
             triangle_shading[slot] = sh;
             triangle_source[slot] = uint32_t(i);
-            triangle_mesh[slot] = in.triangle_mesh[i];
-            if (in.povray_triangles) {
-                const double* origin = in.mesh_origins + 3 * size_t(in.triangle_mesh[i]);
-                povray_triangles[slot] = make_povray_triangle(triangles[slot], {origin[0], origin[1], origin[2]});
-            }
+            triangle_mesh[slot] = int32_t(m);
+            if (in.povray_triangles) povray_triangles[slot] = make_povray_triangle(triangles[slot], mesh.origin);
         }
     });
     bvh_.order.clear();

@@ -20,24 +20,28 @@
 
 namespace phong {
 
-// Borrowed views of the Python arrays of the geometry (row-major, C-contiguous).
+// Borrowed views of one mesh's Python arrays (row-major, C-contiguous): the model's own arrays,
+// not concatenated copies.
+struct MeshArrays {
+    const double* points = nullptr;  // (V, 3)
+    size_t point_count = 0;
+    const int32_t* triangles = nullptr;  // (T, 3) rows of points
+    size_t triangle_count = 0;
+    const double* normals = nullptr;  // (K, 3) unit
+    size_t normal_count = 0;
+    const int32_t* normal_indices = nullptr;  // (T, 3) rows of normals, -1: flat; nullptr: all flat
+    int32_t material = 0;                     // index of the mesh's material
+    Vec3 origin;                              // the mesh's local frame, as the compiler writes it
+};
+
+// Borrowed views of the Python arrays of the geometry.
 struct GeometryArrays {
     const double* sphere_world_from_object = nullptr;  // (S, 4, 4)
     const double* sphere_object_from_world = nullptr;  // (S, 4, 4)
     const int32_t* sphere_material = nullptr;          // (S,) indices of materials
     size_t sphere_count = 0;
-    const double* points = nullptr;  // (V, 3)
-    size_t point_count = 0;
-    const int32_t* triangles = nullptr;          // (T, 3) rows of points
-    const int32_t* triangle_material = nullptr;  // (T,) indices of materials
-    const int32_t* triangle_mesh = nullptr;      // (T,) the mesh (one POV-Ray object) of each triangle
-    const double* mesh_origins = nullptr;        // (M, 3) each mesh's local frame, as the compiler writes it
-    size_t mesh_count = 0;
-    bool povray_triangles = false;               // test triangles as POV-Ray does (povray_triangle.hpp)
-    const int32_t* normal_indices = nullptr;     // (T, 3) rows of normals, -1: flat
-    size_t triangle_count = 0;
-    const double* normals = nullptr;  // (K, 3) unit
-    size_t normal_count = 0;
+    std::vector<MeshArrays> meshes;  // each one POV-Ray object; triangles are numbered in this order
+    bool povray_triangles = false;   // test triangles as POV-Ray does (povray_triangle.hpp)
 };
 
 // A ray's closest hit. ref >= 0: triangle index (leaf order); ref < 0: sphere ~ref.

@@ -1,0 +1,73 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Where a whole process's peak memory comes from: ``phongscene render``'s stages run one after
+another in this process (imports, ``load_usd``, the native scene with its BVH, the render, the
+EXR write), printing after each the process's peak (VmHWM) and current (VmRSS) resident memory
+from /proc/self/status (Linux) and the stage's wall time.
+
+    .venv/bin/python benchmarks/memory_stages.py [S2]     # any make_scenes.FILES name; default S2
+
+The peak is monotone: the stage where it jumps is the one to look at. Figures: benchmarks/README.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+
+def resident_mib() -> tuple[float, float]:
+    """(peak, current) resident memory of this process, MiB."""
+    fields = {}
+    with open("/proc/self/status", encoding="ascii") as status:
+        for line in status:
+            key, _, value = line.partition(":")
+            fields[key] = value
+    return int(fields["VmHWM"].split()[0]) / 1024, int(fields["VmRSS"].split()[0]) / 1024
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("scene", nargs="?", default="S2", help="a make_scenes.FILES name (default S2)")
+    args = parser.parse_args()
+    print(f"{'stage':<28}{'peak MiB':>10}{'now MiB':>10}{'s':>8}")
+    start = time.perf_counter()
+
+    def stage(name: str) -> None:
+        nonlocal start
+        peak, now = resident_mib()
+        print(f"{name:<28}{peak:>10.0f}{now:>10.0f}{time.perf_counter() - start:>8.3f}", flush=True)
+        start = time.perf_counter()
+
+    stage("interpreter")
+    from make_scenes import FILES, make
+
+    import phongscene.usd
+    from phongscene.backends import native
+
+    stage("imports (numpy, pxr, ...)")
+    path = HERE / "scenes" / FILES[args.scene]
+    if not path.exists():
+        make(which=(args.scene,))
+    start = time.perf_counter()
+    scene = phongscene.usd.load_usd(path)
+    stage("load_usd")
+    built = native.build(scene)
+    stage("native scene + BVH")
+    settings = scene.settings
+    image = built.render(camera=native._camera(scene.camera), settings=native._settings(settings))
+    stage("render")
+    from phongscene.images import write_image
+
+    with tempfile.TemporaryDirectory() as tmp:
+        write_image(Path(tmp) / "image.exr", image)
+    stage("EXR write (OpenImageIO)")
+
+
+if __name__ == "__main__":
+    main()
