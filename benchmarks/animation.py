@@ -7,9 +7,12 @@ overhead (scheduling + stage load + write) against the frame itself.
    render thread, with 1 worker and with 2, interleaved (1, 2, 1, 2, ...) because the machine
    is shared; the ratio is taken per pair. Wall clock includes the cluster's start-up.
 2. S1 (benchmarks/scenes/s1_spheres.usda) at 640×360, native, 1 thread, ``--overhead-frames``
-   frames on 1 worker: per task, wall time after start-up divided by frames, against the render
-   inside the task (``render_seconds``); what is left is scheduling, the stage load, the write
-   and returning the metrics.
+   frames on 1 worker: per task, wall time and the worker's CPU time after the first frame,
+   against the render and the EXR write inside the task; what is left is the stage load (from
+   the worker's kept stage), scheduling and returning the metrics.
+3. The stage load inside a frame task, the worker's kept stage against the file opened anew,
+   interleaved in this process; and (with ``--pairs``) one diff frame in this process: wall and
+   CPU seconds of the task and of POV-Ray in it (its own CPU is small: it mostly waits).
 
     .venv/bin/python benchmarks/animation.py [--pairs 2] [--overhead-frames 12]
 
@@ -43,27 +46,85 @@ def diff_frames(workers: int, frames: tuple[int, ...], width: int, height: int) 
                          workers=workers)
     if run.failures or run.workers != workers:
         raise SystemExit(f"frames failed or wrong worker count: {run.failures}, {run.workers} workers")
-    return run.seconds
+    return run.seconds, run.startup_seconds
+
+
+def diff_anatomy(frames: int) -> dict:
+    """One diff frame in this process (after a first one that imports): median wall and CPU
+    seconds (this process and its waited-for children, POV-Ray) of the whole task and of POV-Ray."""
+    import resource
+
+    from phongscene.animation import diff_frame
+    from phongscene.comparison import HALF_FLOAT
+
+    options = {"mapping": "exact", "width": 320, "height": 240, "samples": None, "threads": 1}
+    children = lambda: (lambda r: r.ru_utime + r.ru_stime)(resource.getrusage(resource.RUSAGE_CHILDREN))  # noqa: E731
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for frame in range(1, frames + 2):
+            wall, cpu, pov = time.perf_counter(), time.process_time(), children()
+            m = diff_frame(str(ANIMATED), frame, os.path.join(tmp, f"frame.{frame}"), options, HALF_FLOAT)
+            pov = children() - pov
+            rows.append((time.perf_counter() - wall, time.process_time() - cpu + pov, m["timings"]["povray"], pov))
+    return dict(zip(("wall", "cpu", "povray_wall", "povray_cpu"), (statistics.median(r[i] for r in rows[1:]) for i in range(4))))
+
+
+def _process_cpu(pid: int) -> float:
+    """User + system CPU seconds of process ``pid`` so far, all its threads (/proc, clock ticks)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def overhead(frames: int) -> dict:
-    """Per task in the steady state: the interval between frames finishing on one worker, from the
-    second frame on (the first also pays the worker's imports of pxr, OpenImageIO and the
-    extension, once per worker, like the start-up)."""
+    """Per task in the steady state, from the second frame on (the first finds the worker
+    without the stage opened): the interval between frames finishing on one worker (wall), and
+    the worker process's CPU seconds per task (all its threads: the task, Dask's event loop),
+    against what the task reports for its render and its EXR write. What is left is the
+    overhead: the stage load (reported by the task) plus scheduling and the metrics' way back.
+    The CPU seconds of this process (the client and, on a LocalCluster, the scheduler) per task
+    are reported too."""
     from phongscene.animation import render_frame, run_frames
 
     options = {"mapping": None, "width": 640, "height": 360, "samples": None, "threads": 1}
     finished = []
+
+    def on_frame(frame, metrics, error):
+        finished.append((time.perf_counter(), _process_cpu(metrics["pid"]), time.process_time()))
+
     with tempfile.TemporaryDirectory() as tmp:
         run = run_frames(render_frame, tuple(range(1, frames + 1)),
                          lambda f: (str(S1), f, os.path.join(tmp, f"s1.{f:04d}.exr"), "native", options), workers=1,
-                         on_frame=lambda *_: finished.append(time.perf_counter()))
-    steady = [run.results[f] for f in range(2, frames + 1)]  # the frames the interval covers
-    per_task = (finished[-1] - finished[0]) / (frames - 1)
-    mean = lambda key: statistics.fmean(r[key] for r in steady)  # noqa: E731
+                         on_frame=on_frame)
+    steady = [run.results[f] for f in range(2, frames + 1)]  # the frames the intervals cover
+    per = lambda i: (finished[-1][i] - finished[0][i]) / (frames - 1)  # noqa: E731
+    mean = lambda key, part=None: statistics.fmean(r[key] if part is None else r[key][part] for r in steady)  # noqa: E731
     render_s, write_s, load_s = mean("render_seconds"), mean("write_seconds"), mean("load_seconds")
-    return {"per_task": per_task, "render": render_s, "write": write_s, "load": load_s, "startup": run.startup_seconds,
-            "scheduling": per_task - render_s - write_s - load_s, "overhead": per_task - render_s - write_s}
+    render_c, write_c, load_c = (mean("cpu_seconds", part) for part in ("render", "write", "load"))
+    return {"per_task": per(0), "render": render_s, "write": write_s, "load": load_s, "startup": run.startup_seconds,
+            "scheduling": per(0) - render_s - write_s - load_s, "overhead": per(0) - render_s - write_s,
+            "cpu_per_task": per(1), "render_cpu": render_c, "write_cpu": write_c, "load_cpu": load_c,
+            "overhead_cpu": per(1) - render_c - write_c, "client_cpu": per(2)}
+
+
+def stage_load(frames: int) -> dict:
+    """The stage load inside a frame task, the worker's kept stage against the file opened anew,
+    interleaved frame by frame in this process (each after a render and a write, as in a
+    worker): median CPU and wall seconds of each."""
+    from phongscene import workers
+    from phongscene.animation import render_frame
+
+    options = {"mapping": None, "width": 640, "height": 360, "samples": None, "threads": 1}
+    loads: dict[str, list[tuple[float, float]]] = {"kept": [], "anew": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        for frame in range(frames + 1):
+            for how in ("kept", "anew"):
+                if how == "anew":
+                    workers.forget()
+                m = render_frame(str(S1), frame + 1, os.path.join(tmp, "s1.exr"), "native", options)
+                if frame:  # the first pair warms both
+                    loads[how].append((m["cpu_seconds"]["load"], m["load_seconds"]))
+    workers.forget()
+    return {how: tuple(statistics.median(x[i] for x in v) for i in (0, 1)) for how, v in loads.items()}
 
 
 def main() -> int:
@@ -78,21 +139,36 @@ def main() -> int:
     print(f"{os.cpu_count()} cores; load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     frames = tuple(range(1, 25))
     ratios = []
+    if args.pairs:
+        d = diff_anatomy(4)
+        print(f"one diff frame at 320x240 in process, median of 4: {d['wall']:.3f} s wall, {d['cpu']:.3f} s CPU; "
+              f"of it POV-Ray {d['povray_wall']:.3f} s wall, {d['povray_cpu']:.3f} s CPU")
     for pair in range(args.pairs):
-        one = diff_frames(1, frames, 320, 240)
-        two = diff_frames(2, frames, 320, 240)
+        one, one_startup = diff_frames(1, frames, 320, 240)
+        two, two_startup = diff_frames(2, frames, 320, 240)
         ratios.append(one / two)
         print(f"pair {pair + 1}: 24-frame diff at 320x240: 1 worker {one:.2f} s, 2 workers {two:.2f} s, "
-              f"speed-up {one / two:.2f}x (load average {os.getloadavg()[0]:.2f})")
+              f"speed-up {one / two:.2f}x (cluster start-up {one_startup:.2f} s, {two_startup:.2f} s; "
+              f"load average {os.getloadavg()[0]:.2f})")
     if ratios:
         print(f"speed-up of 2 workers over 1: median {statistics.median(ratios):.2f}x (min {min(ratios):.2f}x)")
     o = overhead(args.overhead_frames)
-    print(f"S1 640x360 native, 1 thread, {args.overhead_frames} frames on 1 worker: per task {o['per_task']:.3f} s = "
-          f"render {o['render']:.4f} s + EXR write {o['write']:.4f} s + overhead {o['overhead']:.4f} s "
-          f"(stage load {o['load']:.4f} s + scheduling and the rest {o['scheduling']:.4f} s) = "
+    print(f"S1 640x360 native, 1 thread, {args.overhead_frames} frames on 1 worker, per task from the second frame on:")
+    print(f"  wall: {o['per_task']:.4f} s = render {o['render']:.4f} + EXR write {o['write']:.4f} + overhead "
+          f"{o['overhead']:.4f} (stage load {o['load']:.4f} + scheduling and the rest {o['scheduling']:.4f}) = "
           f"{100 * o['overhead'] / o['render']:.1f} % of the render, "
-          f"{100 * o['overhead'] / (o['render'] + o['write']):.1f} % of render + write; "
-          f"cluster start-up {o['startup']:.2f} s once")
+          f"{100 * o['overhead'] / (o['render'] + o['write']):.1f} % of render + write")
+    print(f"  worker CPU: {o['cpu_per_task']:.4f} s = render {o['render_cpu']:.4f} + EXR write {o['write_cpu']:.4f} + "
+          f"overhead {o['overhead_cpu']:.4f} (stage load {o['load_cpu']:.4f} + Dask in the worker "
+          f"{o['overhead_cpu'] - o['load_cpu']:.4f}) = {100 * o['overhead_cpu'] / o['render_cpu']:.1f} % of the render, "
+          f"{100 * o['overhead_cpu'] / (o['render_cpu'] + o['write_cpu']):.1f} % of render + write; "
+          f"client and scheduler CPU {o['client_cpu']:.4f} s per task")
+    print(f"  cluster start-up (workers importing phongscene included) {o['startup']:.2f} s once")
+    loads = stage_load(args.overhead_frames)
+    print(f"stage load per frame of S1, interleaved, median of {args.overhead_frames}: kept stage "
+          f"{loads['kept'][0] * 1e3:.2f} ms CPU ({loads['kept'][1] * 1e3:.2f} ms wall), opened anew "
+          f"{loads['anew'][0] * 1e3:.2f} ms CPU ({loads['anew'][1] * 1e3:.2f} ms wall): "
+          f"{loads['anew'][0] / loads['kept'][0]:.2f}x")
     print(f"load average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
 

@@ -34,6 +34,7 @@ _LAZY_EXPORTS = {
     "compile_pov": (".rendering", "compile_pov"),
     "diff": (".crossvalidation", "diff"),
     "load_usd": (".usd", "load_usd"),
+    "open_stage": (".usd", "open_stage"),
     "read_usd": (".usd", "read_usd"),
     "render": (".rendering", "render"),
     "read_image": (".images", "read_image"),
@@ -62,7 +63,7 @@ if TYPE_CHECKING:  # the lazy names, for type checkers and IDEs
     from .crossvalidation import diff
     from .images import Image, read_image, write_image
     from .rendering import compile_pov, render
-    from .usd import load_usd, read_usd, write_usd
+    from .usd import load_usd, open_stage, read_usd, write_usd
 
 
 def __getattr__(name: str):
@@ -101,6 +102,7 @@ __all__ = [
     "compile_pov",
     "diff",
     "load_usd",
+    "open_stage",
     "look_at",
     "read_image",
     "read_usd",

@@ -12,7 +12,10 @@ atomically and returns only a small dict of metrics. A task that raises is retri
 
 The tasks call the same functions as a serial render of one frame (``load_scene`` at the time,
 ``settings_with``, ``render``, ``write_image``), so a frame is bit-identical to
-``phongscene render --time T`` with the same options.
+``phongscene render --time T`` with the same options. A worker keeps the stage it opened last
+(``phongscene.workers``: reopened when the file or a layer of it changes) and reads each task's
+frame from it; its imports are made when it joins the cluster (a worker plugin), not in its first
+task.
 
 Dask is imported only here, and only when frames run on a cluster: a one-frame render never
 starts it.
@@ -82,9 +85,10 @@ def frame_name(template: str | os.PathLike, frame: int) -> str:
 
 def _load(scene: str, frame: int, options: dict):
     from .rendering import load_scene, settings_with, with_shadow_adaptive, with_shadow_cells
+    from .workers import open_stage
 
     start = _time.perf_counter()
-    loaded, warnings = load_scene(scene, time=float(frame))
+    loaded, warnings = load_scene(open_stage(scene), time=float(frame))
     loaded = with_shadow_adaptive(loaded, options.get("shadow_adaptive"))
     loaded = with_shadow_cells(loaded, options.get("shadow_cells"))
     settings = settings_with(loaded, options.get("mapping"), width=options.get("width"), height=options.get("height"),
@@ -98,15 +102,23 @@ def render_frame(scene: str, frame: int, output: str, backend: str, options: dic
     from .images import write_image
     from .rendering import render
 
+    # CPU seconds of this process beside the wall clock: on a shared machine the wall clock of
+    # each part says as much about the other jobs as about the part (benchmarks/animation.py).
+    cpu = [_time.process_time()]
     loaded, settings, warnings, load_seconds = _load(scene, frame, options)
+    cpu.append(_time.process_time())
     start = _time.perf_counter()
     image = render(loaded, backend, settings)
     render_seconds = _time.perf_counter() - start
+    cpu.append(_time.process_time())
     write_image(output, image)
+    cpu.append(_time.process_time())
     return {"frame": frame, "output": output, "width": settings.width, "height": settings.height,
             "specular": settings.specular, "load_seconds": load_seconds, "render_seconds": render_seconds,
             "write_seconds": _time.perf_counter() - start - render_seconds,
-            "seconds": _time.perf_counter() - start + load_seconds, "warnings": warnings, "pid": os.getpid()}
+            "seconds": _time.perf_counter() - start + load_seconds,
+            "cpu_seconds": dict(zip(("load", "render", "write"), (b - a for a, b in zip(cpu, cpu[1:])))),
+            "warnings": warnings, "pid": os.getpid()}
 
 
 def compile_frame(scene: str, frame: int, output: str, options: dict) -> dict:
@@ -128,9 +140,10 @@ def compile_frame(scene: str, frame: int, output: str, options: dict) -> dict:
 def diff_frame(scene: str, frame: int, outdir: str, options: dict, thresholds) -> dict:
     """Diff both backends on ``scene`` at time ``frame``; the frame's report goes to ``outdir``."""
     from .crossvalidation import diff
+    from .workers import open_stage
 
     start = _time.perf_counter()
-    result = diff(scene, outdir, mapping=options.get("mapping") or "exact", width=options.get("width"),
+    result = diff(open_stage(scene), outdir, mapping=options.get("mapping") or "exact", width=options.get("width"),
                   height=options.get("height"), samples=options.get("samples"), threads=options.get("threads"),
                   thresholds=thresholds, time=float(frame), sample_pattern=options.get("sample_pattern"),
                   aa_threshold=options.get("aa_threshold"), shadow_adaptive=options.get("shadow_adaptive"))
@@ -154,7 +167,7 @@ class FramesRun:
     results: dict[int, dict] = field(default_factory=dict)
     failures: dict[int, str] = field(default_factory=dict)
     seconds: float = 0.0  # wall clock, cluster start-up included
-    startup_seconds: float = 0.0  # connecting to (or starting) the cluster
+    startup_seconds: float = 0.0  # connecting to (or starting) the cluster, and warming its workers
     workers: int = 0  # Dask workers when the frames were submitted
     cluster: str = ""  # "LocalCluster", the scheduler's address, or "" (run in this process)
 
@@ -190,19 +203,16 @@ def run_frames(
         progress: called as ``progress(done, total)`` after each frame.
         on_frame: called as ``on_frame(frame, metrics, error)`` as each frame finishes.
     """
-    import logging
+    from distributed import Client, as_completed
 
-    from distributed import Client, LocalCluster, as_completed
+    from .workers import warm_plugin
 
     run = FramesRun()
     began = _time.perf_counter()
     address = scheduler_address(scheduler)
     cluster = None
     if address is None:
-        # Processes, not threads: the USD reader and the task's Python hold the GIL. One task at a
-        # time per worker; its renderer uses the threads the options give (the CLI: cores / workers).
-        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.CRITICAL)
+        cluster = local_cluster(workers or os.cpu_count() or 1)
     try:
         try:
             client = Client(cluster if cluster is not None else address)
@@ -211,6 +221,8 @@ def run_frames(
         with client:
             run.cluster = "LocalCluster" if cluster is not None else address
             run.workers = len(client.scheduler_info().get("workers", {}))
+            # Each worker imports what the tasks need now (and any that joins later, when it joins).
+            client.register_plugin(warm_plugin())
             run.startup_seconds = _time.perf_counter() - began
             # pure=False: a frame is an action (it writes a file); never deduplicate or cache it.
             futures = {client.submit(task, *arguments(f), key=f"{task.__name__}-frame-{f}-{os.getpid()}-{_time.time_ns()}",
@@ -232,6 +244,21 @@ def run_frames(
             cluster.close()
     run.seconds = _time.perf_counter() - began
     return run
+
+
+def local_cluster(workers: int):
+    """A Dask ``LocalCluster`` of ``workers`` processes on this machine, one task at a time each.
+
+    Processes, not threads: the USD reader and the task's Python hold the GIL; each task's
+    renderer uses the threads its options give. The scheduler's HTTP server (its /metrics and
+    /health routes; no dashboard without bokeh) takes a free port: Dask's default, 8787, is
+    taken by any other cluster on the machine, and falling back from it is a warning."""
+    import logging
+
+    from distributed import LocalCluster
+
+    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                        silence_logs=logging.CRITICAL)
 
 
 def run_serially(

@@ -248,35 +248,63 @@ def run(
 ) -> dict:
     """Measure every estimator of ``scene`` (see the module docstring). Returns a JSON-able dict:
     ``rows`` (one per backend and estimator), ``references``, ``dominance``."""
-    from .rendering import render as render_backend
-
-    def render_native(s: Scene, st: RenderSettings) -> np.ndarray:
-        return render_backend(s, "native", st)
-
     rows: list[dict] = []
     references: dict = {}
     chosen = estimators(scene, quick)
-    available = sorted({e.family for e in chosen}, key=[AA, AREA].index)
-    wanted = [f for f in available if f in families] if families else available
+    wanted = families_of(chosen, families)
     for family in wanted:
         ref = reference(family, scene, settings, render_native, reference_resolution, reference_shadow_samples)
         references[family] = {k: v for k, v in ref.items() if k != "image"}
-        log(f"{family}: reference {ref['what']} in {ref['seconds']:.2f} s, its RMS error <= {ref['rms_error_bound']:.2e}")
+        log(reference_line(family, ref))
         for est in (e for e in chosen if e.family == family):
-            s_scene, s_settings = est.apply(scene, settings)
             for backend in (b for b in backends if b in est.backends):
-                wall, cpu, image = timed(lambda: render_backend(s_scene, backend, s_settings), repeat)
-                row = {"family": family, "label": est.label, "backend": backend, "wall": wall, "cpu": cpu,
-                       "rms": rms(ref["image"], image), "max": max_error(ref["image"], image),
-                       "bias": float(np.mean(image.astype(np.float64) - ref["image"])), "spacing": est.spacing}
-                row["resolved"] = row["rms"] >= REFERENCE_MARGIN * ref["rms_error_bound"]
-                rows.append(row)
-                log(f"  {est.label:<22} {backend:<7} wall {wall:7.3f} s  cpu {cpu:7.3f} s  rms {row['rms']:.2e}"
-                    f"  max {row['max']:.3f}{'' if row['resolved'] else '  (within 10x of the reference error)'}")
+                rows.append(measure(scene, settings, est, backend, ref, repeat))
+                log(row_line(rows[-1]))
+    return result_of(settings, repeat, references, rows, backends, wanted)
+
+
+def render_native(scene: Scene, settings: RenderSettings) -> np.ndarray:
+    from .rendering import render
+
+    return render(scene, "native", settings)
+
+
+def families_of(chosen: list[Estimator], families: Sequence[str] | None) -> list[str]:
+    """The families of ``chosen`` to study (those in ``families``, default all), in table order."""
+    available = sorted({e.family for e in chosen}, key=[AA, AREA].index)
+    return [f for f in available if f in families] if families else available
+
+
+def measure(scene: Scene, settings: RenderSettings, est: Estimator, backend: str, ref: dict, repeat: int) -> dict:
+    """One row: ``est`` rendered by ``backend``, timed (best of ``repeat``), its errors against
+    the family's reference (``reference``)."""
+    from .rendering import render as render_backend
+
+    s_scene, s_settings = est.apply(scene, settings)
+    wall, cpu, image = timed(lambda: render_backend(s_scene, backend, s_settings), repeat)
+    row = {"family": est.family, "label": est.label, "backend": backend, "wall": wall, "cpu": cpu,
+           "rms": rms(ref["image"], image), "max": max_error(ref["image"], image),
+           "bias": float(np.mean(image.astype(np.float64) - ref["image"])), "spacing": est.spacing}
+    row["resolved"] = row["rms"] >= REFERENCE_MARGIN * ref["rms_error_bound"]
+    return row
+
+
+def reference_line(family: str, ref: dict) -> str:
+    return f"{family}: reference {ref['what']} in {ref['seconds']:.2f} s, its RMS error <= {ref['rms_error_bound']:.2e}"
+
+
+def row_line(row: dict) -> str:
+    return (f"  {row['label']:<22} {row['backend']:<7} wall {row['wall']:7.3f} s  cpu {row['cpu']:7.3f} s  "
+            f"rms {row['rms']:.2e}  max {row['max']:.3f}{'' if row['resolved'] else '  (within 10x of the reference error)'}")
+
+
+def result_of(settings: RenderSettings, repeat: int, references: dict, rows: list[dict], backends: Sequence[str],
+              families: list[str]) -> dict:
+    """``run``'s JSON-able result from its rows (in table order) and references."""
     result = {"width": settings.width, "height": settings.height, "threads": settings.threads, "repeat": repeat,
               "specular": settings.specular, "references": references, "rows": rows, "dominance": {}}
     if set(backends) >= set(BACKEND_NAMES):
-        for family in wanted:
+        for family in families:
             result["dominance"][family] = {c: dominance(rows, family, c) for c in ("cpu", "wall")}
     return result
 

@@ -289,11 +289,16 @@ def _add_time_options(p: argparse.ArgumentParser, output: str) -> None:
     when.add_argument("--frames", type=_frame_range, metavar="START:END[:STEP]",
                       help=f"frames START, START+STEP, ... END (whole time codes): {output}. Frames run as Dask "
                       "tasks: a LocalCluster here, or --scheduler")
+    _add_cluster_options(group, "with --frames: ", "one per core")
+
+
+def _add_cluster_options(group, which: str, default_workers: str) -> None:
+    """--scheduler and --workers: where Dask runs the tasks (frames, bench settings)."""
     group.add_argument("--scheduler", metavar="tcp://HOST:PORT",
-                       help="with --frames: an existing Dask scheduler (default: $DASK_SCHEDULER_ADDRESS, else a "
+                       help=f"{which}an existing Dask scheduler (default: $DASK_SCHEDULER_ADDRESS, else a "
                        "LocalCluster); workers must see the scene and the output at the same paths")
     group.add_argument("--workers", type=_int_in(1), metavar="N",
-                       help="with --frames: LocalCluster worker processes (default: one per core)")
+                       help=f"{which}LocalCluster worker processes (default: {default_workers})")
 
 
 def _frame_options(args) -> dict:
@@ -731,13 +736,16 @@ def _add_bench_command(sub) -> None:
                    "the anti-aliasing reference of a scene with area lights is slow)")
     p.add_argument("--target-rms", type=_float_in(0.0, math.inf), metavar="E",
                    help="say which setting of each backend reaches RMS error E fastest")
+    group = p.add_argument_group("where the settings run (each one a Dask task; a task never shares its cores "
+                                 "with another)")
+    _add_cluster_options(group, "", "as many as the cores hold renders of --threads, one with all threads")
     p.set_defaults(func=_run_bench)
 
 
 def _run_bench(args) -> int:
     from pathlib import Path
 
-    from . import bench
+    from . import bench, bench_tasks
     from .rendering import check_settings, load_scene, settings_with
 
     scene, warnings = load_scene(args.scene)
@@ -747,8 +755,9 @@ def _run_bench(args) -> int:
     backends = ("native",) if args.native_only else bench.BACKEND_NAMES
     print(f"{args.scene}: {settings.width} x {settings.height}, specular {settings.specular}, "
           f"threads {settings.threads or 'all'}, best of {args.repeat}", flush=True)
-    result = bench.run(scene, settings, repeat=args.repeat, quick=args.quick, backends=backends,
-                       log=lambda line: print(line, flush=True), families=args.family)
+    result = bench_tasks.run(os.path.abspath(args.scene), scene, settings, repeat=args.repeat, quick=args.quick,
+                             backends=backends, families=args.family, scheduler=args.scheduler, workers=args.workers,
+                             log=lambda line: print(line, flush=True))
     print()
     print(bench.table(result), end="")
     if args.target_rms is not None:

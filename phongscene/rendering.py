@@ -84,10 +84,10 @@ def _with_area_estimator(scene, value, changes: dict):
 def load_scene(
     scene_or_path: Scene | str | os.PathLike, time: float | None = None, *, sandbox: bool = False
 ) -> tuple[Scene, list[str]]:
-    """A Scene as given, or read from a USD file at USD time code ``time`` (None: the reader's
-    choice, ``phongscene.usd.read_usd``), with the reader's warnings (raises SceneError for a bad
-    file). ``sandbox``: read the file in a child process with a memory limit
-    (``phongscene.sandbox``), so a crash inside USD is a SceneError."""
+    """A Scene as given, or read from a USD file (or a ``phongscene.usd.OpenStage`` of one) at USD
+    time code ``time`` (None: the reader's choice, ``phongscene.usd.read_usd``), with the reader's
+    warnings (raises SceneError for a bad file). ``sandbox``: read the file in a child process
+    with a memory limit (``phongscene.sandbox``), so a crash inside USD is a SceneError."""
     if isinstance(scene_or_path, Scene):
         return scene_or_path, []
     if sandbox:
@@ -97,7 +97,7 @@ def load_scene(
         return result.scene, list(result.warnings)
     from .usd import read_usd  # lazily: the USD reader imports pxr
 
-    result = read_usd(os.fspath(scene_or_path), time=time)
+    result = read_usd(scene_or_path, time=time)  # a path, or an OpenStage
     return result.scene, list(result.warnings)
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import pickle
 import signal
 import subprocess
 import sys
@@ -21,7 +22,7 @@ from phongscene.cli import main
 from phongscene.errors import SceneError
 from phongscene.images import read_image
 from phongscene.rendering import load_scene, render
-from phongscene.usd import read_usd
+from phongscene.usd import open_stage, read_usd
 
 SCENES = Path(__file__).parent / "scenes"
 ANIMATED = SCENES / "animated.usda"  # frames 1..24; see the comment at its top
@@ -130,6 +131,77 @@ def test_a_blender_style_export_renders_its_frames(tmp_path):
     first, last = (read_image(tmp_path / f"b.{f:04d}.exr") for f in (1, 24))
     red_x = lambda image: float(np.nonzero(image[..., 0] > 2 * image[..., 1] + 1e-3)[1].mean())  # noqa: E731
     assert red_x(first) < 64 / 3 and red_x(last) > 2 * 64 / 3
+
+
+# -- a worker's kept stage ------------------------------------------------------------------
+
+
+def _same_read(a, b) -> bool:
+    """The same model (every field, arrays byte for byte), the same warnings and prim mapping."""
+    return pickle.dumps(a.scene) == pickle.dumps(b.scene) and a.warnings == b.warnings and a.nodes == b.nodes
+
+
+@pytest.mark.parametrize("path", [ANIMATED, BLENDER, SCENES / "warned" / "missing_reference.usda"],
+                         ids=lambda p: p.name)
+def test_a_stage_opened_once_reads_at_every_time_what_the_file_reads(path):
+    # The time-independent checks (composition errors, typos) run at the first read and are
+    # replayed by the others; each read's own warnings (the time, clipping lights) are its own.
+    opened = open_stage(path)
+    for time_code in (1, 24, 12.5, None, 30, 1):
+        assert _same_read(read_usd(opened, time=time_code), read_usd(path, time=time_code)), time_code
+    assert read_usd(opened, time=None).warnings  # these files do warn: the comparison saw some
+
+
+def test_a_kept_stage_is_reused_until_its_file_or_a_layer_changes(tmp_path):
+    from phongscene import workers
+
+    layer, root = tmp_path / "ball.usda", tmp_path / "shot.usda"
+    layer.write_text('#usda 1.0\ndef Sphere "Ball" {\n    double radius = 1\n}\n')
+    root.write_text(f'#usda 1.0\n(\n    subLayers = [@{layer.name}@]\n)\n')
+    radius = lambda: load_scene(workers.open_stage(str(root)), time=1.0)[0].spheres[0].world_from_object[0, 0]  # noqa: E731
+    try:
+        first = workers.open_stage(str(root))
+        assert radius() == 1.0 and workers.open_stage(str(root)) is first  # unchanged: kept
+        layer.write_text('#usda 1.0\ndef Sphere "Ball" {\n    double radius = 2.5\n}\n')
+        os.utime(layer, ns=(time.time_ns(), time.time_ns() + 10**9))  # whatever the clock's resolution
+        assert radius() == 2.5 and workers.open_stage(str(root)) is not first  # the sublayer changed
+        again = workers.open_stage(str(root))
+        root.write_text(root.read_text() + 'def Sphere "Other" {\n}\n')
+        os.utime(root, ns=(time.time_ns(), time.time_ns() + 2 * 10**9))
+        assert workers.open_stage(str(root)) is not again
+        assert len(load_scene(workers.open_stage(str(root)), time=1.0)[0].spheres) == 2
+    finally:
+        workers.forget()
+
+
+def test_frames_read_from_the_kept_stage_are_bit_identical_to_render_time(tmp_path):
+    from phongscene import workers
+
+    options = {"mapping": None, "width": 48, "height": None, "samples": 2, "threads": 1}
+    try:
+        for frame in (1, 9, 17, 24):
+            metrics = animation.render_frame(str(ANIMATED), frame, str(tmp_path / f"task.{frame}.exr"), "native", options)
+            assert main(["render", str(ANIMATED), "-o", str(tmp_path / f"cli.{frame}.exr"), "--time", str(frame),
+                         "--width", "48", "--spp", "2"]) == 0
+            task, serial = (read_image(tmp_path / f"{kind}.{frame}.exr") for kind in ("task", "cli"))
+            assert np.array_equal(task, serial), frame
+            assert metrics["warnings"] == read_usd(ANIMATED, time=frame).warnings
+        assert workers._last is not None and workers._last[0] == str(ANIMATED)  # the frames shared one stage
+    finally:
+        workers.forget()
+
+
+def test_a_worker_has_made_its_imports_when_it_joins():
+    from distributed import Client
+
+    from phongscene.workers import WARM_IMPORTS, warm_plugin
+
+    with animation.local_cluster(1) as cluster, Client(cluster) as client:
+        before = client.run(lambda: [m for m in WARM_IMPORTS if m in sys.modules])
+        client.register_plugin(warm_plugin())
+        after = client.run(lambda: [m for m in WARM_IMPORTS if m in sys.modules])
+    assert [set(v) for v in before.values()] != [set(WARM_IMPORTS)]  # a fresh worker had not
+    assert [v for v in after.values()] == [list(WARM_IMPORTS)]
 
 
 # -- frames: names and ranges ----------------------------------------------------------------

@@ -110,3 +110,31 @@ def test_bench_measures_both_backends_and_povrays_estimators_match_natives(tmp_p
     d = result["dominance"][bench.AA]["cpu"]
     assert d["min_ratio"] is not None and d["levels"]
     assert all(r["cpu"] > 0 and r["wall"] > 0 for r in result["rows"])
+
+
+def test_bench_settings_as_dask_tasks_measure_what_the_serial_run_measures(tmp_path):
+    """Two workers, one task each: every row's errors equal the serial bench.run's (the renders
+    are deterministic), in the same order, and the result says how many ran at once."""
+    from phongscene import bench_tasks
+    from phongscene.rendering import load_scene
+
+    path = write_usd(calibration.rect_area_light(), tmp_path / "scene.usda")
+    scene, _ = load_scene(path)
+    settings = dataclasses.replace(scene.settings, width=TINY[0], height=TINY[1], threads=1)
+    lines = []
+    tasks = bench_tasks.run(str(path), scene, settings, repeat=1, quick=True, backends=("native",), workers=2,
+                            log=lines.append)
+    serial = bench.run(scene, settings, repeat=1, quick=True, backends=("native",), log=lambda line: None)
+    errors = lambda result: [(r["family"], r["label"], r["rms"], r["max"], r["bias"]) for r in result["rows"]]  # noqa: E731
+    assert errors(tasks) == errors(serial)
+    assert tasks["references"] == {f: r | {"seconds": tasks["references"][f]["seconds"]}
+                                   for f, r in serial["references"].items()}
+    assert tasks["concurrency"] == 2 and lines[0].startswith("2 settings at once: 2 Dask workers (LocalCluster)")
+    assert len({r["pid"] for r in tasks["rows"]}) == 2  # both workers measured
+
+
+def test_a_task_never_shares_its_cores():
+    from phongscene.bench_tasks import slots_per_host
+
+    assert [slots_per_host(2, t) for t in (0, 1, 2, 3)] == [1, 2, 1, 1]
+    assert [slots_per_host(8, t) for t in (0, 1, 2, 3, 8)] == [1, 8, 4, 2, 1]

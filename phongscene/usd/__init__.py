@@ -9,7 +9,7 @@ from .shader_defs import PHONG_RENDER_CONTEXT, PHONG_SHADER_ID, register_phong_s
 register_phong_shader()
 
 from .materials import preview_to_phong  # noqa: E402
-from .reader import ReadResult, load_usd, read_usd  # noqa: E402
+from .reader import OpenStage, ReadResult, load_usd, open_stage, read_usd  # noqa: E402
 from .writer import (  # noqa: E402
     bind_material,
     define_camera,
@@ -28,6 +28,7 @@ from .writer import (  # noqa: E402
 __all__ = [
     "PHONG_RENDER_CONTEXT",
     "PHONG_SHADER_ID",
+    "OpenStage",
     "ReadResult",
     "bind_material",
     "define_camera",
@@ -38,6 +39,7 @@ __all__ = [
     "define_sphere",
     "import_mesh",
     "new_stage",
+    "open_stage",
     "save_stage",
     "scene_to_stage",
     "write_usd",

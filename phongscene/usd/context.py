@@ -53,7 +53,8 @@ def gf_to_numpy(m: Gf.Matrix4d) -> np.ndarray:
 class ReadContext:
     """Problems, warnings and transforms for one stage being read."""
 
-    def __init__(self, stage: Usd.Stage, file: str, time: Usd.TimeCode = Usd.TimeCode.Default()):
+    def __init__(self, stage: Usd.Stage, file: str, time: Usd.TimeCode = Usd.TimeCode.Default(),
+                 types: dict | None = None):
         self.stage = stage
         self.file = file
         self.problems: list[Problem] = []
@@ -66,6 +67,9 @@ class ReadContext:
         self.time = time
         self.xforms = UsdGeom.XformCache(self.time)
         self.z_up = UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.z
+        # Attribute path -> the type its file authored (the same at every time: kept by a stage
+        # read at many times, ``reader.OpenStage``).
+        self.types = {} if types is None else types
 
     def problem(self, prim, attribute: str, message: str) -> None:
         path = str(prim.GetPath()) if hasattr(prim, "GetPath") else str(prim)
@@ -97,6 +101,14 @@ class ReadContext:
 
     # -- attributes -----------------------------------------------------------------------------
 
+    def authored_type(self, attr) -> str:
+        """``authored_type(attr)``, looked up once per attribute of the stage."""
+        path = attr.GetPath()
+        found = self.types.get(path)
+        if found is None:
+            found = self.types[path] = authored_type(attr)
+        return found
+
     def get(self, prim: Usd.Prim, name: str, types: tuple[str, ...], default=None):
         """The attribute's value (authored or schema fallback) if its type is one of ``types``.
 
@@ -106,7 +118,7 @@ class ReadContext:
         attr = prim.GetAttribute(name)
         if not attr:
             return default
-        type_name = authored_type(attr)
+        type_name = self.authored_type(attr)
         if type_name not in types:
             self.problem(prim, name, f"has type {type_name}, expected {' or '.join(types)}")
             return default

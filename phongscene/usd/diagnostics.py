@@ -29,8 +29,10 @@ _ALREADY_REPORTED = ("in _ReportErrors at line",)
 
 
 @contextmanager
-def usd_diagnostics(warnings: list[str]) -> Iterator[None]:
-    """Capture what USD writes to descriptor 2 within the block; append it to ``warnings``."""
+def usd_output(texts: list[str]) -> Iterator[None]:
+    """Capture what USD writes to descriptor 2 within the block; append the raw text to ``texts``
+    (a stage opened once and read many times keeps what USD said while opening it, and each read
+    turns that and its own output into warnings together, as one read of the file would)."""
     try:
         sys.stderr.flush()
         saved = os.dup(2)
@@ -45,7 +47,7 @@ def usd_diagnostics(warnings: list[str]) -> Iterator[None]:
             os.dup2(saved, 2)
             os.close(saved)
             capture.seek(0)
-            warnings.extend(as_warnings(capture.read().decode("utf-8", "replace")))
+            texts.append(capture.read().decode("utf-8", "replace"))
 
 
 def as_warnings(text: str) -> list[str]:

@@ -23,7 +23,7 @@ from pxr import Usd, UsdGeom
 from ..scene import PhongMaterial, Sphere, TriangleMesh
 from ..tolerances import UNIT_TOLERANCE, is_singular
 from . import textures
-from .context import ReadContext, authored_type
+from .context import ReadContext
 
 if TYPE_CHECKING:
     import trimesh
@@ -308,7 +308,7 @@ def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_o
         if not attr.HasAuthoredValue():
             return None
         name, interpolation, element_indices = "normals", UsdGeom.Mesh(prim).GetNormalsInterpolation(), None
-    type_name = authored_type(attr)
+    type_name = ctx.authored_type(attr)
     if type_name not in NORMAL_TYPES:
         # As USD renderers do: the mesh is drawn, without the normals it cannot read.
         ctx.warn(f"{prim.GetPath()}.{name}: has type {type_name}, expected normal3f[] (ignored: the mesh is flat-shaded)")

@@ -10,7 +10,7 @@ import numpy as np
 from pxr import Sdf, Sdr, Usd, UsdGeom, UsdShade
 
 from ..scene import DEFAULT_MATERIAL, PhongMaterial, Texture
-from .context import ReadContext, authored_type
+from .context import ReadContext
 from .names import COLOR_TYPES, PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
 from .shader_defs import phong_input_defaults, phong_inputs
 from .textures import Connected, StSource, TextureReader
@@ -185,7 +185,7 @@ class MaterialReader:
                 values[field] = fallback if isinstance(default, tuple) else fallback[0]
                 continue
             inp = shader.GetInput(name)
-            found = authored_type(inp.GetAttr()) if inp else ""
+            found = self.ctx.authored_type(inp.GetAttr()) if inp else ""
             if inp and Sdf.ValueTypeNames.Find(found).type != sdf_type.type:
                 self.ctx.problem(prim, f"inputs:{name}", f"has type {found}, expected {sdf_type}")
                 values[field] = default
@@ -341,7 +341,7 @@ class MaterialReader:
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor")
         if not primvar or not primvar.HasAuthoredValue():
             return DEFAULT_MATERIAL
-        found = authored_type(primvar.GetAttr())
+        found = self.ctx.authored_type(primvar.GetAttr())
         if found not in tuple(t + "[]" for t in COLOR_TYPES):
             self.ctx.problem(prim, "primvars:displayColor", f"has type {found}, expected color3f[]")
             return DEFAULT_MATERIAL

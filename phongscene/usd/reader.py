@@ -40,7 +40,7 @@ from ..scene import (
 from ..tolerances import CAMERA_ORTHOGONAL_TOLERANCE
 from ..validate import validate
 from . import geometry, names, typos
-from .diagnostics import usd_diagnostics
+from .diagnostics import as_warnings, usd_output
 from .layers import not_regular, preflight
 from .context import ReadContext, gf_to_numpy, tf_error_text, unit
 from .materials import MaterialReader
@@ -76,29 +76,58 @@ def load_usd(source, time: float | None = None) -> Scene:
     return read_usd(source, time=time).scene
 
 
+@dataclass(eq=False)
+class OpenStage:
+    """A USD file opened once to be read at many times (the frames one Dask worker renders):
+    the stage, what USD printed while opening it, and the outcome of the checks that do not
+    depend on the time (made by the first read, replayed by the others). ``read_usd`` of it at a
+    time gives what ``read_usd`` of the file at that time gives. Path-like: it names its file."""
+
+    stage: Usd.Stage
+    file: str
+    usd_output: str = ""  # USD's diagnostics while opening (raw: each read makes warnings of it)
+    checks: tuple[list[Problem], list[str]] | None = None  # (problems, warnings) of _stage_checks
+    types: dict = field(default_factory=dict)  # ReadContext.types: each attribute's authored type
+
+    def __fspath__(self) -> str:
+        return self.file
+
+
+def open_stage(path) -> OpenStage:
+    """Open (and check, as ``read_usd`` does) the USD file at ``path`` to read it at many times.
+
+    Raises:
+        SceneError: the file is missing, not a file, or not USD (naming it).
+    """
+    texts: list[str] = []
+    with usd_output(texts):
+        stage, file = _open(path)
+    return OpenStage(stage, file, "".join(texts))
+
+
 def read_usd(source, time: float | None = None) -> ReadResult:
-    """Like ``load_usd`` but also returns the warnings and the prim → node mapping."""
-    usd_warnings: list[str] = []
-    with usd_diagnostics(usd_warnings):  # USD's own "Warning: in ..." lines become warnings
-        stage, file = _open(source)
+    """Like ``load_usd`` but also returns the warnings and the prim → node mapping. ``source``
+    may also be an ``OpenStage`` (``open_stage``)."""
+    texts: list[str] = []
+    with usd_output(texts):  # USD's own "Warning: in ..." lines become warnings
+        opened = source if isinstance(source, OpenStage) else OpenStage(*_open(source))
+        file = opened.file
         if time is not None and not (isinstance(time, (int, float)) and math.isfinite(time)):
             raise SceneError(Problem(f"the time must be a finite number (a USD time code), got {time!r}", file=file))
         try:
-            result = _read(stage, file, time)
+            result = _read(opened, time)
         except Tf.ErrorException as e:
             # A value USD itself cannot produce while we read it (where no prim-level check caught
             # it first): one error naming the file, not a traceback.
             raise SceneError(Problem(f"USD could not read a value: {tf_error_text(e)}", file=file)) from None
-    result.warnings.extend(usd_warnings)
+    result.warnings.extend(as_warnings(opened.usd_output + "".join(texts)))
     return result
 
 
-def _read(stage: Usd.Stage, file: str, time: float | None) -> ReadResult:
-    code, said = _time_to_read(stage, time)
-    ctx = ReadContext(stage, file, code)
-    if said:
-        ctx.warn(said)
-    for error in stage.GetCompositionErrors():
+def _stage_checks(ctx: ReadContext) -> None:
+    """What is read of the stage whatever the time: composition errors, unknown ``phong:``
+    attributes, names nothing reads (typos)."""
+    for error in ctx.stage.GetCompositionErrors():
         # As USD and usdview do: a reference, payload or sublayer that cannot be composed (a
         # missing file, a .mtlx without USD's MaterialX plugin) is said, and the rest is drawn.
         site = getattr(error, "rootSite", None)
@@ -108,7 +137,21 @@ def _read(stage: Usd.Stage, file: str, time: float | None) -> ReadResult:
         ctx.warn(f"{where}: {text} (not composed; the rest of the stage is drawn)")
     _check_phong_namespace(ctx)
     typos.check_names(ctx)
-    stage = ctx.stage
+
+
+def _read(opened: OpenStage, time: float | None) -> ReadResult:
+    stage, file = opened.stage, opened.file
+    code, said = _time_to_read(stage, time)
+    ctx = ReadContext(stage, file, code, opened.types)
+    if said:
+        ctx.warn(said)
+    if opened.checks is None:
+        problems, warnings = len(ctx.problems), len(ctx.warnings)
+        _stage_checks(ctx)
+        opened.checks = (ctx.problems[problems:], ctx.warnings[warnings:])
+    else:
+        ctx.problems.extend(opened.checks[0])
+        ctx.warnings.extend(opened.checks[1])
     settings, camera_prim = _render_settings(ctx)
     camera, lights, ambient, spheres, meshes = None, [], [], [], []
     materials = MaterialReader(ctx)

@@ -22,7 +22,7 @@ import numpy as np
 from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
 
 from ..scene import Texture
-from .context import ReadContext, authored_type
+from .context import ReadContext
 
 TEXTURE_SHADER_ID = "UsdUVTexture"
 PRIMVAR_READER_ID = "UsdPrimvarReader_float2"
@@ -270,7 +270,7 @@ def mesh_uvs(ctx: ReadContext, prim: Usd.Prim, st: StSource, counts: tuple[int, 
         ctx.unsupported["textured meshes without their st primvar (the fallback colour is used)"].append(f"{path} ({st.primvar})")
         return None
     name = f"primvars:{st.primvar}"
-    type_name = authored_type(primvar.GetAttr())
+    type_name = ctx.authored_type(primvar.GetAttr())
     if type_name not in UV_TYPES:
         ctx.problem(prim, name, f"has type {type_name}, expected texCoord2f[]")
         return None
