@@ -1,14 +1,13 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Render one benchmark scene natively, once, on one thread, at a small size: the process to run
-under ``valgrind --tool=callgrind`` (instruction counts do not depend on the machine's load).
+"""One native render of a benchmark scene on one thread, for an instruction profiler:
 
-    .venv/bin/python benchmarks/profile_render.py S1 --width 320 --height 180 [--extension SO]
+    valgrind --tool=callgrind --callgrind-out-file=cg.S1.out \\
+        .venv/bin/python benchmarks/profile_render.py S1 --width 320 --height 180 [--extension SO]
+    callgrind_annotate --inclusive=yes cg.S1.out | grep 'phong::'
 
-The C++ scene is built first, so the render worker thread's inclusive count (callgrind_annotate
---inclusive=yes, the ``render_image`` lambda run by ``std::thread``) is the render alone. The
-installed extension is stripped; a build with symbols for callgrind (same flags, -O3 wins over
-RelWithDebInfo's -O2, plus -g) is made as benchmarks/README.md ("What paid", branch `shading`) says.
-"""
+Instruction counts, unlike times, do not depend on what else the machine runs. The installed
+extension is stripped; for function names, profile a build with symbols (benchmarks/README.md,
+"Profiling") through --extension."""
 
 from __future__ import annotations
 
@@ -17,18 +16,16 @@ import dataclasses
 import sys
 from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 from run import scene_path, use_extension  # noqa: E402  (benchmarks/ is not a package)
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("scene", help="S1, S2, S3 (benchmarks/make_scenes.py names)")
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("scene", help="S1, S2, S3 or S2-10k / S2-100k")
     parser.add_argument("--width", type=int, default=320)
     parser.add_argument("--height", type=int, default=180)
-    parser.add_argument("--mapping", default="classic", choices=("classic", "exact"))
-    parser.add_argument("--extension", type=Path, help="another build of the _native extension")
+    parser.add_argument("--extension", type=Path, metavar="SO", help="another build of the _native extension")
     args = parser.parse_args()
     if args.extension:
         use_extension(args.extension)
@@ -37,8 +34,8 @@ def main() -> None:
     from phongscene.usd import load_usd
 
     scene = load_usd(scene_path(args.scene))
-    settings = dataclasses.replace(scene.settings, width=args.width, height=args.height, threads=1,
-                                   specular=SPECULAR_OF_MAPPING[args.mapping])
+    settings = dataclasses.replace(scene.settings, threads=1, width=args.width, height=args.height,
+                                   specular=SPECULAR_OF_MAPPING["classic"])
     built = native.build(scene)
     built.render(camera=native._camera(scene.camera), settings=native._settings(settings))
 

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "math.hpp"
@@ -23,15 +24,27 @@ struct Bounds {
 };
 
 // The float nearest to x on the side away from the box's interior (boxes are stored in float
-// and must contain their double bounds).
+// and must contain their double bounds; rays round their origin with these, FloatSlabRay in
+// bvh4.hpp). Branch-free, without std::nextafter (a libm call): when the nearest float f lies on
+// the wrong side of x, one step of f's bit pattern moves it by one float, up or down by its sign
+// bit (so −0 steps down to −(the smallest subnormal), +0 up to +(it); ±inf steps to ±FLT_MAX;
+// NaN compares false and stays NaN).
 inline float round_down(double x) {
     float f = static_cast<float>(x);
-    if (double(f) > x) f = std::nextafter(f, -HUGE_VALF);
+    uint32_t bits;
+    std::memcpy(&bits, &f, sizeof bits);
+    const uint32_t step = double(f) > x ? 1u : 0u;
+    bits += (bits >> 31) ? step : 0u - step;  // down: away from 0 when negative, toward it when positive
+    std::memcpy(&f, &bits, sizeof f);
     return f;
 }
 inline float round_up(double x) {
     float f = static_cast<float>(x);
-    if (double(f) < x) f = std::nextafter(f, HUGE_VALF);
+    uint32_t bits;
+    std::memcpy(&bits, &f, sizeof bits);
+    const uint32_t step = double(f) < x ? 1u : 0u;
+    bits += (bits >> 31) ? 0u - step : step;
+    std::memcpy(&f, &bits, sizeof f);
     return f;
 }
 
@@ -74,9 +87,15 @@ struct Bvh {
 };
 
 // Slab test against a node (or any box with float lo[3], hi[3]), in double precision with
-// precomputed reciprocal direction. NaN from 0·inf (origin on a slab plane, direction parallel
-// to it) is ignored, which keeps the box (conservative). t_far is widened by kSlabFarWidening so
-// a rounding error in the box test never culls a hit that the exact primitive test would report.
+// precomputed reciprocal direction. Each axis's near plane is the lower bound where the
+// reciprocal's sign bit is clear, else the upper one (by the sign bit, so that a direction
+// component −0, reciprocal −inf, counts as negative). NaN from 0·inf (origin on a slab plane,
+// direction parallel to it) is ignored, which keeps the box (conservative): with the planes
+// chosen by sign, every other 0-direction case gives ±inf of the right sign. (Choosing the near
+// distance as the smaller of the two, as before, took +inf for a −0 component with the origin on
+// the upper plane: such a ray missed the box and what was inside it.) t_far is widened by
+// kSlabFarWidening so a rounding error in the box test never culls a hit that the exact
+// primitive test would report.
 //
 // Branch-free (compare-and-select, which compiles to minsd/maxsd with the operand order that
 // keeps these NaN rules): the early exit on an empty interval after each axis only decides
@@ -93,10 +112,9 @@ inline bool hit_node(const Box& n, const Vec3& o, const Vec3& inv, double t_min,
     double t0 = t_min, t1 = t_max;
     const double os[3] = {o.x, o.y, o.z}, is[3] = {inv.x, inv.y, inv.z};
     for (int k = 0; k < 3; ++k) {
-        const double a = (double(n.lo[k]) - os[k]) * is[k];
-        const double b = (double(n.hi[k]) - os[k]) * is[k];
-        const double near = a > b ? b : a;  // NaN: a, as without the swap
-        const double far = (a > b ? a : b) * kSlabFarWidening;
+        const bool negative = std::signbit(is[k]);
+        const double near = (double(negative ? n.hi[k] : n.lo[k]) - os[k]) * is[k];
+        const double far = (double(negative ? n.lo[k] : n.hi[k]) - os[k]) * is[k] * kSlabFarWidening;
         t0 = near > t0 ? near : t0;  // NaN ignored
         t1 = far < t1 ? far : t1;
     }

@@ -139,10 +139,12 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         bounds.grow(chunk_bounds);
     });
     magnitude = bounds.empty() ? 0.0 : std::fmax(max_abs_component(bounds.lo), max_abs_component(bounds.hi));
-
     // The build consumes (and frees) the primitive boxes before the leaf-order copies below are
     // allocated.
     bvh_.build(std::move(prims));
+    // The rays walk the 4-wide tree; the binary one's nodes are freed once it is collapsed.
+    bvh4_ = collapse_to_bvh4(bvh_.nodes);
+    std::vector<BvhNode>().swap(bvh_.nodes);
 
     // Primitive refs and triangle data in leaf order, so leaves read memory sequentially.
     // Leaf position k holds triangle slot k − (spheres before k).
@@ -198,51 +200,18 @@ int64_t Scene::primitive_id(int32_t ref) const {
     return int64_t(spheres.size()) + triangle_source[size_t(ref)];
 }
 
-namespace {
-
-// Walks the BVH; `leaf(first, count, t_max)` tests a leaf's primitives and returns true to
-// stop the walk (any-hit). t_max shrinks as closer hits are found.
-template <class LeafFn>
-void traverse(const std::vector<BvhNode>& nodes, const Ray& ray, double t_min, double& t_max, LeafFn&& leaf) {
-    if (nodes.empty()) return;
-    const Vec3 inv{1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z};
-    const bool negative[3] = {ray.dir.x < 0.0, ray.dir.y < 0.0, ray.dir.z < 0.0};
-    int32_t stack[kMaxTraversalDepth];
-    int sp = 0;
-    int32_t index = 0;
-    while (true) {
-        const BvhNode& node = nodes[size_t(index)];
-        double t_entry;
-        if (hit_node(node, ray.origin, inv, t_min, t_max, t_entry)) {
-            if (node.count > 0) {
-                if (leaf(node.offset, node.count, t_max)) return;
-            } else {
-                // Near child first: the first child holds the lower half along the split axis.
-                int32_t first = index + 1, second = node.offset;
-                if (negative[node.axis]) std::swap(first, second);
-                stack[sp++] = second;
-                index = first;
-                continue;
-            }
-        }
-        if (sp == 0) return;
-        index = stack[--sp];
-    }
-}
-
-}  // namespace
-
 bool Scene::closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) const {
     // Exact ties (coincident surfaces hit at the same t) go to the lower primitive id, so the
     // hit does not depend on the BVH's shape or visiting order: once a hit is found, primitives
     // are tested up to and including t_best, and boxes up to a little beyond it: a box's entry
-    // distance errs by < 2ε relative (three roundings of ≤ ε/2, as in hit_node), and
-    // kTieCullMargin = 8ε keeps a 4x margin over it, like kSelfHitError.
+    // distance in the double test errs by < 2ε relative (three roundings of ≤ ε/2, as in
+    // hit_node), and kTieCullMargin = 8ε keeps a 4x margin over it, like kSelfHitError (the float
+    // test widens its limit further by itself: FloatSlabRay).
     constexpr double kTieCullMargin = ulps(8);
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool found = false;
     double t_best = t_max, t_test = t_max, t_cull = t_max;
-    traverse(bvh_.nodes, ray, t_min, t_cull, [&](int32_t first, int count, double& cull) {
+    traverse_bvh4<true>(bvh4_, magnitude, ray, t_min, t_cull, [&](int32_t first, int count, double& cull) {
         for (int k = 0; k < count; ++k) {
             const int32_t ref = refs_[size_t(first + k)];
             double t;
@@ -269,7 +238,8 @@ bool Scene::closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) co
 bool Scene::occluded(const Ray& ray, double t_min, double t_max) const {
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool blocked = false;
-    traverse(bvh_.nodes, ray, t_min, t_max, [&](int32_t first, int count, double& t_best) {
+    double t_limit = t_max;
+    traverse_bvh4<false>(bvh4_, magnitude, ray, t_min, t_limit, [&](int32_t first, int count, double& t_best) {
         for (int k = 0; k < count; ++k) {
             const int32_t ref = refs_[size_t(first + k)];
             double t;
@@ -300,7 +270,7 @@ constexpr size_t kMaxBundleCandidates = 32;
 bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
                               std::vector<BundleCandidate>& candidates) const {
     candidates.clear();
-    if (bvh_.nodes.empty()) return true;
+    if (bvh4_.empty()) return true;
     // Candidate separating axes: x, y, z, the parallelogram's normal and the four side faces of
     // the pyramid (apex hull[0]). Any vector is a valid axis: the hull's extent along it is
     // computed from the points, not assumed.
@@ -369,38 +339,43 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
         }
         return false;
     };
-    int32_t stack[kMaxTraversalDepth];
+    auto add_leaf = [&](int32_t first, int count) {
+        for (int i = 0; i < count; ++i) {
+            const int32_t ref = refs_[size_t(first + i)];
+            Bounds b;
+            if (ref >= 0) {
+                const TriangleShape& tri = triangles[size_t(ref)];
+                b.grow(tri.v0);
+                b.grow(tri.v1);
+                b.grow(tri.v2);
+            } else {
+                b.lo = spheres[size_t(~ref)].bounds_lo;
+                b.hi = spheres[size_t(~ref)].bounds_hi;
+            }
+            BundleCandidate box{{round_down(b.lo.x), round_down(b.lo.y), round_down(b.lo.z)},
+                                {round_up(b.hi.x), round_up(b.hi.y), round_up(b.hi.z)},
+                                ref,
+                                {}};
+            if (separated(box.lo, box.hi) || below_the_window(box.lo, box.hi)) continue;
+            if (candidates.size() == kMaxBundleCandidates) return false;
+            if (ref < 0) box.sphere_origin = sphere_origin(spheres[size_t(~ref)], apex);
+            candidates.push_back(box);
+        }
+        return true;
+    };
+    int32_t stack[kMaxBvh4Stack];
     int sp = 0;
     int32_t index = 0;
     while (true) {
-        const BvhNode& node = bvh_.nodes[size_t(index)];
-        if (!separated(node.lo, node.hi)) {
-            if (node.count > 0) {
-                for (int i = 0; i < node.count; ++i) {
-                    const int32_t ref = refs_[size_t(node.offset + i)];
-                    Bounds b;
-                    if (ref >= 0) {
-                        const TriangleShape& tri = triangles[size_t(ref)];
-                        b.grow(tri.v0);
-                        b.grow(tri.v1);
-                        b.grow(tri.v2);
-                    } else {
-                        b.lo = spheres[size_t(~ref)].bounds_lo;
-                        b.hi = spheres[size_t(~ref)].bounds_hi;
-                    }
-                    BundleCandidate box{{round_down(b.lo.x), round_down(b.lo.y), round_down(b.lo.z)},
-                                        {round_up(b.hi.x), round_up(b.hi.y), round_up(b.hi.z)},
-                                        ref,
-                                        {}};
-                    if (separated(box.lo, box.hi) || below_the_window(box.lo, box.hi)) continue;
-                    if (candidates.size() == kMaxBundleCandidates) return false;
-                    if (ref < 0) box.sphere_origin = sphere_origin(spheres[size_t(~ref)], apex);
-                    candidates.push_back(box);
-                }
-            } else {
-                stack[sp++] = node.offset;
-                index = index + 1;
-                continue;
+        const Bvh4Node& node = bvh4_[size_t(index)];
+        for (int i = 0; i < 4; ++i) {
+            if (node.child[i] < 0) continue;  // empty slot
+            const ChildBox box(node, i);
+            if (separated(box.lo, box.hi)) continue;
+            if (node.count[i] == 0) {
+                stack[sp++] = node.child[i];
+            } else if (!add_leaf(node.child[i], node.count[i])) {
+                return false;
             }
         }
         if (sp == 0) return true;

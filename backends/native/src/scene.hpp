@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "bvh.hpp"
+#include "bvh4.hpp"
 #include "lights.hpp"
 #include "materials.hpp"
 #include "math.hpp"
@@ -122,7 +123,8 @@ class Scene {
         return intersect_triangle(triangles[size_t(ref)], ray, *wr, t_min, t_max, t, bary);
     }
 
-    Bvh bvh_;
+    Bvh bvh_;                      // the binary tree; its nodes are freed once collapsed
+    std::vector<Bvh4Node> bvh4_;   // what the rays walk
     std::vector<int32_t> refs_;  // BVH leaf order
 };
 

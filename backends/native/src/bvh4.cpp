@@ -1,0 +1,88 @@
+// SPDX-License-Identifier: Apache-2.0
+// Collapsing the binary SAH tree into the 4-wide BVH (bvh4.hpp): a pass of its own over the
+// built tree, so the binary build stays as it is.
+#include "bvh4.hpp"
+
+namespace phong {
+
+namespace {
+
+double half_area(const BvhNode& n) {
+    const double x = double(n.hi[0]) - n.lo[0], y = double(n.hi[1]) - n.lo[1], z = double(n.hi[2]) - n.lo[2];
+    return x * y + y * z + z * x;
+}
+
+struct Collapser {
+    const std::vector<BvhNode>& binary;
+    std::vector<Bvh4Node>& wide;
+
+    // The 4-wide node of binary node `index`'s subtree, appended depth-first; returns its index.
+    // A binary leaf (only the root can be one here) becomes a node with that single child.
+    int32_t collapse(int32_t index) {
+        int32_t kids[4];
+        int n = 0;
+        if (binary[size_t(index)].count > 0) {
+            kids[n++] = index;
+        } else {
+            kids[n++] = index + 1;
+            kids[n++] = binary[size_t(index)].offset;
+        }
+        // Open the interior child of largest area (the one rays enter most often, by the SAH's
+        // measure) until there are four.
+        while (n < 4) {
+            int widest = -1;
+            double widest_area = -1.0;
+            for (int i = 0; i < n; ++i) {
+                const BvhNode& c = binary[size_t(kids[i])];
+                if (c.count == 0 && half_area(c) > widest_area) {
+                    widest = i;
+                    widest_area = half_area(c);
+                }
+            }
+            if (widest < 0) break;
+            const int32_t opened = kids[widest];
+            kids[widest] = opened + 1;
+            kids[n++] = binary[size_t(opened)].offset;
+        }
+        const int32_t self = int32_t(wide.size());
+        wide.emplace_back();
+        Bvh4Node& node = wide.back();
+        for (int i = 0; i < 4; ++i) {
+            for (int k = 0; k < 3; ++k) {
+                node.boxes[k][i] = INFINITY;
+                node.boxes[3 + k][i] = -INFINITY;
+            }
+            node.child[i] = -1;
+            node.count[i] = 0;
+        }
+        for (int i = 0; i < n; ++i) {
+            const BvhNode& c = binary[size_t(kids[i])];
+            for (int k = 0; k < 3; ++k) {
+                wide[size_t(self)].boxes[k][i] = c.lo[k];
+                wide[size_t(self)].boxes[3 + k][i] = c.hi[k];
+            }
+        }
+        for (int i = 0; i < n; ++i) {
+            const BvhNode& c = binary[size_t(kids[i])];
+            int32_t child = c.offset;
+            if (c.count == 0) child = collapse(kids[i]);  // appends: `node` may have moved
+            wide[size_t(self)].child[i] = child;
+            wide[size_t(self)].count[i] = c.count;
+        }
+        return self;
+    }
+};
+
+}  // namespace
+
+std::vector<Bvh4Node> collapse_to_bvh4(const std::vector<BvhNode>& binary) {
+    std::vector<Bvh4Node> wide;
+    if (binary.empty()) return wide;
+    // About a third as many 4-wide nodes as the binary tree's (binary.size() − 1) / 2 interior
+    // ones; reserving a little more avoids reallocating.
+    wide.reserve(binary.size() / 4 + 1);
+    Collapser{binary, wide}.collapse(0);
+    return wide;
+}
+
+}  // namespace phong
