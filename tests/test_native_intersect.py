@@ -126,6 +126,50 @@ def test_transformed_sphere_hits_lie_on_the_ellipsoid():
     np.testing.assert_allclose(np.linalg.norm(p_object, axis=1), 1.0, rtol=0, atol=1e-13)
 
 
+def _general_sphere_t(m: np.ndarray, origin, d) -> float:
+    """shapes.hpp's sphere test with the full affine transform, transcribed term by term (numpy
+    float64 scalars round as C++ does without fused multiply-adds): the closest root > 0."""
+    o = [((m[k, 0] * origin[0] + m[k, 1] * origin[1]) + m[k, 2] * origin[2]) + m[k, 3] for k in range(3)]
+    v = [(m[k, 0] * d[0] + m[k, 1] * d[1]) + m[k, 2] * d[2] for k in range(3)]
+    dot = lambda x, y: (x[0] * y[0] + x[1] * y[1]) + x[2] * y[2]  # noqa: E731
+    a, b, c = dot(v, v), dot(o, v), dot(o, o) - 1.0
+    f = [o[k] - v[k] * (b / a) for k in range(3)]
+    len_f = np.sqrt(dot(f, f))
+    disc = a * (1.0 - len_f) * (1.0 + len_f)
+    if not disc >= 0.0:
+        return math.inf
+    q = -(b + np.copysign(np.sqrt(disc), b))
+    t0, t1 = (0.0, 0.0) if q == 0.0 else sorted((q / a, c / q))
+    return t0 if t0 > 0.0 else (t1 if t1 > 0.0 else math.inf)
+
+
+@pytest.mark.parametrize("centre", [(0.0, 0.0, 0.0), (-0.0, -0.0, -0.0), (1.5, -2.0, 0.25)])
+def test_scaled_sphere_hits_equal_the_general_transform_bit_for_bit(centre):
+    # A scaled, translated sphere is tested with the diagonal of its transform only (shapes.hpp,
+    # axis_aligned); that differs from the full transform at most in the sign of a zero, which
+    # flips the root formula (and the root by an ulp) when b = o·d is a zero of the other sign:
+    # rays from the centre and the centre's planes (every sign of zero) along the axes must give
+    # the general transform's bits, as must rays in general position. (Without the b = 0 fallback
+    # rays from the centres of the mirrored spheres here differ by an ulp.)
+    rng = np.random.default_rng(5)
+    c = np.asarray(centre)
+    offsets = [np.array([x, y, z]) for x in (0.0, -0.0) for y in (0.0, -0.0) for z in (0.0, -0.0)] + [
+        np.array([0.3, 0.0, -0.0]), np.array([0.0, -0.4, 0.0])] + list(rng.uniform(-3, 3, size=(8, 3)))
+    directions = [s * np.eye(3)[k] for k in range(3) for s in (1.0, -1.0)] + list(unit(rng.normal(size=(8, 3))))
+    # Mirrored axes too: their inverses carry -0.0 translations and off-diagonal terms.
+    for scales in rng.uniform(0.2, 3.0, size=(24, 3)) * rng.choice([1.0, -1.0], size=(24, 3)):
+        m = np.diag([*scales, 1.0])
+        m[:3, 3] = c
+        scene = _sphere_scene(m)[0]
+        object_from_world = native.scene_arrays(scene)["sphere_object_from_world"][0]
+        origins = np.array([c + o for o in offsets for _ in directions])
+        dirs = np.array([d for _ in offsets for d in directions])
+        t, prim = native.build(scene).intersect(origins, dirs)
+        expected = np.array([_general_sphere_t(object_from_world, o, d) for o, d in zip(origins, dirs)])
+        assert np.isfinite(expected).sum() > len(expected) // 2  # the set-up hits the sphere
+        assert np.array_equal(t, expected), np.c_[t, expected][t != expected]
+
+
 def test_bvh_closest_hit_equals_brute_force():
     rng = np.random.default_rng(11)
     v = rng.uniform(-5, 5, size=(3000, 3))

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cmath>
+#include <type_traits>
 #include <variant>
 #include <vector>
 
@@ -129,145 +130,201 @@ double adaptive_fraction(int u1, int v1, int u2, int v2, int level, int adaptive
 }
 }  // namespace detail
 
-inline const LightTerms& light_terms(const Light& light) {
-    return std::visit([](const auto& L) -> const LightTerms& { return L.terms; }, light);
-}
+// An area light's grid points as offsets (ju, jv) along its two axes, |ju|, |jv| <= 1/2 (for a
+// circular light: nudged and mapped onto the disc, POV-Ray's shells), and their weights, at index
+// a·n + b in the order visible_fraction() visits them. They depend only on the sample count and
+// the mapping, so a render computes them once per light (render.cpp) rather than at every shaded
+// point; the same operations in the same order, so the same bits. A rect light's axes are fixed,
+// so its samples' world positions c + ju·a1 + jv·a2 are computed once too (`targets`); a sphere
+// light's disc turns to face each shaded point.
+struct AreaLightGrid {
+    int n = 0;  // samples per axis; 0 for a light without a grid
+    std::vector<double> ju, jv, weight;
+    double total_weight = 0.0;  // the weights summed in visiting order: the fraction of a grid no ray can shadow
+    std::vector<Vec3> targets;  // rect lights: the samples in world space; empty otherwise
 
-inline LightSample sample_light_centre(const Light& light, const Vec3& p) {
-    return std::visit(
-        [&](const auto& L) -> LightSample {
-            using T = std::decay_t<decltype(L)>;
-            if constexpr (std::is_same_v<T, PointLight>) {
-                LightSample s = detail::toward(L.position, p, L.color);
-                if (L.fade_power > 0.0)  // POV-Ray: 2 / (1 + (d / fade_distance)^fade_power)
-                    s.color = s.color * (2.0 / (1.0 + std::pow(s.distance / L.fade_distance, L.fade_power)));
-                if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
-                if (L.cone_cos_outer > -1.0) {
-                    const double c = -dot(s.l, L.cone_axis);
-                    const double span = L.cone_cos_inner - L.cone_cos_outer;
-                    double t = span > 0.0 ? (c - L.cone_cos_outer) / span : (c > L.cone_cos_outer ? 1.0 : 0.0);
-                    t = std::fmin(1.0, std::fmax(0.0, t));
-                    s.color = s.color * (t * t * (3.0 - 2.0 * t));
-                    if (L.cone_focus > 0.0) s.color = s.color * std::pow(std::fmax(c, 0.0), L.cone_focus);
-                }
-                return s;
-            } else if constexpr (std::is_same_v<T, DirectionalLight>) {
-                return {L.to_light, HUGE_VAL, L.color};
-            } else if constexpr (std::is_same_v<T, RectAreaLight>) {
-                LightSample s = detail::toward(L.center, p, L.color);
-                if (L.inverse_square) {
-                    // cos at the light = (p - c)·emit / d with emit = -unit(axis_u × axis_v) = l·unit(u × v).
-                    const double cos_light = dot(s.l, normalize(cross(L.axis_u, L.axis_v)));
-                    s.color = s.color * (std::fmax(0.0, cos_light) / (s.distance * s.distance));
-                }
-                return s;
-            } else {
-                LightSample s = detail::toward(L.center, p, L.color);
-                if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
-                return s;
-            }
-        },
-        light);
-}
-
-// The unshadowed fraction of the light at p, in [0, 1]. `shadow(dir, distance)` traces one
-// shadow ray from p (unit dir; distance to the light sample, inf for directional lights).
-// Before an area light's grid, `shadow.begin_grid(corners)` is told the four corners of a
-// parallelogram that holds every sample of the grid; it returns false when no sample can be
-// shadowed (then no ray is traced, and the weights are summed as for visible samples, in the
-// same order, so the fraction is bit-identical).
-template <class Shadow>
-double visible_fraction(const Light& light, const Vec3& p, const LightSample& centre, Shadow&& shadow) {
-    auto grid = [&](int n, const Vec3& c, const Vec3& a1, const Vec3& a2, bool circular, int adaptive,
-                    int cell_samples) {
-        // Samples sit at c + ju·a1 + jv·a2 with |ju|, |jv| <= 1/2 (the circular mapping only
-        // shrinks the nudged coordinates, so <= 1/2 + the nudge there).
-        const double half = circular ? 0.5 + kCircularAreaLightNudge : 0.5;
-        const Vec3 corners[4] = {c - a1 * half - a2 * half, c + a1 * half - a2 * half, c + a1 * half + a2 * half,
-                                 c - a1 * half + a2 * half};
-        const bool may_be_shadowed = shadow.begin_grid(corners);
-        // The light point at grid parameters (fu, fv) in [0, 1]^2 (grid point a at a / (n - 1)).
-        auto target_at = [&](double fu, double fv) {
-            double ju = fu - 0.5, jv = fv - 0.5;
-            if (circular) {
-                // Map the square onto the disc (POV-Ray's shells: |(ju, jv)| -> max(|ju|, |jv|)).
-                ju += kCircularAreaLightNudge;
-                jv += kCircularAreaLightNudge;
-                const double scale = std::fmax(std::fabs(ju), std::fabs(jv)) / std::sqrt(ju * ju + jv * jv);
-                ju *= scale;
-                jv *= scale;
-            }
-            return c + a1 * ju + a2 * jv;
-        };
-        auto target_of = [&](int a, int b) { return target_at(double(a) / (n - 1), double(b) / (n - 1)); };
-        // The cells estimator's points inside a grid cell (area_cells.hpp).
-        auto visible_at = [&](double fu, double fv) {
-            const Vec3 v = target_at(fu, fv) - p;
-            const double d = length(v);
-            return !shadow(v / d, d);
-        };
-        if (cell_samples > 0 && adaptive == kFullSubdivision) {
-            if (!may_be_shadowed) return 1.0;
-            thread_local std::vector<signed char> cache;
-            cache.assign(size_t(n) * size_t(n), -1);
-            return cells_fraction(n, cell_samples, point_key(p), cache, visible_at);
-        }
-        if (adaptive != kFullSubdivision) {
-            // Every grid point visible: every region's corners agree and the recursion's means of
-            // ones are exactly 1.
-            if (!may_be_shadowed) return 1.0;
-            // POV-Ray compares the (float) colour of the light as it arrives (fade, cone, falloff).
-            const double colour_sum = std::fabs(double(float(centre.color.x))) + std::fabs(double(float(centre.color.y))) +
-                                      std::fabs(double(float(centre.color.z)));
-            // Which grid points were traced (-1: not yet), per thread, reused point after point.
-            thread_local std::vector<signed char> cache;
-            cache.assign(size_t(n) * size_t(n), -1);
-            auto visible = [&](int a, int b) {
-                const Vec3 v = target_of(a, b) - p;
-                const double d = length(v);
-                return !shadow(v / d, d);
-            };
-            const uint32_t key = cell_samples > 0 ? point_key(p) : 0;
-            auto partial = [&](int a, int b) { return partial_cell_fraction(a, b, n, cell_samples, key, visible_at); };
-            return detail::adaptive_fraction(0, 0, n - 1, n - 1, 0, adaptive, colour_sum, n, cache, visible,
-                                             cell_samples > 0 ? &partial : nullptr);
-        }
-        double visible = 0.0;
+    AreaLightGrid() = default;
+    AreaLightGrid(int samples, bool circular) : n(samples) {
+        const size_t count = size_t(n) * size_t(n);
+        ju.resize(count);
+        jv.resize(count);
+        weight.resize(count);
         for (int a = 0; a < n; ++a) {
             const double weight_a = detail::trapezoid_weight(a, n);
             for (int b = 0; b < n; ++b) {
-                const double weight = weight_a * detail::trapezoid_weight(b, n);
-                if (!may_be_shadowed) {
-                    visible += weight;
-                    continue;
+                const size_t k = size_t(a) * size_t(n) + size_t(b);
+                double u = double(a) / (n - 1) - 0.5, v = double(b) / (n - 1) - 0.5;
+                if (circular) {
+                    // Map the square onto the disc (POV-Ray's shells: |(ju, jv)| -> max(|ju|, |jv|)).
+                    u += kCircularAreaLightNudge;
+                    v += kCircularAreaLightNudge;
+                    const double scale = std::fmax(std::fabs(u), std::fabs(v)) / std::sqrt(u * u + v * v);
+                    u *= scale;
+                    v *= scale;
                 }
-                const Vec3 v = target_of(a, b) - p;
-                const double d = length(v);
-                if (!shadow(v / d, d)) visible += weight;
+                ju[k] = u;
+                jv[k] = v;
+                weight[k] = weight_a * detail::trapezoid_weight(b, n);
+                total_weight += weight[k];
             }
         }
-        return visible;
-    };
+    }
+};
+
+// The grid of an area light (an empty one for point and directional lights).
+inline AreaLightGrid area_light_grid(const Light& light) {
     return std::visit(
-        [&](const auto& L) -> double {
+        [](const auto& L) -> AreaLightGrid {
             using T = std::decay_t<decltype(L)>;
-            if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
-                return shadow(centre.l, centre.distance) ? 0.0 : 1.0;
-            } else if constexpr (std::is_same_v<T, RectAreaLight>) {
-                return grid(L.samples, L.center, L.axis_u, L.axis_v, false, L.adaptive, L.cell_samples);
-            } else {
-                // `orient`: the disc faces p. Axis 1 is perpendicular to l and a helper axis
-                // (z, or y when l is nearly vertical), axis 2 to l and axis 1; both of length 2r.
-                const Vec3& l = centre.l;
-                const Vec3 helper = std::fabs(std::fabs(l.z) - 1.0) < kOrientVerticalTolerance ? Vec3{0, 1, 0}
-                                                                                                  : Vec3{0, 0, 1};
-                const Vec3 a1 = normalize(cross(l, helper));
-                const Vec3 a2 = normalize(cross(l, a1));
-                const double size = 2.0 * L.radius;
-                return grid(L.samples, L.center, a1 * size, a2 * size, true, L.adaptive, L.cell_samples);
-            }
+            if constexpr (std::is_same_v<T, RectAreaLight>) {
+                AreaLightGrid grid(L.samples, false);
+                for (size_t k = 0; k < grid.weight.size(); ++k)
+                    grid.targets.push_back(L.center + L.axis_u * grid.ju[k] + L.axis_v * grid.jv[k]);
+                return grid;
+            } else if constexpr (std::is_same_v<T, SphereAreaLight>) return AreaLightGrid(L.samples, true);
+            else return AreaLightGrid();
         },
         light);
+}
+
+// sample_light_centre() and visible_fraction() take one alternative of Light (the caller visits
+// the variant once per light and shaded point; each of them visiting it again cost a jump table).
+// Always inlined: once per light and shaded point, and left out of line (GCC's choice in the
+// shading loop) its call cost 1.5% of S1's instructions.
+template <class T>
+[[gnu::always_inline]] inline LightSample sample_light_centre(const T& L, const Vec3& p) {
+    if constexpr (std::is_same_v<T, PointLight>) {
+        LightSample s = detail::toward(L.position, p, L.color);
+        if (L.fade_power > 0.0)  // POV-Ray: 2 / (1 + (d / fade_distance)^fade_power)
+            s.color = s.color * (2.0 / (1.0 + std::pow(s.distance / L.fade_distance, L.fade_power)));
+        if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
+        if (L.cone_cos_outer > -1.0) {
+            const double c = -dot(s.l, L.cone_axis);
+            const double span = L.cone_cos_inner - L.cone_cos_outer;
+            double t = span > 0.0 ? (c - L.cone_cos_outer) / span : (c > L.cone_cos_outer ? 1.0 : 0.0);
+            t = std::fmin(1.0, std::fmax(0.0, t));
+            s.color = s.color * (t * t * (3.0 - 2.0 * t));
+            if (L.cone_focus > 0.0) s.color = s.color * std::pow(std::fmax(c, 0.0), L.cone_focus);
+        }
+        return s;
+    } else if constexpr (std::is_same_v<T, DirectionalLight>) {
+        return {L.to_light, HUGE_VAL, L.color};
+    } else if constexpr (std::is_same_v<T, RectAreaLight>) {
+        LightSample s = detail::toward(L.center, p, L.color);
+        if (L.inverse_square) {
+            // cos at the light = (p - c)·emit / d with emit = -unit(axis_u × axis_v) = l·unit(u × v).
+            const double cos_light = dot(s.l, normalize(cross(L.axis_u, L.axis_v)));
+            s.color = s.color * (std::fmax(0.0, cos_light) / (s.distance * s.distance));
+        }
+        return s;
+    } else {
+        LightSample s = detail::toward(L.center, p, L.color);
+        if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
+        return s;
+    }
+}
+
+namespace detail {
+// visible_fraction() of an area light whose samples sit at c + ju·a1 + jv·a2 (AreaLightGrid's
+// offsets). Out of line: it traces up to n² rays, and inlined into the shading loop it made the
+// compiler leave a point light's own path (centre, shading) out of line.
+template <class Shadow>
+[[gnu::noinline]] double area_light_fraction(const AreaLightGrid& grid, const Vec3& p, const LightSample& centre,
+                                             Shadow& shadow, const Vec3& c, const Vec3& a1, const Vec3& a2,
+                                             bool circular, int adaptive, int cell_samples) {
+    const int n = grid.n;
+    // Samples sit at c + ju·a1 + jv·a2 with |ju|, |jv| <= 1/2 (the circular mapping only
+    // shrinks the nudged coordinates, so <= 1/2 + the nudge there).
+    const double half = circular ? 0.5 + kCircularAreaLightNudge : 0.5;
+    const Vec3 corners[4] = {c - a1 * half - a2 * half, c + a1 * half - a2 * half, c + a1 * half + a2 * half,
+                             c - a1 * half + a2 * half};
+    const bool may_be_shadowed = shadow.begin_grid(corners);
+    // The light point at grid parameters (fu, fv) in [0, 1]^2 (grid point a at a / (n - 1)).
+    auto target_at = [&](double fu, double fv) {
+        double ju = fu - 0.5, jv = fv - 0.5;
+        if (circular) {
+            // Map the square onto the disc (POV-Ray's shells: |(ju, jv)| -> max(|ju|, |jv|)).
+            ju += kCircularAreaLightNudge;
+            jv += kCircularAreaLightNudge;
+            const double scale = std::fmax(std::fabs(ju), std::fabs(jv)) / std::sqrt(ju * ju + jv * jv);
+            ju *= scale;
+            jv *= scale;
+        }
+        return c + a1 * ju + a2 * jv;
+    };
+    // Grid point k (AreaLightGrid's order): the same numbers as target_at(a / (n - 1), b / (n - 1)).
+    const bool fixed = !grid.targets.empty();  // then c, a1, a2 are the light's own (a rect light)
+    auto target_of = [&](size_t k) { return fixed ? grid.targets[k] : c + a1 * grid.ju[k] + a2 * grid.jv[k]; };
+    // The cells estimator's points inside a grid cell (area_cells.hpp).
+    auto visible_at = [&](double fu, double fv) {
+        const Vec3 v = target_at(fu, fv) - p;
+        const double d = length(v);
+        return !shadow(v / d, d);
+    };
+    if (cell_samples > 0 && adaptive == kFullSubdivision) {
+        if (!may_be_shadowed) return 1.0;
+        thread_local std::vector<signed char> cache;
+        cache.assign(size_t(n) * size_t(n), -1);
+        return cells_fraction(n, cell_samples, point_key(p), cache, visible_at);
+    }
+    if (adaptive != kFullSubdivision) {
+        // Every grid point visible: every region's corners agree and the recursion's means of
+        // ones are exactly 1.
+        if (!may_be_shadowed) return 1.0;
+        // POV-Ray compares the (float) colour of the light as it arrives (fade, cone, falloff).
+        const double colour_sum = std::fabs(double(float(centre.color.x))) + std::fabs(double(float(centre.color.y))) +
+                                  std::fabs(double(float(centre.color.z)));
+        // Which grid points were traced (-1: not yet), per thread, reused point after point.
+        thread_local std::vector<signed char> cache;
+        cache.assign(size_t(n) * size_t(n), -1);
+        auto visible = [&](int a, int b) {
+            const Vec3 v = target_of(size_t(a) * size_t(n) + size_t(b)) - p;
+            const double d = length(v);
+            return !shadow(v / d, d);
+        };
+        const uint32_t key = cell_samples > 0 ? point_key(p) : 0;
+        auto partial = [&](int a, int b) { return partial_cell_fraction(a, b, n, cell_samples, key, visible_at); };
+        return detail::adaptive_fraction(0, 0, n - 1, n - 1, 0, adaptive, colour_sum, n, cache, visible,
+                                         cell_samples > 0 ? &partial : nullptr);
+    }
+    if (!may_be_shadowed) return grid.total_weight;
+    double visible = 0.0;
+    const size_t count = size_t(n) * size_t(n);
+    for (size_t k = 0; k < count; ++k) {
+        const Vec3 v = target_of(k) - p;
+        const double d = length(v);
+        if (!shadow(v / d, d)) visible += grid.weight[k];
+    }
+    return visible;
+}
+}  // namespace detail
+
+// The unshadowed fraction of the light at p, in [0, 1]. `grid` is area_light_grid(light).
+// `shadow(dir, distance)` traces one shadow ray from p (unit dir; distance to the light sample,
+// inf for directional lights). Before an area light's grid, `shadow.begin_grid(corners)` is told
+// the four corners of a parallelogram that holds every sample of the grid; it returns false when
+// no sample can be shadowed (then no ray is traced, and the fraction is the weights' sum in the
+// same order, so it is bit-identical).
+template <class T, class Shadow>
+double visible_fraction(const T& L, const AreaLightGrid& grid, const Vec3& p, const LightSample& centre,
+                        Shadow&& shadow) {
+    if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
+        return shadow(centre.l, centre.distance) ? 0.0 : 1.0;
+    } else if constexpr (std::is_same_v<T, RectAreaLight>) {
+        return detail::area_light_fraction(grid, p, centre, shadow, L.center, L.axis_u, L.axis_v, false, L.adaptive,
+                                           L.cell_samples);
+    } else {
+        // `orient`: the disc faces p. Axis 1 is perpendicular to l and a helper axis
+        // (z, or y when l is nearly vertical), axis 2 to l and axis 1; both of length 2r.
+        const Vec3& l = centre.l;
+        const Vec3 helper =
+            std::fabs(std::fabs(l.z) - 1.0) < kOrientVerticalTolerance ? Vec3{0, 1, 0} : Vec3{0, 0, 1};
+        const Vec3 a1 = normalize(cross(l, helper));
+        const Vec3 a2 = normalize(cross(l, a1));
+        const double size = 2.0 * L.radius;
+        return detail::area_light_fraction(grid, p, centre, shadow, L.center, a1 * size, a2 * size, true, L.adaptive,
+                                           L.cell_samples);
+    }
 }
 
 }  // namespace phong

@@ -65,7 +65,9 @@ struct ShadowQuery {
         return !bundle || !candidates.empty();
     }
 
-    bool operator()(const Vec3& dir, double distance) const {
+    // Always inlined: one call per shadow ray (out of line, as GCC left it once the cells estimator
+    // also called it, it cost 3% of S1's instructions).
+    [[gnu::always_inline]] bool operator()(const Vec3& dir, double distance) const {
         const Ray ray{p, dir};
         const bool blocked = bundle ? scene.occluded_by(candidates, ray, window, distance - window)
                                     : scene.occluded(ray, window, distance - window);
@@ -73,8 +75,10 @@ struct ShadowQuery {
     }
 };
 
-RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSettings& settings, double window,
-              std::vector<BundleCandidate>& candidates) {
+RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::vector<BundleCandidate>& candidates) {
+    const Scene& scene = context.scene;
+    const RenderSettings& settings = context.settings;
+    const double window = context.tolerances.shadow_window;
     const Vec3 p = ray.at(hit.t);
     Vec3 n;
     const Material* material;
@@ -112,28 +116,43 @@ RGB shade_hit(const Scene& scene, const Ray& ray, const Hit& hit, const RenderSe
     const Vec3 wo = -ray.dir;
 
     RGB color = ambient_term(*material, scene.ambient);
-    for (const Light& light : scene.lights) {
-        const LightSample centre = sample_light_centre(light, p);
-        const double n_dot_l = dot(n, centre.l);
-        // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at the point
-        // (d = 0: the model's answer there is the ambient term only).
-        if (!(n_dot_l >= kMinCosineToLight)) continue;
-        const double fraction = visible_fraction(light, p, centre, ShadowQuery{scene, p, window, candidates, settings.numerics != Numerics::kScaleInvariant});
-        if (fraction == 0.0) continue;
-        const LightTerms& terms = light_terms(light);
-        color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l,
-                             centre.color * fraction, terms.diffuse, terms.specular);
+    const bool povray_walk = settings.numerics != Numerics::kScaleInvariant;
+    for (size_t j = 0; j < scene.lights.size(); ++j) {
+        // The light's alternative decides its centre and shadow; the shading is the same for all
+        // (one inlined copy of it, not one per alternative).
+        LightSample centre;
+        double n_dot_l = 0.0, fraction = 0.0;
+        const LightTerms* terms = nullptr;
+        std::visit(
+            [&](const auto& light) {
+                centre = sample_light_centre(light, p);
+                n_dot_l = dot(n, centre.l);
+                // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at
+                // the point (d = 0: the model's answer there is the ambient term only).
+                if (!(n_dot_l >= kMinCosineToLight)) return;
+                fraction = visible_fraction(light, context.grids[j], p, centre,
+                                            ShadowQuery{scene, p, window, candidates, povray_walk});
+                terms = &light.terms;
+            },
+            scene.lights[j]);
+        if (fraction == 0.0) continue;  // unlit, or wholly in shadow
+        color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l, centre.color * fraction,
+                             terms->diffuse, terms->specular);
     }
     return color;
 }
 
 }  // namespace
 
-RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, const RayTolerances& tolerances,
-                  std::vector<BundleCandidate>& scratch) {
+TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_, const RayTolerances& tolerances_)
+    : scene(scene_), settings(settings_), tolerances(tolerances_) {
+    for (const Light& light : scene.lights) grids.push_back(area_light_grid(light));
+}
+
+RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch) {
     Hit hit;
-    if (!scene.closest_hit(ray, tolerances.primary_near, HUGE_VAL, hit)) return settings.background;
-    return shade_hit(scene, ray, hit, settings, tolerances.shadow_window, scratch);
+    if (!context.scene.closest_hit(ray, context.tolerances.primary_near, HUGE_VAL, hit)) return context.settings.background;
+    return shade_hit(context, ray, hit, scratch);
 }
 
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,
@@ -146,6 +165,7 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         settings.numerics == Numerics::kPovray              ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowWindow}
         : settings.numerics == Numerics::kPovrayShadowCache ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowCacheWindow}
                                                             : ray_tolerances(box.lo, box.hi);
+    const TraceContext context(scene, settings, tolerances);
 
     auto store = [&](int i, int j, const RGB& c) {
         float* out = pixels + (size_t(j) * width + i) * 3;
@@ -154,7 +174,7 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         out[2] = float(c.z);
     };
     auto trace_at = [&](double sx, double sy, std::vector<BundleCandidate>& scratch) {
-        return trace_primary(scene, camera.generate(sx, sy, width, height), settings, tolerances, scratch);
+        return trace_primary(context, camera.generate(sx, sy, width, height), scratch);
     };
     // POV-Ray's +AM1 supersampling of one pixel whose centre colour is `c` (SupersampleOnePixel).
     auto am1_supersample = [&](int i, int j, const RGB& c, std::vector<BundleCandidate>& scratch) {

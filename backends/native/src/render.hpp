@@ -45,9 +45,19 @@ using PollFn = std::function<bool(int, int)>;
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,
                   const PollFn& poll);
 
+// What every ray of one render shares: the scene, the settings, the ray tolerances and each
+// light's sample grid (lights.hpp), computed once per render.
+struct TraceContext {
+    const Scene& scene;
+    const RenderSettings& settings;
+    RayTolerances tolerances;
+    std::vector<AreaLightGrid> grids;  // by light
+
+    TraceContext(const Scene& scene, const RenderSettings& settings, const RayTolerances& tolerances);
+};
+
 // The colour seen along one primary ray (exposed for tests and the pixel loop). `scratch` holds
 // shadow-bundle candidates (Scene::shadow_candidates); one per thread, reused from ray to ray.
-RGB trace_primary(const Scene& scene, const Ray& ray, const RenderSettings& settings, const RayTolerances& tolerances,
-                  std::vector<BundleCandidate>& scratch);
+RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch);
 
 }  // namespace phong

@@ -99,6 +99,7 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         const double* o = in.sphere_object_from_world + 16 * i;
         SphereShape& s = spheres[i];
         for (int k = 0; k < 12; ++k) s.object_from_world.m[k] = o[k];
+        s.axis_aligned = s.object_from_world.axis_aligned();
         check_index(in.sphere_material[i], materials.size(), "sphere material");
         s.material = in.sphere_material[i];
         // Exact AABB of an affine image of the unit sphere: centre ± the row norms.

@@ -24,6 +24,14 @@ struct Affine {
         return {m[0] * v.x + m[1] * v.y + m[2] * v.z, m[4] * v.x + m[5] * v.y + m[6] * v.z,
                 m[8] * v.x + m[9] * v.y + m[10] * v.z};
     }
+    // point() and vector() when the linear part is diagonal (axis_aligned() below): the same
+    // numbers but for the sign of a zero coordinate. A zero off-diagonal term adds ±0, which
+    // changes no sum except a zero one (x + ±0 = x for x != 0), so a coordinate can differ only
+    // when its diagonal product and its translation are both zero, and then only in sign.
+    Vec3 axis_aligned_point(const Vec3& p) const { return {m[0] * p.x + m[3], m[5] * p.y + m[7], m[10] * p.z + m[11]}; }
+    Vec3 axis_aligned_vector(const Vec3& v) const { return {m[0] * v.x, m[5] * v.y, m[10] * v.z}; }
+    bool axis_aligned() const { return m[1] == 0.0 && m[2] == 0.0 && m[4] == 0.0 && m[6] == 0.0 && m[8] == 0.0 && m[9] == 0.0; }
+
     // The linear part transposed times v: maps an object-space normal to world space when
     // this matrix is object_from_world.
     Vec3 transposed_vector(const Vec3& v) const {
@@ -37,6 +45,7 @@ struct SphereShape {
     Affine object_from_world;
     Vec3 bounds_lo, bounds_hi;  // exact world AABB
     int32_t material;
+    bool axis_aligned = false;  // object_from_world.axis_aligned(): a scaled and translated sphere
 };
 
 // A ray origin in a sphere's object space, with c = |o|^2 - 1: the part of the sphere test that
@@ -51,15 +60,11 @@ inline SphereOrigin sphere_origin(const SphereShape& s, const Vec3& origin) {
     return {o, dot(o, o) - 1.0};
 }
 
-// Closest root of the sphere in (t_min, t_max) along world direction `dir` from `origin`, or false.
-inline bool intersect_sphere(const SphereShape& s, const SphereOrigin& origin, const Vec3& dir, double t_min,
-                             double t_max, double& t_hit) {
-    // In object space: |o + t d|^2 = 1, i.e. a t^2 + 2 b t + c = 0.
-    const Vec3& o = origin.o;
-    const Vec3 d = s.object_from_world.vector(dir);
-    const double a = dot(d, d);
-    const double b = dot(o, d);
-    const double c = origin.c;
+namespace detail {
+// The roots' part of the sphere test, from the object-space origin o, c = |o|^2 - 1, direction
+// d, a = |d|^2 and b = o·d: |o + t d|^2 = 1, i.e. a t^2 + 2 b t + c = 0.
+inline bool sphere_roots(const Vec3& o, double c, const Vec3& d, double a, double b, double t_min, double t_max,
+                         double& t_hit) {
     // Discriminant b^2 - a c = a (1 - |f|^2), f = the closest-approach vector: no cancellation
     // between b^2 and a c for rays far from the sphere (pbrt-v4's form).
     const Vec3 f = o - d * (b / a);
@@ -80,9 +85,38 @@ inline bool intersect_sphere(const SphereShape& s, const SphereOrigin& origin, c
     if (t1 > t_min && t1 < t_max) { t_hit = t1; return true; }
     return false;
 }
+}  // namespace detail
+
+// Closest root of the sphere in (t_min, t_max) along world direction `dir` from `origin`, or false.
+inline bool intersect_sphere(const SphereShape& s, const SphereOrigin& origin, const Vec3& dir, double t_min,
+                             double t_max, double& t_hit) {
+    const Vec3& o = origin.o;
+    Vec3 d = s.axis_aligned ? s.object_from_world.axis_aligned_vector(dir) : s.object_from_world.vector(dir);
+    double b = dot(o, d);
+    // The axis-aligned d differs from vector()'s at most in the sign of a zero coordinate, which
+    // reaches only a, c and |f| squared and b; b only when b is zero (a sum changes only when all its
+    // terms are zero): then b's sign, which picks the root formula, is taken from vector()'s d.
+    if (b == 0.0 && s.axis_aligned) {
+        d = s.object_from_world.vector(dir);
+        b = dot(o, d);
+    }
+    return detail::sphere_roots(o, origin.c, d, dot(d, d), b, t_min, t_max, t_hit);
+}
 
 inline bool intersect_sphere(const SphereShape& s, const Ray& ray, double t_min, double t_max, double& t_hit) {
-    return intersect_sphere(s, sphere_origin(s, ray.origin), ray.dir, t_min, t_max, t_hit);
+    if (!s.axis_aligned) return intersect_sphere(s, sphere_origin(s, ray.origin), ray.dir, t_min, t_max, t_hit);
+    // As intersect_sphere(s, sphere_origin(s, ray.origin), ...) but with both transforms
+    // axis-aligned: o and d may differ from the full ones in the sign of a zero coordinate, so
+    // b = o·d is the same unless it is zero, and a, c and |f| are squares (see above).
+    Vec3 o = s.object_from_world.axis_aligned_point(ray.origin);
+    Vec3 d = s.object_from_world.axis_aligned_vector(ray.dir);
+    double b = dot(o, d);
+    if (b == 0.0) {
+        o = s.object_from_world.point(ray.origin);
+        d = s.object_from_world.vector(ray.dir);
+        b = dot(o, d);
+    }
+    return detail::sphere_roots(o, dot(o, o) - 1.0, d, dot(d, d), b, t_min, t_max, t_hit);
 }
 
 // World-space unit normal of the sphere at world point p (outward).
