@@ -1,11 +1,21 @@
 # SPDX-License-Identifier: Apache-2.0
 """CPU seconds (process_time: every thread of this process) of the native build and render of a
-benchmark scene at its own size, best of --repeat, with the installed extension or --extension SO.
+benchmark scene, best of --repeat, with the installed extension or --extension SO.
 On a shared machine CPU time is disturbed far less than wall time; alternate two builds to
 compare them:
 
     for i in 1 2; do for so in /tmp/baseline/_native.*.so INSTALLED.so; do
         .venv/bin/python benchmarks/render_cpu_time.py S2 --extension $so; done; done
+
+One run of it is also what an instruction profiler measures (counts, unlike times, do not
+depend on what else the machine runs):
+
+    valgrind --tool=callgrind --callgrind-out-file=cg.S1.out \\
+        .venv/bin/python benchmarks/render_cpu_time.py S1 --width 320 --height 180 --repeat 1 [--extension SO]
+    callgrind_annotate --inclusive=yes cg.S1.out | grep 'phong::'
+
+The installed extension is stripped; for function names, profile a build with symbols
+(benchmarks/README.md, "Profiling") through --extension.
 """
 
 from __future__ import annotations
@@ -25,6 +35,8 @@ def main() -> None:
     parser.add_argument("scene", help="S1, S2, S3 or S2-10k / S2-100k")
     parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--width", type=int, help="image width (default: the scene's)")
+    parser.add_argument("--height", type=int, help="image height (default: the scene's)")
     parser.add_argument("--extension", type=Path, metavar="SO", help="another build of the _native extension")
     args = parser.parse_args()
     if args.extension:
@@ -34,7 +46,8 @@ def main() -> None:
     from phongscene.usd import load_usd
 
     scene = load_usd(scene_path(args.scene))
-    settings = dataclasses.replace(scene.settings, threads=args.threads, specular=SPECULAR_OF_MAPPING["classic"])
+    settings = dataclasses.replace(scene.settings, threads=args.threads, specular=SPECULAR_OF_MAPPING["classic"],
+                                   width=args.width or scene.settings.width, height=args.height or scene.settings.height)
     camera, native_settings = native._camera(scene.camera), native._settings(settings)
     build, render = [], []
     for _ in range(args.repeat):
