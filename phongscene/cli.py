@@ -707,7 +707,7 @@ def _run_import(args) -> int:
 
 
 # ----------------------------------------------------------------------------------------------
-# render, compile
+# bench
 
 
 def _add_bench_command(sub) -> None:
@@ -765,6 +765,10 @@ def _run_bench(args) -> int:
     paths = bench.write_all(result, Path(args.outdir), "bench", title=f"{Path(args.scene).name}: speed against error")
     print("wrote " + ", ".join(str(p) for p in paths))
     return EXIT_OK
+
+
+# ----------------------------------------------------------------------------------------------
+# render, compile
 
 
 def _add_render_command(sub) -> None:
