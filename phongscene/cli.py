@@ -141,6 +141,10 @@ def _main(argv: list[str] | None) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
+        problem = _estimator_option_problem(args)
+        if problem:  # as argparse reports a bad option: before the scene is read
+            print(f"phongscene {args.command}: error: {problem}", file=sys.stderr)
+            return EXIT_SCENE
         _preimport(PREIMPORTS.get(args.command, ()))
         return int(args.func(args) or 0)
     except Terminated as e:
@@ -182,6 +186,24 @@ def _float_in(low: float, high: float):
         return value
 
     return parse
+
+
+# The estimators only the native tracer has (validate.py refuses them for POV-Ray, naming the
+# scene's attribute; from the command line the option is named instead).
+NATIVE_ONLY_PATTERNS = ("stratified", "adaptive")
+
+
+def _estimator_option_problem(args) -> str | None:
+    """What is wrong with the command line's estimator options together (each alone is checked
+    by its argparse type), or None."""
+    pattern, spp = getattr(args, "sample_pattern", None), getattr(args, "spp", None)
+    if pattern == "adaptive" and spp is not None and spp & (spp - 1):
+        return f"argument --spp: expected a power of 2 with --sample-pattern adaptive, got {spp}"
+    povray = args.command in ("diff", "compile") or getattr(args, "backend", None) == "povray"
+    if povray and pattern in NATIVE_ONLY_PATTERNS:
+        return (f"argument --sample-pattern: {pattern!r} is the native tracer's own; POV-Ray renders grid, "
+                "povray-am1, povray-am2")
+    return None
 
 
 def _power_of_two_in(low: int, high: int):

@@ -355,3 +355,23 @@ def test_cells_knob_is_validated_travels_through_usd_and_the_cli_and_povray_refu
     with pytest.raises(SystemExit) as usage:  # argparse's usage error
         main(["render", str(plain), "-o", str(out), "--width", "24", "--shadow-cells", "3"])
     assert usage.value.code == 2 and "power of 2" in capsys.readouterr().err
+
+
+def test_command_line_estimator_combinations_name_the_option_not_the_file(tmp_path, capsys):
+    """A bad --spp / --sample-pattern pair from the command line is an argparse-style error naming
+    the option, before the scene is read (the file's /Render/Settings attribute is not at fault)."""
+    from phongscene.cli import main
+
+    scene = write_usd(calibration.point_light(), tmp_path / "scene.usda")
+    runs = {
+        ("render", "-o", str(tmp_path / "a.exr"), "--sample-pattern", "adaptive", "--spp", "3"): "argument --spp",
+        ("render", "-o", str(tmp_path / "a.exr"), "--backend", "povray", "--sample-pattern", "adaptive"):
+            "argument --sample-pattern",
+        ("diff", "-o", str(tmp_path / "report"), "--sample-pattern", "stratified"): "argument --sample-pattern",
+        ("compile", "-o", str(tmp_path / "s.pov"), "--sample-pattern", "adaptive"): "argument --sample-pattern",
+    }
+    for (command, *options), named in runs.items():
+        assert main([command, str(scene), *options]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"phongscene {command}: error: {named}") and "/Render" not in err, err
+    assert not (tmp_path / "a.exr").exists() and not (tmp_path / "report").exists() and not (tmp_path / "s.pov").exists()
