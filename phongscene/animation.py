@@ -28,9 +28,10 @@ import json
 import os
 import re
 import time as _time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, TextIO
+from typing import Callable
 
 from .errors import BackendError, PhongSceneError
 
@@ -181,6 +182,31 @@ def scheduler_address(scheduler: str | None = None) -> str | None:
     return scheduler or os.environ.get("DASK_SCHEDULER_ADDRESS") or None
 
 
+@contextmanager
+def dask_client(scheduler: str | None, local_workers: Callable[[], int]):
+    """A Dask client, with the workers warmed (``phongscene.workers.warm_plugin``), and the name
+    of its cluster: the scheduler at ``scheduler`` (or ``DASK_SCHEDULER_ADDRESS``), else a
+    LocalCluster of ``local_workers()`` processes, closed on exit. Frames and bench share it."""
+    from distributed import Client
+
+    from .workers import warm_plugin
+
+    address = scheduler_address(scheduler)
+    cluster = local_cluster(local_workers()) if address is None else None
+    try:
+        try:
+            client = Client(cluster if cluster is not None else address)
+        except OSError as e:  # a scheduler that is not there (Dask waits distributed.comm.timeouts.connect)
+            raise BackendError(f"cannot reach the Dask scheduler {address}: {e}") from None
+        with client:
+            # Each worker imports what the tasks need now (and any that joins later, when it joins).
+            client.register_plugin(warm_plugin())
+            yield client, "LocalCluster" if cluster is not None else address
+    finally:
+        if cluster is not None:
+            cluster.close()
+
+
 def run_frames(
     task: Callable[..., dict],
     frames: tuple[int, ...],
@@ -203,45 +229,28 @@ def run_frames(
         progress: called as ``progress(done, total)`` after each frame.
         on_frame: called as ``on_frame(frame, metrics, error)`` as each frame finishes.
     """
-    from distributed import Client, as_completed
-
-    from .workers import warm_plugin
+    from distributed import as_completed
 
     run = FramesRun()
     began = _time.perf_counter()
-    address = scheduler_address(scheduler)
-    cluster = None
-    if address is None:
-        cluster = local_cluster(workers or os.cpu_count() or 1)
-    try:
-        try:
-            client = Client(cluster if cluster is not None else address)
-        except OSError as e:  # a scheduler that is not there (Dask waits distributed.comm.timeouts.connect)
-            raise BackendError(f"cannot reach the Dask scheduler {address}: {e}") from None
-        with client:
-            run.cluster = "LocalCluster" if cluster is not None else address
-            run.workers = len(client.scheduler_info().get("workers", {}))
-            # Each worker imports what the tasks need now (and any that joins later, when it joins).
-            client.register_plugin(warm_plugin())
-            run.startup_seconds = _time.perf_counter() - began
-            # pure=False: a frame is an action (it writes a file); never deduplicate or cache it.
-            futures = {client.submit(task, *arguments(f), key=f"{task.__name__}-frame-{f}-{os.getpid()}-{_time.time_ns()}",
-                                     retries=TASK_RETRIES, pure=False): f for f in frames}
-            for done, future in enumerate(as_completed(futures), start=1):
-                frame = futures[future]
-                if future.status == "error":
-                    run.failures[frame] = _error_text(future.exception())
-                    metrics, error = None, run.failures[frame]
-                else:
-                    metrics, error = future.result(), None
-                    run.results[frame] = metrics
-                if on_frame is not None:
-                    on_frame(frame, metrics, error)
-                if progress is not None:
-                    progress(done, len(frames))
-    finally:
-        if cluster is not None:
-            cluster.close()
+    with dask_client(scheduler, lambda: workers or os.cpu_count() or 1) as (client, run.cluster):
+        run.workers = len(client.scheduler_info().get("workers", {}))
+        run.startup_seconds = _time.perf_counter() - began
+        # pure=False: a frame is an action (it writes a file); never deduplicate or cache it.
+        futures = {client.submit(task, *arguments(f), key=f"{task.__name__}-frame-{f}-{os.getpid()}-{_time.time_ns()}",
+                                 retries=TASK_RETRIES, pure=False): f for f in frames}
+        for done, future in enumerate(as_completed(futures), start=1):
+            frame = futures[future]
+            if future.status == "error":
+                run.failures[frame] = _error_text(future.exception())
+                metrics, error = None, run.failures[frame]
+            else:
+                metrics, error = future.result(), None
+                run.results[frame] = metrics
+            if on_frame is not None:
+                on_frame(frame, metrics, error)
+            if progress is not None:
+                progress(done, len(frames))
     run.seconds = _time.perf_counter() - began
     return run
 

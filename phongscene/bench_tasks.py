@@ -64,57 +64,42 @@ def run(
     """``bench.run`` of the USD file ``scene_path`` (whose model ``scene`` the caller read, to
     choose the estimators) with its settings as Dask tasks. The result is ``bench.run``'s, rows in
     its order, plus ``concurrency`` (tasks at once), ``workers`` and ``cluster``."""
-    from distributed import Client, as_completed
+    from distributed import as_completed
 
-    from .animation import local_cluster, scheduler_address
-    from .workers import warm_plugin
+    from .animation import dask_client
 
     chosen = bench.estimators(scene, quick)
     wanted = bench.families_of(chosen, families)
     jobs = [(est, backend) for family in wanted for est in chosen if est.family == family
             for backend in backends if backend in est.backends]
-    address = scheduler_address(scheduler)
-    cluster = None
-    if address is None:
-        cores = os.cpu_count() or 1
-        count = min(workers or cores, slots_per_host(cores, settings.threads))
-        cluster = local_cluster(count)
-    try:
-        try:
-            client = Client(cluster if cluster is not None else address)
-        except OSError as e:
-            raise BackendError(f"cannot reach the Dask scheduler {address}: {e}") from None
-        with client:
-            client.register_plugin(warm_plugin())
-            used = _workers_to_use(client, settings.threads, workers)
-            log(f"{len(used)} setting{'s' if len(used) > 1 else ''} at once: {len(used)} Dask worker"
-                f"{'s' if len(used) > 1 else ''} ({'LocalCluster' if cluster is not None else address}), one task "
-                f"each, each rendering with {settings.threads or 'all'} thread{'' if settings.threads == 1 else 's'}")
-            references: dict = {}
-            refs = {}
+    cores = os.cpu_count() or 1
+    with dask_client(scheduler, lambda: min(workers or cores, slots_per_host(cores, settings.threads))) as (client, cluster):
+        used = _workers_to_use(client, settings.threads, workers)
+        log(f"{len(used)} setting{'s' if len(used) > 1 else ''} at once: {len(used)} Dask worker"
+            f"{'s' if len(used) > 1 else ''} ({cluster}), one task "
+            f"each, each rendering with {settings.threads or 'all'} thread{'' if settings.threads == 1 else 's'}")
+        references: dict = {}
+        refs = {}
 
-            def reference_done(family: str, ref: dict) -> None:
-                references[family] = {k: v for k, v in ref.items() if k != "image"}
-                log(bench.reference_line(family, ref))
-                # Sent once to every worker (in a list: a dict would be scattered value by value).
-                refs[family] = client.scatter([ref], broadcast=True)[0]
+        def reference_done(family: str, ref: dict) -> None:
+            references[family] = {k: v for k, v in ref.items() if k != "image"}
+            log(bench.reference_line(family, ref))
+            # Sent once to every worker (in a list: a dict would be scattered value by value).
+            refs[family] = client.scatter([ref], broadcast=True)[0]
 
-            _one_per_worker(client, used, [(reference_task, (scene_path, settings, f), f) for f in wanted],
-                            lambda family, future: reference_done(family, future.result()), as_completed)
-            rows: dict[int, dict] = {}
+        _one_per_worker(client, used, [(reference_task, (scene_path, settings, f), f) for f in wanted],
+                        lambda family, future: reference_done(family, future.result()), as_completed)
+        rows: dict[int, dict] = {}
 
-            def row_done(index: int, future) -> None:
-                rows[index] = future.result()
-                log(bench.row_line(rows[index]))
+        def row_done(index: int, future) -> None:
+            rows[index] = future.result()
+            log(bench.row_line(rows[index]))
 
-            _one_per_worker(client, used, [
-                (setting_task, (scene_path, settings, est, backend, refs[est.family], repeat), i)
-                for i, (est, backend) in enumerate(jobs)], row_done, as_completed)
-    finally:
-        if cluster is not None:
-            cluster.close()
+        _one_per_worker(client, used, [
+            (setting_task, (scene_path, settings, est, backend, refs[est.family], repeat), i)
+            for i, (est, backend) in enumerate(jobs)], row_done, as_completed)
     result = bench.result_of(settings, repeat, references, [rows[i] for i in range(len(jobs))], backends, wanted)
-    return result | {"concurrency": len(used), "cluster": "LocalCluster" if cluster is not None else address}
+    return result | {"concurrency": len(used), "cluster": cluster}
 
 
 def _workers_to_use(client, threads: int, most: int | None) -> list[str]:
