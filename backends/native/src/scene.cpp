@@ -307,11 +307,13 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
     bool corners_far = hull_count > 1;
     for (int i = 1; i < hull_count; ++i) corners_far = corners_far && length(hull[i] - apex) >= t_min;
     if (corners_far) {
+        double corner_distance[kAxes];  // |hull[i] − apex|, once per corner rather than per axis
+        for (int i = 1; i < hull_count; ++i) corner_distance[i] = length(hull[i] - apex);
         for (int k = 0; k < 3; ++k) {
             double lowest[2] = {HUGE_VAL, HUGE_VAL};
             for (int i = 1; i < hull_count; ++i) {
                 const Vec3 v = hull[i] - apex;
-                const double c = v[k] / length(v);
+                const double c = v[k] / corner_distance[i];
                 lowest[0] = std::min(lowest[0], c);
                 lowest[1] = std::min(lowest[1], -c);
             }
@@ -326,14 +328,27 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
         }
         return false;
     };
+    // A box's extent along axis a, [Σ n_k·(the bound that minimises), Σ n_k·(the one that
+    // maximises)]: the bounds picked once per axis by the sign of n_k (n_k > 0: lo for the
+    // minimum), not by comparing both products per box. The same products as comparing them,
+    // so the same decisions: for n_k > 0 (< 0) rounding is monotone, so n_k·lo <= n_k·hi
+    // (>=), and where the two round equal only a zero's sign can differ, which no comparison
+    // below sees; n_k = 0 picks what the comparison picked (hi for the minimum, lo for the
+    // maximum). The coordinate axes x, y, z need no products: their extent is [lo_k, hi_k]
+    // (the other terms are ±0), and the hull's along them is its coordinates'.
+    bool min_takes_lo[kAxes][3];
+    for (int a = 3; a < axis_count; ++a)
+        for (int k = 0; k < 3; ++k) min_takes_lo[a][k] = axes[a][k] > 0.0;
     auto separated = [&](const float (&box_lo)[3], const float (&box_hi)[3]) {
-        for (int a = 0; a < axis_count; ++a) {
+        for (int k = 0; k < 3; ++k)
+            if (double(box_lo[k]) > hi[k] || double(box_hi[k]) < lo[k]) return true;
+        for (int a = 3; a < axis_count; ++a) {
             const double n[3] = {axes[a].x, axes[a].y, axes[a].z};
             double min = 0.0, max = 0.0;
             for (int k = 0; k < 3; ++k) {
-                const double p = n[k] * double(box_lo[k]), q = n[k] * double(box_hi[k]);
-                min += p < q ? p : q;
-                max += p < q ? q : p;
+                const bool take_lo = min_takes_lo[a][k];
+                min += n[k] * double(take_lo ? box_lo[k] : box_hi[k]);
+                max += n[k] * double(take_lo ? box_hi[k] : box_lo[k]);
             }
             if (min > hi[a] || max < lo[a]) return true;
         }
