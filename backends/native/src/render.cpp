@@ -73,6 +73,19 @@ struct ShadowQuery {
                                     : scene.occluded(ray, window, distance - window);
         return blocked && (!povray_walk || scene.occluded_povray_walk(ray, window, distance - window));
     }
+
+    // Every ray of a full grid at once (lights.hpp): blocked[k] is operator()(dirs[k], distances[k]).
+    void each(const Vec3* dirs, const double* distances, size_t count, unsigned char* blocked) const {
+        if (bundle) {
+            scene.occluded_by_each(candidates, p, dirs, distances, count, window, blocked);
+        } else {
+            for (size_t k = 0; k < count; ++k)
+                blocked[k] = scene.occluded(Ray{p, dirs[k]}, window, distances[k] - window);
+        }
+        if (povray_walk)
+            for (size_t k = 0; k < count; ++k)
+                if (blocked[k]) blocked[k] = scene.occluded_povray_walk(Ray{p, dirs[k]}, window, distances[k] - window);
+    }
 };
 
 RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::vector<BundleCandidate>& candidates) {

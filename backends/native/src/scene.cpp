@@ -422,6 +422,48 @@ bool Scene::occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray
     return false;
 }
 
+void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, const Vec3& origin, const Vec3* dirs,
+                             const double* distances, size_t count, double t_min, unsigned char* blocked) const {
+    std::fill(blocked, blocked + count, 0);
+    if (candidates.empty()) return;
+    // Per ray, once: the reciprocal direction of the box tests, and the watertight set-up when a
+    // triangle is tested that way (occluded_by() makes the same ones, per ray).
+    thread_local std::vector<Vec3> inverse;
+    thread_local std::vector<WatertightRay> sheared;
+    inverse.resize(count);
+    for (size_t k = 0; k < count; ++k) inverse[k] = {1.0 / dirs[k].x, 1.0 / dirs[k].y, 1.0 / dirs[k].z};
+    const bool watertight = povray_triangles.empty() &&
+                            std::any_of(candidates.begin(), candidates.end(), [](const BundleCandidate& c) { return c.ref >= 0; });
+    if (watertight) {
+        sheared.clear();
+        for (size_t k = 0; k < count; ++k) sheared.emplace_back(dirs[k]);
+    }
+    size_t open = count;  // rays not yet blocked: none left, no candidate need be tested
+    for (const BundleCandidate& box : candidates) {
+        for (size_t k = 0; k < count; ++k) {
+            if (blocked[k]) continue;
+            const double t_max = distances[k] - t_min;
+            double t_entry;
+            if (!hit_node(box, origin, inverse[k], t_min, t_max, t_entry)) continue;
+            const Ray ray{origin, dirs[k]};
+            double t;
+            bool hit;
+            if (box.ref < 0) {
+                // origin is the bundle's apex, whose object-space form the candidate holds.
+                hit = intersect_sphere(spheres[size_t(~box.ref)], box.sphere_origin, dirs[k], t_min, t_max, t);
+            } else {
+                Barycentric bary;
+                hit = watertight ? intersect_triangle(triangles[size_t(box.ref)], ray, sheared[k], t_min, t_max, t, bary)
+                                 : intersect_povray_triangle(povray_triangles[size_t(box.ref)], ray, t_min, t_max, t, bary);
+            }
+            if (hit) {
+                blocked[k] = 1;
+                if (--open == 0) return;
+            }
+        }
+    }
+}
+
 int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const {
     const WatertightRay wr(ray.dir);
     int count = 0;
