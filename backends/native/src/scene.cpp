@@ -2,6 +2,8 @@
 // Scene construction from flat geometry arrays, materials and lights, and the BVH queries.
 #include "scene.hpp"
 
+#include <emmintrin.h>
+
 #include <algorithm>
 #include <cmath>
 #include <exception>
@@ -422,43 +424,84 @@ bool Scene::occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray
     return false;
 }
 
+namespace {
+// All-ones in the lanes whose sign bit is set (hit_node's std::signbit, −0 and −inf included).
+inline __m128d sign_mask(__m128d x) {
+    return _mm_castsi128_pd(_mm_shuffle_epi32(_mm_srai_epi32(_mm_castpd_si128(x), 31), _MM_SHUFFLE(3, 3, 1, 1)));
+}
+inline __m128d select(__m128d mask, __m128d if_set, __m128d if_clear) {
+    return _mm_or_pd(_mm_and_pd(mask, if_set), _mm_andnot_pd(mask, if_clear));
+}
+}  // namespace
+
 void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, const Vec3& origin, const Vec3* dirs,
                              const double* distances, size_t count, double t_min, unsigned char* blocked) const {
     std::fill(blocked, blocked + count, 0);
-    if (candidates.empty()) return;
-    // Per ray, once: the reciprocal direction of the box tests, and the watertight set-up when a
-    // triangle is tested that way (occluded_by() makes the same ones, per ray).
-    thread_local std::vector<Vec3> inverse;
+    if (candidates.empty() || count == 0) return;
+    // Rays in pairs, for hit_node()'s box test in the two lanes of SSE2 doubles: per lane the
+    // same operations in the same order (IEEE products and differences, maxpd/minpd with
+    // hit_node's operand order, so NaN is ignored as there), hence the same decisions. Per ray,
+    // once: the reciprocal direction and t_max, in lanes (an odd count repeats the last ray in
+    // a lane whose result is dropped); and the watertight set-up when a triangle is tested that
+    // way (occluded_by() makes the same ones, per ray).
+    const size_t pairs = (count + 1) / 2, padded = 2 * pairs;
+    thread_local std::vector<double> lanes;
+    lanes.resize(4 * padded);
+    double* const inverse[3] = {lanes.data(), lanes.data() + padded, lanes.data() + 2 * padded};
+    double* const t_max = lanes.data() + 3 * padded;
+    for (size_t k = 0; k < padded; ++k) {
+        const size_t ray = k < count ? k : count - 1;
+        inverse[0][k] = 1.0 / dirs[ray].x;
+        inverse[1][k] = 1.0 / dirs[ray].y;
+        inverse[2][k] = 1.0 / dirs[ray].z;
+        t_max[k] = distances[ray] - t_min;
+    }
     thread_local std::vector<WatertightRay> sheared;
-    inverse.resize(count);
-    for (size_t k = 0; k < count; ++k) inverse[k] = {1.0 / dirs[k].x, 1.0 / dirs[k].y, 1.0 / dirs[k].z};
     const bool watertight = povray_triangles.empty() &&
                             std::any_of(candidates.begin(), candidates.end(), [](const BundleCandidate& c) { return c.ref >= 0; });
     if (watertight) {
         sheared.clear();
         for (size_t k = 0; k < count; ++k) sheared.emplace_back(dirs[k]);
     }
+    const __m128d widening = _mm_set1_pd(kSlabFarWidening), t_min_lanes = _mm_set1_pd(t_min);
+    const double o[3] = {origin.x, origin.y, origin.z};
     size_t open = count;  // rays not yet blocked: none left, no candidate need be tested
     for (const BundleCandidate& box : candidates) {
-        for (size_t k = 0; k < count; ++k) {
-            if (blocked[k]) continue;
-            const double t_max = distances[k] - t_min;
-            double t_entry;
-            if (!hit_node(box, origin, inverse[k], t_min, t_max, t_entry)) continue;
-            const Ray ray{origin, dirs[k]};
-            double t;
-            bool hit;
-            if (box.ref < 0) {
-                // origin is the bundle's apex, whose object-space form the candidate holds.
-                hit = intersect_sphere(spheres[size_t(~box.ref)], box.sphere_origin, dirs[k], t_min, t_max, t);
-            } else {
-                Barycentric bary;
-                hit = watertight ? intersect_triangle(triangles[size_t(box.ref)], ray, sheared[k], t_min, t_max, t, bary)
-                                 : intersect_povray_triangle(povray_triangles[size_t(box.ref)], ray, t_min, t_max, t, bary);
+        // hit_node's (plane − o), the same for every ray of the bundle.
+        __m128d to_lo[3], to_hi[3];
+        for (int a = 0; a < 3; ++a) {
+            to_lo[a] = _mm_set1_pd(double(box.lo[a]) - o[a]);
+            to_hi[a] = _mm_set1_pd(double(box.hi[a]) - o[a]);
+        }
+        for (size_t first = 0; first < count; first += 2) {
+            const int open_lanes = (blocked[first] ? 0 : 1) | (first + 1 < count && !blocked[first + 1] ? 2 : 0);
+            if (open_lanes == 0) continue;
+            __m128d t0 = t_min_lanes, t1 = _mm_loadu_pd(t_max + first);
+            for (int a = 0; a < 3; ++a) {
+                const __m128d r = _mm_loadu_pd(inverse[a] + first);
+                const __m128d negative = sign_mask(r);
+                const __m128d from_lo = _mm_mul_pd(to_lo[a], r), from_hi = _mm_mul_pd(to_hi[a], r);
+                t0 = _mm_max_pd(select(negative, from_hi, from_lo), t0);
+                t1 = _mm_min_pd(_mm_mul_pd(select(negative, from_lo, from_hi), widening), t1);
             }
-            if (hit) {
-                blocked[k] = 1;
-                if (--open == 0) return;
+            for (int hits = _mm_movemask_pd(_mm_cmple_pd(t0, t1)) & open_lanes; hits != 0; hits &= hits - 1) {
+                const size_t k = first + size_t(__builtin_ctz(unsigned(hits)));
+                double t;
+                bool hit;
+                if (box.ref < 0) {
+                    // origin is the bundle's apex, whose object-space form the candidate holds.
+                    hit = intersect_sphere(spheres[size_t(~box.ref)], box.sphere_origin, dirs[k], t_min, t_max[k], t);
+                } else {
+                    const Ray ray{origin, dirs[k]};
+                    Barycentric bary;
+                    hit = watertight
+                              ? intersect_triangle(triangles[size_t(box.ref)], ray, sheared[k], t_min, t_max[k], t, bary)
+                              : intersect_povray_triangle(povray_triangles[size_t(box.ref)], ray, t_min, t_max[k], t, bary);
+                }
+                if (hit) {
+                    blocked[k] = 1;
+                    if (--open == 0) return;
+                }
             }
         }
     }
