@@ -322,12 +322,18 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
             for (int s = 0; s < 2; ++s) rise[k][s] = std::max(0.0, lowest[s] - kShadowBundleSlack);
         }
     }
+    // The levels, once per bundle: a box whose top lies below level[k][0] (or bottom above
+    // level[k][1]) cannot hold a hit; ±inf where the bundle does not climb that way.
+    double level[3][2];
+    for (int k = 0; k < 3; ++k) {
+        const double slack = kShadowBundleSlack * scale;
+        level[k][0] = rise[k][0] > 0.0 ? apex[k] + t_min * rise[k][0] - slack : -HUGE_VAL;
+        level[k][1] = rise[k][1] > 0.0 ? apex[k] - t_min * rise[k][1] + slack : HUGE_VAL;
+    }
+    // Valid for any box (a node's or a primitive's): no ray of the bundle has a hit inside it.
     auto below_the_window = [&](const float (&box_lo)[3], const float (&box_hi)[3]) {
-        for (int k = 0; k < 3; ++k) {
-            const double slack = kShadowBundleSlack * scale;
-            if (rise[k][0] > 0.0 && double(box_hi[k]) < apex[k] + t_min * rise[k][0] - slack) return true;
-            if (rise[k][1] > 0.0 && double(box_lo[k]) > apex[k] - t_min * rise[k][1] + slack) return true;
-        }
+        for (int k = 0; k < 3; ++k)
+            if (double(box_hi[k]) < level[k][0] || double(box_lo[k]) > level[k][1]) return true;
         return false;
     };
     // A box's extent along axis a, [Σ n_k·(the bound that minimises), Σ n_k·(the one that
@@ -373,7 +379,7 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
                                 {round_up(b.hi.x), round_up(b.hi.y), round_up(b.hi.z)},
                                 ref,
                                 {}};
-            if (separated(box.lo, box.hi) || below_the_window(box.lo, box.hi)) continue;
+            if (below_the_window(box.lo, box.hi) || separated(box.lo, box.hi)) continue;  // the cheaper test first
             if (candidates.size() == kMaxBundleCandidates) return false;
             if (ref < 0) box.sphere_origin = sphere_origin(spheres[size_t(~ref)], apex);
             candidates.push_back(box);
@@ -388,7 +394,8 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
         for (int i = 0; i < 4; ++i) {
             if (node.child[i] < 0) continue;  // empty slot
             const ChildBox box(node, i);
-            if (separated(box.lo, box.hi)) continue;
+            // A child below the window holds only primitives below it, which add_leaf() drops.
+            if (below_the_window(box.lo, box.hi) || separated(box.lo, box.hi)) continue;
             if (node.count[i] == 0) {
                 stack[sp++] = node.child[i];
             } else if (!add_leaf(node.child[i], node.count[i])) {
