@@ -436,9 +436,7 @@ namespace {
 inline __m128d sign_mask(__m128d x) {
     return _mm_castsi128_pd(_mm_shuffle_epi32(_mm_srai_epi32(_mm_castpd_si128(x), 31), _MM_SHUFFLE(3, 3, 1, 1)));
 }
-inline __m128d select(__m128d mask, __m128d if_set, __m128d if_clear) {
-    return _mm_or_pd(_mm_and_pd(mask, if_set), _mm_andnot_pd(mask, if_clear));
-}
+using detail::select;  // shapes.hpp
 }  // namespace
 
 void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, const Vec3& origin, const Vec3* dirs,
@@ -453,15 +451,19 @@ void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, con
     // way (occluded_by() makes the same ones, per ray).
     const size_t pairs = (count + 1) / 2, padded = 2 * pairs;
     thread_local std::vector<double> lanes;
-    lanes.resize(4 * padded);
+    lanes.resize(7 * padded);
     double* const inverse[3] = {lanes.data(), lanes.data() + padded, lanes.data() + 2 * padded};
     double* const t_max = lanes.data() + 3 * padded;
+    double* const dir[3] = {lanes.data() + 4 * padded, lanes.data() + 5 * padded, lanes.data() + 6 * padded};
     for (size_t k = 0; k < padded; ++k) {
         const size_t ray = k < count ? k : count - 1;
         inverse[0][k] = 1.0 / dirs[ray].x;
         inverse[1][k] = 1.0 / dirs[ray].y;
         inverse[2][k] = 1.0 / dirs[ray].z;
         t_max[k] = distances[ray] - t_min;
+        dir[0][k] = dirs[ray].x;
+        dir[1][k] = dirs[ray].y;
+        dir[2][k] = dirs[ray].z;
     }
     thread_local std::vector<WatertightRay> sheared;
     const bool watertight = povray_triangles.empty() &&
@@ -491,24 +493,32 @@ void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, con
                 t0 = _mm_max_pd(select(negative, from_hi, from_lo), t0);
                 t1 = _mm_min_pd(_mm_mul_pd(select(negative, from_lo, from_hi), widening), t1);
             }
-            for (int hits = _mm_movemask_pd(_mm_cmple_pd(t0, t1)) & open_lanes; hits != 0; hits &= hits - 1) {
-                const size_t k = first + size_t(__builtin_ctz(unsigned(hits)));
-                double t;
-                bool hit;
-                if (box.ref < 0) {
-                    // origin is the bundle's apex, whose object-space form the candidate holds.
-                    hit = intersect_sphere(spheres[size_t(~box.ref)], box.sphere_origin, dirs[k], t_min, t_max[k], t);
-                } else {
+            const int entered = _mm_movemask_pd(_mm_cmple_pd(t0, t1)) & open_lanes;
+            if (entered == 0) continue;
+            int hits = 0;
+            if (box.ref < 0) {
+                // Both lanes at once (origin is the bundle's apex, whose object-space form the
+                // candidate holds); only the lanes whose box test passed count, as one at a time.
+                hits = entered & intersect_sphere_pair(spheres[size_t(~box.ref)], box.sphere_origin,
+                                                       _mm_loadu_pd(dir[0] + first), _mm_loadu_pd(dir[1] + first),
+                                                       _mm_loadu_pd(dir[2] + first), t_min, _mm_loadu_pd(t_max + first));
+            } else {
+                for (int lanes_left = entered; lanes_left != 0; lanes_left &= lanes_left - 1) {
+                    const int lane = __builtin_ctz(unsigned(lanes_left));
+                    const size_t k = first + size_t(lane);
                     const Ray ray{origin, dirs[k]};
+                    double t;
                     Barycentric bary;
-                    hit = watertight
-                              ? intersect_triangle(triangles[size_t(box.ref)], ray, sheared[k], t_min, t_max[k], t, bary)
-                              : intersect_povray_triangle(povray_triangles[size_t(box.ref)], ray, t_min, t_max[k], t, bary);
+                    const bool hit =
+                        watertight
+                            ? intersect_triangle(triangles[size_t(box.ref)], ray, sheared[k], t_min, t_max[k], t, bary)
+                            : intersect_povray_triangle(povray_triangles[size_t(box.ref)], ray, t_min, t_max[k], t, bary);
+                    if (hit) hits |= 1 << lane;
                 }
-                if (hit) {
-                    blocked[k] = 1;
-                    if (--open == 0) return;
-                }
+            }
+            for (; hits != 0; hits &= hits - 1) {
+                blocked[first + size_t(__builtin_ctz(unsigned(hits)))] = 1;
+                if (--open == 0) return;
             }
         }
     }
