@@ -6,8 +6,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <exception>
 #include <future>
+#include <limits>
 #include <mutex>
 #include <optional>
 #include <stdexcept>
@@ -66,6 +68,19 @@ void for_chunks(size_t n, Fn&& fn) {
         }
     }
     if (error) std::rethrow_exception(error);
+}
+
+// std::nextafter(x, +inf) without the libm call (one per primary hit): the next double above x
+// by one step of its bit pattern (up in magnitude when positive, down when negative; ±0 go to
+// the smallest subnormal, +inf and NaN stay).
+inline double next_up(double x) {
+    if (!(x < HUGE_VAL)) return x;
+    if (x == 0.0) return std::numeric_limits<double>::denorm_min();
+    uint64_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    bits = x > 0.0 ? bits + 1 : bits - 1;
+    std::memcpy(&x, &bits, sizeof x);
+    return x;
 }
 
 }  // namespace
@@ -229,7 +244,7 @@ bool Scene::closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) co
             found = true;
             t_best = t;
             hit = {t, ref, bary};
-            t_test = std::nextafter(t_best, HUGE_VAL);
+            t_test = next_up(t_best);
             cull = t_best + std::fabs(t_best) * kTieCullMargin;
         }
         return false;
