@@ -217,7 +217,7 @@ int64_t Scene::primitive_id(int32_t ref) const {
     return int64_t(spheres.size()) + triangle_source[size_t(ref)];
 }
 
-bool Scene::closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) const {
+bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max, Hit& hit) const {
     // Exact ties (coincident surfaces hit at the same t) go to the lower primitive id, so the
     // hit does not depend on the BVH's shape or visiting order: once a hit is found, primitives
     // are tested up to and including t_best, and boxes up to a little beyond it: a box's entry
@@ -228,7 +228,7 @@ bool Scene::closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) co
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool found = false;
     double t_best = t_max, t_test = t_max, t_cull = t_max;
-    traverse_bvh4<true>(bvh4_, magnitude, ray, t_min, t_cull, [&](int32_t first, int count, double& cull) {
+    traverse_bvh4<true>(bvh4_, magnitude, ray, origin, t_min, t_cull, [&](int32_t first, int count, double& cull) {
         for (int k = 0; k < count; ++k) {
             const int32_t ref = refs_[size_t(first + k)];
             double t;
@@ -252,11 +252,11 @@ bool Scene::closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) co
     return found;
 }
 
-bool Scene::occluded(const Ray& ray, double t_min, double t_max) const {
+bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const {
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool blocked = false;
     double t_limit = t_max;
-    traverse_bvh4<false>(bvh4_, magnitude, ray, t_min, t_limit, [&](int32_t first, int count, double& t_best) {
+    traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, [&](int32_t first, int count, double& t_best) {
         for (int k = 0; k < count; ++k) {
             const int32_t ref = refs_[size_t(first + k)];
             double t;

@@ -68,8 +68,15 @@ class Scene {
     Scene(const GeometryArrays& geometry, std::vector<Material> materials, std::vector<Light> lights,
           const RGB& ambient);
 
-    bool closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) const;
-    bool occluded(const Ray& ray, double t_min, double t_max) const;
+    bool closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) const {
+        return closest_hit(ray, FloatSlabOrigin(ray.origin), t_min, t_max, hit);
+    }
+    bool occluded(const Ray& ray, double t_min, double t_max) const {
+        return occluded(ray, FloatSlabOrigin(ray.origin), t_min, t_max);
+    }
+    // The same, for rays whose shared origin is rounded once: `origin` is FloatSlabOrigin(ray.origin).
+    bool closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max, Hit& hit) const;
+    bool occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const;
 
     // Shadow-ray bundles (an area light's grid seen from one point). shadow_candidates() walks
     // the BVH once and writes to `candidates` the box of every primitive (in a reached leaf)
