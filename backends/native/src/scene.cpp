@@ -472,14 +472,14 @@ void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, con
     double* const dir[3] = {lanes.data() + 4 * padded, lanes.data() + 5 * padded, lanes.data() + 6 * padded};
     for (size_t k = 0; k < padded; ++k) {
         const size_t ray = k < count ? k : count - 1;
-        inverse[0][k] = 1.0 / dirs[ray].x;
-        inverse[1][k] = 1.0 / dirs[ray].y;
-        inverse[2][k] = 1.0 / dirs[ray].z;
         t_max[k] = distances[ray] - t_min;
         dir[0][k] = dirs[ray].x;
         dir[1][k] = dirs[ray].y;
         dir[2][k] = dirs[ray].z;
     }
+    const __m128d one = _mm_set1_pd(1.0);  // the reciprocals two at a time (IEEE division per lane)
+    for (size_t k = 0; k < padded; k += 2)
+        for (int a = 0; a < 3; ++a) _mm_storeu_pd(inverse[a] + k, _mm_div_pd(one, _mm_loadu_pd(dir[a] + k)));
     thread_local std::vector<WatertightRay> sheared;
     const bool watertight = povray_triangles.empty() &&
                             std::any_of(candidates.begin(), candidates.end(), [](const BundleCandidate& c) { return c.ref >= 0; });
