@@ -298,14 +298,19 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
         axes[axis_count++] = cross(hull[2] - hull[1], hull[4] - hull[1]);
         for (int k = 1; k <= 4; ++k) axes[axis_count++] = cross(hull[k % 4 + 1] - hull[k], hull[k] - hull[0]);
     }
+    // Comparisons, not max_abs_component's std::fmax (a libm call): the same maximum of numbers.
     double scale = magnitude;
-    for (int i = 0; i < hull_count; ++i) scale = std::max(scale, max_abs_component(hull[i]));
+    for (int i = 0; i < hull_count; ++i)
+        for (const double x : {hull[i].x, hull[i].y, hull[i].z}) scale = std::max(scale, std::fabs(x));
     double lo[kAxes], hi[kAxes];
     for (int a = 0; a < axis_count; ++a) {
         const Vec3& n = axes[a];
-        lo[a] = hi[a] = dot(n, hull[0]);
+        // Along x, y, z the projection is the coordinate itself (the dot product's other terms
+        // are ±0, which change no value that a comparison below sees).
+        auto project = [&](const Vec3& q) { return a == 0 ? q.x : a == 1 ? q.y : a == 2 ? q.z : dot(n, q); };
+        lo[a] = hi[a] = project(hull[0]);
         for (int i = 1; i < hull_count; ++i) {
-            const double x = dot(n, hull[i]);
+            const double x = project(hull[i]);
             lo[a] = std::min(lo[a], x);
             hi[a] = std::max(hi[a], x);
         }
