@@ -291,19 +291,17 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
     // Candidate separating axes: x, y, z, the parallelogram's normal and the four side faces of
     // the pyramid (apex hull[0]). Any vector is a valid axis: the hull's extent along it is
     // computed from the points, not assumed.
+    // The five side axes are set up only when a box is not separated along x, y, z nor below
+    // the window (most bundles of an open scene end before that): set_up_side_axes().
     constexpr int kAxes = 8;
     Vec3 axes[kAxes] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     int axis_count = 3;
-    if (hull_count == 5) {
-        axes[axis_count++] = cross(hull[2] - hull[1], hull[4] - hull[1]);
-        for (int k = 1; k <= 4; ++k) axes[axis_count++] = cross(hull[k % 4 + 1] - hull[k], hull[k] - hull[0]);
-    }
     // Comparisons, not max_abs_component's std::fmax (a libm call): the same maximum of numbers.
     double scale = magnitude;
     for (int i = 0; i < hull_count; ++i)
         for (const double x : {hull[i].x, hull[i].y, hull[i].z}) scale = std::max(scale, std::fabs(x));
     double lo[kAxes], hi[kAxes];
-    for (int a = 0; a < axis_count; ++a) {
+    auto extent = [&](int a) {
         const Vec3& n = axes[a];
         // Along x, y, z the projection is the coordinate itself (the dot product's other terms
         // are ±0, which change no value that a comparison below sees).
@@ -317,7 +315,8 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
         const double slack = kShadowBundleSlack * (std::fabs(n.x) + std::fabs(n.y) + std::fabs(n.z)) * scale;
         lo[a] -= slack;
         hi[a] += slack;
-    }
+    };
+    for (int a = 0; a < 3; ++a) extent(a);
     // Rays count hits only at t > t_min, i.e. beyond the apex p by t_min along their unit
     // direction. Along a coordinate direction e that every ray of the bundle climbs
     // (e·dir >= rise > 0 for all of them; the minimum over the parallelogram is at a corner, as
@@ -365,11 +364,21 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
     // maximum). The coordinate axes x, y, z need no products: their extent is [lo_k, hi_k]
     // (the other terms are ±0), and the hull's along them is its coordinates'.
     bool min_takes_lo[kAxes][3];
-    for (int a = 3; a < axis_count; ++a)
-        for (int k = 0; k < 3; ++k) min_takes_lo[a][k] = axes[a][k] > 0.0;
+    bool side_axes_ready = false;
+    auto set_up_side_axes = [&] {
+        side_axes_ready = true;
+        if (hull_count != 5) return;
+        axes[axis_count++] = cross(hull[2] - hull[1], hull[4] - hull[1]);
+        for (int k = 1; k <= 4; ++k) axes[axis_count++] = cross(hull[k % 4 + 1] - hull[k], hull[k] - hull[0]);
+        for (int a = 3; a < axis_count; ++a) {
+            extent(a);
+            for (int k = 0; k < 3; ++k) min_takes_lo[a][k] = axes[a][k] > 0.0;
+        }
+    };
     auto separated = [&](const float (&box_lo)[3], const float (&box_hi)[3]) {
         for (int k = 0; k < 3; ++k)
             if (double(box_lo[k]) > hi[k] || double(box_hi[k]) < lo[k]) return true;
+        if (!side_axes_ready) set_up_side_axes();
         for (int a = 3; a < axis_count; ++a) {
             const double n[3] = {axes[a].x, axes[a].y, axes[a].z};
             double min = 0.0, max = 0.0;
