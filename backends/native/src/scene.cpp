@@ -325,11 +325,13 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
     // Skipped when a corner is closer than t_min (then the directions' rounding is not small).
     const Vec3& apex = hull[0];
     double rise[3][2] = {};  // [axis][0: +e, 1: −e], 0 = not climbing
+    double corner_distance[kAxes];  // |hull[i] − apex|, once per corner rather than per use
     bool corners_far = hull_count > 1;
-    for (int i = 1; i < hull_count; ++i) corners_far = corners_far && length(hull[i] - apex) >= t_min;
+    for (int i = 1; i < hull_count; ++i) {
+        corner_distance[i] = length(hull[i] - apex);
+        corners_far = corners_far && corner_distance[i] >= t_min;
+    }
     if (corners_far) {
-        double corner_distance[kAxes];  // |hull[i] − apex|, once per corner rather than per axis
-        for (int i = 1; i < hull_count; ++i) corner_distance[i] = length(hull[i] - apex);
         for (int k = 0; k < 3; ++k) {
             double lowest[2] = {HUGE_VAL, HUGE_VAL};
             for (int i = 1; i < hull_count; ++i) {
