@@ -94,7 +94,8 @@ class Scene {
     // occluded_by() for every ray of a bundle at once (an area light's full grid): ray k leaves
     // `origin` along dirs[k] and counts hits in (t_min, distances[k] − t_min); blocked[k] is
     // whether it is occluded. Candidate by candidate, each tested against the rays not yet
-    // blocked, so a candidate's set-up is done once per bundle and each ray's once per ray.
+    // blocked, so a candidate's set-up is done once per bundle and each ray's once per ray. A
+    // sphere is tested without its box (two rays at a time the box test costs more than it saves).
     void occluded_by_each(const std::vector<BundleCandidate>& candidates, const Vec3& origin, const Vec3* dirs,
                           const double* distances, size_t count, double t_min, unsigned char* blocked) const;
 
