@@ -20,7 +20,7 @@ import pytest
 
 import calibration
 from phongscene.backends import native
-from phongscene.scene import Camera, RectAreaLight, RenderSettings, Sphere, SphereAreaLight
+from phongscene.scene import Camera, RectAreaLight, RenderSettings, Sphere, SphereAreaLight, TriangleMesh
 
 # The two estimators add the same weights of the same visible points in different orders
 # (a flat sum against nested means of quadrants): a few ulps of each pixel's value.
@@ -47,7 +47,7 @@ def assert_bundles_equal_single_rays(scene, numerics):
     single = native.render(every_point_one_at_a_time(scene), settings)
     np.testing.assert_allclose(bundled, single, rtol=SUM_ORDER_RTOL, atol=SUM_ORDER_ATOL)
     # The scene must have shadows to test: without the spheres, many pixels are brighter.
-    unshadowed = native.render(dataclasses.replace(scene, spheres=()), settings)
+    unshadowed = native.render(dataclasses.replace(scene, spheres=(), meshes=scene.meshes[:1]), settings)
     assert (bundled < unshadowed * (1 - 1e-3)).sum() > 100
 
 
@@ -84,6 +84,9 @@ def test_full_grid_bundles_equal_single_rays(light, numerics):
         spheres=(*sphere_cloud(rng, 14), Sphere.at(tuple(np.add(area.center, (0.9, 0.0, 0.2))), 0.5, calibration.GOLD)),
         settings=RenderSettings(width=96, height=72, threads=2),
     )
+    # Triangles too (tested behind their boxes): a faceted icosphere among the spheres.
+    ball = calibration.icosphere(1, (-1.3, 1.4, 0.9), 0.55, calibration.BLUE, smooth=False)
+    scene = dataclasses.replace(scene, meshes=(*scene.meshes, ball))
     assert_bundles_equal_single_rays(scene, numerics)
 
 
@@ -104,11 +107,17 @@ def test_axis_parallel_rays_on_box_planes(numerics):
         Sphere(np.diag([0.25, 0.5, 1.0, 1.0]) + np.array([[0, 0, 0, 1 / 32 - 0.25 - 1.0], [0, 0, 0, 1.0],
                                                            [0, 0, 0, -1.0], [0, 0, 0, 0]]), calibration.BLUE),
     )
+    # A quad at y = 2.5 whose box's planes are x = 1/32 and z = 1/32 + 1/2 (its triangles are
+    # tested behind their boxes, spheres are not).
+    quad = TriangleMesh(points=[(1 / 32 - 1.5, 2.5, 1 / 32 + 0.5), (1 / 32, 2.5, 1 / 32 + 0.5),
+                                (1 / 32, 2.5, 1 / 32 + 1.5), (1 / 32 - 1.5, 2.5, 1 / 32 + 1.5)],
+                        triangles=[(0, 2, 1), (0, 3, 2)], material=calibration.GOLD)
     scene = dataclasses.replace(
         calibration.point_light(),
         camera=camera,
         lights=(light,),
         spheres=spheres,
+        meshes=(*calibration.point_light().meshes, quad),
         settings=RenderSettings(width=64, height=64, threads=2),
     )
     assert_bundles_equal_single_rays(scene, numerics)
