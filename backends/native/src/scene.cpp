@@ -153,7 +153,12 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     for (size_t k = 0; k < order.size(); ++k)
         if (order[k] < n_spheres) sphere_positions.push_back(uint32_t(k));
     refs_.resize(order.size());
-    triangles.resize(n_triangles);
+    // Float corners when every vertex is a float (triangle_store.hpp): the same doubles.
+    bool every_vertex_float = true;
+    for (const MeshArrays& mesh : in.meshes)
+        for (size_t i = 0; i < 3 * mesh.point_count && every_vertex_float; ++i)
+            every_vertex_float = float_exact(mesh.points[i]);
+    triangles.resize(n_triangles, every_vertex_float);
     triangle_shading.resize(n_triangles);
     triangle_source.resize(n_triangles);
     triangle_mesh.resize(n_triangles);
@@ -175,8 +180,9 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
             const size_t local = i - first_triangle[m];
             const int32_t* t = mesh.triangles + 3 * local;
             refs_[k] = int32_t(slot);
-            triangles[slot] = {row3(mesh.points + 3 * size_t(t[0])), row3(mesh.points + 3 * size_t(t[1])),
-                               row3(mesh.points + 3 * size_t(t[2]))};
+            const TriangleShape corners{row3(mesh.points + 3 * size_t(t[0])), row3(mesh.points + 3 * size_t(t[1])),
+                                        row3(mesh.points + 3 * size_t(t[2]))};
+            triangles.set(slot, corners);
             TriangleShading sh{-1, -1, -1, mesh.material};
             if (mesh.normal_indices && mesh.normal_indices[3 * local] >= 0) {
                 const int32_t* n = mesh.normal_indices + 3 * local;
@@ -188,7 +194,7 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
             triangle_shading[slot] = sh;
             triangle_source[slot] = uint32_t(i);
             triangle_mesh[slot] = int32_t(m);
-            if (in.povray_triangles) povray_triangles[slot] = make_povray_triangle(triangles[slot], mesh.origin);
+            if (in.povray_triangles) povray_triangles[slot] = make_povray_triangle(corners, mesh.origin);
         }
     });
     bvh_.order.clear();
@@ -415,10 +421,10 @@ int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_clos
         double t;
         if (intersect_sphere(s, ray, t_min, t_max, t)) { ++count; t_closest = std::fmin(t_closest, t); }
     }
-    for (const TriangleShape& tri : triangles) {
+    for (size_t k = 0; k < triangles.size(); ++k) {
         double t;
         Barycentric bary;
-        if (intersect_triangle(tri, ray, wr, t_min, t_max, t, bary)) { ++count; t_closest = std::fmin(t_closest, t); }
+        if (intersect_triangle(triangles[k], ray, wr, t_min, t_max, t, bary)) { ++count; t_closest = std::fmin(t_closest, t); }
     }
     return count;
 }

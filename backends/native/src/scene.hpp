@@ -17,6 +17,7 @@
 #include "povray_triangle.hpp"
 #include "shapes.hpp"
 #include "textures.hpp"
+#include "triangle_store.hpp"
 
 namespace phong {
 
@@ -97,7 +98,7 @@ class Scene {
     int64_t primitive_id(int32_t ref) const;
 
     std::vector<SphereShape> spheres;
-    std::vector<TriangleShape> triangles;         // leaf order
+    TriangleStore triangles;                      // leaf order; float when that is exact
     std::vector<TriangleShading> triangle_shading;  // leaf order
     std::vector<uint32_t> triangle_source;        // leaf order -> input row
     std::vector<int32_t> triangle_mesh;           // leaf order -> mesh
