@@ -15,6 +15,10 @@
 #include <utility>
 #include <variant>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 namespace phong {
 
 namespace {
@@ -142,6 +146,12 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     // The build consumes (and frees) the primitive boxes before the leaf-order copies below are
     // allocated.
     bvh_.build(std::move(prims));
+#if defined(__GLIBC__)
+    // The freed primitive boxes (30 MiB at 1M triangles) stay resident in glibc's heap, under
+    // the collapse and the copies below, unless handed back: S2's peak 300 -> 286 MiB
+    // (benchmarks/memory_stages.py; benchmarks/README.md).
+    malloc_trim(0);
+#endif
     // The rays walk the 4-wide tree; the binary one's nodes are freed once it is collapsed.
     bvh4_ = collapse_to_bvh4(bvh_.nodes);
     std::vector<BvhNode>().swap(bvh_.nodes);
