@@ -86,9 +86,9 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         first_triangle[m + 1] = first_triangle[m] + mesh.triangle_count;
         first_normal[m + 1] = first_normal[m] + mesh.normal_count;
     }
-    normals.reserve(first_normal[n_meshes]);
-    for (const MeshArrays& mesh : in.meshes)
-        for (size_t i = 0; i < mesh.normal_count; ++i) normals.push_back(row3(mesh.normals + 3 * i));
+    std::vector<std::pair<const double*, size_t>> mesh_normals;
+    for (const MeshArrays& mesh : in.meshes) mesh_normals.emplace_back(mesh.normals, mesh.normal_count);
+    normals.assign(mesh_normals);
     // The mesh of triangle i (global number): looked up once per chunk (then stepped) in the
     // pass below, per triangle in the leaf-order pass.
     auto mesh_of = [&](size_t i) {

@@ -103,7 +103,7 @@ class Scene {
     std::vector<uint32_t> triangle_source;        // leaf order -> input row
     std::vector<int32_t> triangle_mesh;           // leaf order -> mesh
     std::vector<PovrayTriangle> povray_triangles;  // leaf order; empty unless built in POV-Ray numerics
-    std::vector<Vec3> normals;
+    Vec3Store normals;  // float when that is exact
     std::vector<Material> materials;
     std::vector<Light> lights;
     RGB ambient;
