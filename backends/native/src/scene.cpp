@@ -171,7 +171,6 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     triangles.resize(n_triangles, every_vertex_float);
     triangle_shading.resize(n_triangles);
     triangle_source.resize(n_triangles);
-    triangle_mesh.resize(n_triangles);
     if (in.povray_triangles) povray_triangles.resize(n_triangles);
     for_chunks(order.size(), [&](size_t begin, size_t end) {
         size_t spheres_before = size_t(
@@ -203,12 +202,17 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
             }
             triangle_shading[slot] = sh;
             triangle_source[slot] = uint32_t(i);
-            triangle_mesh[slot] = int32_t(m);
             if (in.povray_triangles) povray_triangles[slot] = make_povray_triangle(corners, mesh.origin);
         }
     });
     bvh_.order.clear();
     bvh_.order.shrink_to_fit();
+    first_triangle_ = std::move(first_triangle);
+}
+
+int32_t Scene::triangle_mesh(size_t slot) const {
+    const size_t i = triangle_source[slot];
+    return int32_t(std::upper_bound(first_triangle_.begin() + 1, first_triangle_.end(), i) - first_triangle_.begin() - 1);
 }
 
 int64_t Scene::primitive_id(int32_t ref) const {
