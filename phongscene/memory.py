@@ -2,7 +2,7 @@
 """Giving the heap memory this process has freed back to the system.
 
 glibc's malloc keeps freed memory resident: it returns only the top of its heap, and only past
-M_TRIM_THRESHOLD (which rises to the size of every large block freed), so the temporaries of
+M_TRIM_THRESHOLD (which glibc raises as large blocks are freed), so the temporaries of
 reading a big USD file stay in the process's resident memory after they are freed (S2: ~60 MiB,
 benchmarks/README.md). ``malloc_trim(0)`` hands every free page back. The CLI calls it where a
 large amount has just been freed; elsewhere (musl, macOS) there is nothing to call."""
