@@ -21,7 +21,8 @@ from phongscene.images import EXR_COMPRESSION, read_image, write_image
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "seed_lobe.usda"
 # Modules a render does not need, each a measurable share of its start-up (benchmarks/startup.py).
-NOT_FOR_A_RENDER = ("phongscene.usd.writer", "numpy.ma", "importlib.resources", "secrets")
+NOT_FOR_A_RENDER = ("phongscene.usd.writer", "numpy.ma", "importlib.resources", "secrets",
+                    "phongscene.backends.povray.compile", "phongscene.backends.povray.run")
 
 CUBE_SCENE = """#usda 1.0
 (
@@ -75,9 +76,10 @@ def test_reading_an_untextured_usd_file_imports_no_openimageio(tmp_path):
     assert "OpenImageIO" not in loaded_modules(f"from phongscene.usd import read_usd\nread_usd({str(path)!r})")
 
 
-def test_a_whole_render_imports_neither_the_usd_writer_nor_numpy_ma_importlib_resources_or_secrets(tmp_path):
+def test_a_native_render_imports_no_usd_writer_povray_compiler_numpy_ma_importlib_resources_or_secrets(tmp_path):
     # The whole command in process, the EXR write included: each name is imported by a call a
-    # render used to make (np.median, importlib.resources.files, secrets.token_hex, the package).
+    # render used to make (np.median, importlib.resources.files, secrets.token_hex, a package's
+    # __init__, the --mapping's vocabulary).
     code = (f"from phongscene.cli import main\n"
             f"assert main(['render', {str(EXAMPLE)!r}, '-o', {str(tmp_path / 'a.exr')!r}, '--width', '8', '--height', '6']) == 0\n"
             f"import sys\nprint(' '.join(sorted(sys.modules)))\n")
@@ -87,8 +89,10 @@ def test_a_whole_render_imports_neither_the_usd_writer_nor_numpy_ma_importlib_re
     assert not set(NOT_FOR_A_RENDER) & loaded
 
 
-def test_the_usd_writer_is_still_reachable_from_phongscene_usd():
-    loaded = loaded_modules("from phongscene.usd import write_usd, define_sphere\nassert callable(write_usd)")
+def test_the_usd_writer_and_the_povray_compiler_are_still_reachable_from_their_packages():
+    loaded = loaded_modules("from phongscene.usd import write_usd, define_sphere\nassert callable(write_usd)\n"
+                            "from phongscene.backends import povray\nassert callable(povray.compile_pov)\n"
+                            "assert povray.INSTALL_HINT and povray.MAPPINGS == ('exact', 'classic')")
     assert "pxr" in loaded
 
 
