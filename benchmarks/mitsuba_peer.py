@@ -18,7 +18,11 @@ rays; each must agree on at least ``MIN_AGREEMENT`` of the rays, or the run stop
 
 from __future__ import annotations
 
+import functools
+import importlib.util
 import os
+import subprocess
+import sys
 
 import numpy as np
 
@@ -41,21 +45,29 @@ HIT_DISTANCE_TOLERANCE = 1e-4
 SIMILARITY_TOLERANCE = 1e-9
 
 
-def unavailable() -> str | None:
-    """None when Mitsuba's LLVM variant starts here, else why not (printed by run.py)."""
-    import importlib.util
+# Started in a child process first: with an LLVM it cannot use (Debian's 14/15), Dr.Jit's LLVM
+# backend aborts the whole process (issue 15) instead of raising.
+PROBE = f"""
+import mitsuba as mi
+mi.set_variant({VARIANT!r})
+scene = mi.load_dict({{"type": "scene", "s": {{"type": "sphere"}}}})
+ray = mi.Ray3f(mi.Point3f(0, 0, -5), mi.Vector3f(0, 0, 1))
+assert bool(scene.ray_test(ray)[0])
+"""
 
+
+@functools.cache
+def unavailable() -> str | None:
+    """None when Mitsuba's LLVM variant starts and traces a ray here, else why not (printed by
+    run.py)."""
     if importlib.util.find_spec("mitsuba") is None:
         return "mitsuba not installed"
-    if not os.environ.get("DRJIT_LIBLLVM_PATH"):
-        # Dr.Jit would find Debian's LLVM 14/15, with which the LLVM variant aborts (issue 15).
-        return "DRJIT_LIBLLVM_PATH not set (point it at libLLVM.so.19.1: benchmarks/README.md)"
-    try:
-        import mitsuba as mi
-
-        mi.set_variant(VARIANT)
-    except Exception as e:  # noqa: BLE001 (any failure to start means: skip the peer, say why)
-        return f"mitsuba {VARIANT} does not start: {e}"
+    done = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True)
+    if done.returncode != 0:
+        hint = "" if os.environ.get("DRJIT_LIBLLVM_PATH") else \
+            "; DRJIT_LIBLLVM_PATH not set (point it at libLLVM.so.19.1: benchmarks/README.md)"
+        last = (done.stderr.strip().splitlines() or [f"exit status {done.returncode}"])[-1]
+        return f"mitsuba {VARIANT} does not start: {last[-200:]}{hint}"
     return None
 
 

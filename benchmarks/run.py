@@ -9,8 +9,8 @@ Four tables, in one run:
    render + read the EXR back (``phongscene.backends.povray.render``); Embree (``embreex``, when
    installed; triangle scenes only) = build, and the same camera's primary rays plus one shadow
    ray per hit and light, single-ray queries on one thread; Mitsuba 3 (``mitsuba``'s LLVM
-   variant, when installed and DRJIT_LIBLLVM_PATH names an LLVM it starts with;
-   benchmarks/mitsuba_peer.py) = build, and the same primary rays plus the native tracer's shadow
+   variant, when installed and a child process finds that it starts and traces a ray: with
+   Debian's LLVM 14/15 it aborts; benchmarks/mitsuba_peer.py) = build, and the same primary rays plus the native tracer's shadow
    rays (one per hit and point light, S3's 9×9 per hit for its area light), at each thread count,
    checked against the native tracer's hits on the same rays. The max |native − POV-Ray|
    relative to the image's max is printed too, so a fast wrong answer shows.
