@@ -8,8 +8,12 @@ Four tables, in one run:
    native = build (flatten + C++ scene + BVH) and render; POV-Ray = compile SDL + write + parse +
    render + read the EXR back (``phongscene.backends.povray.render``); Embree (``embreex``, when
    installed; triangle scenes only) = build, and the same camera's primary rays plus one shadow
-   ray per hit and light, single-ray queries on one thread. The max |native − POV-Ray| relative to
-   the image's max is printed too, so a fast wrong answer shows.
+   ray per hit and light, single-ray queries on one thread; Mitsuba 3 (``mitsuba``'s LLVM
+   variant, when installed and a child process finds that it starts and traces a ray: with
+   Debian's LLVM 14/15 it aborts; benchmarks/mitsuba_peer.py) = build, and the same primary rays plus the native tracer's shadow
+   rays (one per hit and point light, S3's 9×9 per hit for its area light), at each thread count,
+   checked against the native tracer's hits on the same rays. The max |native − POV-Ray|
+   relative to the image's max is printed too, so a fast wrong answer shows.
 2. **Whole process**: ``phongscene render SCENE -o x.exr`` against ``povray`` on the compiled
    scene (``phongscene compile``'s job, written before timing), wall time and peak RSS of the
    child; the "tiny" row is S1 at 32×18, i.e. the start-up costs. The children cache compiled
@@ -17,8 +21,8 @@ Four tables, in one run:
 3. **Threads**: the native render's speed-up from 1 thread to the most asked for.
 4. **Triangles**: S2's native render (without build) at 10k, 100k and 1M triangles.
 
-Each figure is the best of --repeat runs (the least disturbed on a shared machine).
-Mitsuba 3 is not run: see benchmarks/README.md.
+Each figure is the best of --repeat runs (the least disturbed on a shared machine). A peer not
+installed is skipped with the reason printed.
 
 ``--baseline-extension SO`` instead times another build of the ``_native`` extension (say, a
 copy of the .so saved before a C++ change) on the same scenes at the same moment, in a child
@@ -51,7 +55,9 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from timing import best_time  # noqa: E402  (benchmarks/ is not a package)
+import mitsuba_peer  # noqa: E402  (benchmarks/ is not a package)
+from peer_rays import primary_rays  # noqa: E402
+from timing import best_time  # noqa: E402
 
 NATIVE_EXTENSION_MODULE = "phongscene.backends.native._native"
 # S2 at these triangle counts for the scaling table (make_scenes.FILES names).
@@ -145,22 +151,6 @@ def embree_available() -> bool:
     return importlib.util.find_spec("embreex") is not None
 
 
-def primary_rays(scene, settings) -> tuple[np.ndarray, np.ndarray]:
-    """The native camera's rays through the pixel centres (camera.hpp), perspective only."""
-    cam = scene.camera
-    w, h = settings.width, settings.height
-    forward, up = np.asarray(cam.forward, float), np.asarray(cam.up, float)
-    aspect = w / h
-    right = np.cross(forward, up) * aspect
-    direction = forward * (aspect / (2.0 * np.tan(np.radians(cam.horizontal_fov_deg) / 2.0)))
-    j, i = np.mgrid[0:h, 0:w]
-    u = ((i + 0.5) / w - 0.5).reshape(-1, 1)
-    v = (0.5 - (j + 0.5) / h).reshape(-1, 1)
-    d = direction + right * u + up * v
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    return np.broadcast_to(np.asarray(cam.position, float), d.shape).astype(np.float32), d.astype(np.float32)
-
-
 def embree_times(scene, settings, repeat: int) -> tuple[float, float, int] | None:
     """(build s, render s, rays) of Embree on a triangle-only scene with point lights, or None."""
     from embreex import rtcore_scene
@@ -199,6 +189,22 @@ def embree_times(scene, settings, repeat: int) -> tuple[float, float, int] | Non
     return t_build, t_render, rays
 
 
+def mitsuba_cell(scene, settings, built, repeat: int, threads: int) -> str:
+    if reason := mitsuba_peer.why_not(scene):
+        return f"- ({reason})"
+    peer = mitsuba_peer.times(scene, settings, built, repeat, threads)
+    return (f"{peer['build']:.3f} / {peer['render']:.3f} ({peer['rays'] / 1e6:.1f}M rays, "
+            f"{100 * peer['agreement']:.3f} %)")
+
+
+def peers_line() -> str:
+    peers = ["POV-Ray"]
+    peers.append("Embree (embreex)" if embree_available() else "no Embree (embreex not installed)")
+    reason = mitsuba_peer.unavailable()
+    peers.append(f"no Mitsuba 3 ({reason})" if reason else f"Mitsuba 3 ({mitsuba_peer.VARIANT})")
+    return ", ".join(peers)
+
+
 # -- the tables ------------------------------------------------------------------------------------
 
 
@@ -208,12 +214,15 @@ def in_process_table(args, names, thread_counts) -> dict:
     from phongscene.usd import load_usd
 
     with_embree = embree_available() and not args.native_only
+    with_mitsuba = mitsuba_peer.unavailable() is None and not args.native_only
     print(f"\n1. In process (loaded Scene -> image), mapping {args.mapping}, best of {args.repeat}")
     header = f"{'scene':<8}{'threads':>8}{'triangles':>10}{'build s':>9}{'render s':>9}{'native s':>9}"
     if not args.native_only:
         header += f"{'povray s':>9}{'ratio':>7}{'max rel diff':>13}"
     if with_embree:
         header += f"{'embree build/render s (1 thread)':>34}"
+    if with_mitsuba:
+        header += f"  {'mitsuba build/render s (rays, agreeing with native)'}"
     print(header)
     render_times: dict = {}
     for name in names:
@@ -233,6 +242,8 @@ def in_process_table(args, names, thread_counts) -> dict:
             if with_embree:
                 peer = embree_times(scene, settings, args.repeat) if threads == thread_counts[0] else None
                 row += f"{f'{peer[0]:.3f} / {peer[1]:.3f} ({peer[2] / 1e6:.1f}M rays)' if peer else '-':>34}"
+            if with_mitsuba:
+                row += "  " + mitsuba_cell(scene, settings, built, args.repeat, threads)
             print(row, flush=True)
     return render_times
 
@@ -322,7 +333,7 @@ def main() -> None:
                   f"{t_baseline / t_native:>6.2f}x{identical:>11}", flush=True)
         return
 
-    print(f"{cores} cores; peers: POV-Ray{', Embree (embreex)' if embree_available() else ''}")
+    print(f"{cores} cores; peers: {peers_line()}")
     render_times = in_process_table(args, names, thread_counts)
     whole_process_table(args, names, thread_counts[-1])
     if len(thread_counts) > 1:

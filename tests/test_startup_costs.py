@@ -1,10 +1,15 @@
 # SPDX-License-Identifier: Apache-2.0
 """Whole-process costs (issue 15): trimesh (and the scipy it pulls in, ~0.35 s) is imported only
 when a prim needs tessellation; OpenImageIO only when an image is read or written; EXRs are
-written uncompressed (images.EXR_COMPRESSION), the fastest lossless choice."""
+written uncompressed (images.EXR_COMPRESSION), the fastest lossless choice. A render imports
+neither the USD writer nor numpy.ma, importlib.resources or secrets (benchmarks/startup.py
+measures them); the ``phongscene`` process starts numpy with one BLAS thread unless told
+otherwise, and ends without the interpreter's teardown but with its exit handlers run and its
+output flushed (phongscene/console.py)."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -15,6 +20,9 @@ import OpenImageIO as oiio
 from phongscene.images import EXR_COMPRESSION, read_image, write_image
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "seed_lobe.usda"
+# Modules a render does not need, each a measurable share of its start-up (benchmarks/startup.py).
+NOT_FOR_A_RENDER = ("phongscene.usd.writer", "numpy.ma", "importlib.resources", "secrets",
+                    "phongscene.backends.povray.compile", "phongscene.backends.povray.run")
 
 CUBE_SCENE = """#usda 1.0
 (
@@ -66,3 +74,63 @@ def test_reading_an_untextured_usd_file_imports_no_openimageio(tmp_path):
     path = tmp_path / "cube.usda"
     path.write_text(CUBE_SCENE)
     assert "OpenImageIO" not in loaded_modules(f"from phongscene.usd import read_usd\nread_usd({str(path)!r})")
+
+
+def test_a_native_render_imports_no_usd_writer_povray_compiler_numpy_ma_importlib_resources_or_secrets(tmp_path):
+    # The whole command in process, the EXR write included: each name is imported by a call a
+    # render used to make (np.median, importlib.resources.files, secrets.token_hex, a package's
+    # __init__, the --mapping's vocabulary).
+    code = (f"from phongscene.cli import main\n"
+            f"assert main(['render', {str(EXAMPLE)!r}, '-o', {str(tmp_path / 'a.exr')!r}, '--width', '8', '--height', '6']) == 0\n"
+            f"import sys\nprint(' '.join(sorted(sys.modules)))\n")
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout
+    loaded = set(out.split())
+    assert "phongscene.usd.reader" in loaded and "OpenImageIO" in loaded  # the probe did render
+    assert not set(NOT_FOR_A_RENDER) & loaded
+
+
+def test_the_usd_writer_and_the_povray_compiler_are_still_reachable_from_their_packages():
+    loaded = loaded_modules("from phongscene.usd import write_usd, define_sphere\nassert callable(write_usd)\n"
+                            "from phongscene.backends import povray\nassert callable(povray.compile_pov)\n"
+                            "assert povray.INSTALL_HINT and povray.MAPPINGS == ('exact', 'classic')")
+    assert "pxr" in loaded
+
+
+def test_the_lights_median_is_numpys_median():
+    from phongscene.usd.reader import _median
+
+    rng = np.random.default_rng(15)
+    for n in (1, 2, 3, 4, 1023, 1024):  # odd and even counts: the middle one, the middle two's mean
+        values = rng.random(n) * 10.0 ** rng.integers(-6, 6, n)
+        assert _median(values) == float(np.median(values))
+
+
+def console_run(args: list[str], env_extra: dict) -> subprocess.CompletedProcess:
+    """``python -m phongscene ARGS`` with an exit handler that prints the BLAS thread variable:
+    it shows that exit handlers run and that block-buffered output (a pipe, no
+    PYTHONUNBUFFERED) is flushed before the process ends."""
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("PYTHONUNBUFFERED", "OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")}
+    env.update(env_extra)
+    code = ("import atexit, os, runpy, sys\n"
+            "atexit.register(lambda: print('at exit: OPENBLAS_NUM_THREADS', os.environ.get('OPENBLAS_NUM_THREADS')))\n"
+            f"sys.argv = ['phongscene', *{args!r}]\n"
+            "runpy.run_module('phongscene', run_name='__main__')\n")
+    return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+
+
+def test_the_phongscene_process_uses_one_blas_thread_runs_exit_handlers_and_flushes_output(tmp_path):
+    out = tmp_path / "a.exr"
+    done = console_run(["render", str(EXAMPLE), "-o", str(out), "--width", "8", "--height", "6"], {})
+    assert done.returncode == 0, done.stderr
+    assert f"{out}: 8 x 6" in done.stdout
+    assert done.stdout.rstrip().endswith("at exit: OPENBLAS_NUM_THREADS 1")
+    assert np.array_equal(read_image(out).shape, (6, 8, 3))
+
+
+def test_the_phongscene_process_keeps_a_users_blas_threads_and_its_exit_status(tmp_path):
+    done = console_run(["render", str(tmp_path / "missing.usda"), "-o", str(tmp_path / "a.exr")],
+                       {"OMP_NUM_THREADS": "2"})
+    assert done.returncode == 2
+    assert "file not found" in done.stderr
+    assert done.stdout.rstrip().endswith("at exit: OPENBLAS_NUM_THREADS None")

@@ -2,22 +2,43 @@
 """POV-Ray backend: compile a Scene to POV-Ray 3.7 SDL, run povray, read the image back.
 
 Its mappings (``exact``, ``classic``) are how it renders each specular convention of the model
-(``RenderSettings.specular``); they are this backend's own vocabulary, defined in ``compile``.
+(``RenderSettings.specular``); they are this backend's own vocabulary, defined in ``mappings``.
+The compiler and the runner are imported on first use (PEP 562): a native render names a
+mapping and needs neither (issue 15: start-up).
 """
 
-from .compile import (
-    MAPPING_OF_SPECULAR,
-    MAPPINGS,
-    SPECULAR_OF_MAPPING,
-    check_mapping,
-    compile_pov,
-    pass_count,
-    pass_scenes,
-    resolve_mapping,
-    sanitize_comment,
-    specular_of,
-)
-from .run import INSTALL_HINT, PovJob, prepare, render, render_many, render_switches
+from typing import TYPE_CHECKING
+
+from .mappings import MAPPING_OF_SPECULAR, MAPPINGS, SPECULAR_OF_MAPPING, check_mapping, resolve_mapping, specular_of
+
+# Exported on first use: name -> submodule.
+_LAZY_EXPORTS = {
+    "compile_pov": "compile",
+    "pass_count": "compile",
+    "pass_scenes": "compile",
+    "sanitize_comment": "compile",
+    "INSTALL_HINT": "run",
+    "PovJob": "run",
+    "prepare": "run",
+    "render": "run",
+    "render_many": "run",
+    "render_switches": "run",
+}
+
+if TYPE_CHECKING:
+    from .compile import compile_pov, pass_count, pass_scenes, sanitize_comment
+    from .run import INSTALL_HINT, PovJob, prepare, render, render_many, render_switches
+
+
+def __getattr__(name: str):
+    if name not in _LAZY_EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f".{_LAZY_EXPORTS[name]}", __name__), name)
+    globals()[name] = value  # later lookups skip __getattr__
+    return value
+
 
 __all__ = [
     "INSTALL_HINT",

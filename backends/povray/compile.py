@@ -61,6 +61,14 @@ from phongscene.scene import (
     TriangleMesh,
 )
 
+from .mappings import (  # noqa: F401  (also re-exported: importers of the compiler's names)
+    MAPPING_OF_SPECULAR,
+    MAPPINGS,
+    SPECULAR_OF_MAPPING,
+    check_mapping,
+    resolve_mapping,
+    specular_of,
+)
 from .numbers import NonFiniteNumber, float32_vectors, int_vectors, sdl_color, sdl_float, sdl_float32, sdl_vector
 
 # NdotL_Map resolution: 2**7 linear segments over v in [1/2, 1] (at most 256 colour_map entries).
@@ -211,36 +219,6 @@ def sanitize_comment(text: str) -> str:
         else:
             out.append(f"\\U{ord(ch):08x}")
     return "".join(out)
-
-
-# POV-Ray mapping -> the specular convention of the model (RenderSettings.specular) it reproduces.
-# The convention is the one knob; a mapping is how this backend renders it.
-SPECULAR_OF_MAPPING: dict[str, str] = {"exact": "seed", "classic": "povray-classic"}
-MAPPING_OF_SPECULAR: dict[str, str] = {v: k for k, v in SPECULAR_OF_MAPPING.items()}
-MAPPINGS: tuple[str, ...] = tuple(SPECULAR_OF_MAPPING)
-
-
-def check_mapping(mapping: str) -> str:
-    """``mapping`` if it is a POV-Ray mapping; otherwise ValueError naming the known ones."""
-    if mapping not in SPECULAR_OF_MAPPING:
-        raise ValueError(f"unknown POV-Ray mapping {mapping!r}; expected one of {', '.join(MAPPINGS)}")
-    return mapping
-
-
-def specular_of(mapping: str) -> str:
-    """The model's specular convention that POV-Ray ``mapping`` reproduces."""
-    return SPECULAR_OF_MAPPING[check_mapping(mapping)]
-
-
-def resolve_mapping(settings: RenderSettings, mapping: str | None) -> str:
-    """The mapping to use: ``mapping`` if given, else the one matching ``settings.specular``."""
-    if mapping is None:
-        mapping = MAPPING_OF_SPECULAR.get(settings.specular)
-        if mapping is None:
-            raise SceneError(
-                Problem(f"unknown specular convention {settings.specular!r}", settings.source, "specular", node="RenderSettings")
-            )
-    return check_mapping(mapping)
 
 
 def pass_count(scene: Scene, mapping: str) -> int:

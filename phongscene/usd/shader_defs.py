@@ -9,11 +9,9 @@ so importing this module late is fine.
 
 from __future__ import annotations
 
-import importlib.resources
-
 from pxr import Sdf, Sdr, Usd, UsdShade
 
-from ..schemas import DEFINITIONS_FILE
+from ..schemas import DEFINITIONS_FILE, folder
 from .names import PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
 __all__ = ["DEFINITIONS_FILE", "PHONG_RENDER_CONTEXT", "PHONG_SHADER_ID", "phong_inputs", "phong_input_defaults",
            "register_phong_shader"]
@@ -29,11 +27,10 @@ def register_phong_shader() -> None:
     registry = Sdr.Registry()
     if PHONG_SHADER_ID in registry.GetShaderNodeIdentifiers():
         return
-    with importlib.resources.as_file(importlib.resources.files("phongscene.schemas") / DEFINITIONS_FILE) as path:
-        defs = Usd.Stage.Open(str(path))
-        prim = defs.GetPrimAtPath(f"/{PHONG_SHADER_ID}")
-        for result in UsdShade.ShaderDefUtils.GetDiscoveryResults(UsdShade.Shader(prim), defs.GetRootLayer().realPath):
-            registry.AddDiscoveryResult(result)
+    defs = Usd.Stage.Open(str(folder() / DEFINITIONS_FILE))
+    prim = defs.GetPrimAtPath(f"/{PHONG_SHADER_ID}")
+    for result in UsdShade.ShaderDefUtils.GetDiscoveryResults(UsdShade.Shader(prim), defs.GetRootLayer().realPath):
+        registry.AddDiscoveryResult(result)
     if PHONG_SHADER_ID not in registry.GetShaderNodeIdentifiers():
         raise ImportError(f"phongscene: could not register the Sdr node {PHONG_SHADER_ID} from {DEFINITIONS_FILE}")
 

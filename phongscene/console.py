@@ -1,0 +1,46 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The ``phongscene`` process (the console script and ``python -m phongscene``): the CLI's
+``main`` with two start-up and exit costs that a command-line run does not need (issue 15,
+measured by benchmarks/startup.py):
+
+- numpy's OpenBLAS starts a thread per core when numpy is imported (~40 ms CPU of a tiny render);
+  phongscene's arrays are small for BLAS (3×3 and 4×4 transforms, the rest is not BLAS), so the
+  process asks for one BLAS thread unless the user chose a count;
+- the interpreter's teardown (freeing every module of numpy, pxr and OpenImageIO, ~35 ms CPU) is
+  skipped once the command is done: exit handlers run and the standard streams are flushed, as at
+  an ordinary exit, then the process ends. Only when no other thread is alive (one would be
+  joined at an ordinary exit); otherwise, and on an exception, the exit is the ordinary one.
+
+``phongscene.cli.main`` itself (what the tests and Python callers use) is unchanged.
+"""
+
+from __future__ import annotations
+
+import os
+
+# OpenBLAS reads the first of these that is set; a user's choice is kept.
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+def main() -> None:
+    if not any(name in os.environ for name in BLAS_THREAD_VARIABLES):
+        os.environ["OPENBLAS_NUM_THREADS"] = "1"  # before numpy is imported (the CLI imports it later)
+    from .cli import main as cli_main
+
+    _exit_without_teardown(cli_main())
+
+
+def _exit_without_teardown(code: int) -> None:
+    import atexit
+    import sys
+    import threading
+
+    if threading.active_count() > 1:
+        raise SystemExit(code)
+    atexit._run_exitfuncs()  # what an ordinary exit runs first (weakref finalizers, logging)
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except OSError:
+        raise SystemExit(code) from None  # a closed pipe: reported as an ordinary exit reports it
+    os._exit(code)
