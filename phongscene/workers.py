@@ -8,7 +8,8 @@ A task still receives only the scene's path and its time: the cache is an optimi
 the worker, and a frame read from it is the same model ``phongscene render --time T`` reads
 (tests/test_animation.py). A stage nothing of which varies in time is read once, and its
 model reused while its files (layers, textures) are unchanged (``phongscene.usd.read_cache``);
-otherwise each read reads the whole stage at its time and decodes its textures anew."""
+where only lights' and gprims' own inputs vary, only those are read again at each time
+(``phongscene.usd.read_parts``); otherwise each read reads the whole stage at its time."""
 
 from __future__ import annotations
 

@@ -249,6 +249,12 @@ def test_a_stage_opened_once_sees_every_way_a_part_of_it_varies_in_time(tmp_path
     assert (pickle.dumps(reads[1].scene) != pickle.dumps(reads[24].scene)) == (part is not None)
     # A stage nothing of which varies is read once: every read gives the first read's model.
     assert (reads[24].scene is reads[1].scene) == (part is None)
+    # A light or gprim whose inputs do not vary is read once (the first read's object comes back)
+    # unless a material, visibility or purpose varies (the whole stage is read again).
+    ball = lambda read: next(s for s in read.scene.spheres if s.source == "/World/Rig/Ball")  # noqa: E731
+    whole = part in ("visibility", "material")
+    assert (reads[None].scene.lights[0] is reads[1].scene.lights[0]) == (part != "light" and not whole)
+    assert (ball(reads[None]) is ball(reads[1])) == (part not in ("transform", "ancestor") and not whole)
 
 
 def test_a_single_time_sample_beside_a_default_is_held_at_every_time(tmp_path):
@@ -262,6 +268,51 @@ def test_a_single_time_sample_beside_a_default_is_held_at_every_time(tmp_path):
         read = read_usd(opened, time=time_code)
         assert _same_read(read, read_usd(path, time=time_code)), time_code
         assert read.scene.spheres[0].world_from_object[0, 0] == 3.0
+
+
+@pytest.mark.parametrize("indices", ["{1: [], 24: [0]}", "{1: [0], 24: []}"], ids=["from_24", "until_24"])
+def test_a_material_first_used_by_another_part_at_another_time_reads_the_stage_anew(tmp_path, indices):
+    # The mesh's GeomSubset binds "Bare" from (or until) frame 24 (no faces at the other end): at
+    # one time the mesh, read anew, uses it first, at the other the sphere after it (kept). The
+    # material's warning must come once, as a read of the file gives it.
+    path = tmp_path / "subset.usda"
+    path.write_text("""#usda 1.0
+(
+    startTimeCode = 1
+    endTimeCode = 24
+)
+def Mesh "Quad"
+{
+    int[] faceVertexCounts = [3, 3]
+    int[] faceVertexIndices = [0, 1, 2, 0, 2, 3]
+    point3f[] points = [(-1, 0, -1), (1, 0, -1), (1, 0, 1), (-1, 0, 1)]
+    uniform token subsetFamily:materialBind:familyType = "nonOverlapping"
+    def GeomSubset "Part" (prepend apiSchemas = ["MaterialBindingAPI"])
+    {
+        uniform token elementType = "face"
+        uniform token familyName = "materialBind"
+        int[] indices.timeSamples = INDICES
+        rel material:binding = </Looks/Bare>
+    }
+}
+def Sphere "Later" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    rel material:binding = </Looks/Bare>
+}
+def Scope "Looks"
+{
+    def Material "Bare"
+    {
+    }
+}
+""".replace("INDICES", indices))
+    opened = open_stage(path)
+    read_usd(opened, time=1)
+    assert opened.reads.by_parts  # the subset is its mesh's input: the sphere is kept
+    for time_code in (24, 1, 12, 24):
+        assert _same_read(read_usd(opened, time=time_code), read_usd(path, time=time_code)), time_code
+    assert any("materials without a surface shader (rendered grey) (1): /Looks/Bare" in w
+               for w in read_usd(opened, time=24).warnings)
 
 
 def test_a_stage_read_once_reads_a_changed_texture_again(tmp_path):
