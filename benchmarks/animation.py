@@ -16,7 +16,10 @@ overhead (scheduling + stage load + write) against the frame itself.
    opened anew, interleaved in this process; and (with ``--pairs``) one diff frame in this process: wall and
    CPU seconds of the task and of POV-Ray in it (its own CPU is small: it mostly waits).
 
-    .venv/bin/python benchmarks/animation.py [--pairs 2] [--overhead-frames 12]
+4. The EXR write of a 640×360 frame, step by step; with ``--profiler-pairs N``, the S1
+   overhead with Dask's worker profiler on and off, interleaved.
+
+    .venv/bin/python benchmarks/animation.py [--pairs 2] [--overhead-frames 12] [--profiler-pairs 0]
 
 Figures: benchmarks/README.md ("Frames on Dask").
 """
@@ -153,10 +156,70 @@ def stage_load(frames: int, scene: Path) -> dict:
     return {how: tuple(statistics.median(x[i] for x in v) for i in (0, 1)) for how, v in loads.items()}
 
 
+def exr_write(repeat: int) -> dict:
+    """Where the EXR write of a 640×360 frame goes (``phongscene.images.write_image``: OpenImageIO,
+    float, uncompressed, atomic, read back whole before the rename): median CPU milliseconds of
+    the whole write and of its steps, against OpenImageIO's ``ImageOutput`` writing the array."""
+    import numpy as np
+    import OpenImageIO as oiio
+
+    from phongscene.images import EXR_COMPRESSION, write_image
+
+    image = np.random.default_rng(1).random((360, 640, 3), dtype=np.float32)
+
+    def median_ms(step) -> float:
+        times = []
+        for _ in range(repeat):
+            start = time.process_time()
+            step()
+            times.append(time.process_time() - start)
+        return statistics.median(times) * 1e3
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "frame.exr")
+
+        def buf_write():
+            buf = oiio.ImageBuf(image)
+            buf.specmod().attribute("compression", EXR_COMPRESSION)
+            buf.write(out, "float")
+
+        def read_back():
+            buf = oiio.ImageBuf(out)
+            buf.read(force=True)
+            buf.clear()
+
+        def image_output():
+            output = oiio.ImageOutput.create(out)
+            spec = oiio.ImageSpec(640, 360, 3, "float")
+            spec.attribute("compression", EXR_COMPRESSION)
+            output.open(out, spec)
+            output.write_image(image)
+            output.close()
+
+        return {"write_image": median_ms(lambda: write_image(out, image)), "imagebuf": median_ms(lambda: oiio.ImageBuf(image)),
+                "buf_write": median_ms(buf_write), "read_back": median_ms(read_back), "image_output": median_ms(image_output)}
+
+
+def profiler_pairs(pairs: int, frames: int) -> list[tuple[float, float]]:
+    """The per-task overhead (wall) of S1 frames with Dask's statistical profiler of the worker
+    (``distributed.worker.profile``, sampling every 10 ms) on and off, interleaved."""
+    import dask
+
+    out = []
+    for _ in range(pairs):
+        on = overhead(frames, S1)["overhead"]
+        with dask.config.set({"distributed.worker.profile.enabled": False}):
+            off = overhead(frames, S1)["overhead"]
+        out.append((on, off))
+    return out
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--pairs", type=int, default=2, help="(1 worker, 2 workers) runs, interleaved (0: none)")
     parser.add_argument("--overhead-frames", type=int, default=12)
+    parser.add_argument("--profiler-pairs", type=int, default=0,
+                        help="(profiler on, off) runs of the S1 overhead, interleaved (0: none)")
     args = parser.parse_args()
     if not S1.exists():
         import subprocess
@@ -198,6 +261,13 @@ def main() -> int:
                   f"{loads['kept'][0] * 1e3:.2f} ms CPU ({loads['kept'][1] * 1e3:.2f} ms wall), opened anew "
                   f"{loads['anew'][0] * 1e3:.2f} ms CPU ({loads['anew'][1] * 1e3:.2f} ms wall): "
                   f"{loads['anew'][0] / loads['kept'][0]:.2f}x")
+    w = exr_write(30)
+    print(f"EXR write of a 640x360 frame, median CPU of 30: write_image {w['write_image']:.2f} ms = ImageBuf from the "
+          f"array {w['imagebuf']:.2f} + its write {w['buf_write'] - w['imagebuf']:.2f} + read back {w['read_back']:.2f} "
+          f"(+ rename); ImageOutput.write_image of the array {w['image_output']:.2f} ms")
+    for on, off in profiler_pairs(args.profiler_pairs, args.overhead_frames):
+        print(f"S1 per-task overhead, Dask's worker profiler on {on * 1e3:.2f} ms, off {off * 1e3:.2f} ms "
+              f"(load average {os.getloadavg()[0]:.2f})")
     print(f"load average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
 
