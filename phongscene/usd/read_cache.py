@@ -23,8 +23,10 @@ The layers the stage was composed from are not watched here: a changed layer mak
 
 When something varies, and it is only lights' and gprims' own inputs (their attributes, their
 ancestors' and descendants'), the others are read once and replayed (``read_parts``); when a
-material, render setting, visibility or purpose varies, the whole stage is read at each time.
-The asset files of what does not vary are watched in both cases."""
+material, render setting, visibility or purpose varies (an attribute a material input is
+connected to counts as the material's), the whole stage is read at each time. PointInstancers
+are read at every time (their prototypes may be anywhere). The asset files of what does not
+vary are watched in both cases."""
 
 from __future__ import annotations
 
