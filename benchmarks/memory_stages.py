@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: Apache-2.0
 """Where a whole process's peak memory comes from: ``phongscene render``'s stages run one after
-another in this process (imports, ``load_usd``, the native scene with its BVH, the render, the
-EXR write), printing after each the process's peak (VmHWM) and current (VmRSS) resident memory
+another in this process as the CLI runs them (imports, ``load_usd``, the native scene with its
+BVH, the render, the EXR write, and between them the model and the C++ scene dropped and
+``malloc_trim``), printing after each the process's peak (VmHWM) and current (VmRSS) resident memory
 from /proc/self/status (Linux) and the stage's wall time.
 
     .venv/bin/python benchmarks/memory_stages.py [S2]     # any make_scenes.FILES name; default S2
@@ -48,7 +49,9 @@ def main() -> None:
     from make_scenes import FILES, make
 
     import phongscene.usd
-    from phongscene.backends import native
+    from phongscene.backends import native  # noqa: F401  (imported here, as its own stage)
+    from phongscene.memory import release_free_heap
+    from phongscene.rendering import prepare_render
 
     stage("imports (numpy, pxr, ...)")
     path = HERE / "scenes" / FILES[args.scene]
@@ -57,17 +60,23 @@ def main() -> None:
     start = time.perf_counter()
     scene = phongscene.usd.load_usd(path)
     stage("load_usd")
-    built = native.build(scene)
+    release_free_heap()
+    stage("malloc_trim")
+    render = prepare_render(scene, "native")
     stage("native scene + BVH")
-    settings = scene.settings
-    image = built.render(camera=native._camera(scene.camera), settings=native._settings(settings))
+    del scene
+    release_free_heap()
+    stage("model freed, malloc_trim")
+    image = render()
     stage("render")
+    del render
+    release_free_heap()
+    stage("C++ scene freed, malloc_trim")
     from phongscene.images import write_image
 
     with tempfile.TemporaryDirectory() as tmp:
         write_image(Path(tmp) / "image.exr", image)
     stage("EXR write (OpenImageIO)")
-
 
 if __name__ == "__main__":
     main()

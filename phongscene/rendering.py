@@ -176,8 +176,6 @@ def render(
         SceneError: the scene or the settings are invalid (every problem listed).
         BackendError: the backend is unavailable or failed.
     """
-    from .images import Image  # OpenImageIO, only when rendering
-
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; expected one of {', '.join(BACKENDS)}")
     if not isinstance(scene, Scene):
@@ -192,6 +190,29 @@ def render(
     if mapping is not None or any(v is not None for v in overrides.values()):
         base = scene if settings is None else replace(scene, settings=settings)
         settings = settings_with(base, mapping, width=width, height=height, samples=spp, threads=threads)
+    return prepare_render(scene, backend, settings, progress=progress, timeout=timeout)()
+
+
+def prepare_render(
+    scene: Scene,
+    backend: Backend = "native",
+    settings: RenderSettings | None = None,
+    *,
+    progress: Callable | None = None,
+    timeout: float | None = None,
+) -> Callable[[], Image]:
+    """``render`` of a loaded scene in two steps: validates ``scene`` with ``settings`` and, for
+    the native backend, builds its C++ scene now; calling the result renders (the same image as
+    ``render``). The native result holds no reference to ``scene``: a caller that drops it frees
+    the model's arrays before the render (the CLI does, for memory).
+
+    Raises:
+        SceneError, BackendError: as ``render``, here or when called.
+    """
+    from .images import Image  # OpenImageIO, only when rendering
+
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; expected one of {', '.join(BACKENDS)}")
     settings = check_settings(scene, settings)
     try:
         if backend == "native":
@@ -200,14 +221,23 @@ def render(
             from .backends import povray as module
     except ImportError as e:
         raise BackendError(f"the {backend} backend is not available: {e}") from e
+
+    def in_file_terms_of_the_backend(run: Callable[[], np.ndarray]) -> Callable[[], Image]:
+        def call() -> Image:
+            try:
+                return run().view(Image)
+            except SceneError as e:  # a backend's own check (e.g. a number not finite in the SDL)
+                raise in_file_terms(e) from None
+
+        return call
+
+    if backend == "povray":
+        return in_file_terms_of_the_backend(lambda: module.render(scene, settings, progress=progress, timeout=timeout))
     try:
-        if backend == "native":
-            image = module.render(scene, settings, progress=progress)
-        else:
-            image = module.render(scene, settings, progress=progress, timeout=timeout)
-    except SceneError as e:  # a backend's own check (e.g. a number not finite in the SDL)
+        prepared = module.prepare(scene, settings, progress=progress)
+    except SceneError as e:
         raise in_file_terms(e) from None
-    return image.view(Image)
+    return in_file_terms_of_the_backend(prepared)
 
 
 def compile_pov(scene: Scene, settings: RenderSettings | None = None, mapping: str | None = None) -> str:

@@ -56,3 +56,25 @@ def test_render_rejects_an_invalid_scene_before_any_backend_runs(backend):
         render(scene, backend, replace(scene.settings, samples=12))
     text = str(e.value)
     assert "ks" in text and "samples" in text  # both problems, in one error
+
+
+def test_a_prepared_native_render_frees_the_model_and_renders_the_same_image():
+    # The CLI drops the model once the C++ scene is built (phongscene.cli._run_render): the
+    # prepared render must not keep it alive, and must render what render() renders.
+    import gc
+    import weakref
+
+    import numpy as np
+
+    from phongscene.rendering import prepare_render
+
+    scene = load_scene(EXAMPLES / "seed_exponents.usda")[0]
+    settings = settings_with(scene, None, width=40)
+    expected = render(scene, "native", settings)
+    mesh_points = weakref.finalize(scene.meshes[0].points.base if scene.meshes[0].points.base is not None
+                                   else scene.meshes[0].points, lambda: None)
+    prepared = prepare_render(scene, "native", settings)
+    del scene
+    gc.collect()
+    assert not mesh_points.alive  # the model's arrays are gone before the render
+    assert np.array_equal(prepared(), expected)

@@ -29,7 +29,7 @@ from phongscene.scene import (
 
 from . import _native
 
-__all__ = ["build", "render", "scene_arrays", "_native"]
+__all__ = ["PreparedRender", "build", "prepare", "render", "scene_arrays", "_native"]
 
 _SAMPLE_PATTERNS = {
     "grid": _native.SamplePattern.grid,
@@ -235,6 +235,30 @@ def render(
     Raises:
         KeyboardInterrupt: on Ctrl-C, promptly (the workers stop at their next tile).
     """
+    return prepare(scene, settings, progress=progress)()
+
+
+class PreparedRender:
+    """A render whose C++ scene (with its BVH) is built: calling it renders. It holds no
+    reference to the model, whose arrays C++ has copied, so a caller that drops the model can
+    free them before the render (the CLI does: phongscene.cli)."""
+
+    def __init__(self, native: _native.Scene, camera: _native.CameraDescription, settings: _native.RenderSettings,
+                 progress: Callable[[int, int], None] | None):
+        self._native, self._camera, self._settings, self._progress = native, camera, settings, progress
+
+    def __call__(self) -> np.ndarray:
+        return self._native.render(camera=self._camera, settings=self._settings, progress=self._progress)
+
+
+def prepare(
+    scene: Scene,
+    settings: RenderSettings | None = None,
+    *,
+    progress: Callable[[int, int], None] | None = None,
+) -> PreparedRender:
+    """``render``'s first half: the C++ scene of ``scene`` in the numerics of ``settings``
+    (default ``scene.settings``), built now; the returned object renders when called."""
     s = scene.settings if settings is None else settings
     # Building the BVH of a big mesh takes seconds and reports no fraction: say so
     # (phongscene.progress.report_phase: a progress callable may have a phase method).
@@ -248,7 +272,7 @@ def render(
     textures = texture_arrays(scene, half_texels=s.numerics != "scale-invariant")
     if textures is not None:
         native.set_textures(**textures)
-    return native.render(camera=_camera(scene.camera), settings=_settings(s), progress=progress)
+    return PreparedRender(native, _camera(scene.camera), _settings(s), progress)
 
 
 # POV-Ray's mesh2 shades a triangle smoothly only when its vertex normals differ by more than

@@ -391,6 +391,10 @@ NB_MODULE(_native, m) {
              "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and specular_texture, and the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order.")
         .def_prop_ro("magnitude", [](const phong::Scene& s) { return s.magnitude; })
+        .def_prop_ro("single_precision_triangles", [](const phong::Scene& s) { return s.triangles.single_precision(); },
+                     "Whether the triangles' corners are held as floats (every vertex a float: the same doubles).")
+        .def_prop_ro("single_precision_normals", [](const phong::Scene& s) { return s.normals.single_precision(); },
+                     "Whether the meshes' normals are held as floats (every coordinate a float: the same doubles).")
         .def("render", &render, "camera"_a, "settings"_a, "progress"_a = nb::none(),
              "The image, float32 (height, width, 3), row 0 at the top. progress(done, total) is called from this "
              "thread while rendering; an exception it raises (or Ctrl-C) stops the render.")

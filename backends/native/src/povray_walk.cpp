@@ -73,7 +73,7 @@ bool Scene::occluded_povray_walk(const Ray& ray, double t_min, double t_max) con
             if (hit.t > t_min && hit.t < t_max) return true;  // a sphere counts every hit
         } else {
             const size_t slot = size_t(hit.ref);
-            hits.push_back({triangle_mesh[slot], box_entry(triangles[slot], ray), hit.t});
+            hits.push_back({triangle_mesh(slot), box_entry(triangles[slot], ray), hit.t});
         }
         from = hit.t;
     }

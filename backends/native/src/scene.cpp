@@ -15,6 +15,10 @@
 #include <utility>
 #include <variant>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 namespace phong {
 
 namespace {
@@ -82,9 +86,9 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         first_triangle[m + 1] = first_triangle[m] + mesh.triangle_count;
         first_normal[m + 1] = first_normal[m] + mesh.normal_count;
     }
-    normals.reserve(first_normal[n_meshes]);
-    for (const MeshArrays& mesh : in.meshes)
-        for (size_t i = 0; i < mesh.normal_count; ++i) normals.push_back(row3(mesh.normals + 3 * i));
+    std::vector<std::pair<const double*, size_t>> mesh_normals;
+    for (const MeshArrays& mesh : in.meshes) mesh_normals.emplace_back(mesh.normals, mesh.normal_count);
+    normals.assign(mesh_normals);
     // The mesh of triangle i (global number): looked up once per chunk (then stepped) in the
     // pass below, per triangle in the leaf-order pass.
     auto mesh_of = [&](size_t i) {
@@ -142,6 +146,12 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     // The build consumes (and frees) the primitive boxes before the leaf-order copies below are
     // allocated.
     bvh_.build(std::move(prims));
+#if defined(__GLIBC__)
+    // The freed primitive boxes (30 MiB at 1M triangles) stay resident in glibc's heap, under
+    // the collapse and the copies below, unless handed back: S2's peak 300 -> 286 MiB
+    // (benchmarks/memory_stages.py; benchmarks/README.md).
+    malloc_trim(0);
+#endif
     // The rays walk the 4-wide tree; the binary one's nodes are freed once it is collapsed.
     bvh4_ = collapse_to_bvh4(bvh_.nodes);
     std::vector<BvhNode>().swap(bvh_.nodes);
@@ -153,10 +163,14 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     for (size_t k = 0; k < order.size(); ++k)
         if (order[k] < n_spheres) sphere_positions.push_back(uint32_t(k));
     refs_.resize(order.size());
-    triangles.resize(n_triangles);
+    // Float corners when every vertex is a float (triangle_store.hpp): the same doubles.
+    bool every_vertex_float = true;
+    for (const MeshArrays& mesh : in.meshes)
+        for (size_t i = 0; i < 3 * mesh.point_count && every_vertex_float; ++i)
+            every_vertex_float = float_exact(mesh.points[i]);
+    triangles.resize(n_triangles, every_vertex_float);
     triangle_shading.resize(n_triangles);
     triangle_source.resize(n_triangles);
-    triangle_mesh.resize(n_triangles);
     if (in.povray_triangles) povray_triangles.resize(n_triangles);
     for_chunks(order.size(), [&](size_t begin, size_t end) {
         size_t spheres_before = size_t(
@@ -175,8 +189,9 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
             const size_t local = i - first_triangle[m];
             const int32_t* t = mesh.triangles + 3 * local;
             refs_[k] = int32_t(slot);
-            triangles[slot] = {row3(mesh.points + 3 * size_t(t[0])), row3(mesh.points + 3 * size_t(t[1])),
-                               row3(mesh.points + 3 * size_t(t[2]))};
+            const TriangleShape corners{row3(mesh.points + 3 * size_t(t[0])), row3(mesh.points + 3 * size_t(t[1])),
+                                        row3(mesh.points + 3 * size_t(t[2]))};
+            triangles.set(slot, corners);
             TriangleShading sh{-1, -1, -1, mesh.material};
             if (mesh.normal_indices && mesh.normal_indices[3 * local] >= 0) {
                 const int32_t* n = mesh.normal_indices + 3 * local;
@@ -187,12 +202,17 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
             }
             triangle_shading[slot] = sh;
             triangle_source[slot] = uint32_t(i);
-            triangle_mesh[slot] = int32_t(m);
-            if (in.povray_triangles) povray_triangles[slot] = make_povray_triangle(triangles[slot], mesh.origin);
+            if (in.povray_triangles) povray_triangles[slot] = make_povray_triangle(corners, mesh.origin);
         }
     });
     bvh_.order.clear();
     bvh_.order.shrink_to_fit();
+    first_triangle_ = std::move(first_triangle);
+}
+
+int32_t Scene::triangle_mesh(size_t slot) const {
+    const size_t i = triangle_source[slot];
+    return int32_t(std::upper_bound(first_triangle_.begin() + 1, first_triangle_.end(), i) - first_triangle_.begin() - 1);
 }
 
 int64_t Scene::primitive_id(int32_t ref) const {
@@ -415,10 +435,10 @@ int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_clos
         double t;
         if (intersect_sphere(s, ray, t_min, t_max, t)) { ++count; t_closest = std::fmin(t_closest, t); }
     }
-    for (const TriangleShape& tri : triangles) {
+    for (size_t k = 0; k < triangles.size(); ++k) {
         double t;
         Barycentric bary;
-        if (intersect_triangle(tri, ray, wr, t_min, t_max, t, bary)) { ++count; t_closest = std::fmin(t_closest, t); }
+        if (intersect_triangle(triangles[k], ray, wr, t_min, t_max, t, bary)) { ++count; t_closest = std::fmin(t_closest, t); }
     }
     return count;
 }

@@ -17,6 +17,7 @@
 #include "povray_triangle.hpp"
 #include "shapes.hpp"
 #include "textures.hpp"
+#include "triangle_store.hpp"
 
 namespace phong {
 
@@ -96,13 +97,16 @@ class Scene {
     // The primitive's id as Python numbers them: spheres 0..S-1, then triangles in mesh order.
     int64_t primitive_id(int32_t ref) const;
 
+    // The mesh of leaf-order triangle `slot` (from its input row: the POV-Ray walk's rare
+    // question needs no per-triangle array).
+    int32_t triangle_mesh(size_t slot) const;
+
     std::vector<SphereShape> spheres;
-    std::vector<TriangleShape> triangles;         // leaf order
+    TriangleStore triangles;                      // leaf order; float when that is exact
     std::vector<TriangleShading> triangle_shading;  // leaf order
     std::vector<uint32_t> triangle_source;        // leaf order -> input row
-    std::vector<int32_t> triangle_mesh;           // leaf order -> mesh
     std::vector<PovrayTriangle> povray_triangles;  // leaf order; empty unless built in POV-Ray numerics
-    std::vector<Vec3> normals;
+    Vec3Store normals;  // float when that is exact
     std::vector<Material> materials;
     std::vector<Light> lights;
     RGB ambient;
@@ -126,6 +130,7 @@ class Scene {
     Bvh bvh_;                      // the binary tree; its nodes are freed once collapsed
     std::vector<Bvh4Node> bvh4_;   // what the rays walk
     std::vector<int32_t> refs_;  // BVH leaf order
+    std::vector<size_t> first_triangle_;  // mesh m's input rows start at first_triangle_[m]
 };
 
 }  // namespace phong
