@@ -6,7 +6,10 @@ not inside its first task.
 
 A task still receives only the scene's path and its time: the cache is an optimisation inside
 the worker, and a frame read from it is the same model ``phongscene render --time T`` reads
-(tests/test_animation.py). Textures are not cached: each read decodes them anew."""
+(tests/test_animation.py). A stage nothing of which varies in time is read once, and its
+model reused while its files (layers, textures) are unchanged (``phongscene.usd.read_cache``);
+where only lights' and gprims' own inputs vary, only those are read again at each time
+(``phongscene.usd.read_parts``); otherwise each read reads the whole stage at its time."""
 
 from __future__ import annotations
 
@@ -66,14 +69,9 @@ def _layer_files(path: str, stage) -> tuple[str, ...]:
 
 
 def _states(files: tuple[str, ...]) -> tuple:
-    out = []
-    for file in files:
-        try:
-            st = os.stat(file)
-            out.append((st.st_mtime_ns, st.st_size, st.st_ino))
-        except OSError:
-            out.append(None)
-    return tuple(out)
+    from .usd.read_cache import file_state
+
+    return tuple(file_state(file) for file in files)
 
 
 def forget() -> None:

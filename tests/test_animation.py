@@ -152,6 +152,192 @@ def test_a_stage_opened_once_reads_at_every_time_what_the_file_reads(path):
     assert read_usd(opened, time=None).warnings  # these files do warn: the comparison saw some
 
 
+# One static scene in which one thing at a time is animated, each in a way a read of a stage
+# opened once must see: its own transform, only an ancestor's, a material input reached through a
+# connection, a light, the camera, visibility, an instancer moved by velocities from one positions
+# sample. {name} marks where a variant puts its value or samples.
+_PARTS = """#usda 1.0
+(
+    startTimeCode = 1
+    endTimeCode = 24
+)
+def Xform "World"
+{
+    def Camera "Camera"
+    {
+        float focalLength = 50
+        float horizontalAperture = 36
+        double3 xformOp:translate{camera}
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def SphereLight "Key"
+    {
+        float inputs:intensity{light}
+        float inputs:radius = 0
+        custom token phong:lightModel = "seed"
+        bool treatAsPoint = 1
+        double3 xformOp:translate = (-4, 8, 6)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def Xform "Rig"
+    {
+        double3 xformOp:translate{ancestor}
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+        def Sphere "Ball" (prepend apiSchemas = ["MaterialBindingAPI"])
+        {
+            rel material:binding = </World/Looks/Paint>
+            token visibility{visibility}
+            double3 xformOp:translate{transform}
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+    }
+    def PointInstancer "Crowd"
+    {
+        rel prototypes = </World/Crowd/Proto>
+        int[] protoIndices = [0, 0]
+        point3f[] positions{instancer}
+        vector3f[] velocities{velocities}
+        def Sphere "Proto" {
+            double radius = 0.25
+        }
+    }
+    def Scope "Looks"
+    {
+        def Material "Paint"
+        {
+            color3f inputs:tint{material}
+            token outputs:phong:surface.connect = </World/Looks/Paint/Phong.outputs:surface>
+            def Shader "Phong"
+            {
+                uniform token info:id = "phongscene_PhongSurface"
+                color3f inputs:diffuseColor.connect = </World/Looks/Paint.inputs:tint>
+                token outputs:surface
+            }
+        }
+    }
+}
+"""
+_STATIC = {"camera": " = (0, 1, 10)", "light": " = 2", "ancestor": " = (0, 0, 0)", "visibility": ' = "inherited"',
+           "transform": " = (0, 1, 0)", "instancer": " = [(-2, 0, 0), (2, 0, 0)]", "velocities": "",
+           "material": " = (1, 0, 0)"}
+_ANIMATED = {
+    "camera": {"camera": ".timeSamples = {1: (0, 1, 10), 24: (0, 1, 12)}"},
+    "light": {"light": ".timeSamples = {1: 2, 24: 6}"},
+    "ancestor": {"ancestor": ".timeSamples = {1: (-3, 0, 0), 24: (3, 0, 0)}"},
+    "visibility": {"visibility": '.timeSamples = {1: "inherited", 12: "invisible"}'},
+    "transform": {"transform": ".timeSamples = {1: (-3, 1, 0), 24: (3, 1, 0)}"},
+    "instancer": {"instancer": ".timeSamples = {1: [(-2, 0, 0), (2, 0, 0)], 24: [(-2, 3, 0), (2, 3, 0)]}"},
+    # One positions sample, which does not vary in time: USD moves the instances from it by their
+    # velocities (units per second) to the time read.
+    "velocities": {"instancer": ".timeSamples = {1: [(-2, 0, 0), (2, 0, 0)]}", "velocities": ".timeSamples = {1: [(24, 0, 0), (0, 24, 0)]}"},
+    "material": {"material": ".timeSamples = {1: (1, 0, 0), 24: (0, 0, 1)}"},
+}
+
+
+@pytest.mark.parametrize("part", [None, *_ANIMATED], ids=lambda p: p or "nothing")
+def test_a_stage_opened_once_sees_every_way_a_part_of_it_varies_in_time(tmp_path, part):
+    path = tmp_path / f"{part}.usda"
+    text = _PARTS
+    for name, value in (_STATIC | _ANIMATED.get(part, {})).items():
+        text = text.replace(f"{{{name}}}", value)
+    path.write_text(text)
+    opened = open_stage(path)
+    reads = {t: read_usd(opened, time=t) for t in (1, 24, 12.5, None, 30, 1)}
+    for time_code, read in reads.items():
+        assert _same_read(read, read_usd(path, time=time_code)), time_code
+    # The scene moves, or not, as the part says (so the comparison above compared frames that differ).
+    assert (pickle.dumps(reads[1].scene) != pickle.dumps(reads[24].scene)) == (part is not None)
+    # A stage nothing of which varies is read once: every read gives the first read's model.
+    assert (reads[24].scene is reads[1].scene) == (part is None)
+    # A light or gprim whose inputs do not vary is read once (the first read's object comes back)
+    # unless a material, visibility or purpose varies (the whole stage is read again).
+    ball = lambda read: next(s for s in read.scene.spheres if s.source == "/World/Rig/Ball")  # noqa: E731
+    whole = part in ("visibility", "material")
+    assert (reads[None].scene.lights[0] is reads[1].scene.lights[0]) == (part != "light" and not whole)
+    assert (ball(reads[None]) is ball(reads[1])) == (part not in ("transform", "ancestor") and not whole)
+
+
+def test_a_single_time_sample_beside_a_default_is_held_at_every_time(tmp_path):
+    # One sample does not vary in time, but it is not the default value: every numeric time reads
+    # the sample, the default time the default (the stage has a range, so no read is at default).
+    path = tmp_path / "held.usda"
+    path.write_text('#usda 1.0\n(\n    startTimeCode = 1\n    endTimeCode = 4\n)\n'
+                    'def Sphere "Ball" {\n    double radius = 1\n    double radius.timeSamples = {2: 3}\n}\n')
+    opened = open_stage(path)
+    for time_code in (1, 4, None, 100):
+        read = read_usd(opened, time=time_code)
+        assert _same_read(read, read_usd(path, time=time_code)), time_code
+        assert read.scene.spheres[0].world_from_object[0, 0] == 3.0
+
+
+@pytest.mark.parametrize("indices", ["{1: [], 24: [0]}", "{1: [0], 24: []}"], ids=["from_24", "until_24"])
+def test_a_material_first_used_by_another_part_at_another_time_reads_the_stage_anew(tmp_path, indices):
+    # The mesh's GeomSubset binds "Bare" from (or until) frame 24 (no faces at the other end): at
+    # one time the mesh, read anew, uses it first, at the other the sphere after it (kept). The
+    # material's warning must come once, as a read of the file gives it.
+    path = tmp_path / "subset.usda"
+    path.write_text("""#usda 1.0
+(
+    startTimeCode = 1
+    endTimeCode = 24
+)
+def Mesh "Quad"
+{
+    int[] faceVertexCounts = [3, 3]
+    int[] faceVertexIndices = [0, 1, 2, 0, 2, 3]
+    point3f[] points = [(-1, 0, -1), (1, 0, -1), (1, 0, 1), (-1, 0, 1)]
+    uniform token subsetFamily:materialBind:familyType = "nonOverlapping"
+    def GeomSubset "Part" (prepend apiSchemas = ["MaterialBindingAPI"])
+    {
+        uniform token elementType = "face"
+        uniform token familyName = "materialBind"
+        int[] indices.timeSamples = INDICES
+        rel material:binding = </Looks/Bare>
+    }
+}
+def Sphere "Later" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    rel material:binding = </Looks/Bare>
+}
+def Scope "Looks"
+{
+    def Material "Bare"
+    {
+    }
+}
+""".replace("INDICES", indices))
+    opened = open_stage(path)
+    read_usd(opened, time=1)
+    assert opened.reads.by_parts  # the subset is its mesh's input: the sphere is kept
+    for time_code in (24, 1, 12, 24):
+        assert _same_read(read_usd(opened, time=time_code), read_usd(path, time=time_code)), time_code
+    assert any("materials without a surface shader (rendered grey) (1): /Looks/Bare" in w
+               for w in read_usd(opened, time=24).warnings)
+
+
+def test_a_stage_read_once_reads_a_changed_texture_again(tmp_path):
+    # The model of a stage that does not vary is kept, its textures decoded in it: a texture file
+    # that changes (or goes) between two reads is read again, as a read of the file would.
+    import shutil
+
+    from phongscene.images import write_image
+
+    folder = tmp_path / "textured"
+    shutil.copytree(SCENES / "blender_textured", folder)
+    path = folder / "textured_glossy.usdc"
+    texture = folder / "textures" / "textured_glossy_grid.png"  # both materials read it
+    opened = open_stage(path)
+    first = read_usd(opened, time=1)
+    assert _same_read(first, read_usd(path, time=1)) and read_usd(opened, time=2).scene is first.scene
+    write_image(texture, np.full((4, 4, 3), 0.25, dtype=np.float32))
+    os.utime(texture, ns=(time.time_ns(), time.time_ns() + 10**9))  # whatever the clock's resolution
+    changed = read_usd(opened, time=1)
+    assert _same_read(changed, read_usd(path, time=1))
+    assert pickle.dumps(changed.scene) != pickle.dumps(first.scene)  # the new texels are in the model
+    texture.unlink()
+    assert _same_read(read_usd(opened, time=1), read_usd(path, time=1))
+
+
 def test_a_kept_stage_is_reused_until_its_file_or_a_layer_changes(tmp_path):
     from phongscene import workers
 

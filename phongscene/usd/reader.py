@@ -44,6 +44,8 @@ from .diagnostics import as_warnings, usd_output
 from .layers import not_regular, preflight
 from .context import ReadContext, gf_to_numpy, tf_error_text, unit
 from .materials import MaterialReader
+from .read_cache import KeptRead, ReadCache
+from .read_parts import EveryPart, RecordParts, Redo
 from .names import FLOAT_TYPES, INT_TYPES, PHONG_ATTRIBUTES, STRING_TYPES, in_usd_terms
 
 DEFAULT_SHADOW_SAMPLES = 9  # phong:shadowSamples on area lights: a 9×9 grid (2^3 + 1)
@@ -88,6 +90,7 @@ class OpenStage:
     usd_output: str = ""  # USD's diagnostics while opening (raw: each read makes warnings of it)
     checks: tuple[list[Problem], list[str]] | None = None  # (problems, warnings) of _stage_checks
     types: dict = field(default_factory=dict)  # ReadContext.types: each attribute's authored type
+    reads: ReadCache = field(default_factory=ReadCache)  # a stage nothing of which varies is read once
 
     def __fspath__(self) -> str:
         return self.file
@@ -107,20 +110,48 @@ def open_stage(path) -> OpenStage:
 
 def read_usd(source, time: float | None = None) -> ReadResult:
     """Like ``load_usd`` but also returns the warnings and the prim → node mapping. ``source``
-    may also be an ``OpenStage`` (``open_stage``)."""
+    may also be an ``OpenStage`` (``open_stage``): read at a time, a stage nothing of which
+    varies in time gives its first read again (``read_cache``), and one where only lights' and
+    gprims' own inputs vary reads only those again (``read_parts``)."""
+    cache = source.reads if isinstance(source, OpenStage) else None
+    if cache is not None:
+        cache.survey(source.stage)  # once per stage
     texts: list[str] = []
+    kept = assets = None
     with usd_output(texts):  # USD's own "Warning: in ..." lines become warnings
         opened = source if isinstance(source, OpenStage) else OpenStage(*_open(source))
         file = opened.file
         if time is not None and not (isinstance(time, (int, float)) and math.isfinite(time)):
             raise SceneError(Problem(f"the time must be a finite number (a USD time code), got {time!r}", file=file))
-        try:
-            result = _read(opened, time)
-        except Tf.ErrorException as e:
-            # A value USD itself cannot produce while we read it (where no prim-level check caught
-            # it first): one error naming the file, not a traceback.
-            raise SceneError(Problem(f"USD could not read a value: {tf_error_text(e)}", file=file)) from None
-    result.warnings.extend(as_warnings(opened.usd_output + "".join(texts)))
+        code, said = _time_to_read(opened.stage, time)
+        parts = None
+        if cache is not None:
+            kept = cache.replay(code)
+            if kept is None:
+                assets = cache.assets(code)  # the files' states before reading them
+                parts = cache.parts(code, assets)
+        if kept is None:
+            try:
+                try:
+                    result = _read(opened, code, parts or EveryPart())
+                except Redo:
+                    parts = None
+                    result = _read(opened, code, EveryPart())
+            except Tf.ErrorException as e:
+                # A value USD itself cannot produce while we read it (where no prim-level check
+                # caught it first): one error naming the file, not a traceback.
+                raise SceneError(Problem(f"USD could not read a value: {tf_error_text(e)}", file=file)) from None
+    read_text = "".join(texts)
+    if kept is not None:
+        result = ReadResult(kept.scene, list(kept.warnings), list(kept.nodes))
+        read_text = kept.usd_text + read_text
+    elif assets is not None:
+        cache.keep(code, KeptRead(result.scene, tuple(result.warnings), tuple(result.nodes), read_text, assets))
+        if isinstance(parts, RecordParts):
+            cache.keep_parts(code, parts, assets)
+    # As a read of the file gives them: which time is read first, USD's diagnostics last.
+    result.warnings[:0] = [said] if said else []
+    result.warnings.extend(as_warnings(opened.usd_output + read_text))
     return result
 
 
@@ -139,12 +170,9 @@ def _stage_checks(ctx: ReadContext) -> None:
     typos.check_names(ctx)
 
 
-def _read(opened: OpenStage, time: float | None) -> ReadResult:
+def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult:
     stage, file = opened.stage, opened.file
-    code, said = _time_to_read(stage, time)
     ctx = ReadContext(stage, file, code, opened.types)
-    if said:
-        ctx.warn(said)
     if opened.checks is None:
         problems, warnings = len(ctx.problems), len(ctx.warnings)
         _stage_checks(ctx)
@@ -154,7 +182,9 @@ def _read(opened: OpenStage, time: float | None) -> ReadResult:
         ctx.warnings.extend(opened.checks[1])
     settings, camera_prim = _render_settings(ctx)
     camera, lights, ambient, spheres, meshes = None, [], [], [], []
-    materials = MaterialReader(ctx)
+    # Each light and gprim is read through ``parts``: anew, or replayed from a stage's first read.
+    materials = parts.materials(ctx)
+    parts.start(ctx, (lights, ambient, spheres, meshes))
 
     it = iter(Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
     renderable = _Renderable(ctx)
@@ -167,12 +197,12 @@ def _read(opened: OpenStage, time: float | None) -> ReadResult:
             if camera_prim is None:
                 camera_prim = prim
         elif prim.HasAPI(UsdLux.LightAPI):
-            _light(ctx, prim, lights, ambient)
+            parts.read(prim, lambda: _light(ctx, prim, lights, ambient))
         elif prim.IsA(UsdGeom.PointInstancer):
-            it.PruneChildren()
-            _instances(ctx, prim, ctx.world(prim), materials, spheres, meshes)
+            it.PruneChildren()  # its prototypes may be anywhere: read at every time
+            parts.read(prim, lambda: _instances(ctx, prim, ctx.world(prim), materials, spheres, meshes), keep=False)
         elif prim.IsA(UsdGeom.Gprim):
-            _gprim(ctx, prim, ctx.world(prim), materials, spheres, meshes)
+            parts.read(prim, lambda: _gprim(ctx, prim, ctx.world(prim), materials, spheres, meshes))
 
     if camera_prim is not None:
         camera = _camera(ctx, camera_prim)
