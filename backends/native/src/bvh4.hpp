@@ -79,15 +79,23 @@ constexpr double kFloatSlabMaxCoordinate = 1e30;
 constexpr double kFloatSlabMinDirection = 0x1p-20;
 constexpr double kFloatSlabMaxDirection = 0x1p20;
 
+// A ray origin rounded to float down and up per axis (o⁻ and o⁺ above): rays that share their
+// origin (a perspective camera's, the shadow rays of one shaded point) round it once.
+struct FloatSlabOrigin {
+    float down[3], up[3];
+    explicit FloatSlabOrigin(const Vec3& o)
+        : down{round_down(o.x), round_down(o.y), round_down(o.z)}, up{round_up(o.x), round_up(o.y), round_up(o.z)} {}
+};
+
 // A ray set up for the float slab test of 4 children at once.
 struct FloatSlabRay {
     __m128 origin_near[3], origin_far[3], inv[3];
     int near_row[3], far_row[3];  // rows of Bvh4Node::boxes: the near and far planes per axis
     __m128 t_min;
 
-    // `inv` = (1/dir.x, 1/dir.y, 1/dir.z) in double.
-    FloatSlabRay(const Vec3& origin, const Vec3& dir, const Vec3& inv_dir, double t_min_) {
-        const double o[3] = {origin.x, origin.y, origin.z}, d[3] = {dir.x, dir.y, dir.z};
+    // `inv` = (1/dir.x, 1/dir.y, 1/dir.z) in double; `origin` the ray's, rounded.
+    FloatSlabRay(const FloatSlabOrigin& origin, const Vec3& dir, const Vec3& inv_dir, double t_min_) {
+        const double d[3] = {dir.x, dir.y, dir.z};
         const double r[3] = {inv_dir.x, inv_dir.y, inv_dir.z};
         for (int k = 0; k < 3; ++k) {
             const bool negative = std::signbit(d[k]);
@@ -95,8 +103,8 @@ struct FloatSlabRay {
             far_row[k] = negative ? k : 3 + k;
             // Positive direction: near = (lo − o)/d is smallest with o rounded up, far = (hi − o)/d
             // largest with o rounded down; a negative one swaps the two.
-            origin_near[k] = _mm_set1_ps(negative ? round_down(o[k]) : round_up(o[k]));
-            origin_far[k] = _mm_set1_ps(negative ? round_up(o[k]) : round_down(o[k]));
+            origin_near[k] = _mm_set1_ps(negative ? origin.down[k] : origin.up[k]);
+            origin_far[k] = _mm_set1_ps(negative ? origin.up[k] : origin.down[k]);
             const float inv_k = std::fabs(r[k]) <= double(FLT_MAX) ? float(r[k])
                                 : d[k] == 0.0                      ? float(r[k])  // ±inf, as the double test
                                                                    : NAN;  // see above: no culling on k
@@ -146,10 +154,10 @@ struct ChildBox {
 // Walks the 4-wide BVH; `leaf(first, count, t_max)` tests a leaf's primitives and returns true
 // to stop the walk (any-hit); it may shrink t_max (closest hit), after which pending children
 // whose entry lies beyond it are skipped. `ordered`: visit hit children nearest first (closest
-// hit); any-hit walks take them as they come.
+// hit); any-hit walks take them as they come. `origin` is FloatSlabOrigin(ray.origin).
 template <bool ordered, class LeafFn>
-void traverse_bvh4(const std::vector<Bvh4Node>& nodes, double scene_magnitude, const Ray& ray, double t_min,
-                   double& t_max, LeafFn&& leaf) {
+void traverse_bvh4(const std::vector<Bvh4Node>& nodes, double scene_magnitude, const Ray& ray,
+                   const FloatSlabOrigin& origin, double t_min, double& t_max, LeafFn&& leaf) {
     if (nodes.empty()) return;
     struct Pending {
         int32_t child, count;
@@ -161,7 +169,7 @@ void traverse_bvh4(const std::vector<Bvh4Node>& nodes, double scene_magnitude, c
     const bool float_test = FloatSlabRay::applies(ray.origin, ray.dir, t_min, scene_magnitude);
     // The double-precision fallback (hit_node per child) for rays outside the float test's range.
     const Vec3 inv{1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z};
-    const FloatSlabRay fray(ray.origin, ray.dir, inv, t_min);
+    const FloatSlabRay fray(origin, ray.dir, inv, t_min);
     __m128 t_max_up = FloatSlabRay::far_limit(t_max);
     float t_max_f = _mm_cvtss_f32(t_max_up);
     while (true) {

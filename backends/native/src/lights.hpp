@@ -288,20 +288,33 @@ template <class Shadow>
                                          cell_samples > 0 ? &partial : nullptr);
     }
     if (!may_be_shadowed) return grid.total_weight;
-    double visible = 0.0;
+    // Every ray first (the shadow query then takes them candidate by candidate), then the
+    // visible weights summed in grid order.
     const size_t count = size_t(n) * size_t(n);
+    thread_local std::vector<Vec3> dirs;
+    thread_local std::vector<double> distances;
+    thread_local std::vector<unsigned char> blocked;
+    dirs.resize(count);
+    distances.resize(count);
+    blocked.resize(count);
     for (size_t k = 0; k < count; ++k) {
         const Vec3 v = target_of(k) - p;
         const double d = length(v);
-        if (!shadow(v / d, d)) visible += grid.weight[k];
+        dirs[k] = v / d;
+        distances[k] = d;
     }
+    shadow.each(dirs.data(), distances.data(), count, blocked.data());
+    double visible = 0.0;
+    for (size_t k = 0; k < count; ++k)
+        if (!blocked[k]) visible += grid.weight[k];
     return visible;
 }
 }  // namespace detail
 
 // The unshadowed fraction of the light at p, in [0, 1]. `grid` is area_light_grid(light).
 // `shadow(dir, distance)` traces one shadow ray from p (unit dir; distance to the light sample,
-// inf for directional lights). Before an area light's grid, `shadow.begin_grid(corners)` is told
+// inf for directional lights); `shadow.each(dirs, distances, count, blocked)` traces the rays of
+// a full grid at once (blocked[k] = shadow(dirs[k], distances[k])). Before an area light's grid, `shadow.begin_grid(corners)` is told
 // the four corners of a parallelogram that holds every sample of the grid; it returns false when
 // no sample can be shadowed (then no ray is traced, and the fraction is the weights' sum in the
 // same order, so it is bit-identical).

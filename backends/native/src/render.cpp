@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <condition_variable>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -54,6 +55,7 @@ inline double colour_distance(const EncodedColour& a, const EncodedColour& b) {
 struct ShadowQuery {
     const Scene& scene;
     const Vec3& p;
+    const FloatSlabOrigin& p_rounded;  // p for the BVH's float test, rounded once per shaded point
     double window;
     std::vector<BundleCandidate>& candidates;  // of the current bundle (one per worker thread)
     bool povray_walk;                          // POV-Ray numerics: its mesh walk (povray_walk.cpp)
@@ -70,8 +72,21 @@ struct ShadowQuery {
     [[gnu::always_inline]] bool operator()(const Vec3& dir, double distance) const {
         const Ray ray{p, dir};
         const bool blocked = bundle ? scene.occluded_by(candidates, ray, window, distance - window)
-                                    : scene.occluded(ray, window, distance - window);
+                                    : scene.occluded(ray, p_rounded, window, distance - window);
         return blocked && (!povray_walk || scene.occluded_povray_walk(ray, window, distance - window));
+    }
+
+    // Every ray of a full grid at once (lights.hpp): blocked[k] is operator()(dirs[k], distances[k]).
+    void each(const Vec3* dirs, const double* distances, size_t count, unsigned char* blocked) const {
+        if (bundle) {
+            scene.occluded_by_each(candidates, p, dirs, distances, count, window, blocked);
+        } else {
+            for (size_t k = 0; k < count; ++k)
+                blocked[k] = scene.occluded(Ray{p, dirs[k]}, p_rounded, window, distances[k] - window);
+        }
+        if (povray_walk)
+            for (size_t k = 0; k < count; ++k)
+                if (blocked[k]) blocked[k] = scene.occluded_povray_walk(Ray{p, dirs[k]}, window, distances[k] - window);
     }
 };
 
@@ -117,6 +132,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
 
     RGB color = ambient_term(*material, scene.ambient);
     const bool povray_walk = settings.numerics != Numerics::kScaleInvariant;
+    const FloatSlabOrigin p_rounded(p);
     for (size_t j = 0; j < scene.lights.size(); ++j) {
         // The light's alternative decides its centre and shadow; the shading is the same for all
         // (one inlined copy of it, not one per alternative).
@@ -131,7 +147,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                 // the point (d = 0: the model's answer there is the ambient term only).
                 if (!(n_dot_l >= kMinCosineToLight)) return;
                 fraction = visible_fraction(light, context.grids[j], p, centre,
-                                            ShadowQuery{scene, p, window, candidates, povray_walk});
+                                            ShadowQuery{scene, p, p_rounded, window, candidates, povray_walk});
                 terms = &light.terms;
             },
             scene.lights[j]);
@@ -149,9 +165,13 @@ TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_,
     for (const Light& light : scene.lights) grids.push_back(area_light_grid(light));
 }
 
-RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch) {
+RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch,
+                  const FloatSlabOrigin* origin) {
     Hit hit;
-    if (!context.scene.closest_hit(ray, context.tolerances.primary_near, HUGE_VAL, hit)) return context.settings.background;
+    const double near = context.tolerances.primary_near;
+    if (!(origin ? context.scene.closest_hit(ray, *origin, near, HUGE_VAL, hit)
+                 : context.scene.closest_hit(ray, near, HUGE_VAL, hit)))
+        return context.settings.background;
     return shade_hit(context, ray, hit, scratch);
 }
 
@@ -173,8 +193,12 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         out[1] = float(c.y);
         out[2] = float(c.z);
     };
+    // A perspective camera's rays all start at its position: rounded once for the BVH's float test.
+    const std::optional<FloatSlabOrigin> eye =
+        camera.orthographic ? std::nullopt : std::optional<FloatSlabOrigin>(camera.position);
+    const FloatSlabOrigin* shared_origin = eye ? &*eye : nullptr;
     auto trace_at = [&](double sx, double sy, std::vector<BundleCandidate>& scratch) {
-        return trace_primary(context, camera.generate(sx, sy, width, height), scratch);
+        return trace_primary(context, camera.generate(sx, sy, width, height), scratch, shared_origin);
     };
     // POV-Ray's +AM1 supersampling of one pixel whose centre colour is `c` (SupersampleOnePixel).
     auto am1_supersample = [&](int i, int j, const RGB& c, std::vector<BundleCandidate>& scratch) {

@@ -58,6 +58,8 @@ struct TraceContext {
 
 // The colour seen along one primary ray (exposed for tests and the pixel loop). `scratch` holds
 // shadow-bundle candidates (Scene::shadow_candidates); one per thread, reused from ray to ray.
-RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch);
+// `origin`: FloatSlabOrigin(ray.origin) when the caller shares it between rays, else nullptr.
+RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch,
+                  const FloatSlabOrigin* origin = nullptr);
 
 }  // namespace phong

@@ -69,8 +69,15 @@ class Scene {
     Scene(const GeometryArrays& geometry, std::vector<Material> materials, std::vector<Light> lights,
           const RGB& ambient);
 
-    bool closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) const;
-    bool occluded(const Ray& ray, double t_min, double t_max) const;
+    bool closest_hit(const Ray& ray, double t_min, double t_max, Hit& hit) const {
+        return closest_hit(ray, FloatSlabOrigin(ray.origin), t_min, t_max, hit);
+    }
+    bool occluded(const Ray& ray, double t_min, double t_max) const {
+        return occluded(ray, FloatSlabOrigin(ray.origin), t_min, t_max);
+    }
+    // The same, for rays whose shared origin is rounded once: `origin` is FloatSlabOrigin(ray.origin).
+    bool closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max, Hit& hit) const;
+    bool occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const;
 
     // Shadow-ray bundles (an area light's grid seen from one point). shadow_candidates() walks
     // the BVH once and writes to `candidates` the box of every primitive (in a reached leaf)
@@ -85,6 +92,13 @@ class Scene {
     // the next ray tries it first.
     bool shadow_candidates(const Vec3* hull, int hull_count, double t_min, std::vector<BundleCandidate>& candidates) const;
     bool occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray, double t_min, double t_max) const;
+    // occluded_by() for every ray of a bundle at once (an area light's full grid): ray k leaves
+    // `origin` along dirs[k] and counts hits in (t_min, distances[k] − t_min); blocked[k] is
+    // whether it is occluded. Candidate by candidate, each tested against the rays not yet
+    // blocked, so a candidate's set-up is done once per bundle and each ray's once per ray. A
+    // sphere is tested without its box (two rays at a time the box test costs more than it saves).
+    void occluded_by_each(const std::vector<BundleCandidate>& candidates, const Vec3& origin, const Vec3* dirs,
+                          const double* distances, size_t count, double t_min, unsigned char* blocked) const;
 
     // occluded() as POV-Ray 3.7 answers it for meshes (povray_walk.cpp): a mesh's bounding-box
     // walk stops at its first hit, even one too close to count as a shadow hit, so an occluder

@@ -4,6 +4,8 @@
 // with a consistent tie-breaking rule for rays that pass exactly through an edge or vertex).
 #pragma once
 
+#include <emmintrin.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -101,6 +103,72 @@ inline bool intersect_sphere(const SphereShape& s, const SphereOrigin& origin, c
         b = dot(o, d);
     }
     return detail::sphere_roots(o, origin.c, d, dot(d, d), b, t_min, t_max, t_hit);
+}
+
+namespace detail {
+inline __m128d select(__m128d mask, __m128d if_set, __m128d if_clear) {
+    return _mm_or_pd(_mm_and_pd(mask, if_set), _mm_andnot_pd(mask, if_clear));
+}
+}  // namespace detail
+
+// intersect_sphere(s, origin, dir, t_min, t_max, t) for two directions at once (SSE2 double
+// lanes: (dx, dy, dz) and t_max per lane): bit i of the result is lane i's answer. Per lane the
+// same IEEE operations in the same order as the scalar test (no FMA in the x86-64 baseline),
+// branches replaced by selects of both sides, so the same answers; a lane whose b is zero under
+// the axis-aligned transform takes the scalar test (its sign rule, above).
+inline int intersect_sphere_pair(const SphereShape& s, const SphereOrigin& origin, __m128d dx, __m128d dy, __m128d dz,
+                                 double t_min, __m128d t_max) {
+    const double* m = s.object_from_world.m;
+    __m128d d[3];
+    if (s.axis_aligned) {
+        d[0] = _mm_mul_pd(_mm_set1_pd(m[0]), dx);
+        d[1] = _mm_mul_pd(_mm_set1_pd(m[5]), dy);
+        d[2] = _mm_mul_pd(_mm_set1_pd(m[10]), dz);
+    } else {
+        for (int r = 0; r < 3; ++r)
+            d[r] = _mm_add_pd(_mm_add_pd(_mm_mul_pd(_mm_set1_pd(m[4 * r]), dx), _mm_mul_pd(_mm_set1_pd(m[4 * r + 1]), dy)),
+                              _mm_mul_pd(_mm_set1_pd(m[4 * r + 2]), dz));
+    }
+    auto dot = [](const __m128d (&u)[3], const __m128d (&v)[3]) {
+        return _mm_add_pd(_mm_add_pd(_mm_mul_pd(u[0], v[0]), _mm_mul_pd(u[1], v[1])), _mm_mul_pd(u[2], v[2]));
+    };
+    const __m128d o[3] = {_mm_set1_pd(origin.o.x), _mm_set1_pd(origin.o.y), _mm_set1_pd(origin.o.z)};
+    const __m128d b = dot(o, d), a = dot(d, d);
+    const int scalar_lanes = s.axis_aligned ? _mm_movemask_pd(_mm_cmpeq_pd(b, _mm_setzero_pd())) : 0;
+    const __m128d ratio = _mm_div_pd(b, a);
+    const __m128d f[3] = {_mm_sub_pd(o[0], _mm_mul_pd(d[0], ratio)), _mm_sub_pd(o[1], _mm_mul_pd(d[1], ratio)),
+                          _mm_sub_pd(o[2], _mm_mul_pd(d[2], ratio))};
+    const __m128d len_f = _mm_sqrt_pd(dot(f, f)), one = _mm_set1_pd(1.0);
+    const __m128d disc = _mm_mul_pd(_mm_mul_pd(a, _mm_sub_pd(one, len_f)), _mm_add_pd(one, len_f));
+    int hits = _mm_movemask_pd(_mm_cmpge_pd(disc, _mm_setzero_pd()));
+    if (hits & ~scalar_lanes) {
+        const __m128d sign = _mm_set1_pd(-0.0);
+        const __m128d root = _mm_sqrt_pd(disc);
+        const __m128d q = _mm_xor_pd(_mm_add_pd(b, _mm_or_pd(_mm_andnot_pd(sign, root), _mm_and_pd(sign, b))), sign);
+        const __m128d tangent = _mm_cmpeq_pd(q, _mm_setzero_pd());
+        const __m128d t0 = _mm_andnot_pd(tangent, _mm_div_pd(q, a));
+        const __m128d t1 = _mm_andnot_pd(tangent, _mm_div_pd(_mm_set1_pd(origin.c), q));
+        const __m128d swap = _mm_cmpgt_pd(t0, t1);
+        const __m128d near = detail::select(swap, t1, t0), far = detail::select(swap, t0, t1);
+        const __m128d lo = _mm_set1_pd(t_min);
+        const __m128d in_range = _mm_or_pd(_mm_and_pd(_mm_cmpgt_pd(near, lo), _mm_cmplt_pd(near, t_max)),
+                                           _mm_and_pd(_mm_cmpgt_pd(far, lo), _mm_cmplt_pd(far, t_max)));
+        hits &= _mm_movemask_pd(in_range);
+    }
+    if (scalar_lanes) {
+        alignas(16) double x[2], y[2], z[2], limit[2];
+        _mm_store_pd(x, dx);
+        _mm_store_pd(y, dy);
+        _mm_store_pd(z, dz);
+        _mm_store_pd(limit, t_max);
+        for (int i = 0; i < 2; ++i) {
+            if (!(scalar_lanes & (1 << i))) continue;
+            double t;
+            hits = intersect_sphere(s, origin, Vec3{x[i], y[i], z[i]}, t_min, limit[i], t) ? hits | (1 << i)
+                                                                                          : hits & ~(1 << i);
+        }
+    }
+    return hits;
 }
 
 inline bool intersect_sphere(const SphereShape& s, const Ray& ray, double t_min, double t_max, double& t_hit) {
