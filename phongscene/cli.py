@@ -372,7 +372,7 @@ def _run_frames(args, task, arguments, label: str):
             if warning not in warnings:
                 later.setdefault(warning, []).append(frame)
     _print_warnings(f"frames {', '.join(map(str, frames))}: {warning}" for warning, frames in later.items())
-    where = f"on {run.workers} Dask workers ({run.cluster})" if run.cluster else "in this process"
+    where = f"on {run.workers} Dask worker{'' if run.workers == 1 else 's'} ({run.cluster})" if run.cluster else "in this process"
     print(f"{args.scene}: {len(run.results)} of {len(args.frames)} {label} {where} in {run.seconds:.2f} s")
     if run.failures:
         print(f"error: frames failed (each tried {1 + TASK_RETRIES} times): "

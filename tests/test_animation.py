@@ -556,7 +556,7 @@ def test_diff_frames_through_a_scheduler_and_a_worker_started_as_processes(tmp_p
             client.wait_for_workers(1, timeout=CLUSTER_START_TIMEOUT_S)
         outdir = tmp_path / "report"
         assert main(["diff", str(ANIMATED), "-o", str(outdir), "--frames", "1:24:23", "--scheduler", address]) == 0
-        assert f"2 of 2 frames diffed on 1 Dask workers ({address})" in capsys.readouterr().out
+        assert f"2 of 2 frames diffed on 1 Dask worker ({address})" in capsys.readouterr().out
         metrics = json.loads((outdir / "metrics.json").read_text())
         assert [(r["frame"], r["ok"]) for r in metrics["frames"]] == [(1, True), (24, True)]
         assert all(r["pid"] not in (os.getpid(), started[1].pid) for r in metrics["frames"])  # the worker's child
