@@ -912,7 +912,7 @@ def _add_compile_command(sub) -> None:
 def _run_compile(args) -> int:
     import shlex
 
-    from .backends.povray import MAPPING_OF_SPECULAR, prepare
+    from .backends.povray import MAPPING_OF_SPECULAR, pov_quoted, prepare
     from .files import atomic_files, check_output
     from .rendering import check_settings
 
@@ -942,8 +942,8 @@ def _run_compile(args) -> int:
         print(f"{texture}: a texture the scene reads (keep it beside {out.name})")
     mapping = MAPPING_OF_SPECULAR[settings.specular]  # args.mapping, or the scene's
     print(f"{out}: {mapping} mapping, {job.frames} frame(s), {settings.width} x {settings.height}")
-    print(f"{ini}: the same options; render in {out.parent} with: povray {shlex.quote(_pov_quoted(ini.name))}")
-    print("  " + shlex.join(job.command(_pov_quoted(out.name), _pov_quoted(image.name))))
+    print(f"{ini}: the same options; render in {out.parent} with: povray {shlex.quote(pov_quoted(ini.name))}")
+    print("  " + shlex.join(job.command(pov_quoted(out.name), pov_quoted(image.name))))
     if job.frames > 1:
         print(f"  then add the {job.frames} linear frame images (one per light)")
     if job.supersample > 1:
@@ -963,11 +963,3 @@ def _compile_frames(args) -> int:
     for frame in sorted(run.results):
         print(f"  {run.results[frame]['output']}")
     return EXIT_BACKEND if run.failures else EXIT_OK
-
-
-def _pov_quoted(name: str) -> str:
-    """A file name as POV-Ray's command line reads it: in its own double quotes when it has
-    white space (``+Imy scene.pov`` is "Failed to parse command-line option"; ``+I"my scene.pov"``
-    works, measured with POV-Ray 3.7.0.10). The .ini keeps names unquoted (it reads the whole
-    line)."""
-    return f'"{name}"' if any(c.isspace() for c in name) else name
