@@ -41,7 +41,8 @@ S1 = HERE / "scenes" / "s1_spheres.usda"
 
 
 def diff_frames(workers: int, frames: tuple[int, ...], width: int, height: int) -> float:
-    from phongscene.animation import FRAME_FOLDER, diff_frame, frame_name, run_frames
+    from phongscene.animation import FRAME_FOLDER, diff_frame, frame_name
+    from phongscene.dask_runtime import run_frames
     from phongscene.comparison import HALF_FLOAT
 
     options = {"mapping": "exact", "width": width, "height": height, "samples": None, "threads": 1}
@@ -112,7 +113,8 @@ def overhead(frames: int, scene: Path) -> dict:
     overhead: the stage load (reported by the task) plus scheduling and the metrics' way back.
     The CPU seconds of this process (the client and, on a LocalCluster, the scheduler) per task
     are reported too."""
-    from phongscene.animation import render_frame, run_frames
+    from phongscene.animation import render_frame
+    from phongscene.dask_runtime import run_frames
 
     options = {"mapping": None, "width": 640, "height": 360, "samples": None, "threads": 1}
     finished = []
@@ -139,8 +141,8 @@ def stage_load(frames: int, scene: Path) -> dict:
     """The stage load inside a frame task, the worker's kept stage against the file opened anew,
     interleaved frame by frame in this process (each after a render and a write, as in a
     worker): median CPU and wall seconds of each."""
-    from phongscene import workers
     from phongscene.animation import render_frame
+    from phongscene.usd import stage_reuse as workers
 
     options = {"mapping": None, "width": 640, "height": 360, "samples": None, "threads": 1}
     loads: dict[str, list[tuple[float, float]]] = {"kept": [], "anew": []}

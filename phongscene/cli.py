@@ -330,7 +330,7 @@ def _frame_options(args) -> dict:
     """The plain options a frame task renders with. Each LocalCluster worker renders one frame at
     a time; unless --threads says otherwise it gets its share of the cores (so workers x threads
     = cores); on an existing cluster the scene's setting applies unless --threads is given."""
-    from .animation import scheduler_address
+    from .dask_runtime import scheduler_address
 
     threads = getattr(args, "threads", None)
     if threads is None and "threads" in args and scheduler_address(args.scheduler) is None:
@@ -346,7 +346,7 @@ def _run_frames(args, task, arguments, label: str):
     """Run ``task`` for every frame of ``args.frames``: one frame in this process, more on Dask.
     The stage is read once here first (at the first frame), so a bad file is one error before
     any cluster starts, and its warnings are printed once."""
-    from .animation import TASK_RETRIES, run_frames, run_serially
+    from .dask_runtime import TASK_RETRIES, run_frames, run_serially
     from .progress import ProgressBar
     from .rendering import load_scene
 
@@ -509,8 +509,9 @@ def _run_diff(args) -> int:
 
 
 def _diff_frames(args, thresholds) -> int:
-    from .animation import FRAME_FOLDER, diff_frame, frame_name, write_frames_report
+    from .animation import FRAME_FOLDER, diff_frame, frame_name
     from .backends.povray import check_mapping
+    from .report import write_frames_report
 
     check_mapping(args.mapping)
     options = _frame_options(args)
