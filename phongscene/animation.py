@@ -5,13 +5,13 @@ A frame number is a USD time code (``--frames 1:24`` reads the stage at 1, 2, ..
 Blender and usdview number frames). Frames run on Dask distributed (``phongscene.dask_runtime``):
 by default a ``LocalCluster`` of worker processes on this machine, or an existing cluster
 (``scheduler=`` / the CLI's ``--scheduler`` / ``DASK_SCHEDULER_ADDRESS``). What is shipped to a
-worker is the scene's path, the time code and plain options, never a pickled scene: each
+worker is the scene's path, the time code and a ``RenderOverrides``, never a pickled scene: each
 task opens the stage itself (so workers must see the file and the output folder at the same
 paths), writes its output atomically and returns only a small dict of metrics. A task that
 raises is retried once (Dask's ``retries=1``); a frame that fails twice is reported by number.
 
 The tasks call the same functions as a serial render of one frame (``load_scene`` at the time,
-``settings_with``, ``render``, ``write_image``), so a frame is bit-identical to
+``RenderOverrides.apply``, ``render``, ``write_image``), so a frame is bit-identical to
 ``phongscene render --time T`` with the same options. A worker keeps the stage it opened last
 (``phongscene.usd.stage_reuse``: reopened when the file or a layer of it changes) and reads each
 task's frame from it. The report of ``diff --frames`` is ``phongscene.report.write_frames_report``.
@@ -23,6 +23,8 @@ import os
 import re
 import time as _time
 from pathlib import Path
+
+from .overrides import RenderOverrides
 
 # The frame number replaces the run of '#' in an output name, zero-padded to its length.
 FRAME_PATTERN = re.compile(r"#+")
@@ -66,24 +68,22 @@ def frame_name(template: str | os.PathLike, frame: int) -> str:
 
 # ----------------------------------------------------------------------------------------------
 # Tasks: module-level functions, so a worker imports them by name. Each gets the scene's path, its
-# frame (the time code) and plain options; each loads the stage itself and returns a small dict.
+# frame (the time code) and the overrides; each loads the stage itself and returns a small dict.
 
 
-def _load(scene: str, frame: int, options: dict):
-    from .rendering import load_scene, settings_with, with_shadow_adaptive, with_shadow_cells
+def _load(scene: str, frame: int, overrides: RenderOverrides):
+    from .rendering import load_scene
     from .usd.stage_reuse import open_stage
 
+    if not isinstance(overrides, RenderOverrides):
+        raise TypeError(f"overrides: expected a RenderOverrides, got {type(overrides).__name__}")
     start = _time.perf_counter()
     loaded, warnings = load_scene(open_stage(scene), time=float(frame))
-    loaded = with_shadow_adaptive(loaded, options.get("shadow_adaptive"))
-    loaded = with_shadow_cells(loaded, options.get("shadow_cells"))
-    settings = settings_with(loaded, options.get("mapping"), width=options.get("width"), height=options.get("height"),
-                             samples=options.get("samples"), threads=options.get("threads"),
-                             sample_pattern=options.get("sample_pattern"), aa_threshold=options.get("aa_threshold"))
+    loaded, settings = overrides.apply(loaded)
     return loaded, settings, warnings, _time.perf_counter() - start
 
 
-def render_frame(scene: str, frame: int, output: str, backend: str, options: dict) -> dict:
+def render_frame(scene: str, frame: int, output: str, backend: str, overrides: RenderOverrides) -> dict:
     """Render ``scene`` at time ``frame`` and write ``output`` (atomically)."""
     from .images import write_image
     from .rendering import render
@@ -91,7 +91,7 @@ def render_frame(scene: str, frame: int, output: str, backend: str, options: dic
     # CPU seconds of this process beside the wall clock: on a shared machine the wall clock of
     # each part says as much about the other jobs as about the part (benchmarks/animation.py).
     cpu = [_time.process_time()]
-    loaded, settings, warnings, load_seconds = _load(scene, frame, options)
+    loaded, settings, warnings, load_seconds = _load(scene, frame, overrides)
     cpu.append(_time.process_time())
     start = _time.perf_counter()
     image = render(loaded, backend, settings)
@@ -107,32 +107,32 @@ def render_frame(scene: str, frame: int, output: str, backend: str, options: dic
             "warnings": warnings, "pid": os.getpid()}
 
 
-def compile_frame(scene: str, frame: int, output: str, options: dict) -> dict:
+def compile_frame(scene: str, frame: int, output: str, overrides: RenderOverrides) -> dict:
     """Compile ``scene`` at time ``frame`` to ``output`` (.pov) and its .ini (atomically)."""
     from .backends.povray import prepare
     from .files import write_text_atomic
     from .rendering import check_settings
 
-    loaded, settings, warnings, load_seconds = _load(scene, frame, options)
+    loaded, settings, warnings, load_seconds = _load(scene, frame, overrides)
     start = _time.perf_counter()
     out = Path(output)
-    job = prepare(loaded, check_settings(loaded, settings), options.get("mapping"))
+    job = prepare(loaded, check_settings(loaded, settings), overrides.mapping)
     write_text_atomic(out, job.sdl, encoding="ascii")
     write_text_atomic(out.with_suffix(".ini"), job.ini(out.name, out.with_suffix(".exr").name), encoding="ascii")
     return {"frame": frame, "output": output, "passes": job.frames, "load_seconds": load_seconds,
             "seconds": _time.perf_counter() - start + load_seconds, "warnings": warnings, "pid": os.getpid()}
 
 
-def diff_frame(scene: str, frame: int, outdir: str, options: dict, thresholds) -> dict:
+def diff_frame(scene: str, frame: int, outdir: str, overrides: RenderOverrides, thresholds) -> dict:
     """Diff both backends on ``scene`` at time ``frame``; the frame's report goes to ``outdir``."""
+    from dataclasses import replace
+
     from .crossvalidation import diff
     from .usd.stage_reuse import open_stage
 
     start = _time.perf_counter()
-    result = diff(open_stage(scene), outdir, mapping=options.get("mapping") or "exact", width=options.get("width"),
-                  height=options.get("height"), samples=options.get("samples"), threads=options.get("threads"),
-                  thresholds=thresholds, time=float(frame), sample_pattern=options.get("sample_pattern"),
-                  aa_threshold=options.get("aa_threshold"), shadow_adaptive=options.get("shadow_adaptive"))
+    result = diff(open_stage(scene), outdir, overrides=replace(overrides, mapping=overrides.mapping or "exact",
+                                                                time=float(frame)), thresholds=thresholds)
     r = result.report
     return {"frame": frame, "outdir": outdir, "ok": result.ok, "max_error": r.max_error,
             "worst_pixel": [r.worst.x, r.worst.y] if r.worst else None,

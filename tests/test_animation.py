@@ -363,7 +363,9 @@ def test_a_kept_stage_is_reused_until_its_file_or_a_layer_changes(tmp_path):
 def test_frames_read_from_the_kept_stage_are_bit_identical_to_render_time(tmp_path):
     from phongscene.usd import stage_reuse as workers
 
-    options = {"mapping": None, "width": 48, "height": None, "samples": 2, "threads": 1}
+    from phongscene.overrides import RenderOverrides
+
+    options = RenderOverrides(width=48, samples=2, threads=1)
     try:
         for frame in (1, 9, 17, 24):
             metrics = animation.render_frame(str(ANIMATED), frame, str(tmp_path / f"task.{frame}.exr"), "native", options)
