@@ -23,8 +23,8 @@ from phongscene.errors import SceneError
 from phongscene.images import read_image
 from phongscene.rendering import load_scene, render
 from phongscene.usd import open_stage, read_usd
+from support.paths import SCENES
 
-SCENES = Path(__file__).parent / "scenes"
 ANIMATED = SCENES / "animated.usda"  # frames 1..24; see the comment at its top
 BLENDER = SCENES / "blender_keyframes.usda"
 PYTHON = sys.executable

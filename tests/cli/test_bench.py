@@ -9,7 +9,7 @@ import csv
 import dataclasses
 import json
 
-import calibration
+from support import calibration
 import numpy as np
 import pytest
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import REPO
+from support.paths import REPO
 from phongscene.cli import build_parser, main
 
 COMMANDS = ("diff", "compare", "info", "validate", "import", "render", "compile", "bench")

@@ -3,12 +3,12 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 
-from conftest import EXAMPLES, SHARED_ASSETS
+from support.paths import EXAMPLES, SHARED_ASSETS
 from phongscene.cli import build_parser, main
+from support.paths import SCENES
 
 
 def test_info_lists_nodes_counts_camera_settings_and_warnings(capsys):
@@ -43,7 +43,7 @@ def test_help_texts():
 
 
 def test_info_lists_each_materials_textures(capsys):
-    scene = Path(__file__).parent / "scenes" / "blender_textured" / "textured_glossy.usdc"
+    scene = SCENES / "blender_textured" / "textured_glossy.usdc"
     assert main(["info", str(scene)]) == 0
     out = capsys.readouterr().out
     grid = "textures/textured_glossy_grid.png, 64x64, wrap repeat/repeat"

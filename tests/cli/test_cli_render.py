@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 
-import calibration
+from support import calibration
 import numpy as np
 
 from phongscene.backends import native

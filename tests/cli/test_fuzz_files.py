@@ -20,8 +20,8 @@ import pytest
 from hypothesis import given, seed
 from hypothesis import strategies as st
 
-from conftest import EXAMPLES, REPO
-from fuzz import SEED, fuzz_settings
+from support.paths import EXAMPLES, REPO
+from support.fuzz import SEED, fuzz_settings
 
 FILES_PER_EXAMPLE = 4  # run two at a time
 BATCHES = 3  # x PHONGSCENE_FUZZ_BUDGET (12 files in CI: ~25 s on a loaded 2-core machine)

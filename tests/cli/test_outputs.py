@@ -17,7 +17,7 @@ import pytest
 
 import phongscene.crossvalidation
 import phongscene.rendering
-from conftest import EXAMPLES
+from support.paths import EXAMPLES
 from phongscene.cli import main
 
 SCENE = EXAMPLES / "seed_lobe.usda"

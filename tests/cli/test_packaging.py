@@ -13,7 +13,7 @@ import zipfile
 import pytest
 
 import phongscene
-from conftest import REPO
+from support.paths import REPO
 
 
 def test_backends_import_from_the_installed_package():

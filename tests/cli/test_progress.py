@@ -17,8 +17,8 @@ import pytest
 
 from phongscene.backends.povray.run import PovLogParser, _tail
 from phongscene.progress import ProgressBar, format_seconds
+from support.paths import REPO
 
-REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO / "examples"
 PHONGSCENE = Path(sys.executable).with_name("phongscene")
 

@@ -8,12 +8,12 @@ import inspect
 import subprocess
 import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import phongscene
+from support.paths import EXAMPLES
 
 # numpy too: before main() installs its Ctrl-C handling, an import is a window for a traceback.
 HEAVY_MODULES = ("numpy", "pxr", "OpenImageIO", "phongscene.backends.native", "phongscene.backends.povray")
@@ -52,7 +52,7 @@ def test_importing_the_package_or_the_cli_loads_no_heavy_module(module):
 # ----------------------------------------------------------------------------------------------
 # What a Mitsuba 3 or trimesh user tries first (issue 11)
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "seed_exponents.usda"
+EXAMPLE = EXAMPLES / "seed_exponents.usda"
 
 
 def test_render_takes_a_path_and_size_overrides_keeping_the_aspect_ratio():

@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import pytest
 
-from conftest import EXAMPLES
+from support.paths import EXAMPLES
 from phongscene.errors import SceneError
 from phongscene.rendering import BACKENDS, load_scene, render, settings_with
 from phongscene.scene import PhongMaterial, RenderSettings, Scene, Sphere

@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from conftest import EXAMPLES, REPO
+from support.paths import EXAMPLES, REPO
 from phongscene.errors import SceneError
 from phongscene.sandbox import read_usd_sandboxed
 from phongscene.usd import read_usd

@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 
 from phongscene.cli import EXIT_BACKEND, EXIT_INTERRUPTED
+from support.paths import REPO
 
-REPO = Path(__file__).resolve().parents[1]
 SCENE = REPO / "examples" / "seed_exponents.usda"
 PHONGSCENE = Path(sys.executable).with_name("phongscene")
 # 1600 x 1200 keeps POV-Ray busy for ~1 s after it starts (ref §17), long enough to signal it.

@@ -12,14 +12,14 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
 
 from phongscene.images import EXR_COMPRESSION, read_image, write_image
+from support.paths import EXAMPLES
 
-EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "seed_lobe.usda"
+EXAMPLE = EXAMPLES / "seed_lobe.usda"
 # Modules a render does not need, each a measurable share of its start-up (benchmarks/startup.py).
 NOT_FOR_A_RENDER = ("phongscene.usd.writer", "numpy.ma", "importlib.resources", "secrets",
                     "phongscene.backends.povray.compile", "phongscene.backends.povray.run")

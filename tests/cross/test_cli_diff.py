@@ -17,6 +17,7 @@ import phongscene
 from phongscene.cli import EXIT_BACKEND, EXIT_DIFFERENT, EXIT_OK, EXIT_SCENE, main
 from phongscene.progress import ProgressBar
 from phongscene.images import write_image
+from support.paths import EXAMPLES
 
 # A small scene for diff runs: one sphere, one point light, a camera (48×36 keeps POV-Ray fast).
 SMALL_SCENE = """#usda 1.0
@@ -227,5 +228,5 @@ def test_diff_passes_only_when_every_failing_pixel_is_explained_and_they_are_few
 
 @pytest.mark.povray
 def test_diff_renders_natively_in_povray_numerics(tmp_path):
-    result = phongscene.diff(Path(__file__).resolve().parents[1] / "examples" / "seed_lobe.usda", None, width=40)
+    result = phongscene.diff(EXAMPLES / "seed_lobe.usda", None, width=40)
     assert result.settings.numerics == "povray" and result.ok

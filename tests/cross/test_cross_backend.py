@@ -7,7 +7,7 @@ every third-party scene in ``conftest.SHARED_ASSETS`` is covered.
 
 Two named allowances (``phongscene.comparison``), each for one known POV-Ray behaviour and only
 for the scenes it can affect; every pixel they let through must be *explained* by the
-independent oracle (tests/oracle.py):
+independent oracle (tests/support/oracle.py):
 
 * ``POVRAY_SHADOW_CACHE`` (scenes with area lights or smooth-normal meshes): POV-Ray's
   per-thread shadow cache retests the last occluder with a looser window (1e-4 instead of 1e-3,
@@ -34,9 +34,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import oracle
-from calibration import ADAPTIVE_SCENES, SCENES
-from conftest import EXAMPLES, SHARED_ASSETS
+from support import oracle
+from support.calibration import ADAPTIVE_SCENES, SCENES
+from support.paths import EXAMPLES, SHARED_ASSETS
 from phongscene.comparison import (
     HALF_FLOAT,
     POVRAY_MESH_FLOAT32,

@@ -11,7 +11,7 @@ What the generator constrains, and why (each keeps a legitimate disagreement out
 * Pixel values stay far below half float's 65504 (POV-Ray's EXR): colours in [0, 1], light
   strengths up to 3, lights at least ``LIGHT_DISTANCE`` away.
 * Point and directional lights, and flat meshes: area lights and smooth normals bring POV-Ray's
-  shadow cache and float32 terminator behaviours, which tests/test_cross_backend.py covers
+  shadow cache and float32 terminator behaviours, which tests/cross/test_cross_backend.py covers
   with the oracle on purpose-built scenes.
 * Tiny images (``SIZE``): agreement is per pixel, so many small scenes find more than a few
   big ones; all POV-Ray frames of one example are rendered by one ``render_many`` call.
@@ -27,7 +27,7 @@ import pytest
 from hypothesis import given, seed
 from hypothesis import strategies as st
 
-from fuzz import SEED, fuzz_settings
+from support.fuzz import SEED, fuzz_settings
 from phongscene.comparison import compare, for_povray_passes
 from phongscene.crossvalidation import DiffResult, _explain
 from phongscene.rendering import render, settings_for

@@ -11,14 +11,14 @@ import dataclasses
 import numpy as np
 import pytest
 
-import oracle
-from calibration import GOLD, _sphere_on_ground, classic_variant
+from support import oracle
+from support.calibration import GOLD, _sphere_on_ground, classic_variant
 from phongscene import compile_pov, render
 from phongscene.comparison import compare
 from phongscene.errors import SceneError
 from phongscene.scene import PointLight
 
-# As tests/test_native_render.py: the native tracer against the float64 oracle.
+# As tests/native/test_native_render.py: the native tracer against the float64 oracle.
 ORACLE_RELATIVE_TOLERANCE = 1e-6
 ORACLE_ABSOLUTE_FLOOR = 1e-30
 

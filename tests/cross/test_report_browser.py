@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from OpenImageIO import ImageBuf, ImageBufAlgo, TypeFloat
 
-from conftest import chromium
+from support.paths import chromium
 from phongscene.comparison import HALF_FLOAT, compare
 from phongscene.report import ALLOWED_ERROR_COLOUR, EXPLAINED_COLOUR, FAILING_COLOUR, HEAT_MAP, write_report
 

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Checks of the oracle (tests/oracle.py) against closed forms, and of the calibration catalogue.
+"""Checks of the oracle (tests/support/oracle.py) against closed forms, and of the calibration catalogue.
 
 Each test states its closed form in a comment (pbrt's habit). The closed forms come from
 the shading model in README.md and the POV-Ray reference (ref §n: docs/povray-3.7-semantics.md), never from the oracle's own output.
@@ -14,8 +14,7 @@ import math
 import numpy as np
 import pytest
 
-import calibration
-import oracle
+from support import calibration, oracle
 from phongscene.scene import (
     AmbientLight,
     Camera,

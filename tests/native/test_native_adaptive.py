@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
 """POV-Ray's adaptive estimators in the native tracer (issue 12): `adaptive n` area lights and
-+AM1 / +AM2 with a threshold. Their agreement with POV-Ray is in tests/test_cross_backend.py
++AM1 / +AM2 with a threshold. Their agreement with POV-Ray is in tests/cross/test_cross_backend.py
 (``ADAPTIVE_SCENES``); here: the scenes really exercise the adaptive rules (so that agreement
 means something), the estimators are deterministic for any thread count, and the knobs travel
 through validation, USD and the POV-Ray command line."""
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 
-import calibration
+from support import calibration
 import numpy as np
 import pytest
 

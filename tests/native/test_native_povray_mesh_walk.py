@@ -20,7 +20,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-import oracle
+from support import oracle
 from phongscene import render
 from phongscene.comparison import compare
 from phongscene.scene import AmbientLight, Camera, DirectionalLight, PhongMaterial, RenderSettings, Scene, TriangleMesh

@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-import oracle
+from support import oracle
 from phongscene import render
 from phongscene.scene import AmbientLight, Camera, PhongMaterial, RenderSettings, Scene, TriangleMesh
 

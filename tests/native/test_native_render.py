@@ -12,9 +12,9 @@ import math
 import threading
 import time
 
-import calibration
+from support import calibration
 import numpy as np
-import oracle
+from support import oracle
 import pytest
 
 from phongscene.backends import native

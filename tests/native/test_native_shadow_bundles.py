@@ -18,7 +18,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-import calibration
+from support import calibration
 from phongscene.backends import native
 from phongscene.scene import Camera, RectAreaLight, RenderSettings, Sphere, SphereAreaLight, TriangleMesh
 

@@ -6,11 +6,10 @@ hits and the same images, bit for bit, and the choice must follow the numbers.""
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
-import calibration
+from support import calibration
 import numpy as np
-import oracle
+from support import oracle
 import pytest
 from test_native_intersect import jittered_grid, unit
 from test_native_render import assert_matches_oracle
@@ -18,8 +17,8 @@ from test_native_render import assert_matches_oracle
 from phongscene.backends import native
 from phongscene.scene import Scene, TriangleMesh
 from phongscene.usd import load_usd
+from support.paths import EXAMPLES
 
-EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
 
 def as_float(a):

@@ -12,12 +12,11 @@ import math
 import os
 import re
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-import calibration
+from support import calibration
 from phongscene.backends.povray import compile_pov, numbers, pass_count, prepare
 from phongscene.scene import (
     AmbientLight,
@@ -32,9 +31,9 @@ from phongscene.scene import (
     SphereAreaLight,
     TriangleMesh,
 )
+from support.paths import EXAMPLES, GOLDEN as GOLDEN_ROOT
 
-GOLDEN = Path(__file__).parent / "golden" / "povray"
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+GOLDEN = GOLDEN_ROOT / "povray"
 UPDATE_GOLDEN = os.environ.get("PHONGSCENE_UPDATE_GOLDEN", "") not in ("", "0")
 FLOAT = r"-?\d+(?:\.\d*)?(?:e[-+]?\d+)?"
 # A 1M-triangle mesh (with vertex normals) must compile "well under a second": measured 0.77 s

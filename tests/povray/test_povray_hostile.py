@@ -12,7 +12,7 @@ import re
 import numpy as np
 import pytest
 
-import calibration
+from support import calibration
 from phongscene import cli
 from phongscene.backends import povray
 from phongscene.backends.povray import compile_pov, sanitize_comment

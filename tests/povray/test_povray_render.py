@@ -17,8 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import calibration
-import oracle
+from support import calibration, oracle
 from phongscene.backends import povray
 from phongscene.backends.povray import run
 from phongscene.errors import BackendError

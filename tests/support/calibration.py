@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """Calibration scenes: small, deterministic scenes with one idea each, built with the scene model.
 
-Both backends render every scene here and compare with ``tests/oracle.py`` (and with each other),
+Both backends render every scene here and compare with ``tests/support/oracle.py`` (and with each other),
 under both specular conventions (``classic_variant``). Rules every scene follows:
 
 * 48×36 … 96×72 pixels; every pixel value stays below ~4 (POV-Ray's half-float EXR is the target);

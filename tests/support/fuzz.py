@@ -1,10 +1,10 @@
 # SPDX-License-Identifier: Apache-2.0
-"""The fuzzing budget and seed shared by tests/test_fuzz_*.py.
+"""The fuzzing budget and seed shared by tests/*/test_fuzz_*.py.
 
 CI runs a fixed seed and a small budget (the whole fuzz suite in ~30-40 s on 2 cores). A long
 run multiplies the number of examples and picks its own seed:
 
-    PHONGSCENE_FUZZ_BUDGET=50 PHONGSCENE_FUZZ_SEED=7 .venv/bin/python -m pytest tests/test_fuzz_*.py
+    PHONGSCENE_FUZZ_BUDGET=50 PHONGSCENE_FUZZ_SEED=7 .venv/bin/python -m pytest tests/*/test_fuzz_*.py
 
 The Hypothesis database is off, so a run never writes into the tree; a failure prints the
 example, and the same seed and budget reproduce it."""

@@ -14,7 +14,7 @@ camera) and at the highlight's centre (the peak), with n·l and n·v weights, sp
 and total. The specular lobe is integrated on a polar grid of normals around the half vector,
 dense near it, so that roughness 0.05 (α = 0.0025) is resolved.
 
-``python tests/preview_reference.py`` prints the table the README quotes.
+``python tests/support/preview_reference.py`` prints the table the README quotes.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from phongscene.usd import preview_to_phong  # noqa: E402
 
@@ -119,5 +119,5 @@ def table() -> str:
 
 
 if __name__ == "__main__":
-    print("Phong conversion / UsdPreviewSurface reference, sphere luminance (tests/preview_reference.py)")
+    print("Phong conversion / UsdPreviewSurface reference, sphere luminance (tests/support/preview_reference.py)")
     print(table())

@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from conftest import EXAMPLES
+from support.paths import EXAMPLES
 from phongscene.usd import read_usd
 
 SEED = ("seed_exponents", "seed_lobe", "seed_specular_color", "seed_buildup")

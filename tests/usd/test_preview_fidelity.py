@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
 """The UsdPreviewSurface → Phong conversion against an independent reference of the spec's BRDF
-(tests/preview_reference.py): a lit sphere's specular energy and highlight peak."""
+(tests/support/preview_reference.py): a lit sphere's specular energy and highlight peak."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import math
 import numpy as np
 import pytest
 
-import preview_reference as ref
+from support import preview_reference as ref
 
-# The conversion's fidelity (Phong / reference), as measured by ``python tests/preview_reference.py``
+# The conversion's fidelity (Phong / reference), as measured by ``python tests/support/preview_reference.py``
 # and quoted in README.md; a change of the mapping that leaves these bands fails here.
 SPECULAR_ENERGY_BAND = (0.9, 1.3)  # every roughness 0.05…1, metallic 0 and 1
 PEAK_BAND = (0.9, 1.1)  # roughness <= 0.6 (α < ½, where the peak is matched)

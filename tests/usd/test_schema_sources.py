@@ -9,15 +9,15 @@ import dataclasses
 import math
 import shutil
 import subprocess
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from phongscene.backends.povray import compile_pov, prepare, run
 from phongscene.scene import PhongMaterial, PointLight, RenderSettings, Scene, Sphere
+from support.paths import REPO
 
-SCHEMAS = Path(__file__).resolve().parents[1] / "schemas"
+SCHEMAS = REPO / "schemas"
 # phong.h and the formula below are the same double expression up to operation order.
 PHONG_H_RELATIVE = 1e-14
 

@@ -13,11 +13,11 @@ import OpenImageIO as oiio
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-import calibration
-import oracle
+from support import calibration, oracle
 from phongscene import load_usd
 from phongscene.backends import native
 from phongscene.validate import check, validate
+from support.paths import SCENES
 
 # The native tracer against the float64 oracle: float32 texels and colour arithmetic.
 NATIVE_REL = 1e-6
@@ -341,7 +341,7 @@ def test_povray_once_is_clamp_inside_the_unit_square_and_clear_outside(tmp_path)
 
 # Blender 5.0.1's USD export of benchmarks/blender/build_scenes.py's "textured_glossy" (its colour
 # grid texture on a glossy sphere and a tiled floor), converted to .usdc to keep it small.
-BLENDER_TEXTURED = __import__("pathlib").Path(__file__).parent / "scenes" / "blender_textured" / "textured_glossy.usdc"
+BLENDER_TEXTURED = SCENES / "blender_textured" / "textured_glossy.usdc"
 
 
 def test_blender_export_reads_its_image_texture():

@@ -9,7 +9,7 @@ import math
 import pytest
 from pxr import Usd, UsdGeom
 
-from conftest import SHARED_ASSETS
+from support.paths import SHARED_ASSETS
 from phongscene.usd import read_usd
 from phongscene.usd.materials import PREVIEW_MAX_EXPONENT
 

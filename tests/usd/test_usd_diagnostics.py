@@ -10,7 +10,7 @@ import sys
 
 from pxr import Sdf, UsdUtils
 
-from conftest import REPO
+from support.paths import REPO
 from phongscene.usd.diagnostics import MAX_USD_WARNINGS, as_warnings
 
 USD_LINE = ("Warning: in _ReadPaths at line 2261 of /opt/USD/pxr/usd/sdf/crateFile.cpp -- "

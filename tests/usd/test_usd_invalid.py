@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from conftest import REPO
+from support.paths import REPO
 from phongscene.cli import main
 from phongscene.errors import SceneError
 from phongscene.usd import load_usd

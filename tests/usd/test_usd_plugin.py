@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import EXAMPLES
+from support.paths import EXAMPLES
 
 # Runs in a fresh interpreter: USD only, no phongscene. Prints the identifiers of every
 # validation error per file, and whether Sdr knows the shader and its inputs.
