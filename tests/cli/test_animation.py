@@ -377,6 +377,7 @@ def test_frames_read_from_the_kept_stage_are_bit_identical_to_render_time(tmp_pa
         workers.forget()
 
 
+@pytest.mark.dask
 def test_a_worker_has_made_its_imports_when_it_joins():
     from distributed import Client
 
@@ -414,6 +415,7 @@ def test_the_cluster_is_the_option_else_the_environment_else_a_local_one(monkeyp
     assert animation.scheduler_address("tcp://127.0.0.1:9999") == "tcp://127.0.0.1:9999"
 
 
+@pytest.mark.dask
 def test_a_scheduler_that_is_not_there_is_one_error_naming_it(tmp_path, capsys):
     import dask
     import distributed  # noqa: F401  (its config defaults first: leaving set() restores the config as it was)
@@ -463,6 +465,7 @@ def test_frame_options_are_checked_before_anything_runs(tmp_path, capsys):
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.subprocess
 def test_one_frame_does_not_start_dask(tmp_path):
     code = ("import sys; from phongscene.cli import main; "
             f"rc = main(['render', {str(ANIMATED)!r}, '-o', {str(tmp_path / 'f.####.exr')!r}, '--frames', '24:24']); "
@@ -485,6 +488,7 @@ def test_compile_frames_write_one_pov_and_ini_per_frame(tmp_path):
 # -- frames on Dask --------------------------------------------------------------------------
 
 
+@pytest.mark.dask
 def test_frames_on_a_local_cluster_of_processes_are_bit_identical_to_serial_renders(tmp_path, capsys):
     out = tmp_path / "f.####.exr"
     assert main(["render", str(ANIMATED), "-o", str(out), "--frames", "1:24:8", "--workers", "2", "--threads", "1"]) == 0
@@ -498,6 +502,7 @@ def test_frames_on_a_local_cluster_of_processes_are_bit_identical_to_serial_rend
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.0001.exr", "f.0009.exr", "f.0017.exr"]
 
 
+@pytest.mark.dask
 def test_a_failing_task_is_retried_once_and_a_frame_failing_twice_is_reported_by_number(tmp_path):
     attempts = tmp_path / "attempts"
     attempts.mkdir()
@@ -517,6 +522,7 @@ def test_a_failing_task_is_retried_once_and_a_frame_failing_twice_is_reported_by
     assert run.workers == 1 and run.results[1]["pid"] != os.getpid()  # a worker process, not this one
 
 
+@pytest.mark.dask
 def test_a_frame_that_is_invalid_is_reported_by_number_and_the_others_are_written(tmp_path, capsys):
     path = tmp_path / "bad12.usda"
     path.write_text(
@@ -534,6 +540,8 @@ def test_a_frame_that_is_invalid_is_reported_by_number_and_the_others_are_writte
     assert sorted(p.name for p in tmp_path.glob("b.*")) == ["b.0011.png", "b.0013.png"]
 
 
+@pytest.mark.dask
+@pytest.mark.subprocess
 @pytest.mark.povray
 def test_diff_frames_through_a_scheduler_and_a_worker_started_as_processes(tmp_path, capsys):
     """`dask scheduler` and `dask worker` as separate processes on loopback, as on a cluster."""

@@ -112,6 +112,7 @@ def test_bench_measures_both_backends_and_povrays_estimators_match_natives(tmp_p
     assert all(r["cpu"] > 0 and r["wall"] > 0 for r in result["rows"])
 
 
+@pytest.mark.dask
 def test_bench_settings_as_dask_tasks_measure_what_the_serial_run_measures(tmp_path):
     """Two workers, one task each: every row's errors equal the serial bench.run's (the renders
     are deterministic), in the same order, and the result says how many ran at once."""

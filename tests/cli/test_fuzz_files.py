@@ -103,6 +103,7 @@ def check_clear_answer(path: Path, result: subprocess.CompletedProcess) -> None:
         assert any(line.startswith("error: ") for line in lines), where
 
 
+@pytest.mark.subprocess
 @seed(SEED)
 @fuzz_settings(BATCHES)
 @given(st.lists(st.tuples(st.integers(0, 2**16), st.lists(mutation(), min_size=1, max_size=3)),

@@ -55,6 +55,7 @@ def _child(args: list[str], cwd) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-c", code, *args], cwd=cwd, capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.subprocess
 def test_a_full_disk_names_the_users_file_and_leaves_nothing(tmp_path):
     out = tmp_path / "image.exr"
     result = _child(["render", str(SCENE), "-o", str(out), "--width", "64"], tmp_path)
@@ -93,6 +94,7 @@ def test_compile_writes_pov_and_ini_together_or_neither(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.ini"]  # no c.pov, no temporary file
 
 
+@pytest.mark.subprocess
 @pytest.mark.povray
 def test_compile_prints_a_povray_command_that_works_with_spaces(tmp_path, capsys):
     out = tmp_path / "my scene.pov"

@@ -36,6 +36,7 @@ def test_the_package_is_typed_and_licensed():
     assert "Apache License" in (REPO / "LICENSE").read_text()
 
 
+@pytest.mark.subprocess
 @pytest.mark.slow
 def test_wheel_contains_the_backends_the_extension_and_no_cpp(tmp_path):
     # --no-build-isolation: the build requirements are already in the test environment.

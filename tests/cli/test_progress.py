@@ -162,6 +162,7 @@ def _on_a_terminal(args: list[str]) -> tuple[int, str]:
     return proc.wait(), b"".join(chunks).decode("utf-8", "replace")
 
 
+@pytest.mark.subprocess
 @pytest.mark.povray
 def test_povray_progress_on_a_terminal_moves_between_0_and_100(tmp_path):
     # 1600 x 1200 renders for ~1 s after ~0.5 s of start-up; POV-Ray prints its count every
@@ -180,6 +181,7 @@ def test_povray_progress_on_a_terminal_moves_between_0_and_100(tmp_path):
     assert "done in" in text
 
 
+@pytest.mark.subprocess
 def test_native_progress_on_a_terminal_names_its_phases(tmp_path):
     rc, text = _on_a_terminal(["render", str(EXAMPLES / "seed_lobe.usda"), "-o", str(tmp_path / "x.png"), "--width", "64"])
     assert rc == 0, text

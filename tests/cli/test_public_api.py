@@ -39,6 +39,7 @@ def test_unknown_names_raise_attribute_error():
     assert not hasattr(phongscene, "no_such_name")
 
 
+@pytest.mark.subprocess
 @pytest.mark.parametrize("module", ["phongscene", "phongscene.cli"])
 def test_importing_the_package_or_the_cli_loads_no_heavy_module(module):
     probe = (

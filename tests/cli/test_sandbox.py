@@ -49,6 +49,7 @@ def test_a_memory_limit_too_small_for_the_file_is_a_clear_error():
     assert "needs more than the sandbox's memory limit (0.1 GiB)" in problem.message
 
 
+@pytest.mark.subprocess
 def test_a_runaway_allocation_is_stopped_and_named():
     result = subprocess.run([sys.executable, "-m", "phongscene", "validate", str(RUNAWAY)], capture_output=True,
                             text=True, timeout=RUNAWAY_TIMEOUT_S)

@@ -80,6 +80,7 @@ def _finish(proc: subprocess.Popen) -> tuple[int, str]:
     return proc.returncode, err
 
 
+@pytest.mark.subprocess
 @pytest.mark.povray
 @pytest.mark.parametrize(
     "command, signum",
@@ -101,6 +102,7 @@ def test_a_terminating_signal_kills_povray_and_removes_its_folder(tmp_path, comm
     assert not (tmp_path / "out.exr").exists()
 
 
+@pytest.mark.subprocess
 @pytest.mark.povray
 @pytest.mark.parametrize("command", ["render", "diff"])
 def test_timeout_abandons_a_stopped_povray_with_exit_3(tmp_path, command):
@@ -123,6 +125,7 @@ def test_timeout_abandons_a_stopped_povray_with_exit_3(tmp_path, command):
     assert kept and Path(kept[0]).is_file()
 
 
+@pytest.mark.subprocess
 def test_timeout_is_for_the_povray_backend_only(tmp_path):
     r = subprocess.run([str(PHONGSCENE), "render", str(SCENE), "-o", str(tmp_path / "x.png"), "--timeout", "5"],
                        capture_output=True, text=True)
@@ -169,6 +172,7 @@ def _interrupted(script: str, delay: float) -> tuple[subprocess.Popen, str, str]
 # Delays after pxr starts to import, all inside its ~0.1-0.3 s: which of them hit USD's swallowing
 # code varies from run to run (without the fix, 3 of these 6 failed in each of two runs), and a
 # longer one risks the command finishing before the signal.
+@pytest.mark.subprocess
 @pytest.mark.parametrize("delay", [0.0, 0.01, 0.02, 0.04, 0.06, 0.08])
 def test_ctrl_c_while_usd_imports_exits_130_without_a_traceback(delay):
     proc, out, err = _interrupted(_SIGNAL_ME_DURING_USD_IMPORT, delay)
@@ -184,6 +188,7 @@ def test_ctrl_c_while_usd_imports_exits_130_without_a_traceback(delay):
 _SIGNAL_ME_DURING_NUMPY_IMPORT = _SIGNAL_ME_DURING_USD_IMPORT.replace('name == "pxr.Tf"', 'name == "numpy"')
 
 
+@pytest.mark.subprocess
 @pytest.mark.parametrize("delay", [0.0, 0.02, 0.05])
 def test_ctrl_c_at_the_first_heavy_import_exits_130_without_a_traceback(delay):
     proc, _, err = _interrupted(_SIGNAL_ME_DURING_NUMPY_IMPORT, delay)

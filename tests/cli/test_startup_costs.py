@@ -15,6 +15,7 @@ import sys
 
 import numpy as np
 import OpenImageIO as oiio
+import pytest
 
 from phongscene.images import EXR_COMPRESSION, read_image, write_image
 from support.paths import EXAMPLES
@@ -42,12 +43,14 @@ def loaded_modules(code: str) -> set[str]:
     return set(out.split())
 
 
+@pytest.mark.subprocess
 def test_reading_a_scene_without_tessellated_prims_imports_no_trimesh_nor_scipy():
     loaded = loaded_modules(f"from phongscene.usd import load_usd\nload_usd({str(EXAMPLE)!r})")
     assert "pxr" in loaded
     assert not {"trimesh", "scipy"} & loaded
 
 
+@pytest.mark.subprocess
 def test_a_cube_prim_imports_trimesh_when_it_is_tessellated(tmp_path):
     # The probe above can fail: the import happens, only later.
     path = tmp_path / "cube.usda"
@@ -56,6 +59,7 @@ def test_a_cube_prim_imports_trimesh_when_it_is_tessellated(tmp_path):
     assert "trimesh" in loaded
 
 
+@pytest.mark.subprocess
 def test_building_the_cli_parser_and_comparison_import_no_openimageio():
     loaded = loaded_modules("import phongscene.comparison\nfrom phongscene.cli import build_parser\nbuild_parser()")
     assert "OpenImageIO" not in loaded
@@ -70,12 +74,14 @@ def test_exr_is_written_with_the_speed_default_compression_and_reads_back_bit_id
     assert np.array_equal(read_image(path), image)
 
 
+@pytest.mark.subprocess
 def test_reading_an_untextured_usd_file_imports_no_openimageio(tmp_path):
     path = tmp_path / "cube.usda"
     path.write_text(CUBE_SCENE)
     assert "OpenImageIO" not in loaded_modules(f"from phongscene.usd import read_usd\nread_usd({str(path)!r})")
 
 
+@pytest.mark.subprocess
 def test_a_native_render_imports_no_usd_writer_povray_compiler_numpy_ma_importlib_resources_or_secrets(tmp_path):
     # The whole command in process, the EXR write included: each name is imported by a call a
     # render used to make (np.median, importlib.resources.files, secrets.token_hex, a package's
@@ -89,6 +95,7 @@ def test_a_native_render_imports_no_usd_writer_povray_compiler_numpy_ma_importli
     assert not set(NOT_FOR_A_RENDER) & loaded
 
 
+@pytest.mark.subprocess
 def test_the_usd_writer_and_the_povray_compiler_are_still_reachable_from_their_packages():
     loaded = loaded_modules("from phongscene.usd import write_usd, define_sphere\nassert callable(write_usd)\n"
                             "from phongscene.backends import povray\nassert callable(povray.compile_pov)\n"
@@ -119,6 +126,7 @@ def console_run(args: list[str], env_extra: dict) -> subprocess.CompletedProcess
     return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
 
 
+@pytest.mark.subprocess
 def test_the_phongscene_process_uses_one_blas_thread_runs_exit_handlers_and_flushes_output(tmp_path):
     out = tmp_path / "a.exr"
     done = console_run(["render", str(EXAMPLE), "-o", str(out), "--width", "8", "--height", "6"], {})
@@ -128,6 +136,7 @@ def test_the_phongscene_process_uses_one_blas_thread_runs_exit_handlers_and_flus
     assert np.array_equal(read_image(out).shape, (6, 8, 3))
 
 
+@pytest.mark.subprocess
 def test_the_phongscene_process_keeps_a_users_blas_threads_and_its_exit_status(tmp_path):
     done = console_run(["render", str(tmp_path / "missing.usda"), "-o", str(tmp_path / "a.exr")],
                        {"OMP_NUM_THREADS": "2"})

@@ -134,6 +134,7 @@ def test_python_api_exports_compare_and_diff():
 # diff
 
 
+@pytest.mark.subprocess
 def test_cli_diff_bad_scene_exit_2(tmp_path):
     path = tmp_path / "bad.usda"
     path.write_text(BAD_SCENE, encoding="utf-8")

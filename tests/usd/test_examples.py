@@ -55,6 +55,7 @@ def test_script_regenerates_its_usda(name, tmp_path, monkeypatch):
     assert filecmp.cmp(fresh, EXAMPLES / f"{name}.usda", shallow=False), f"run examples/{name}.py and commit"
 
 
+@pytest.mark.subprocess
 @pytest.mark.povray  # the demo cross-validates with POV-Ray
 def test_demo_lists_every_example(tmp_path):
     outdir = tmp_path / "demo"

@@ -22,6 +22,7 @@ SCHEMAS = REPO / "schemas"
 PHONG_H_RELATIVE = 1e-14
 
 
+@pytest.mark.subprocess
 @pytest.mark.skipif(shutil.which("g++") is None, reason="g++ not installed")
 def test_phong_h_is_the_seed_light_term(tmp_path):
     cases = [  # kd, cd, ks, cs, e, n·l, r·wo, light

@@ -8,6 +8,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
 from pxr import Sdf, UsdUtils
 
 from support.paths import REPO
@@ -25,6 +26,7 @@ def test_repeated_diagnostics_are_one_warning_each_at_most_ten():
     assert not any("crateFile.cpp" in w for w in many)  # no C++ source location
 
 
+@pytest.mark.subprocess
 def test_a_usdz_with_a_missing_reference_prints_only_phongscene_lines(tmp_path):
     crate = tmp_path / "scene.usdc"
     Sdf.Layer.FindOrOpen(str(REPO / "tests" / "scenes" / "warned" / "missing_reference.usda")).Export(str(crate))

@@ -45,6 +45,7 @@ def _cli(*args, timeout: float) -> subprocess.CompletedProcess:
                           timeout=timeout)
 
 
+@pytest.mark.subprocess
 @pytest.mark.parametrize("arc", sorted(ARCS))
 def test_a_fifo_named_by_the_scene_is_an_error_not_a_hang(tmp_path, arc):
     text, prim, attribute = ARCS[arc]
@@ -59,6 +60,7 @@ def test_a_fifo_named_by_the_scene_is_an_error_not_a_hang(tmp_path, arc):
     assert line.startswith(f"error: {scene}: {where}: ") and "is a FIFO" in line
 
 
+@pytest.mark.subprocess
 def test_a_fifo_two_layers_down_is_found(tmp_path):
     os.mkfifo(tmp_path / "pipe.usda")
     (tmp_path / "middle.usda").write_text('#usda 1.0\ndef Xform "M" (references = @./pipe.usda@) {\n}\n')
@@ -69,6 +71,7 @@ def test_a_fifo_two_layers_down_is_found(tmp_path):
     assert f"{tmp_path / 'middle.usda'}: /M.references: " in result.stderr and "is a FIFO" in result.stderr
 
 
+@pytest.mark.subprocess
 def test_deep_nesting_reads_in_linear_time(tmp_path):
     path = tmp_path / "deep.usda"
     path.write_text(

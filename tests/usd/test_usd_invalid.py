@@ -51,6 +51,7 @@ def test_cli_validate_exits_2_with_one_line(path, capsys):
     assert err[0].startswith(f"error: {path}: {prim}.{attribute}: ") and message in err[0]
 
 
+@pytest.mark.subprocess
 def test_cli_in_a_subprocess_prints_no_traceback():
     path = REPO / "tests" / "scenes" / "invalid" / "negative_ks.usda"
     run = subprocess.run([sys.executable, "-m", "phongscene", "validate", str(path)], capture_output=True, text=True)

@@ -63,12 +63,14 @@ def usd_files(tmp_path_factory) -> list[Path]:
     return [*sorted(EXAMPLES.glob("*.usda")), tmp / "box.usda"]
 
 
+@pytest.mark.subprocess
 def test_the_plugin_folder_holds_the_definition_as_its_only_usda_file():
     folder = _plugin_folder()
     # The filesystem discovery takes every .usda file in the folder as one node named after it.
     assert [p.name for p in folder.rglob("*.usda")] == ["phongscene_PhongSurface.usda"]
 
 
+@pytest.mark.subprocess
 def test_usd_validators_report_nothing_with_the_plugin_folder(usd_files):
     result = _validate(usd_files, _plugin_folder())
     assert not result["loaded_phongscene"]
@@ -77,6 +79,7 @@ def test_usd_validators_report_nothing_with_the_plugin_folder(usd_files):
     assert result["errors"] == {str(p): [] for p in usd_files}
 
 
+@pytest.mark.subprocess
 def test_without_the_plugin_folder_usd_reports_the_shader_missing(usd_files):
     result = _validate(usd_files[:1], None)
     assert not result["known"]
@@ -84,6 +87,7 @@ def test_without_the_plugin_folder_usd_reports_the_shader_missing(usd_files):
     assert errors and all("MissingShaderIdInRegistry" in e for e in errors), errors
 
 
+@pytest.mark.subprocess
 def test_phongscene_registers_the_shader_also_when_usd_already_discovered_it(tmp_path):
     # Both ways at once (the environment set and phongscene imported): one node, same defaults.
     probe = (
@@ -98,6 +102,7 @@ def test_phongscene_registers_the_shader_also_when_usd_already_discovered_it(tmp
     assert out.stdout.strip() == "32.0"
 
 
+@pytest.mark.subprocess
 def test_info_without_a_scene_or_the_flag_is_a_usage_error():
     out = subprocess.run([sys.executable, "-m", "phongscene", "info"], capture_output=True, text=True)
     assert out.returncode == 2

@@ -119,6 +119,7 @@ def test_written_scene_passes_sdr_validation_and_a_wrong_type_is_reported(tmp_pa
     assert "inputs:ks" in message and "Expected 'float'; got 'double'" in message
 
 
+@pytest.mark.subprocess
 def test_sdr_registration_after_stages_were_opened(tmp_path):
     path = write_usd(scene(), tmp_path / "s.usda")
     probe = (
