@@ -77,6 +77,7 @@ def test_the_reference_error_bound_shrinks_with_the_reference():
     assert 0 < ref["rms_error_bound"] < 1e-2
 
 
+@pytest.mark.slow
 def test_bench_cli_native_only_writes_table_csv_json_and_plot(tmp_path, capsys):
     path = write_usd(calibration.rect_area_light(), tmp_path / "scene.usda")
     out = tmp_path / "bench"
@@ -96,6 +97,7 @@ def test_bench_cli_native_only_writes_table_csv_json_and_plot(tmp_path, capsys):
     assert (out / "bench.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow
 @pytest.mark.povray
 def test_bench_measures_both_backends_and_povrays_estimators_match_natives(tmp_path):
     scene = calibration.point_light()

@@ -148,6 +148,7 @@ def test_cli_diff_missing_scene_exit_2(tmp_path, capsys):
     assert "nope.usda" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.povray
 def test_cli_diff_agreeing_backends_exit_0(tmp_path, small_scene, capsys):
     out = tmp_path / "out"
@@ -160,6 +161,7 @@ def test_cli_diff_agreeing_backends_exit_0(tmp_path, small_scene, capsys):
     assert "povray: rendered in" in err and "native: rendered in" in err  # progress (not a terminal)
 
 
+@pytest.mark.slow
 @pytest.mark.povray
 def test_cli_diff_classic_mapping_exit_0(tmp_path, small_scene):
     assert main(["diff", str(small_scene), "-o", str(tmp_path / "out"), "--mapping", "classic", "--width", "32"]) == EXIT_OK
@@ -167,6 +169,7 @@ def test_cli_diff_classic_mapping_exit_0(tmp_path, small_scene):
     assert metrics["mapping"] == "classic" and metrics["native_specular"] == "povray-classic"
 
 
+@pytest.mark.slow
 @pytest.mark.povray
 def test_cli_diff_differing_images_exit_1(tmp_path, small_scene, capsys):
     # With zero tolerance, POV-Ray's half-float rounding alone makes the images differ.

@@ -163,6 +163,7 @@ def _ids(case) -> str:
     return f"{Path(name).stem}-{mapping}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", [c for c in CASES if c[0] == "calibration"], ids=_ids)
 def test_cross_backend_calibration_scene_agrees(case, povray_images, tmp_path, monkeypatch):
     _check(case, povray_images, tmp_path, monkeypatch)

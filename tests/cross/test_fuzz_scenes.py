@@ -126,6 +126,7 @@ def scene(draw) -> Scene:
     )
 
 
+@pytest.mark.slow
 @seed(SEED)
 @fuzz_settings(EXAMPLES)
 @given(st.lists(scene(), min_size=SCENES_PER_EXAMPLE, max_size=SCENES_PER_EXAMPLE))

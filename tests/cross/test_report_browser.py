@@ -66,6 +66,7 @@ def _bright_images():
     return a
 
 
+@pytest.mark.slow
 def test_a_failing_pixel_is_overlaid_at_its_place_on_the_heat_map(tmp_path):
     a = _bright_images()
     b = a.copy()
@@ -94,6 +95,7 @@ def test_a_failing_pixel_is_overlaid_at_its_place_on_the_heat_map(tmp_path):
     assert len(ys) <= 2 * (shown_w / SIZE[1]) ** 2
 
 
+@pytest.mark.slow
 def test_a_pass_is_dark_everywhere_and_shows_no_overlay(tmp_path):
     a = _bright_images()
     # Every channel 0.95 x the allowed error away: the worst a PASS can be, everywhere.

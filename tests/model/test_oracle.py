@@ -561,6 +561,7 @@ def test_catalogue_has_required_scenes():
     assert calibration.SCENES["aa_povray"]().settings.sample_pattern == "povray-am1"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(calibration.SCENES))
 def test_calibration_scene_is_well_posed(name):
     # Small, deterministic, finite, bounded (< 4, ≥ 0) in both conventions, and — except for the scene

@@ -223,7 +223,7 @@ def _quadtree_from_lattice(lattice, width, height, n, threshold):
 
 @pytest.mark.parametrize("n, threshold", [(4, 0.05), (8, 0.01), (2, 0.0)])
 def test_adaptive_equals_the_quadtree_over_oracle_rays(n, threshold):
-    import oracle
+    from support import oracle
 
     scene = calibration.point_light()
     width, height = 32, 24
@@ -242,6 +242,7 @@ def test_adaptive_equals_the_quadtree_over_oracle_rays(n, threshold):
         assert 0.01 < split.mean() < 0.9
 
 
+@pytest.mark.slow
 def test_adaptive_error_falls_with_depth_and_threshold():
     """Against a 48²-point stratified reference: finer cells (n) and lower thresholds reduce the
     RMS error; n = 16 at t = 0.001 ends below the 6×6 grid's error."""

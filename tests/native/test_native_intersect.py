@@ -221,6 +221,7 @@ def test_coincident_primitives_resolve_to_the_lowest_id_whatever_the_bvh():
 FLATTEN_1M_TRIANGLES_BUDGET_S = 1.0
 
 
+@pytest.mark.slow
 def test_a_million_triangles_flatten_fast_and_build():
     n = 708  # 2·707² ≈ 1.0e6 triangles
     xs, ys = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))

@@ -291,6 +291,7 @@ def test_huge_exponents_give_finite_pixels_and_the_exact_peak(exponent, conventi
 # Threads, progress, interruption, memory
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("light", ["rect", "sphere"])
 def test_area_light_shadows_of_a_mesh_match_the_oracle(light):
     # Area-light shadow rays are traced as bundles against the primitives their pyramid can

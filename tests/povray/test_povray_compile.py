@@ -386,6 +386,7 @@ def million_triangle_scene() -> Scene:
     return Scene(lights=(PointLight((0, 3, 0), (1, 1, 1)),), meshes=(mesh,))
 
 
+@pytest.mark.slow
 def test_million_triangle_mesh_compiles_fast():
     scene = million_triangle_scene()
     best = math.inf
@@ -431,6 +432,7 @@ def test_float32_numbers_print_short():
         numbers.sdl_float32(math.nan)
 
 
+@pytest.mark.slow
 def test_float32_numbers_read_back_as_the_float32_of_the_exact_text():
     # POV-Ray reads a number to a double and stores a colour as float32 (ref §2): the short text
     # must give the same float32 as the 17-digit text did, for every magnitude and sign.
@@ -449,6 +451,7 @@ def test_float32_numbers_read_back_as_the_float32_of_the_exact_text():
         assert len(text) <= len(numbers.sdl_float(x)), (x, text)
 
 
+@pytest.mark.slow
 @pytest.mark.povray
 def test_povray_renders_the_short_numbers_bit_identically(monkeypatch):
     from phongscene.backends import povray

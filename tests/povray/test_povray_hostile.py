@@ -88,6 +88,7 @@ def test_sanitize_comment_escapes_everything_outside_a_safe_set():
     assert sanitize_comment("\\") == "\\x5c"
 
 
+@pytest.mark.slow
 @pytest.mark.povray
 def test_hostile_names_render_like_plain_ones(tmp_path):
     hostile = _hostile_scene()

@@ -64,6 +64,7 @@ def calibration_renders(tmp_path_factory):
     return dict(zip(CASES, zip(scenes, images))), keep
 
 
+@pytest.mark.slow
 @pytest.mark.povray
 @pytest.mark.parametrize("name,mapping", CASES, ids=[f"{n}-{m}" for n, m in CASES])
 def test_calibration_scene_matches_oracle(calibration_renders, name, mapping, monkeypatch):

@@ -41,6 +41,7 @@ def test_phong_h_is_the_seed_light_term(tmp_path):
         assert value == pytest.approx(expected, rel=PHONG_H_RELATIVE)
 
 
+@pytest.mark.slow
 @pytest.mark.povray
 def test_phong_inc_macro_renders_the_classic_mapping(tmp_path):
     material = PhongMaterial(ka=0.2, kd=0.7, ks=0.4, exponent=25.0, diffuse_color=(0.9, 0.4, 0.2))

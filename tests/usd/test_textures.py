@@ -374,6 +374,7 @@ def test_blender_textured_export_agrees_on_both_backends(mapping):
     assert report.ok, report
 
 
+@pytest.mark.slow
 @pytest.mark.povray
 def test_compile_writes_the_texture_beside_the_sdl_and_povray_renders_it(tmp_path, capsys):
     import subprocess
@@ -480,6 +481,7 @@ def _edge_scene(wrap_s, wrap_t):
 WRAP_PAIRS = [(s, t) for s in ("repeat", "clamp", "mirror", "black") for t in ("repeat", "clamp", "mirror", "black")]
 
 
+@pytest.mark.slow
 @pytest.mark.povray
 def test_every_wrap_mode_agrees_on_both_backends_beyond_the_unit_square():
     # uvs from -2.3 to 3.1: POV-Ray gets each image tiled over the uvs' integer box by its own
