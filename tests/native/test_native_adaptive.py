@@ -304,6 +304,7 @@ def _shadow_rms(scene, reference, **change):
     return float(np.sqrt(np.mean((image - reference) ** 2)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("light", ["rect_area_light", "sphere_area_light"])
 def test_cells_beat_their_grid_and_change_only_the_penumbra(light):
     """Against the 129² grid: the cells estimator on a 9² grid (4² points per partial cell) errs

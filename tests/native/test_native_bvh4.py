@@ -98,6 +98,7 @@ def test_axis_parallel_rays_on_slab_planes_equal_brute_force(path, zero):
     assert_equals_brute_force(built, origins, dirs, T_MINS[path])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", sorted(T_MINS))
 @pytest.mark.parametrize("scale", [1e-6, 1.0, 1e6])
 def test_random_rays_equal_brute_force(path, scale):

@@ -49,6 +49,7 @@ def assert_matches_oracle(image: np.ndarray, expected: np.ndarray) -> None:
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("convention", ["seed", "povray-classic"])
 @pytest.mark.parametrize("name", list(calibration.SCENES))
 def test_native_matches_oracle_on_calibration_scene(name, convention):

@@ -30,6 +30,7 @@ def test_the_grid_integrates_ggx_normalisation(roughness):
     assert (d * np.maximum(nh, 0)) @ weight == pytest.approx(1.0, rel=GRID_RELATIVE)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("metallic", ref.METALLICS)
 @pytest.mark.parametrize("roughness", ref.ROUGHNESSES)
 def test_converted_material_keeps_the_highlights_energy_and_peak(roughness, metallic):

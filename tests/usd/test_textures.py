@@ -356,6 +356,7 @@ def test_blender_export_reads_its_image_texture():
     assert floor.uvs.max() == 2.0  # the floor's uvs tile the grid twice (repeat)
 
 
+@pytest.mark.slow
 @pytest.mark.povray
 @pytest.mark.parametrize("mapping", ["exact", "classic"])
 def test_blender_textured_export_agrees_on_both_backends(mapping):

@@ -38,6 +38,7 @@ CASES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_hostile_file_is_one_clear_problem(tmp_path, name, capsys):
     text, prim, attribute, message = CASES[name]

@@ -42,6 +42,7 @@ def test_api_reports_the_one_expected_problem(path):
     assert problem.file == str(path)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", INVALID, ids=lambda p: p.stem)
 def test_cli_validate_exits_2_with_one_line(path, capsys):
     prim, attribute, message = expected(path)
@@ -82,6 +83,7 @@ def test_there_is_a_warned_scene_for_each_required_case():
     assert {p.stem for p in WARNED} >= {"missing_reference", "wrong_type_normals"}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", WARNED, ids=lambda p: p.stem)
 def test_warned_scene_is_drawn_with_its_warning(path, capsys):
     from phongscene.usd import read_usd
