@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Callable, Literal
 
 import numpy as np
 
-from .errors import BackendError, SceneError
+from .errors import BackendError, InvalidValueError, Problem, SceneError
 from .overrides import RenderOverrides
 from .scene import RenderSettings, Scene
 from .validate import check
@@ -97,9 +97,10 @@ def check_settings(scene: Scene, settings: RenderSettings | None = None) -> Rend
     if not isinstance(scene, Scene):  # a path or a stage given where the model is expected
         raise TypeError(f"expected a phongscene Scene (phongscene.load_usd(path) reads a USD file), got "
                         f"{type(scene).__name__} {scene!r:.80}")
-    settings = scene.settings if settings is None else settings
-    if not isinstance(settings, RenderSettings):
-        raise TypeError(f"settings: expected a RenderSettings, got {type(settings).__name__}")
+    if settings is None:
+        settings = scene.settings  # a wrong type here is one of the scene's problems, below
+    elif not isinstance(settings, RenderSettings):
+        raise InvalidValueError(Problem(f"expected a RenderSettings, got {type(settings).__name__}", attribute="settings"))
     try:
         check(replace(scene, settings=settings))
     except SceneError as e:
