@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import REPO
+from support.paths import REPO
 from phongscene.errors import SceneError
 from phongscene.scene import DEFAULT_MATERIAL, PointLight
 from phongscene.usd import preview_to_phong, read_usd
