@@ -340,8 +340,8 @@ def _check_camera(c: _Collector, cam: Camera) -> None:
         if fov_ok and not 0 < cam.horizontal_fov_deg < 180:
             c.add(cam, "horizontal_fov_deg", f"must be in (0, 180) degrees, got {_show(cam.horizontal_fov_deg)}")
     elif width_ok and not MIN_ORTHO_WIDTH <= cam.ortho_width <= MAX_ORTHO_WIDTH:
-        c.add(cam, "ortho_width", f"must be in [{MIN_ORTHO_WIDTH:g}, {MAX_ORTHO_WIDTH:g}] world units, got "
-              f"{_show(cam.ortho_width)}")
+        c.add(cam, "ortho_width", f"the orthographic view window must be {MIN_ORTHO_WIDTH:g}..{MAX_ORTHO_WIDTH:g} "
+              f"world units wide, got {_show(cam.ortho_width)}")
 
 
 def _check_settings(c: _Collector, s: RenderSettings) -> None:

@@ -333,6 +333,13 @@ def _gprim(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, materials: Mater
     if type_name not in _GEOMETRY_TYPES:
         ctx.unsupported["unsupported geometry (ignored)"].append(f"{path} ({type_name})")
         return
+    # A projective transform (a matrix whose last column, in USD's row-vector convention, is not
+    # 0 0 0 1) maps points by a division by w, which neither backend's geometry can carry. Products
+    # of affine matrices keep that column exactly, so the comparison is exact.
+    if np.all(np.isfinite(world)) and not np.array_equal(world[3], [0.0, 0.0, 0.0, 1.0]):
+        ctx.problem(prim, "xformOpOrder", "the world transform is projective (its matrix's last column is "
+                    f"{tuple(float(x) for x in world[3])}, not (0, 0, 0, 1)): only affine transforms can be rendered")
+        return
     material = materials.for_gprim(prim)
     if type_name != "Mesh" and material.textures:
         # Only meshes carry st primvars here: the texture's fallback colour is used.
@@ -378,6 +385,22 @@ def _instances(
     bad = (proto_indices < 0) | (proto_indices >= len(prototypes))
     if bad.any():
         ctx.problem(instancer_prim, "protoIndices", f"{int(bad.sum())} indices out of range [0, {len(prototypes)})")
+        return
+    # One entry per instance in every per-instance array that is authored (USD only warns and
+    # places no instance at all, or reads past the shorter array's end on some versions).
+    short = False
+    for name in ("positions", "orientations", "orientationsf", "scales", "velocities", "angularVelocities"):
+        attr = instancer_prim.GetAttribute(name)
+        values = attr.Get(ctx.time) if attr else None
+        if name == "positions" and (values is None or len(values) == 0) and len(proto_indices):
+            ctx.problem(instancer_prim, name, f"must have one entry per instance ({len(proto_indices)} protoIndices), "
+                        "got none")
+            short = True
+        elif values is not None and len(values) and len(values) != len(proto_indices):
+            ctx.problem(instancer_prim, name, f"must have one entry per instance ({len(proto_indices)} protoIndices), "
+                        f"got {len(values)}")
+            short = True
+    if short:
         return
     transforms = instancer.ComputeInstanceTransformsAtTime(
         ctx.time, ctx.time, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask

@@ -148,5 +148,5 @@ def test_int64_and_whole_float_indices_are_accepted():
 
 @pytest.mark.parametrize("width", [1e38, 1e19, 0.0, -1.0, 1e-200])
 def test_an_absurd_orthographic_window_is_an_error(width):
-    with pytest.raises(SceneError, match="ortho_width: must be in"):
+    with pytest.raises(SceneError, match="ortho_width: the orthographic view window must be"):
         compile_pov(_scene(camera=Camera(projection="orthographic", ortho_width=width)))
