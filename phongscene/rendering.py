@@ -56,22 +56,19 @@ def settings_with(
 
 
 def load_scene(
-    scene_or_path: Scene | str | os.PathLike, time: float | None = None, *, sandbox: bool = False
+    scene_or_path: Scene | str | os.PathLike, time: float | None = None, *, sandbox: bool | None = None
 ) -> tuple[Scene, list[str]]:
     """A Scene as given, or read from a USD file (or a ``phongscene.usd.OpenStage`` of one) at USD
     time code ``time`` (None: the reader's choice, ``phongscene.usd.read_usd``), with the reader's
-    warnings (raises SceneError for a bad file). ``sandbox``: read the file in a child process
-    with a memory limit (``phongscene.sandbox``), so a crash inside USD is a SceneError."""
+    warnings (raises SceneError for a bad file). The file is read by ``phongscene.scene_files``:
+    in a child process with a memory limit (``phongscene.sandbox``) unless it is safe to read in
+    process (``sandbox`` None: decided per file; True / False: always / never the child), so a
+    crash inside USD is a SceneError."""
     if isinstance(scene_or_path, Scene):
         return scene_or_path, []
-    if sandbox:
-        from .sandbox import read_usd_sandboxed
+    from .scene_files import read_scene_file
 
-        result = read_usd_sandboxed(scene_or_path, time=time)
-        return result.scene, list(result.warnings)
-    from .usd import read_usd  # lazily: the USD reader imports pxr
-
-    result = read_usd(scene_or_path, time=time)  # a path, or an OpenStage
+    result = read_scene_file(scene_or_path, time, sandbox=sandbox)
     return result.scene, list(result.warnings)
 
 

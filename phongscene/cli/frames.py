@@ -34,7 +34,8 @@ def run_frames(args, task, arguments, label: str):
     from ..progress import ProgressBar
     from ..rendering import load_scene
 
-    _, warnings = load_scene(args.scene, time=float(args.frames[0]))
+    # The tasks then reopen the file in process: it was read once, here (sandboxed if need be).
+    _, warnings = load_scene(args.scene, time=float(args.frames[0]), sandbox=getattr(args, "sandbox", None))
     print_warnings(warnings)
     bar = ProgressBar("frames")
 

@@ -208,9 +208,10 @@ def add_threshold_options(p: argparse.ArgumentParser, by_format: bool = False) -
 
 
 def add_sandbox_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--no-sandbox", dest="sandbox", action="store_false",
-                   help="read SCENE in this process (default: in a child process with a memory limit, so that a "
-                   "corrupt file that crashes USD is an error, not a crash; ~0.5 s more)")
+    p.add_argument("--no-sandbox", dest="sandbox", action="store_const", const=False, default=None,
+                   help="read SCENE in this process (default: a binary file, or one naming other files, is read in "
+                   "a child process with a memory limit, so that a corrupt file that crashes USD is an error, not a "
+                   "crash; ~0.5 s more; a self-contained .usda is read in process)")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -260,6 +261,6 @@ def scene_and_settings(args):
     from ..rendering import load_scene
 
     overrides = overrides_from_args(args)
-    scene, warnings = load_scene(args.scene, time=overrides.time)
+    scene, warnings = load_scene(args.scene, time=overrides.time, sandbox=getattr(args, "sandbox", None))
     print_warnings(warnings)
     return overrides.apply(scene)

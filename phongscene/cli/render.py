@@ -12,6 +12,7 @@ from .options import (
     BACKEND_CHOICES,
     UsageError,
     add_override_options,
+    add_sandbox_option,
     add_scene_argument,
     add_time_options,
     add_timeout_option,
@@ -36,6 +37,7 @@ def add_render_command(sub) -> None:
                          shadow_cells=True, threads_help="worker threads (0 = all cores)")
     add_timeout_option(p, "--backend povray only: stop POV-Ray after SECONDS (exit 3)")
     add_time_options(p, "one image per frame, #### in IMAGE becomes the frame number")
+    add_sandbox_option(p)
     p.set_defaults(func=run_render)
 
 
@@ -108,6 +110,7 @@ def add_compile_command(sub) -> None:
     add_override_options(p, mapping_help="exact (the seed model, one pass per light) or classic (one plain POV-Ray "
                          "finish per material); default: the scene's specular convention")
     add_time_options(p, "a .pov and an .ini per frame, #### in OUT.pov becomes the frame number")
+    add_sandbox_option(p)
     p.set_defaults(func=run_compile)
 
 

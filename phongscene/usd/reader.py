@@ -50,7 +50,7 @@ class ReadResult:
     nodes: list[tuple[str, str]] = field(default_factory=list)  # (prim path, model node)
 
 
-def load_usd(source, time: float | None = None) -> Scene:
+def load_usd(source, time: float | None = None, *, sandbox: bool | None = None) -> Scene:
     """Read a USD file (.usda/.usdc/.usdz) or an open ``Usd.Stage`` into a validated Scene.
 
     Args:
@@ -58,11 +58,17 @@ def load_usd(source, time: float | None = None) -> Scene:
         time: the USD time code to read every value at (camera, lights, materials, visibility,
             transforms; USD interpolates between time samples). None: the stage's start time
             when it is animated (with a warning), else its default values.
+        sandbox: None (default): a file USD might crash on (binary, or naming other files) is
+            read in a child process with a memory limit, others in this one
+            (``phongscene.scene_files``); True / False: always / never in the child.
 
     Raises:
-        SceneError: listing every problem found, each with file, prim path and attribute.
+        SceneError: listing every problem found, each with file, prim path and attribute (also
+            when USD crashed or ran out of memory in the child).
     """
-    return read_usd(source, time=time).scene
+    from ..scene_files import read_scene_file
+
+    return read_scene_file(source, time, sandbox=sandbox).scene
 
 
 @dataclass(eq=False)
