@@ -23,6 +23,13 @@ Conventions:
 
       L = ka·cd·La + Σ_j [ kd·cd/π·(n·l_j) + ks·(r_j·wo)^e ] · Lj      (r_j·wo > 0)
 
+* Mirror reflection (Suffern ch. 24, PerfectSpecular on top of Phong; POV-Ray's ``reflection``
+  adds it the same way, ref §18): a material with kr > 0 adds ``kr·cr·L(p, r)``, the radiance
+  traced along the mirror direction r = −wo + 2(n·wo)n (a miss: the background). The camera ray
+  has depth 0, a reflected ray one more than its parent; a ray deeper than
+  ``RenderSettings.max_depth`` returns black (the book's Whitted tracer and POV-Ray's
+  ``max_trace_level max_depth + 1`` agree). kr = 0 traces no secondary ray.
+
 POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 """
 
@@ -154,6 +161,15 @@ class PhongMaterial:
     diffuse_texture: Texture | None = None
     # cs likewise (the seed convention's highlight colour; povray-classic ignores cs).
     specular_texture: Texture | None = None
+    # Mirror reflection (Suffern ch. 24): kr·cr times the radiance along the mirror direction,
+    # added to the Phong terms. kr in [0, 1]; 0 (the default) traces no reflected ray.
+    kr: float = 0.0
+    reflective_color: RGB = (1.0, 1.0, 1.0)  # cr, linear RGB, >= 0
+
+    @property
+    def reflects(self) -> bool:
+        """Whether the material traces a reflected ray (kr > 0 and cr not black)."""
+        return self.kr > 0 and any(c > 0 for c in self.reflective_color)
 
     @property
     def textures(self) -> tuple[Texture, ...]:
@@ -162,7 +178,8 @@ class PhongMaterial:
 
     def without_textures(self) -> PhongMaterial:
         """The same material with its constant colours only (the textures' fallbacks)."""
-        return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source)
+        return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source,
+                             kr=self.kr, reflective_color=self.reflective_color)
 
 
 DEFAULT_MATERIAL = PhongMaterial()
@@ -454,6 +471,10 @@ class RenderSettings:
     specular: SpecularConvention = "seed"
     source: str = ""  # the UsdRender.Settings prim, if any
     numerics: Numerics = "scale-invariant"  # native only (POV-Ray always has its own)
+    # The deepest secondary ray traced (the book's max_depth): the camera ray has depth 0, each
+    # reflection adds 1, and a ray deeper than this returns black (POV-Ray: max_trace_level
+    # max_depth + 1, ref §18). Only scenes with reflective materials trace secondary rays.
+    max_depth: int = 5
 
 
 @dataclass(frozen=True, slots=True)

@@ -37,6 +37,7 @@ from .limits import (  # noqa: E402  (re-exported: validation's bounds)
     MAX_ADAPTIVE,
     MAX_CELL_SAMPLES,
     MAX_COORDINATE,
+    MAX_DEPTH,
     MAX_IMAGE_SIDE,
     MAX_PIXELS,
     MAX_SAMPLES,
@@ -260,6 +261,8 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
         c.add(m, "exponent", f"must be >= 0, got {_show(m.exponent)}")
     c.colour(m, "diffuse_color")
     c.colour(m, "specular_color")
+    c.unit_interval(m, "kr")
+    c.colour(m, "reflective_color")
     for t in m.textures:
         _check_texture(c, t)
 
@@ -319,6 +322,8 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
     if not isinstance(s.threads, (int, np.integer)) or not 0 <= s.threads <= MAX_THREADS:
         c.add(s, "threads", f"must be an integer in 0..{MAX_THREADS}, got {_show(s.threads)}")
     c.colour(s, "background")
+    if not isinstance(s.max_depth, (int, np.integer)) or isinstance(s.max_depth, bool) or not 0 <= s.max_depth <= MAX_DEPTH:
+        c.add(s, "max_depth", f"must be an integer in 0..{MAX_DEPTH}, got {_show(s.max_depth)}")
 
 
 FALLOFFS = ("none", "inverse-square")

@@ -65,6 +65,12 @@ n·l ≥ EPSILON, scaled by its shadow fraction (0/1 for point and directional l
 
   r·l equals Suffern's r_j·wo (ref §4); the differences are the missing n·l on the highlight and
   the missing cs.
+
+Mirror reflection (Suffern ch. 24, PerfectSpecular; ref §18, where POV-Ray's ``reflection`` was
+measured to add the same way): at a hit of depth k (camera rays: 0) on a material with kr > 0 and
+k < max_depth, L += kr·cr·L(P, r) with r = d − 2(d·n)n, traced from exactly P with the primary
+ray's tolerances (MIN_ISECT_DEPTH ≤ t < MAX_DISTANCE; a miss gives the background). Deeper rays
+are not traced: they return black (ref §18: ``max_trace_level`` = max_depth + 1).
 """
 
 from __future__ import annotations
@@ -302,6 +308,8 @@ class _Geometry:
     exponent: np.ndarray
     cd: np.ndarray
     cs: np.ndarray
+    kr: np.ndarray  # mirror reflection, per material
+    cr: np.ndarray
 
 
 def _prepare(scene: Scene) -> _Geometry:
@@ -351,6 +359,8 @@ def _prepare(scene: Scene) -> _Geometry:
         exponent=np.array([m.exponent for m in materials], dtype=np.float64),
         cd=np.array([m.diffuse_color for m in materials], dtype=np.float64).reshape(-1, 3),
         cs=np.array([m.specular_color for m in materials], dtype=np.float64).reshape(-1, 3),
+        kr=np.array([m.kr for m in materials], dtype=np.float64),
+        cr=np.array([m.reflective_color for m in materials], dtype=np.float64).reshape(-1, 3),
     )
 
 
@@ -601,7 +611,7 @@ def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal,
 # Public API
 
 
-def _trace(geo: _Geometry, scene: Scene, settings: RenderSettings, origins, directions) -> np.ndarray:
+def _trace(geo: _Geometry, scene: Scene, settings: RenderSettings, origins, directions, depth: int = 0) -> np.ndarray:
     o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
@@ -612,7 +622,23 @@ def _trace(geo: _Geometry, scene: Scene, settings: RenderSettings, origins, dire
     if hit.any():
         p = o[hit] + t[hit, None] * d[hit]
         radiance[hit] = _shade(geo, scene, settings, p, d[hit], normal[hit], material[hit], colour[hit], specular[hit])
+        if depth < settings.max_depth:
+            radiance[hit] += _reflected(geo, scene, settings, p, d[hit], normal[hit], material[hit], depth)
     return radiance
+
+
+def _reflected(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material, depth: int) -> np.ndarray:
+    """kr·cr·L(P, r) of each hit whose material reflects (zero elsewhere), r the mirror of d."""
+    out = np.zeros((len(p), 3))
+    kr, cr = geo.kr[material], geo.cr[material]
+    rows = np.nonzero((kr > 0.0) & np.any(cr > 0.0, axis=1))[0]
+    if len(rows) == 0:
+        return out
+    dr, nr = d[rows], normal[rows]
+    r = dr - 2.0 * np.einsum("ij,ij->i", dr, nr)[:, None] * nr  # the same for either side of n
+    seen = _trace(geo, scene, settings, p[rows], r, depth + 1)
+    out[rows] = kr[rows, None] * cr[rows] * seen
+    return out
 
 
 def trace_rays(scene: Scene, origins, directions, settings: RenderSettings | None = None) -> np.ndarray:

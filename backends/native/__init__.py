@@ -52,9 +52,12 @@ _SPECULAR_CONVENTIONS = {
 
 
 def _material(m: PhongMaterial) -> _native.Material:
-    return _native.Material(
+    native = _native.Material(
         ka=m.ka, kd=m.kd, ks=m.ks, exponent=m.exponent, diffuse_color=m.diffuse_color, specular_color=m.specular_color
     )
+    native.kr = m.kr
+    native.reflective_color = m.reflective_color
+    return native
 
 
 def _materials(models) -> list[_native.Material]:
@@ -163,6 +166,7 @@ def _settings(s: RenderSettings) -> _native.RenderSettings:
         numerics=_NUMERICS[s.numerics],
     )
     native.aa_threshold = float(s.aa_threshold)
+    native.max_depth = int(s.max_depth)
     return native
 
 

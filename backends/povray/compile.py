@@ -306,6 +306,29 @@ class _Compiler:
         with np.errstate(over="ignore", invalid="ignore"):
             self.bounds = scene.bounds()
         self.uv_frame, self.images = pov_images(scene)
+        # Secondary rays (ref §18): only a scene with a reflective material gets the depth limit
+        # (max_trace_level = max_depth + 1) and adc_bailout 0 (no weight cut-off), so the SDL of
+        # every other scene is unchanged.
+        self.reflective = any(o.material.reflects for o in (*scene.spheres, *scene.meshes))
+
+    def trace_settings(self) -> str:
+        """The global_settings items of secondary rays ("" for a scene that traces none)."""
+        if not self.reflective:
+            return ""
+        depth = self.settings.max_depth
+        if not isinstance(depth, (int, np.integer)) or isinstance(depth, bool) or depth < 0:
+            raise self._error(self.settings, "max_depth", f"must be a non-negative integer, got {depth!r}")
+        return f" max_trace_level {int(depth) + 1}"
+
+    def reflection(self, m: PhongMaterial, scale: float = 1.0) -> str:
+        """The finish item of the mirror term kr·cr (ref §18: POV-Ray adds ``reflection`` to the
+        pigment's terms, unweighted, as the book's PerfectSpecular), times ``scale``; "" without one."""
+        self.coef(m.kr, m, "kr")
+        self.rgb(m.reflective_color, m, "reflective_color")
+        if not m.reflects:
+            return ""
+        colour = np.asarray(m.reflective_color, dtype=np.float64) * (m.kr * scale)
+        return f" reflection rgb {self.rgb(colour, m, 'reflective_color')}"
 
     # -- numbers, with the prim named when one is not finite ---------------------------------
 
@@ -351,7 +374,8 @@ class _Compiler:
             self.exact_passes()
         else:
             self.lines.append(
-                f"global_settings {{ assumed_gamma 1.0 ambient_light rgb {self.rgb(self.scene.ambient.color, self.scene.ambient, 'color')} }}"
+                f"global_settings {{ assumed_gamma 1.0 ambient_light rgb {self.rgb(self.scene.ambient.color, self.scene.ambient, 'color')}"
+                + (f" adc_bailout 0{self.trace_settings()}" if self.reflective else "") + " }"
             )
             self.lines.append(f"background {{ color rgb {self.rgb(self.settings.background, self.settings, 'background')} }}")
             for i, light in enumerate(self.scene.lights):
@@ -485,7 +509,7 @@ class _Compiler:
         return f"#declare NdotL = pigment {{ {pattern} color_map {{ NdotL_Map }} }}"
 
     def exact_passes(self) -> None:
-        self.lines.append("global_settings { assumed_gamma 1.0 adc_bailout 0 }")
+        self.lines.append(f"global_settings {{ assumed_gamma 1.0 adc_bailout 0{self.trace_settings()} }}")
         self.lines.append(f"// n.l = sin(pi (v - 1/2)) of the slope value v, as a filter colour ({NDOTL_SEGMENTS} linear segments).")
         entries = ["[0 rgbf <0, 0, 0, 1>]"]
         for k in range(NDOTL_SEGMENTS + 1):
@@ -567,7 +591,7 @@ class _Compiler:
             phong = f" phong {ks} phong_size {e}" if m.ks > 0 else ""
             return (
                 f"texture {{ {pigment} finish {{ ambient {self.coef(m.ka, m, 'ka')}"
-                f" diffuse {self.coef(m.kd / math.pi, m, 'kd')}{self.diffuse_term}{phong} }} }}"
+                f" diffuse {self.coef(m.kd / math.pi, m, 'kd')}{self.diffuse_term}{phong}{self.reflection(m)} }} }}"
             )
         # (A) the average of a diffuse texture and a layered specular texture, each doubled.
         # (A texture_map entry cannot hold a layered texture inline: it is declared first.)
@@ -583,9 +607,10 @@ class _Compiler:
         layers.append("texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }")
         self.lines.append(f"#declare {name}_Specular =\n  " + "\n  ".join(layers))
         # (A texture_map entry holds a texture body without the 'texture' keyword.)
+        # The mirror term rides on the diffuse half, doubled like its other terms.
         diffuse = (
             f"{pigment} finish {{ ambient {self.coef(2 * m.ka, m, 'ka')}"
-            f" diffuse {self.coef(2 * m.kd / math.pi, m, 'kd')}{self.diffuse_term} }}"
+            f" diffuse {self.coef(2 * m.kd / math.pi, m, 'kd')}{self.diffuse_term}{self.reflection(m, 2.0)} }}"
         )
         return f"texture {{ average texture_map {{\n  [1 {diffuse}]\n  [1 {name}_Specular]\n}} }}"
 

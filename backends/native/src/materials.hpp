@@ -26,6 +26,10 @@ struct Material {
     RGB specular_color;  // cs
     int32_t diffuse_texture = -1;   // index into Scene::textures replacing cd, or -1
     int32_t specular_texture = -1;  // ... replacing cs, or -1
+    // Mirror reflection (Suffern ch. 24, PerfectSpecular): kr·cr times the radiance traced along
+    // the mirror direction is added to the Phong terms (render.cpp); kr = 0 traces no ray.
+    double kr = 0.0;
+    RGB reflective_color{1.0, 1.0, 1.0};  // cr
 };
 
 enum class SpecularConvention { kSeed, kPovrayClassic };
@@ -60,5 +64,9 @@ inline RGB shade_phong(const Material& m, SpecularConvention convention, const V
     }
     return out;
 }
+
+// The mirror direction of a ray of unit direction d at a surface of unit normal n (either side):
+// d − 2(d·n)n, unit by construction (up to rounding), as POV-Ray reflects it.
+inline Vec3 mirror_direction(const Vec3& d, const Vec3& n) { return d - n * (2.0 * dot(d, n)); }
 
 }  // namespace phong

@@ -108,6 +108,10 @@ constexpr double kSelfHitWindow = kSelfHitError / kAcneFreeCosine;
 struct RayTolerances {
     double primary_near;   // primary hits need t >= primary_near
     double shadow_window;  // occluders count for shadow_window < t < distance - shadow_window
+    // Secondary (reflected) rays start at a hit point and need t >= secondary_near: POV-Ray's
+    // MIN_ISECT_DEPTH relative to the extent like primary_near, but never below the
+    // floating-point self-hit term (kSelfHitWindow·M, as for shadow rays), since they leave a surface.
+    double secondary_near = 0.0;
 };
 
 // The tolerances of a render whose geometry and camera lie in `box_lo`…`box_hi`.
@@ -119,7 +123,8 @@ inline RayTolerances ray_tolerances(const Vec3& box_lo, const Vec3& box_hi) {
     // positive scale will do.
     if (!(magnitude > 0.0)) magnitude = 1.0;
     if (!(extent > 0.0)) extent = magnitude;
-    return {kPrimaryNear * extent, std::fmax(kShadowWindow * extent, kSelfHitWindow * magnitude)};
+    return {kPrimaryNear * extent, std::fmax(kShadowWindow * extent, kSelfHitWindow * magnitude),
+            std::fmax(kPrimaryNear * extent, kSelfHitWindow * magnitude)};
 }
 
 // POV-Ray's own absolute tolerances (its MIN_ISECT_DEPTH and SHADOW_TOLERANCE), for renders that

@@ -90,7 +90,11 @@ struct ShadowQuery {
     }
 };
 
-RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::vector<BundleCandidate>& candidates) {
+RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std::vector<BundleCandidate>& candidates);
+
+// The colour of `hit` on `ray`, a ray of depth `depth` (the camera's: 0).
+RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::vector<BundleCandidate>& candidates,
+              int depth) {
     const Scene& scene = context.scene;
     const RenderSettings& settings = context.settings;
     const double window = context.tolerances.shadow_window;
@@ -155,7 +159,21 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l, centre.color * fraction,
                              terms->diffuse, terms->specular);
     }
+    // Mirror reflection on top of the Phong terms (ref §18: POV-Ray adds it the same way). A ray
+    // that would be deeper than max_depth returns black, so it is not traced.
+    if (material->kr > 0.0 && depth < settings.max_depth) {
+        const Ray reflected{p, mirror_direction(ray.dir, n)};
+        const RGB seen = trace_secondary(context, reflected, depth + 1, candidates);
+        color += hadamard(material->reflective_color, seen) * material->kr;
+    }
     return color;
+}
+
+// The colour seen along a secondary ray leaving a surface (a miss: the background).
+RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std::vector<BundleCandidate>& candidates) {
+    Hit hit;
+    if (!context.scene.closest_hit(ray, context.tolerances.secondary_near, HUGE_VAL, hit)) return context.settings.background;
+    return shade_hit(context, ray, hit, candidates, depth);
 }
 
 }  // namespace
@@ -172,7 +190,7 @@ RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<Bundl
     if (!(origin ? context.scene.closest_hit(ray, *origin, near, HUGE_VAL, hit)
                  : context.scene.closest_hit(ray, near, HUGE_VAL, hit)))
         return context.settings.background;
-    return shade_hit(context, ray, hit, scratch);
+    return shade_hit(context, ray, hit, scratch, 0);
 }
 
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,
@@ -182,8 +200,9 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     Bounds box = scene.bounds;
     box.grow(camera.position);
     const RayTolerances tolerances =
-        settings.numerics == Numerics::kPovray              ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowWindow}
-        : settings.numerics == Numerics::kPovrayShadowCache ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowCacheWindow}
+        settings.numerics == Numerics::kPovray ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowWindow, kPovrayPrimaryNear}
+        : settings.numerics == Numerics::kPovrayShadowCache
+            ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowCacheWindow, kPovrayPrimaryNear}
                                                             : ray_tolerances(box.lo, box.hi);
     const TraceContext context(scene, settings, tolerances);
 

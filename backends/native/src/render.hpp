@@ -33,7 +33,14 @@ struct RenderSettings {
     // POV-Ray's +A threshold of the adaptive patterns (0: every pixel is supersampled, AM1; the
     // full grid, AM2): compared with the colour distance of Antialias_Gamma-encoded colours.
     double aa_threshold = 0.0;
+    // The deepest secondary ray (the book's max_depth): the camera ray has depth 0; a ray deeper
+    // than this returns black (POV-Ray's max_trace_level max_depth + 1).
+    int max_depth = 5;
 };
+
+// The deepest max_depth a render accepts (phongscene/limits.py MAX_DEPTH: POV-Ray's limit); the
+// recursion is one shade_hit frame per level.
+constexpr int kMaxDepth = 255;
 
 // Called on the rendering (calling) thread about every kPollInterval with (tiles done, tiles
 // total); returning false cancels the render (workers stop at their next tile).
