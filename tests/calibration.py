@@ -492,6 +492,46 @@ def texture_specular() -> Scene:
     return dataclasses.replace(scene, meshes=(dataclasses.replace(quad, material=material),))
 
 
+# ---------------------------------------------------------------------------------------------
+# Mirror reflection (Suffern ch. 24; ref §18)
+
+MIRROR_FLOOR = dataclasses.replace(GROUND, kr=0.6, reflective_color=(0.9, 0.8, 1.0))
+CHROME = PhongMaterial(ka=0.05, kd=0.1, ks=0.4, exponent=40.0, diffuse_color=(0.9, 0.9, 0.9), kr=0.8,
+                       reflective_color=(1.0, 0.9, 0.7))
+
+
+def mirror_floor() -> Scene:
+    """A reflective floor under the red sphere and a chrome sphere, two lights: the floor shows
+    both spheres, the chrome sphere the floor and the red sphere (and itself in the floor),
+    with their shadows; max_depth 3 cuts the chains between the floor and the chrome sphere."""
+    scene = shadows_two_lights()
+    return dataclasses.replace(
+        scene,
+        spheres=(Sphere.at((0.07, 1.08, -0.13), 1.03, RED), Sphere.at((-1.6, 0.7, 0.9), 0.7, CHROME)),
+        meshes=(ground_quad(0.0, MIRROR_FLOOR),),
+        settings=dataclasses.replace(scene.settings, max_depth=3),
+    )
+
+
+def facing_mirrors() -> Scene:
+    """Two parallel mirror walls (x = ±2.1) with a gold sphere between, seen at an angle, so
+    that rays bounce between the walls until max_depth (4) ends them in black."""
+    scene = shadows_two_lights()
+    wall = PhongMaterial(ka=0.1, kd=0.3, ks=0.0, exponent=1.0, diffuse_color=(0.3, 0.35, 0.4), kr=0.85)
+
+    def wall_at(x: float) -> TriangleMesh:
+        corners = [(x, -0.1, -40.3), (x, -0.1, 39.7), (x, 9.7, 40.1), (x, 9.9, -39.9)]
+        return TriangleMesh(points=corners, triangles=[(0, 1, 2), (0, 2, 3)], material=wall)
+
+    return dataclasses.replace(
+        scene,
+        lights=(PointLight((0.61, 5.07, 2.93), (3.2, 3.0, 2.8)),),  # between the walls
+        spheres=(Sphere.at((0.31, 0.9, -0.6), 0.8, GOLD),),
+        meshes=(ground_quad(0.0, GROUND), wall_at(-2.1), wall_at(2.3)),
+        settings=dataclasses.replace(scene.settings, max_depth=4),
+    )
+
+
 def classic_variant(scene: Scene) -> Scene:
     """The same scene under the ``povray-classic`` specular convention."""
     return dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, specular="povray-classic"))
@@ -524,6 +564,8 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "texture_repeat": texture_repeat,
     "texture_clamp": texture_clamp,
     "texture_specular": texture_specular,
+    "mirror_floor": mirror_floor,
+    "facing_mirrors": facing_mirrors,
 }
 
 
