@@ -29,6 +29,14 @@ Conventions:
   has depth 0, a reflected ray one more than its parent; a ray deeper than
   ``RenderSettings.max_depth`` returns black (the book's Whitted tracer and POV-Ray's
   ``max_trace_level max_depth + 1`` agree). kr = 0 traces no secondary ray.
+* Transparency (Suffern ch. 27, PerfectTransmitter): a material with kt > 0 is the surface of an
+  interior of index ``ior`` (relative to the outside; the unflipped normal points out). A ray
+  crossing it is refracted by Snell's law into direction t with η = ior entering, 1/ior leaving,
+  and adds ``kt/η²·L(p, t)`` (``transmission`` "book") or ``kt·L(p, t)`` ("povray": POV-Ray has
+  no η² factor, ref §18); under total internal reflection it adds instead the mirror ray's
+  ``L(p, r)`` at full weight and no kr term (the book and POV-Ray agree). Shadow rays of point and
+  distant lights go straight through transmissive objects, × kt per surface crossed (POV-Ray's
+  shadows, ref §18).
 
 POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 """
@@ -45,6 +53,10 @@ Vec3 = tuple[float, float, float]
 RGB = tuple[float, float, float]
 
 SpecularConvention = Literal["seed", "povray-classic"]
+# The radiance a refracted ray carries: "book" kt/η² (Suffern ch. 27), "povray" kt (POV-Ray
+# applies no η² factor, ref §18; ``diff`` renders the native image in this convention).
+TransmissionConvention = Literal["book", "povray"]
+TRANSMISSION_CONVENTIONS: tuple[str, ...] = ("book", "povray")
 SamplePattern = Literal["grid", "povray-am1", "povray-am2", "stratified", "adaptive"]
 SAMPLE_PATTERNS: tuple[str, ...] = ("grid", "povray-am1", "povray-am2", "stratified", "adaptive")
 # The patterns POV-Ray has ("stratified" is the native tracer's own).
@@ -165,6 +177,15 @@ class PhongMaterial:
     # added to the Phong terms. kr in [0, 1]; 0 (the default) traces no reflected ray.
     kr: float = 0.0
     reflective_color: RGB = (1.0, 1.0, 1.0)  # cr, linear RGB, >= 0
+    # Transparency (Suffern ch. 27): kt times the radiance along the refracted direction, into an
+    # interior of index ior relative to the outside. kt in [0, 1]; 0 traces no refracted ray.
+    kt: float = 0.0
+    ior: float = 1.0  # > 0
+
+    @property
+    def transmits(self) -> bool:
+        """Whether the material traces a refracted ray (kt > 0)."""
+        return self.kt > 0
 
     @property
     def reflects(self) -> bool:
@@ -179,7 +200,7 @@ class PhongMaterial:
     def without_textures(self) -> PhongMaterial:
         """The same material with its constant colours only (the textures' fallbacks)."""
         return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source,
-                             kr=self.kr, reflective_color=self.reflective_color)
+                             kr=self.kr, reflective_color=self.reflective_color, kt=self.kt, ior=self.ior)
 
 
 DEFAULT_MATERIAL = PhongMaterial()
@@ -475,6 +496,7 @@ class RenderSettings:
     # reflection adds 1, and a ray deeper than this returns black (POV-Ray: max_trace_level
     # max_depth + 1, ref §18). Only scenes with reflective materials trace secondary rays.
     max_depth: int = 5
+    transmission: TransmissionConvention = "book"  # the radiance of refracted rays (above)
 
 
 @dataclass(frozen=True, slots=True)

@@ -532,6 +532,43 @@ def facing_mirrors() -> Scene:
     )
 
 
+# Transparency (Suffern ch. 27; ref §18). No highlight on the glass: the exact mapping cannot
+# express a transmissive material with one (backends/povray/compile.py), and these scenes run
+# under both mappings.
+
+GLASS = PhongMaterial(ka=0.0, kd=0.0, ks=0.0, exponent=1.0, diffuse_color=(1.0, 1.0, 1.0), kr=0.08, kt=0.9, ior=1.5)
+
+
+def box_mesh(lo, hi, material: PhongMaterial) -> TriangleMesh:
+    """A closed box, outward normals (counter-clockwise seen from outside)."""
+    import trimesh  # test-only dependency, imported where needed
+
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    box = trimesh.creation.box(extents=hi - lo)
+    box.apply_translation((lo + hi) / 2)
+    return TriangleMesh(points=np.asarray(box.vertices), triangles=np.asarray(box.faces, dtype=np.int32), material=material)
+
+
+def glass_sphere() -> Scene:
+    """A glass sphere (kt 0.9, ior 1.5, a little kr) in front of the red sphere: the red sphere
+    seen through it upside down, total internal reflection near its rim, its shadow on the
+    ground filtered by kt twice (two crossings)."""
+    scene = point_light()
+    return dataclasses.replace(
+        scene,
+        spheres=(*scene.spheres, Sphere.at((-0.9, 0.75, 1.6), 0.7, GLASS)),
+        settings=dataclasses.replace(scene.settings, max_depth=6),
+    )
+
+
+def glass_slab() -> Scene:
+    """A closed glass box (a mesh: its winding says where its inside is) before the red sphere:
+    the sphere shifted by refraction through the slab, a filtered shadow."""
+    scene = point_light()
+    slab = box_mesh((-1.9, 0.05, 1.2), (1.3, 1.6, 1.65), dataclasses.replace(GLASS, kr=0.0, kt=0.85))
+    return dataclasses.replace(scene, meshes=(*scene.meshes, slab), settings=dataclasses.replace(scene.settings, max_depth=6))
+
+
 def classic_variant(scene: Scene) -> Scene:
     """The same scene under the ``povray-classic`` specular convention."""
     return dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, specular="povray-classic"))
@@ -566,6 +603,8 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "texture_specular": texture_specular,
     "mirror_floor": mirror_floor,
     "facing_mirrors": facing_mirrors,
+    "glass_sphere": glass_sphere,
+    "glass_slab": glass_slab,
 }
 
 

@@ -71,6 +71,16 @@ measured to add the same way): at a hit of depth k (camera rays: 0) on a materia
 k < max_depth, L += kr·cr·L(P, r) with r = d − 2(d·n)n, traced from exactly P with the primary
 ray's tolerances (MIN_ISECT_DEPTH ≤ t < MAX_DISTANCE; a miss gives the background). Deeper rays
 are not traced: they return black (ref §18: ``max_trace_level`` = max_depth + 1).
+
+Transparency (Suffern ch. 27, Transparent::shade; ref §18), at a hit of depth k < max_depth on a
+material with kt > 0: the unflipped normal points out of the interior, so the ray is leaving when
+it meets the normal from behind; η = ior entering, 1/ior leaving; with n facing the ray and
+cos_i = −d·n, Snell gives cos²θt = 1 − (1 − cos_i²)/η². cos²θt < 0 (total internal reflection):
+L += L(P, r) at full weight (no kr term). Otherwise L += kr·cr·L(P, r) + w·L(P, t) with
+t = d/η − (cos θt − cos_i/η)·n and w = kt/η² (settings.transmission "book") or kt ("povray").
+Shadow rays of point and distant lights in a scene with a transmissive material are traced
+segment by segment (each with the shadow window, from the last crossing): an opaque hit blocks
+the light, a transmissive one multiplies it by kt (no refraction).
 """
 
 from __future__ import annotations
@@ -310,6 +320,12 @@ class _Geometry:
     cs: np.ndarray
     kr: np.ndarray  # mirror reflection, per material
     cr: np.ndarray
+    kt: np.ndarray  # transparency, per material
+    ior: np.ndarray
+
+    @property
+    def transmissive(self) -> bool:
+        return bool(np.any(self.kt > 0.0))
 
 
 def _prepare(scene: Scene) -> _Geometry:
@@ -361,6 +377,8 @@ def _prepare(scene: Scene) -> _Geometry:
         cs=np.array([m.specular_color for m in materials], dtype=np.float64).reshape(-1, 3),
         kr=np.array([m.kr for m in materials], dtype=np.float64),
         cr=np.array([m.reflective_color for m in materials], dtype=np.float64).reshape(-1, 3),
+        kt=np.array([m.kt for m in materials], dtype=np.float64),
+        ior=np.array([m.ior for m in materials], dtype=np.float64),
     )
 
 
@@ -433,9 +451,10 @@ def _mesh_hits(mesh: _Mesh, o: np.ndarray, d: np.ndarray, accept) -> tuple[np.nd
     return best_t, best_tri, best_u, best_v
 
 
-def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
-    """Nearest hit with MIN_ISECT_DEPTH <= t < MAX_DISTANCE: (t, material, unflipped normal, cd
-    and cs at the hit: the material's, or its textures' at the hit's uv); t = inf on a miss."""
+def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
+    """Nearest hit with MIN_ISECT_DEPTH <= t < MAX_DISTANCE (or as ``accept(t, rows)`` says):
+    (t, material, unflipped normal, cd and cs at the hit: the material's, or its textures' at the
+    hit's uv); t = inf on a miss."""
     n = len(o)
     best_t = np.full(n, np.inf)
     material = np.full(n, -1, dtype=np.int64)
@@ -443,8 +462,9 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
     colour = np.zeros((n, 3))
     specular = np.zeros((n, 3))
 
-    def accept(t, _rows):
-        return (t >= MIN_ISECT_DEPTH) & (t < MAX_DISTANCE)
+    if accept is None:
+        def accept(t, _rows):
+            return (t >= MIN_ISECT_DEPTH) & (t < MAX_DISTANCE)
 
     for inverse, normal_matrix, mat in zip(geo.sphere_object_from_world, geo.sphere_normal_matrix, geo.sphere_material):
         near, far, hit = _sphere_roots(inverse, o, d)
@@ -586,9 +606,12 @@ def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal,
         lit = np.nonzero(n_dot_l >= EPSILON)[0]  # below the gate: no shadow ray, no contribution
         if len(lit) == 0:
             continue
-        fraction = _visible_fraction(geo, light, p[lit], l[lit], dist[lit])
         nl = n_dot_l[lit]
-        light_colour = lc[lit] * fraction[:, None]
+        if geo.transmissive and isinstance(light, (PointLight, DirectionalLight)):
+            light_colour = lc[lit] * _shadow_filter(geo, p[lit], l[lit], dist[lit])
+        else:
+            fraction = _visible_fraction(geo, light, p[lit], l[lit], dist[lit])
+            light_colour = lc[lit] * fraction[:, None]
         dm, sm = light.diffuse, light.specular  # the light's multipliers of the two terms
         if settings.specular == "seed":
             mirror = -l[lit] + 2.0 * nl[:, None] * n[lit]
@@ -628,17 +651,57 @@ def _trace(geo: _Geometry, scene: Scene, settings: RenderSettings, origins, dire
 
 
 def _reflected(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material, depth: int) -> np.ndarray:
-    """kr·cr·L(P, r) of each hit whose material reflects (zero elsewhere), r the mirror of d."""
+    """The secondary rays' radiance at each hit (zero where none is traced): kr·cr·L(P, r) with r
+    the mirror of d, plus the refracted ray's, or L(P, r) alone under total internal reflection."""
     out = np.zeros((len(p), 3))
-    kr, cr = geo.kr[material], geo.cr[material]
-    rows = np.nonzero((kr > 0.0) & np.any(cr > 0.0, axis=1))[0]
-    if len(rows) == 0:
-        return out
-    dr, nr = d[rows], normal[rows]
-    r = dr - 2.0 * np.einsum("ij,ij->i", dr, nr)[:, None] * nr  # the same for either side of n
-    seen = _trace(geo, scene, settings, p[rows], r, depth + 1)
-    out[rows] = kr[rows, None] * cr[rows] * seen
+    kr, cr, kt, ior = geo.kr[material], geo.cr[material], geo.kt[material], geo.ior[material]
+    along = np.einsum("ij,ij->i", normal, d)
+    leaving = along > 0.0
+    n = np.where(leaving[:, None], -normal, normal)  # facing the ray
+    eta = np.where(leaving, 1.0 / ior, ior)
+    cos_i = np.abs(along)
+    cos_t2 = 1.0 - (1.0 - cos_i**2) / eta**2
+    transmits = kt > 0.0
+    tir = transmits & (cos_t2 < 0.0)
+    weight = np.where(tir[:, None], 1.0, kr[:, None] * cr)
+    mirror_rows = np.nonzero(tir | ((kr > 0.0) & np.any(cr > 0.0, axis=1)))[0]
+    if len(mirror_rows):
+        dr, nr = d[mirror_rows], n[mirror_rows]
+        r = dr - 2.0 * np.einsum("ij,ij->i", dr, nr)[:, None] * nr
+        out[mirror_rows] += weight[mirror_rows] * _trace(geo, scene, settings, p[mirror_rows], r, depth + 1)
+    rows = np.nonzero(transmits & ~tir)[0]
+    if len(rows):
+        e, c = eta[rows, None], cos_i[rows, None]
+        t = d[rows] / e - (np.sqrt(cos_t2[rows, None]) - c / e) * n[rows]
+        w = kt[rows] / eta[rows] ** 2 if settings.transmission == "book" else kt[rows]
+        out[rows] += w[:, None] * _trace(geo, scene, settings, p[rows], t, depth + 1)
     return out
+
+
+def _shadow_filter(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    """The light reaching each P along unit l from distance dist through transmissive objects:
+    segment by segment, each hit in the shadow window (ref §6) from the last crossing; an opaque
+    one blocks, a transmissive one multiplies by kt (ref §18). (N, 3)."""
+    filt = np.ones((len(p), 3))
+    origin, remaining = p.copy(), dist.astype(np.float64).copy()
+    active = np.arange(len(p))
+    while len(active):
+        upper = np.minimum(remaining[active] - SHADOW_TOLERANCE, MAX_DISTANCE)
+
+        def accept(t, rows, upper=upper):
+            hi = upper if rows is None else upper[rows]
+            return (t > SHADOW_TOLERANCE) & (t < hi)
+
+        t, material, _, _, _ = _closest_hit(geo, origin[active], l[active], accept)
+        hit = np.isfinite(t)
+        opaque = hit & ~(geo.kt[material] > 0.0)
+        filt[active[opaque]] = 0.0
+        through = hit & ~opaque
+        filt[active[through]] *= geo.kt[material[through], None]
+        origin[active[through]] += t[through, None] * l[active[through]]
+        remaining[active[through]] -= t[through]
+        active = active[through]
+    return filt
 
 
 def trace_rays(scene: Scene, origins, directions, settings: RenderSettings | None = None) -> np.ndarray:

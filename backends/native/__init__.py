@@ -57,6 +57,8 @@ def _material(m: PhongMaterial) -> _native.Material:
     )
     native.kr = m.kr
     native.reflective_color = m.reflective_color
+    native.kt = m.kt
+    native.ior = m.ior
     return native
 
 
@@ -167,6 +169,7 @@ def _settings(s: RenderSettings) -> _native.RenderSettings:
     )
     native.aa_threshold = float(s.aa_threshold)
     native.max_depth = int(s.max_depth)
+    native.transmission_convention = _native.TransmissionConvention.book if s.transmission == "book" else _native.TransmissionConvention.povray
     return native
 
 

@@ -260,6 +260,10 @@ NB_MODULE(_native, m) {
     nb::enum_<phong::SpecularConvention>(m, "SpecularConvention", "Which Phong specular term (materials.hpp).")
         .value("seed", phong::SpecularConvention::kSeed)
         .value("povray_classic", phong::SpecularConvention::kPovrayClassic);
+    nb::enum_<phong::TransmissionConvention>(m, "TransmissionConvention",
+                                             "The radiance of a refracted ray: kt/eta^2 (book) or kt (povray).")
+        .value("book", phong::TransmissionConvention::kBook)
+        .value("povray", phong::TransmissionConvention::kPovray);
     nb::enum_<phong::Numerics>(m, "Numerics", "Which ray tolerances (math.hpp).")
         .value("scale_invariant", phong::Numerics::kScaleInvariant)
         .value("povray", phong::Numerics::kPovray)
@@ -278,7 +282,9 @@ NB_MODULE(_native, m) {
         .def_rw("diffuse_texture", &Material::diffuse_texture)
         .def_rw("specular_texture", &Material::specular_texture)
         .def_rw("kr", &Material::kr)
-        .def_rw("reflective_color", &Material::reflective_color);
+        .def_rw("reflective_color", &Material::reflective_color)
+        .def_rw("kt", &Material::kt)
+        .def_rw("ior", &Material::ior);
 
     nb::enum_<phong::Wrap>(m, "Wrap", "How a texture continues outside [0, 1] (textures.hpp).")
         .value("repeat", phong::Wrap::kRepeat)
@@ -368,6 +374,7 @@ NB_MODULE(_native, m) {
         .def_rw("sample_pattern", &RenderSettings::sample_pattern)
         .def_rw("aa_threshold", &RenderSettings::aa_threshold)
         .def_rw("max_depth", &RenderSettings::max_depth)
+        .def_rw("transmission_convention", &RenderSettings::transmission_convention)
         .def_rw("threads", &RenderSettings::threads)
         .def_rw("background", &RenderSettings::background)
         .def_rw("specular_convention", &RenderSettings::specular_convention);

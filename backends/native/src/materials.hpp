@@ -30,6 +30,10 @@ struct Material {
     // the mirror direction is added to the Phong terms (render.cpp); kr = 0 traces no ray.
     double kr = 0.0;
     RGB reflective_color{1.0, 1.0, 1.0};  // cr
+    // Transparency (Suffern ch. 27, transmission.hpp): kt times the radiance along the refracted
+    // direction, into an interior of index `ior` (relative to the outside); kt = 0 traces no ray.
+    double kt = 0.0;
+    double ior = 1.0;
 };
 
 enum class SpecularConvention { kSeed, kPovrayClassic };

@@ -136,6 +136,10 @@ constexpr double kPovrayShadowWindow = 1e-3;
 // render with this window shows what a pixel becomes when the cache decides it.
 constexpr double kPovrayShadowCacheWindow = 1e-4;
 
+// A filtered shadow ray (render.cpp: shadow_filter) crosses at most this many transmissive
+// surfaces before it counts as blocked: a guard against a loop, far beyond any real scene.
+constexpr int kMaxShadowCrossings = 1024;
+
 enum class Numerics {
     kScaleInvariant,     // ray_tolerances() below
     kPovray,             // kPovrayPrimaryNear, kPovrayShadowWindow

@@ -14,6 +14,7 @@
 #include <mutex>
 #include <optional>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 namespace phong {
@@ -92,6 +93,33 @@ struct ShadowQuery {
 
 RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std::vector<BundleCandidate>& candidates);
 
+const Material& material_of(const Scene& scene, const Hit& hit) {
+    const int32_t m = hit.ref < 0 ? scene.spheres[size_t(~hit.ref)].material : scene.triangle_shading[size_t(hit.ref)].material;
+    return scene.materials[size_t(m)];
+}
+
+// How much of a light at `distance` along unit l reaches p through transmissive objects, as
+// POV-Ray computes it (ref §18): the shadow ray goes straight (no refraction), an opaque object
+// blocks it, and each crossing of a transmissive surface multiplies it by kt. Each segment
+// counts hits in the shadow window, as an opaque shadow ray does, from the last crossing on.
+RGB shadow_filter(const TraceContext& context, const Vec3& p, const Vec3& l, double distance) {
+    const double window = context.tolerances.shadow_window;
+    RGB filter{1.0, 1.0, 1.0};
+    Vec3 from = p;
+    double remaining = distance;
+    for (int crossings = 0; crossings <= kMaxShadowCrossings; ++crossings) {
+        Hit hit;
+        const Ray ray{from, l};
+        if (!context.scene.closest_hit(ray, window, remaining - window, hit)) return filter;
+        const Material& m = material_of(context.scene, hit);
+        if (!(m.kt > 0.0)) return RGB{};
+        filter = filter * m.kt;
+        from = ray.at(hit.t);
+        remaining -= hit.t;
+    }
+    return RGB{};  // more crossings than any scene needs: treated as blocked
+}
+
 // The colour of `hit` on `ray`, a ray of depth `depth` (the camera's: 0).
 RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::vector<BundleCandidate>& candidates,
               int depth) {
@@ -130,8 +158,10 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
             material = &textured;
         }
     }
-    // Two-sided: the shading normal faces the viewer (as POV-Ray).
-    if (dot(n, ray.dir) > 0.0) n = -n;
+    // Two-sided: the shading normal faces the viewer (as POV-Ray). The unflipped normal points
+    // out of a closed object, so a ray meeting it from behind is leaving the interior.
+    const bool leaving = dot(n, ray.dir) > 0.0;
+    if (leaving) n = -n;
     const Vec3 wo = -ray.dir;
 
     RGB color = ambient_term(*material, scene.ambient);
@@ -150,21 +180,43 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                 // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at
                 // the point (d = 0: the model's answer there is the ambient term only).
                 if (!(n_dot_l >= kMinCosineToLight)) return;
+                terms = &light.terms;
+                using T = std::decay_t<decltype(light)>;
+                if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
+                    if (context.transmissive) {  // filtered by transmissive occluders
+                        centre.color = hadamard(centre.color, shadow_filter(context, p, centre.l, centre.distance));
+                        fraction = 1.0;
+                        return;
+                    }
+                }
                 fraction = visible_fraction(light, context.grids[j], p, centre,
                                             ShadowQuery{scene, p, p_rounded, window, candidates, povray_walk});
-                terms = &light.terms;
             },
             scene.lights[j]);
         if (fraction == 0.0) continue;  // unlit, or wholly in shadow
         color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l, centre.color * fraction,
                              terms->diffuse, terms->specular);
     }
-    // Mirror reflection on top of the Phong terms (ref §18: POV-Ray adds it the same way). A ray
-    // that would be deeper than max_depth returns black, so it is not traced.
-    if (material->kr > 0.0 && depth < settings.max_depth) {
+    // Secondary rays; one that would be deeper than max_depth returns black, so it is not traced.
+    if (depth >= settings.max_depth) return color;
+    // Transparency (transmission.hpp): under total internal reflection the mirror ray at full
+    // weight replaces both the kr and the kt terms.
+    Vec3 refracted;
+    const double eta = leaving ? 1.0 / material->ior : material->ior;
+    const bool refracts = material->kt > 0.0 && refract_direction(ray.dir, n, eta, refracted);
+    if (material->kt > 0.0 && !refracts)
+        return color + trace_secondary(context, Ray{p, mirror_direction(ray.dir, n)}, depth + 1, candidates);
+    // Mirror reflection on top of the Phong terms (ref §18: POV-Ray adds it the same way).
+    if (material->kr > 0.0) {
         const Ray reflected{p, mirror_direction(ray.dir, n)};
         const RGB seen = trace_secondary(context, reflected, depth + 1, candidates);
         color += hadamard(material->reflective_color, seen) * material->kr;
+    }
+    if (refracts) {
+        const double weight = settings.transmission_convention == TransmissionConvention::kBook
+                                  ? material->kt / (eta * eta)
+                                  : material->kt;
+        color += trace_secondary(context, Ray{p, refracted}, depth + 1, candidates) * weight;
     }
     return color;
 }
@@ -181,6 +233,7 @@ RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std:
 TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_, const RayTolerances& tolerances_)
     : scene(scene_), settings(settings_), tolerances(tolerances_) {
     for (const Light& light : scene.lights) grids.push_back(area_light_grid(light));
+    for (const Material& m : scene.materials) transmissive = transmissive || m.kt > 0.0;
 }
 
 RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch,

@@ -9,6 +9,7 @@
 #include "camera.hpp"
 #include "materials.hpp"
 #include "scene.hpp"
+#include "transmission.hpp"
 
 namespace phong {
 
@@ -36,6 +37,7 @@ struct RenderSettings {
     // The deepest secondary ray (the book's max_depth): the camera ray has depth 0; a ray deeper
     // than this returns black (POV-Ray's max_trace_level max_depth + 1).
     int max_depth = 5;
+    TransmissionConvention transmission_convention = TransmissionConvention::kBook;
 };
 
 // The deepest max_depth a render accepts (phongscene/limits.py MAX_DEPTH: POV-Ray's limit); the
@@ -59,6 +61,9 @@ struct TraceContext {
     const RenderSettings& settings;
     RayTolerances tolerances;
     std::vector<AreaLightGrid> grids;  // by light
+    // Some material transmits (kt > 0): shadow rays of point and distant lights are then filtered
+    // by the transmissive objects they cross (render.cpp: shadow_filter).
+    bool transmissive = false;
 
     TraceContext(const Scene& scene, const RenderSettings& settings, const RayTolerances& tolerances);
 };
