@@ -181,6 +181,11 @@ class PhongMaterial:
     # interior of index ior relative to the outside. kt in [0, 1]; 0 traces no refracted ray.
     kt: float = 0.0
     ior: float = 1.0  # > 0
+    # The dielectric (Suffern ch. 28; POV-Ray ``reflection { 0, cr fresnel on } conserve_energy``):
+    # the mirror weight kr·cr becomes F·kr·cr and kt becomes (1 − F)·kt, F the unpolarised Fresnel
+    # reflectance of the crossing (((ior − 1)/(ior + 1))² at normal incidence). kr = kt = 1 is the
+    # book's Dielectric; an opaque fresnel material reflects as the surface of an ior interior.
+    fresnel: bool = False
 
     @property
     def transmits(self) -> bool:
@@ -200,7 +205,8 @@ class PhongMaterial:
     def without_textures(self) -> PhongMaterial:
         """The same material with its constant colours only (the textures' fallbacks)."""
         return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source,
-                             kr=self.kr, reflective_color=self.reflective_color, kt=self.kt, ior=self.ior)
+                             kr=self.kr, reflective_color=self.reflective_color, kt=self.kt, ior=self.ior,
+                             fresnel=self.fresnel)
 
 
 DEFAULT_MATERIAL = PhongMaterial()

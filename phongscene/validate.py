@@ -273,6 +273,8 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
     c.unit_interval(m, "kt")
     if c.finite(m, "ior", m.ior) and not m.ior > 0:
         c.add(m, "ior", f"must be > 0, got {_show(m.ior)}")
+    if not isinstance(m.fresnel, (bool, np.bool_)):
+        c.add(m, "fresnel", f"must be True or False, got {_show(m.fresnel)}")
     for t in m.textures:
         _check_texture(c, t)
 

@@ -569,6 +569,17 @@ def glass_slab() -> Scene:
     return dataclasses.replace(scene, meshes=(*scene.meshes, slab), settings=dataclasses.replace(scene.settings, max_depth=6))
 
 
+def dielectric_sphere() -> Scene:
+    """The book's dielectric (ch. 28; kr = kt = 1, fresnel): a glass sphere that reflects F and
+    transmits 1 − F at every crossing, and a fresnel (opaque, ior 1.5) red sphere beside it."""
+    scene = glass_sphere()
+    dielectric = dataclasses.replace(GLASS, kr=1.0, kt=1.0, fresnel=True)
+    coated = dataclasses.replace(RED, kr=1.0, fresnel=True, ior=1.5)
+    return dataclasses.replace(
+        scene, spheres=(dataclasses.replace(scene.spheres[0], material=coated), dataclasses.replace(scene.spheres[1], material=dielectric))
+    )
+
+
 def classic_variant(scene: Scene) -> Scene:
     """The same scene under the ``povray-classic`` specular convention."""
     return dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, specular="povray-classic"))
@@ -605,6 +616,7 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "facing_mirrors": facing_mirrors,
     "glass_sphere": glass_sphere,
     "glass_slab": glass_slab,
+    "dielectric_sphere": dielectric_sphere,
 }
 
 

@@ -78,6 +78,9 @@ it meets the normal from behind; η = ior entering, 1/ior leaving; with n facing
 cos_i = −d·n, Snell gives cos²θt = 1 − (1 − cos_i²)/η². cos²θt < 0 (total internal reflection):
 L += L(P, r) at full weight (no kr term). Otherwise L += kr·cr·L(P, r) + w·L(P, t) with
 t = d/η − (cos θt − cos_i/η)·n and w = kt/η² (settings.transmission "book") or kt ("povray").
+A ``fresnel`` material (the dielectric, Suffern ch. 28) replaces kr by F·kr and kt by (1 − F)·kt
+with F = ½(r_s² + r_p²), r_s = (cos_i − η cos θt)/(cos_i + η cos θt), r_p = (η cos_i − cos θt)/(η
+cos_i + cos θt) (cos θt = 0 where Snell has no solution, so F = 1 there).
 Shadow rays of point and distant lights in a scene with a transmissive material are traced
 segment by segment (each with the shadow window, from the last crossing): an opaque hit blocks
 the light, a transmissive one multiplies it by kt (no refraction).
@@ -322,6 +325,7 @@ class _Geometry:
     cr: np.ndarray
     kt: np.ndarray  # transparency, per material
     ior: np.ndarray
+    fresnel: np.ndarray  # bool
 
     @property
     def transmissive(self) -> bool:
@@ -379,6 +383,7 @@ def _prepare(scene: Scene) -> _Geometry:
         cr=np.array([m.reflective_color for m in materials], dtype=np.float64).reshape(-1, 3),
         kt=np.array([m.kt for m in materials], dtype=np.float64),
         ior=np.array([m.ior for m in materials], dtype=np.float64),
+        fresnel=np.array([bool(m.fresnel) for m in materials], dtype=bool),
     )
 
 
@@ -663,7 +668,12 @@ def _reflected(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, nor
     cos_t2 = 1.0 - (1.0 - cos_i**2) / eta**2
     transmits = kt > 0.0
     tir = transmits & (cos_t2 < 0.0)
-    weight = np.where(tir[:, None], 1.0, kr[:, None] * cr)
+    cos_t = np.sqrt(np.maximum(cos_t2, 0.0))
+    rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+    rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    reflectance = np.where(geo.fresnel[material], 0.5 * (rs**2 + rp**2), 1.0)
+    kt = np.where(geo.fresnel[material], kt * (1.0 - reflectance), kt)
+    weight = np.where(tir[:, None], 1.0, (kr * reflectance)[:, None] * cr)
     mirror_rows = np.nonzero(tir | ((kr > 0.0) & np.any(cr > 0.0, axis=1)))[0]
     if len(mirror_rows):
         dr, nr = d[mirror_rows], n[mirror_rows]

@@ -204,3 +204,32 @@ def test_transmissive_sdl_compensates_povrays_att_and_declares_the_interior():
             scene.spheres[-1], material=dataclasses.replace(glass, kt=1.0)))), mapping="classic")
     mesh_sdl = compile_pov(calibration.glass_slab(), mapping="classic")
     assert "inside_vector" in mesh_sdl and "interior { ior 1.5 }" in mesh_sdl
+
+
+# ---------------------------------------------------------------------------------------------
+# The dielectric (Suffern ch. 28): Fresnel
+
+
+@pytest.mark.parametrize("render", _renderers())
+@pytest.mark.parametrize("ior", [1.33, 1.5, 2.0])
+def test_fresnel_at_normal_incidence_reflects_the_closed_form(render, ior):
+    """An opaque fresnel mirror (kr = 1, ior n) seen head-on reflects ((n − 1)/(n + 1))² of the
+    background; a dielectric slab (kr = kt = 1) transmits (1 − F)² of a self-lit backdrop, plus
+    the echoes between its faces, F² each, as deep as max_depth lets them (the backdrop is met at
+    depth 2, 4, 6)."""
+    f = ((ior - 1) / (ior + 1)) ** 2
+    camera = Camera(position=(0.0, 0.0, 5.0), forward=(0.0, 0.0, -1.0), projection="orthographic", ortho_width=1.0)
+    mirror = PhongMaterial(ka=0.0, kd=0.0, ks=0.0, exponent=1.0, diffuse_color=(0.0, 0.0, 0.0), kr=1.0, ior=ior, fresnel=True)
+    settings = RenderSettings(width=2, height=2, background=BACKGROUND, max_depth=6)
+    image = render(Scene(camera=camera, meshes=(_rect_z(-9, 9, -9, 9, 0.0, mirror),), settings=settings))
+    expected = f * np.asarray(BACKGROUND)
+    assert np.all(np.abs(image - expected) <= FLOAT32_TWO_ULPS * expected)
+    dielectric = dataclasses.replace(GLASS_ONLY, kr=1.0, kt=1.0, ior=ior, fresnel=True)
+    slab = calibration.box_mesh((-50.0, -50.0, -2.0), (50.0, 50.0, 0.0), dielectric)
+    backdrop = (0.8, 0.6, 0.4)
+    scene = Scene(camera=camera, ambient=AmbientLight((1.0, 1.0, 1.0)),
+                  meshes=(slab, _rect_z(-60, 60, -60, 60, -5.0, _self_lit(backdrop))),
+                  settings=dataclasses.replace(settings, background=(0.0, 0.0, 0.0)))
+    expected = np.asarray(backdrop) * (1 - f) ** 2 * sum(f ** (2 * j) for j in range(3))
+    image = render(scene)
+    assert np.all(np.abs(image - expected) <= FLOAT32_TWO_ULPS * expected)

@@ -59,6 +59,7 @@ def _material(m: PhongMaterial) -> _native.Material:
     native.reflective_color = m.reflective_color
     native.kt = m.kt
     native.ior = m.ior
+    native.fresnel = bool(m.fresnel)
     return native
 
 

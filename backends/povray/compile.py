@@ -334,7 +334,7 @@ class _Compiler:
 
     def interior(self, m: PhongMaterial) -> str:
         """The object's ``interior { ior }`` of a transmissive material ("" otherwise)."""
-        if not m.transmits:
+        if not (m.transmits or (m.fresnel and m.reflects)):
             return ""
         return f" interior {{ ior {self.coef(m.ior, m, 'ior')} }}"
 
@@ -346,7 +346,15 @@ class _Compiler:
         if not m.reflects:
             return ""
         colour = np.asarray(m.reflective_color, dtype=np.float64) * (m.kr * scale)
-        return f" reflection rgb {self.rgb(colour, m, 'reflective_color')}"
+        if not m.fresnel:
+            return f" reflection rgb {self.rgb(colour, m, 'reflective_color')}"
+        # The dielectric (ref §18): POV-Ray reflects min + (max − min)·F and, with
+        # conserve_energy, transmits (1 − F) of kt: the model's split when the mirror weight is 1.
+        if m.transmits and (m.kr != 1.0 or tuple(m.reflective_color) != (1.0, 1.0, 1.0)):
+            raise self._error(m, "kr", "a transmissive fresnel material needs kr = 1 and a white cr in POV-Ray "
+                              "(its conserve_energy takes 1 − F of the transmitted light only then)")
+        conserve = " conserve_energy" if m.transmits else ""
+        return f" reflection {{ 0, rgb {self.rgb(colour, m, 'reflective_color')} fresnel on }}{conserve}"
 
     # -- numbers, with the prim named when one is not finite ---------------------------------
 

@@ -284,7 +284,8 @@ NB_MODULE(_native, m) {
         .def_rw("kr", &Material::kr)
         .def_rw("reflective_color", &Material::reflective_color)
         .def_rw("kt", &Material::kt)
-        .def_rw("ior", &Material::ior);
+        .def_rw("ior", &Material::ior)
+        .def_rw("fresnel", &Material::fresnel);
 
     nb::enum_<phong::Wrap>(m, "Wrap", "How a texture continues outside [0, 1] (textures.hpp).")
         .value("repeat", phong::Wrap::kRepeat)

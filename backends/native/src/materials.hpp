@@ -34,6 +34,9 @@ struct Material {
     // direction, into an interior of index `ior` (relative to the outside); kt = 0 traces no ray.
     double kt = 0.0;
     double ior = 1.0;
+    // The dielectric (Suffern ch. 28): the mirror weight kr·cr becomes F·kr·cr and kt becomes
+    // (1 − F)·kt, F the Fresnel reflectance of the crossing (transmission.hpp).
+    bool fresnel = false;
 };
 
 enum class SpecularConvention { kSeed, kPovrayClassic };

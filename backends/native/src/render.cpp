@@ -202,20 +202,28 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     // Transparency (transmission.hpp): under total internal reflection the mirror ray at full
     // weight replaces both the kr and the kt terms.
     Vec3 refracted;
+    double cos_t = 1.0;
     const double eta = leaving ? 1.0 / material->ior : material->ior;
-    const bool refracts = material->kt > 0.0 && refract_direction(ray.dir, n, eta, refracted);
+    const bool refracts = material->kt > 0.0 && refract_direction(ray.dir, n, eta, refracted, cos_t);
     if (material->kt > 0.0 && !refracts)
         return color + trace_secondary(context, Ray{p, mirror_direction(ray.dir, n)}, depth + 1, candidates);
+    // The dielectric's Fresnel split. An opaque fresnel material reflects as the surface of an ior
+    // interior (as POV-Ray); where Snell has no solution cos θt = 0, so F = 1.
+    double reflectance = 1.0;
+    if (material->fresnel) {
+        const double cos_i = dot(n, wo);
+        if (!refracts) cos_t = std::sqrt(std::fmax(0.0, 1.0 - (1.0 - cos_i * cos_i) / (eta * eta)));
+        reflectance = fresnel_reflectance(cos_i, cos_t, eta);
+    }
     // Mirror reflection on top of the Phong terms (ref §18: POV-Ray adds it the same way).
     if (material->kr > 0.0) {
         const Ray reflected{p, mirror_direction(ray.dir, n)};
         const RGB seen = trace_secondary(context, reflected, depth + 1, candidates);
-        color += hadamard(material->reflective_color, seen) * material->kr;
+        color += hadamard(material->reflective_color, seen) * (material->kr * reflectance);
     }
     if (refracts) {
-        const double weight = settings.transmission_convention == TransmissionConvention::kBook
-                                  ? material->kt / (eta * eta)
-                                  : material->kt;
+        const double kt = material->fresnel ? material->kt * (1.0 - reflectance) : material->kt;
+        const double weight = settings.transmission_convention == TransmissionConvention::kBook ? kt / (eta * eta) : kt;
         color += trace_secondary(context, Ray{p, refracted}, depth + 1, candidates) * weight;
     }
     return color;

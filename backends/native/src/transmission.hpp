@@ -21,12 +21,23 @@ enum class TransmissionConvention { kBook, kPovray };
 // The refracted unit direction of a ray of unit direction d through a surface whose unit normal n
 // faces the ray's side (n·d < 0), from a medium into one whose index is η times larger. Returns
 // false under total internal reflection (sin θt > 1).
-inline bool refract_direction(const Vec3& d, const Vec3& n, double eta, Vec3& t) {
+// `cos_t` receives cos θt.
+inline bool refract_direction(const Vec3& d, const Vec3& n, double eta, Vec3& t, double& cos_t) {
     const double cos_i = -dot(d, n);
     const double cos_t_squared = 1.0 - (1.0 - cos_i * cos_i) / (eta * eta);
     if (cos_t_squared < 0.0) return false;
-    t = d / eta - n * (std::sqrt(cos_t_squared) - cos_i / eta);
+    cos_t = std::sqrt(cos_t_squared);
+    t = d / eta - n * (cos_t - cos_i / eta);
     return true;
+}
+
+// The unpolarised Fresnel reflectance of a dielectric boundary (the mean of the s and p
+// reflectances; Suffern ch. 28, POV-Ray's `fresnel on`, ref §18) for a ray meeting it at cos_i
+// (> 0) into a medium η times denser, refracted at cos_t. 1 under total internal reflection.
+inline double fresnel_reflectance(double cos_i, double cos_t, double eta) {
+    const double rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    const double rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    return 0.5 * (rs * rs + rp * rp);
 }
 
 }  // namespace phong
