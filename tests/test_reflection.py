@@ -300,3 +300,37 @@ def test_only_reflective_scenes_get_secondary_ray_settings_in_the_sdl():
     # the floor (no highlight) has one plain texture; the chrome sphere's average texture carries
     # the mirror term on its doubled diffuse half
     assert "reflection rgb <0.54, 0.48, 0.6>" in exact and "reflection rgb <1.6, 1.44, 1.12>" in exact
+
+
+# ---------------------------------------------------------------------------------------------
+# From USD
+
+
+def test_phong_shader_inputs_round_trip_and_are_written_only_when_used(tmp_path):
+    from phongscene.usd import load_usd, write_usd
+
+    scene = calibration.dielectric_sphere()
+    back = load_usd(write_usd(scene, tmp_path / "dielectric.usda"))
+    for a, b in zip((*scene.spheres, *scene.meshes), (*back.spheres, *back.meshes)):
+        assert (b.material.kr, b.material.kt, b.material.ior, b.material.fresnel) == pytest.approx(
+            (a.material.kr, a.material.kt, a.material.ior, a.material.fresnel))
+        assert b.material.reflective_color == pytest.approx(a.material.reflective_color)
+    text = (tmp_path / "dielectric.usda").read_text()
+    assert "bool inputs:fresnel = 1" in text and "float inputs:kt = 1" in text
+    plain = tmp_path / "plain.usda"
+    write_usd(calibration.point_light(), plain)
+    assert not any(f"inputs:{name}" in plain.read_text() for name in ("kr", "reflectiveColor", "kt", "ior", "fresnel"))
+
+
+def test_a_smooth_metal_preview_surface_is_a_mirror_tinted_by_its_f0():
+    from phongscene.usd import preview_to_phong
+    from phongscene.usd.materials import PREVIEW_MIRROR_MAX_ROUGHNESS
+
+    gold = preview_to_phong((1.0, 0.77, 0.34), 0.1, metallic=1.0)
+    assert gold.kr == 1.0 and gold.reflective_color == (1.0, 0.77, 0.34)
+    half = preview_to_phong((0.8, 0.8, 0.8), 0.0, metallic=0.5)
+    assert half.reflective_color == pytest.approx((0.4, 0.4, 0.4))
+    # rough metals, dielectrics and the specular workflow keep no mirror term
+    assert preview_to_phong((1.0, 0.77, 0.34), PREVIEW_MIRROR_MAX_ROUGHNESS + 0.01, metallic=1.0).kr == 0.0
+    assert preview_to_phong((0.8, 0.1, 0.1), 0.0).kr == 0.0
+    assert preview_to_phong((0.8, 0.1, 0.1), 0.0, specular_color=(1, 1, 1), use_specular_workflow=1).kr == 0.0
