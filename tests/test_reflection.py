@@ -334,3 +334,16 @@ def test_a_smooth_metal_preview_surface_is_a_mirror_tinted_by_its_f0():
     assert preview_to_phong((1.0, 0.77, 0.34), PREVIEW_MIRROR_MAX_ROUGHNESS + 0.01, metallic=1.0).kr == 0.0
     assert preview_to_phong((0.8, 0.1, 0.1), 0.0).kr == 0.0
     assert preview_to_phong((0.8, 0.1, 0.1), 0.0, specular_color=(1, 1, 1), use_specular_workflow=1).kr == 0.0
+
+
+def test_info_says_which_materials_reflect_or_refract(tmp_path, capsys):
+    from phongscene.cli import main
+    from phongscene.usd import write_usd
+
+    path = write_usd(calibration.dielectric_sphere(), tmp_path / "dielectric.usda")
+    assert main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "reflect or refract" in out and "refracts kt 1 ior 1.5, fresnel" in out and "reflects kr 1" in out
+    plain = write_usd(calibration.point_light(), tmp_path / "plain.usda")
+    assert main(["info", str(plain)]) == 0
+    assert "reflect or refract" not in capsys.readouterr().out
