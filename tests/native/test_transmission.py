@@ -11,9 +11,9 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import calibration
+from support import calibration
 import numpy as np
-import oracle
+from support import oracle
 import pytest
 
 from phongscene.backends import native

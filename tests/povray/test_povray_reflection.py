@@ -13,7 +13,7 @@ import pytest
 
 from phongscene.backends.povray.run import PovJob, _run
 
-pytestmark = pytest.mark.povray
+pytestmark = [pytest.mark.povray, pytest.mark.slow]  # one POV-Ray process of 42 frames: ~10 s on 2 cores
 
 # POV-Ray writes half floats: a value is its prediction rounded to 11 significant bits, so within
 # 2^-11 relative (one half-float rounding plus float32 arithmetic, far below it).

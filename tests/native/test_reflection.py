@@ -13,9 +13,9 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import calibration
+from support import calibration
 import numpy as np
-import oracle
+from support import oracle
 import pytest
 
 from phongscene.backends import native
@@ -306,6 +306,7 @@ def test_only_reflective_scenes_get_secondary_ray_settings_in_the_sdl():
 # From USD
 
 
+@pytest.mark.slow  # writes and reads two stages: ~1.3 s on 2 cores
 def test_phong_shader_inputs_round_trip_and_are_written_only_when_used(tmp_path):
     from phongscene.usd import load_usd, write_usd
 
