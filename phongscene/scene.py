@@ -36,7 +36,9 @@ Conventions:
   no η² factor, ref §18); under total internal reflection it adds instead the mirror ray's
   ``L(p, r)`` at full weight and no kr term (the book and POV-Ray agree). Shadow rays of point and
   distant lights go straight through transmissive objects, × kt per surface crossed (POV-Ray's
-  shadows, ref §18).
+  shadows, ref §18). Inside an interior every ray (also a shadow ray) keeps interior_filter^d of
+  its radiance over a distance d (Beer-Lambert); interiors are not nested: a refracted ray
+  enters or leaves the one of the surface it crosses.
 
 POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 """
@@ -186,6 +188,9 @@ class PhongMaterial:
     # reflectance of the crossing (((ior − 1)/(ior + 1))² at normal incidence). kr = kt = 1 is the
     # book's Dielectric; an opaque fresnel material reflects as the surface of an ior interior.
     fresnel: bool = False
+    # Beer-Lambert (Suffern ch. 28's cf_in; POV-Ray's exponential interior fade): the fraction of
+    # each channel a ray keeps per unit distance inside the interior, (0, 1] (white: none absorbed).
+    interior_filter: RGB = (1.0, 1.0, 1.0)
 
     @property
     def transmits(self) -> bool:
@@ -206,7 +211,7 @@ class PhongMaterial:
         """The same material with its constant colours only (the textures' fallbacks)."""
         return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source,
                              kr=self.kr, reflective_color=self.reflective_color, kt=self.kt, ior=self.ior,
-                             fresnel=self.fresnel)
+                             fresnel=self.fresnel, interior_filter=self.interior_filter)
 
 
 DEFAULT_MATERIAL = PhongMaterial()

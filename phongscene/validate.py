@@ -273,6 +273,9 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
     c.unit_interval(m, "kt")
     if c.finite(m, "ior", m.ior) and not m.ior > 0:
         c.add(m, "ior", f"must be > 0, got {_show(m.ior)}")
+    c.colour(m, "interior_filter")
+    if all(np.isfinite(m.interior_filter)) and not all(0 < f <= 1 for f in m.interior_filter):
+        c.add(m, "interior_filter", f"must be in (0, 1] per channel, got {_show(m.interior_filter)}")
     if not isinstance(m.fresnel, (bool, np.bool_)):
         c.add(m, "fresnel", f"must be True or False, got {_show(m.fresnel)}")
     for t in m.textures:

@@ -60,6 +60,7 @@ def _material(m: PhongMaterial) -> _native.Material:
     native.kt = m.kt
     native.ior = m.ior
     native.fresnel = bool(m.fresnel)
+    native.interior_filter = m.interior_filter
     return native
 
 

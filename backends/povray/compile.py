@@ -336,7 +336,13 @@ class _Compiler:
         """The object's ``interior { ior }`` of a transmissive material ("" otherwise)."""
         if not (m.transmits or (m.fresnel and m.reflects)):
             return ""
-        return f" interior {{ ior {self.coef(m.ior, m, 'ior')} }}"
+        fade = ""
+        if m.transmits and tuple(m.interior_filter) != (1.0, 1.0, 1.0):
+            # Beer-Lambert cf^d is POV-Ray's exponential fade (fade_power >= 1000, ref §18)
+            # exp(−(d/fd)(1 − C)) with fd = 1 and C = 1 + ln cf (POV-Ray takes C < 0 as it is).
+            colour = 1.0 + np.log(np.asarray(m.interior_filter, dtype=np.float64))
+            fade = f" fade_distance 1 fade_power 1001 fade_color {self.rgb(colour, m, 'interior_filter')}"
+        return f" interior {{ ior {self.coef(m.ior, m, 'ior')}{fade} }}"
 
     def reflection(self, m: PhongMaterial, scale: float = 1.0) -> str:
         """The finish item of the mirror term kr·cr (ref §18: POV-Ray adds ``reflection`` to the

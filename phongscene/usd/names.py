@@ -33,6 +33,7 @@ PHONG_INPUTS: dict[str, tuple[str, str]] = {
     "kt": ("kt", "float"),
     "ior": ("ior", "float"),
     "fresnel": ("fresnel", "bool"),
+    "interiorFilter": ("interior_filter", "color3f"),
 }
 # The inputs every authored Phong shader carries (the seed's); the others only when not default.
 PHONG_SEED_INPUTS = ("ka", "kd", "ks", "exponent", "diffuseColor", "specularColor")

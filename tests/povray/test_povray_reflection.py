@@ -13,7 +13,7 @@ import pytest
 
 from phongscene.backends.povray.run import PovJob, _run
 
-pytestmark = [pytest.mark.povray, pytest.mark.slow]  # one POV-Ray process of 42 frames: ~10 s on 2 cores
+pytestmark = [pytest.mark.povray, pytest.mark.slow]  # one POV-Ray process of 45 frames: ~10 s on 2 cores
 
 # POV-Ray writes half floats: a value is its prediction rounded to 11 significant bits, so within
 # 2^-11 relative (one half-float rounding plus float32 arithmetic, far below it).
@@ -77,6 +77,17 @@ def _tir(pigment: str, ior: float, finish: str = "", ambient: str = "0", max_tra
         "plane { y, -5 pigment { rgb <0.8, 0.6, 0.4> } finish { ambient 1 diffuse 0 } }\n"
         f"box {{ <-1000, -10, -1000>, <1000, 10, 1000> pigment {{ {pigment} }}"
         f" finish {{ ambient {ambient} diffuse 0 {finish} }} interior {{ ior {ior} }} }}"
+    )
+
+
+def _inside_up(finish: str) -> str:
+    """A camera inside a faded glass box looking straight up at its top face, 10 units away."""
+    return (
+        f"{_settings('adc_bailout 0 max_trace_level 10')}\nbackground {{ color rgb 0 }}\n"
+        "camera { orthographic location <0, 0, 0> direction <0, 1, 0> right <0, 0, 0.01> up <0.01, 0, 0> }\n"
+        "plane { y, -5 pigment { rgb <0.8, 0.6, 0.4> } finish { ambient 1 diffuse 0 } }\n"
+        f"box {{ <-1000, -10, -1000>, <1000, 10, 1000> pigment {{ rgbf <1, 1, 1, 1> }} finish {{ ambient 0 diffuse 0 {finish} }}"
+        " interior { ior 1.5 fade_distance 100 fade_power 1001 fade_color <0.5, 0.5, 0.5> } }"
     )
 
 
@@ -159,6 +170,12 @@ CASES = [
     # Beer-Lambert fade over the slab's 2 units
     *[(f"fade_power {p}", _glass(SLAB, "rgbf <1, 1, 1, 1>", f"ior 1 fade_distance 1 fade_power {p} fade_color <0.5, 0.25, 1>"),
        K * _fade((0.5, 0.25, 1.0), 2.0, 1.0, p)) for p in (1, 2, 1001)],
+    ("negative fade_color: Beer-Lambert 0.2^2", _glass(SLAB, "rgbf <1, 1, 1, 1>", f"ior 1.5 fade_distance 1 fade_power 1001 fade_color "
+                                                     f"<{1 + math.log(0.2)}, {1 + math.log(0.5)}, 1>"), K * np.array([0.04, 0.25, 1.0])),
+    ("only the transmitted branch is faded: TIR", _tir("rgbf <1, 1, 1, 1>", 1.5).replace(
+        "interior { ior 1.5 }", "interior { ior 1.5 fade_distance 100 fade_power 1001 fade_color <0.5, 0.5, 0.5> }"),
+     K * math.exp(-0.2 * 0.5)),
+    ("reflection inside is not faded", _inside_up("reflection 0.5"), 0.5 * K),
     # total internal reflection: full weight, unfiltered, no reflection term; att·local still added
     ("TIR at full weight", _tir("rgbf <1, 1, 1, 1>", 1.5), K),
     ("TIR is not filtered", _tir("rgbf <0.5, 0.5, 0.5, 1>", 1.5), K),

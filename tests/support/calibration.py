@@ -580,6 +580,17 @@ def dielectric_sphere() -> Scene:
     )
 
 
+def tinted_glass() -> Scene:
+    """Beer-Lambert (ch. 28's cf_in): the glass sphere and slab absorb towards blue-green inside,
+    more where their rays travel farther (the sphere's centre, the slab's ends), and so do the
+    shadows through them."""
+    scene = glass_slab()
+    tint = (0.45, 0.8, 0.9)
+    slab = dataclasses.replace(scene.meshes[1], material=dataclasses.replace(scene.meshes[1].material, interior_filter=tint))
+    sphere = Sphere.at((1.2, 0.55, 2.4), 0.5, dataclasses.replace(GLASS, interior_filter=(0.9, 0.5, 0.3), fresnel=True, kr=1.0, kt=1.0))
+    return dataclasses.replace(scene, meshes=(scene.meshes[0], slab), spheres=(*scene.spheres, sphere))
+
+
 def classic_variant(scene: Scene) -> Scene:
     """The same scene under the ``povray-classic`` specular convention."""
     return dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, specular="povray-classic"))
@@ -617,6 +628,7 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "glass_sphere": glass_sphere,
     "glass_slab": glass_slab,
     "dielectric_sphere": dielectric_sphere,
+    "tinted_glass": tinted_glass,
 }
 
 

@@ -285,7 +285,8 @@ NB_MODULE(_native, m) {
         .def_rw("reflective_color", &Material::reflective_color)
         .def_rw("kt", &Material::kt)
         .def_rw("ior", &Material::ior)
-        .def_rw("fresnel", &Material::fresnel);
+        .def_rw("fresnel", &Material::fresnel)
+        .def_rw("interior_filter", &Material::interior_filter);
 
     nb::enum_<phong::Wrap>(m, "Wrap", "How a texture continues outside [0, 1] (textures.hpp).")
         .value("repeat", phong::Wrap::kRepeat)

@@ -37,7 +37,20 @@ struct Material {
     // The dielectric (Suffern ch. 28): the mirror weight kr·cr becomes F·kr·cr and kt becomes
     // (1 − F)·kt, F the Fresnel reflectance of the crossing (transmission.hpp).
     bool fresnel = false;
+    // Beer-Lambert (Suffern ch. 28's cf_in): the fraction of each channel a ray keeps per unit
+    // distance inside the interior, (0, 1]; white filters nothing.
+    RGB interior_filter{1.0, 1.0, 1.0};
+
+    bool filters() const { return interior_filter.x != 1.0 || interior_filter.y != 1.0 || interior_filter.z != 1.0; }
 };
+
+// What a ray keeps of its radiance over `distance` inside `medium` (nullptr: outside every
+// interior): interior_filter^distance per channel.
+inline RGB medium_transmittance(const Material* medium, double distance) {
+    if (medium == nullptr || !medium->filters()) return RGB{1.0, 1.0, 1.0};
+    const RGB& f = medium->interior_filter;
+    return {std::pow(f.x, distance), std::pow(f.y, distance), std::pow(f.z, distance)};
+}
 
 enum class SpecularConvention { kSeed, kPovrayClassic };
 
