@@ -172,6 +172,8 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "aa_threshold": AA_THRESHOLD,
         "specular": SPECULAR_CONVENTION,
         "background": BACKGROUND,
+        "max_depth": MAX_DEPTH,
+        "transmission": TRANSMISSION_CONVENTION,
     },
 }
 

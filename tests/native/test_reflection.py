@@ -348,3 +348,14 @@ def test_info_says_which_materials_reflect_or_refract(tmp_path, capsys):
     plain = write_usd(calibration.point_light(), tmp_path / "plain.usda")
     assert main(["info", str(plain)]) == 0
     assert "reflect or refract" not in capsys.readouterr().out
+
+
+def test_render_settings_max_depth_and_transmission_round_trip(tmp_path):
+    from phongscene.usd import load_usd, write_usd
+
+    scene = calibration.mirror_floor()  # max_depth 3
+    scene = dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, transmission="povray"))
+    back = load_usd(write_usd(scene, tmp_path / "mirror.usda"))
+    assert (back.settings.max_depth, back.settings.transmission) == (3, "povray")
+    text = (tmp_path / "mirror.usda").read_text()
+    assert "int phong:maxDepth = 3" in text and 'phong:transmissionConvention = "povray"' in text
