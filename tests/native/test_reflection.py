@@ -359,3 +359,20 @@ def test_render_settings_max_depth_and_transmission_round_trip(tmp_path):
     assert (back.settings.max_depth, back.settings.transmission) == (3, "povray")
     text = (tmp_path / "mirror.usda").read_text()
     assert "int phong:maxDepth = 3" in text and 'phong:transmissionConvention = "povray"' in text
+
+
+def test_a_dome_light_is_what_mirrors_see_at_infinity(tmp_path):
+    """A scene with a reflective material and a DomeLight (its ambient light) but a black
+    background: the reader makes the dome's radiance the background (what a mirror, and a camera
+    ray that misses, sees there, as USD renderers show it). Scenes without secondary rays keep
+    theirs."""
+    from phongscene.usd import load_usd, write_usd
+
+    black = dict(background=(0.0, 0.0, 0.0))
+    mirror = calibration.mirror_floor()
+    mirror = dataclasses.replace(mirror, settings=dataclasses.replace(mirror.settings, **black))
+    back = load_usd(write_usd(mirror, tmp_path / "mirror.usda"))
+    assert back.settings.background == pytest.approx(mirror.ambient.color)
+    plain = calibration.point_light()
+    plain = dataclasses.replace(plain, settings=dataclasses.replace(plain.settings, **black))
+    assert load_usd(write_usd(plain, tmp_path / "plain.usda")).settings.background == (0.0, 0.0, 0.0)
