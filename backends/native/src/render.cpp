@@ -205,7 +205,8 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                              terms->diffuse, terms->specular);
     }
     // Secondary rays; one that would be deeper than max_depth returns black, so it is not traced.
-    if (depth >= settings.max_depth) return color;
+    // (A seed material, kr = kt = 0, stops here.)
+    if (depth >= settings.max_depth || !(material->kr > 0.0 || material->kt > 0.0)) return color;
     // Transparency (transmission.hpp): under total internal reflection the mirror ray at full
     // weight replaces both the kr and the kt terms.
     Vec3 refracted;
