@@ -266,7 +266,7 @@ def validate(scene: Scene) -> list[Problem]:
             c.add(mesh, "uvs", "a mesh with a textured material needs texture coordinates (uvs)")
     for material in _unique(materials):
         _check_material(c, material)
-    if any(m.kt > 0 for m in materials):
+    if any(_number(m.kt) and m.kt > 0 for m in materials):  # a kt that is not a number: reported above
         # Filtered shadows (through transmissive objects) are traced for single shadow rays only.
         for light in scene.lights:
             if isinstance(light, (RectAreaLight, SphereAreaLight)):
@@ -388,8 +388,7 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
     c.colour(s, "background")
     if not isinstance(s.max_depth, (int, np.integer)) or isinstance(s.max_depth, bool) or not 0 <= s.max_depth <= MAX_DEPTH:
         c.add(s, "max_depth", f"must be an integer in 0..{MAX_DEPTH}, got {_show(s.max_depth)}")
-    if s.transmission not in TRANSMISSION_CONVENTIONS:
-        c.add(s, "transmission", f"must be one of {', '.join(TRANSMISSION_CONVENTIONS)}, got {_show(s.transmission)}")
+    c.one_of(s, "transmission", TRANSMISSION_CONVENTIONS)
 
 
 FALLOFFS = ("none", "inverse-square")
