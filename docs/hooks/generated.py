@@ -30,7 +30,7 @@ def _choices(values) -> str:
 
 
 def _attribute_meanings() -> dict[str, str]:
-    from phongscene.scene import NUMERICS, SAMPLE_PATTERNS  # noqa: F401  (NUMERICS: not an attribute)
+    from phongscene.scene import SAMPLE_PATTERNS
     from phongscene.usd import names
 
     return {
@@ -38,8 +38,9 @@ def _attribute_meanings() -> dict[str, str]:
         names.SHADOW_ADAPTIVE: "POV-Ray's `adaptive n` on the grid; unset: every grid point is traced",
         names.SHADOW_CELL_SAMPLES: "the native cells shadow estimator: K×K points per partial grid cell, "
         "K a power of 2 up to 16",
-        names.FADE_DISTANCE: "seed point lights: POV-Ray's `fade_distance` (0: no fade)",
-        names.FADE_POWER: "seed point lights: POV-Ray's `fade_power` (0: no fade)",
+        names.FADE_DISTANCE: "seed point lights: POV-Ray's `fade_distance` d0 of the fade "
+        "2/(1 + (d/d0)^p), world units; > 0 when the power is",
+        names.FADE_POWER: "seed point lights: POV-Ray's `fade_power` p (default 0: no fade)",
         names.LIGHT_MODEL: f"{_choices(names.LIGHT_MODELS)}: UsdLux's units (the default) or the seed's "
         "constant light",
         names.SAMPLES: "anti-aliasing: N×N samples per pixel (`stratified`: at most N×N; `adaptive`: cells "
