@@ -4,7 +4,10 @@
 Run with Blender's Python module (`pip install bpy` in a virtual environment of its own; bpy
 5.0.1 wrote examples/first_scene_blender.usda):
 
-    /path/to/bpy-venv/bin/python examples/first_scene_blender.py [OUT.usda]
+    /path/to/bpy-venv/bin/python examples/first_scene_blender.py [--cycles] [OUT.usda]
+
+With --cycles it also renders the scene with Cycles, direct light only (no bounces: phongscene's
+light transport), to OUT_cycles.exr (linear float) beside OUT.usda, for a comparison.
 
 or paste it into Blender's Python console. It builds what examples/first_scene.usda writes by
 hand, in Blender's terms: Z up, the camera at (0, -6, 1) looking along +Y, a 10 cm point light
@@ -21,6 +24,8 @@ import bpy
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 OUT = sys.argv[-1] if sys.argv[-1].endswith(".usda") else os.path.join(HERE, "first_scene_blender.usda")
+CYCLES = "--cycles" in sys.argv[1:]
+CYCLES_SAMPLES = 256  # per pixel: the noise of a lit pixel's median stays far below 1 %
 
 # A Blender point light of power P watts has the radiant intensity P/(4π) W/sr: Blender's
 # exporter writes it as a SphereLight of intensity P/π with inputs:normalize = 1, which UsdLux
@@ -83,3 +88,18 @@ bpy.ops.wm.usd_export(
     relative_paths=True,
 )
 print("wrote", OUT)
+
+if CYCLES:
+    cycles = scene.cycles
+    scene.render.engine = "CYCLES"
+    cycles.device = "CPU"
+    cycles.samples = CYCLES_SAMPLES
+    cycles.use_denoising = False
+    cycles.max_bounces = 0  # direct light only
+    cycles.caustics_reflective = cycles.caustics_refractive = False
+    scene.view_settings.view_transform = "Standard"  # no tone mapping: the EXR holds linear radiance
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.filepath = OUT[: -len(".usda")] + "_cycles.exr"
+    bpy.ops.render.render(write_still=True)
+    print("wrote", scene.render.filepath)
