@@ -10,7 +10,6 @@ import subprocess
 import sys
 
 import pytest
-
 from conftest import REPO
 
 mkdocs = pytest.importorskip("mkdocs", reason="the docs extra is not installed (pip install '.[docs]')")
@@ -51,7 +50,9 @@ def test_attribute_table_lists_every_phong_attribute():
 def test_a_phong_attribute_without_a_meaning_fails_the_build(monkeypatch):
     from phongscene.usd import names
 
-    monkeypatch.setitem(names.PHONG_ATTRIBUTES, "DomeLight", {**names.PHONG_ATTRIBUTES["DomeLight"], "phong:new": ("int",)})
+    monkeypatch.setitem(
+        names.PHONG_ATTRIBUTES, "DomeLight", {**names.PHONG_ATTRIBUTES["DomeLight"], "phong:new": ("int",)}
+    )
     with pytest.raises(PluginError, match="phong:new"):
         hook().on_page_markdown("<!-- generated: phong-attributes -->\n", Page, None, None)
 
@@ -72,7 +73,10 @@ def test_shader_table_has_the_schema_defaults():
 def test_site_builds_with_warnings_as_errors(tmp_path):
     run = subprocess.run(
         [sys.executable, "-m", "mkdocs", "build", "--strict", "--quiet", "--site-dir", str(tmp_path / "site")],
-        cwd=REPO, capture_output=True, text=True, env={"NO_MKDOCS_2_WARNING": "1", "PATH": "/usr/bin:/bin"},
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        env={"NO_MKDOCS_2_WARNING": "1", "PATH": "/usr/bin:/bin"},
     )
     assert run.returncode == 0, run.stderr
     assert (tmp_path / "site" / "tutorial" / "first-scene" / "index.html").is_file()

@@ -10,8 +10,8 @@ import re
 
 import numpy as np
 import pytest
-
 from conftest import EXAMPLES, REPO
+
 import phongscene as ps
 from phongscene.scene import SphereAreaLight
 from phongscene.usd import read_usd
@@ -67,14 +67,15 @@ def expected_centre(light: SphereAreaLight, material) -> np.ndarray:
     """The page's formula: L = [kd·cd/π + ks·cs·(r·wo)^e] · I·(n·l)/d² at the ball's front."""
     to_light = np.array(light.center) - BALL_FRONT
     d = np.linalg.norm(to_light)
-    l = to_light / d
-    n_dot_l = float(BALL_NORMAL @ l)
+    towards_light = to_light / d
+    n_dot_l = float(BALL_NORMAL @ towards_light)
     wo = (CAMERA_AT - BALL_FRONT) / np.linalg.norm(CAMERA_AT - BALL_FRONT)
-    r = 2 * n_dot_l * BALL_NORMAL - l
+    r = 2 * n_dot_l * BALL_NORMAL - towards_light
     irradiance = np.array(light.color) * n_dot_l / d**2
-    brdf = material.kd * np.array(material.diffuse_color) / math.pi + material.ks * np.array(
-        material.specular_color
-    ) * max(0.0, float(r @ wo)) ** material.exponent
+    brdf = (
+        material.kd * np.array(material.diffuse_color) / math.pi
+        + material.ks * np.array(material.specular_color) * max(0.0, float(r @ wo)) ** material.exponent
+    )
     return brdf * irradiance
 
 

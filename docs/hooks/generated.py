@@ -41,8 +41,7 @@ def _attribute_meanings() -> dict[str, str]:
         names.FADE_DISTANCE: "seed point lights: POV-Ray's `fade_distance` d0 of the fade "
         "2/(1 + (d/d0)^p), world units; > 0 when the power is",
         names.FADE_POWER: "seed point lights: POV-Ray's `fade_power` p (default 0: no fade)",
-        names.LIGHT_MODEL: f"{_choices(names.LIGHT_MODELS)}: UsdLux's units (the default) or the seed's "
-        "constant light",
+        names.LIGHT_MODEL: f"{_choices(names.LIGHT_MODELS)}: UsdLux's units (the default) or the seed's constant light",
         names.SAMPLES: "anti-aliasing: N×N samples per pixel (`stratified`: at most N×N; `adaptive`: cells "
         "down to 1/N pixel)",
         names.SAMPLE_PATTERN: f"{_choices(SAMPLE_PATTERNS)}: the pixel estimator",
@@ -121,8 +120,12 @@ def _model_fields() -> str:
     return "\n".join(rows)
 
 
-GENERATORS = {"cli": _cli, "phong-shader": _phong_shader, "phong-attributes": _phong_attributes,
-              "model-fields": _model_fields}
+GENERATORS = {
+    "cli": _cli,
+    "phong-shader": _phong_shader,
+    "phong-attributes": _phong_attributes,
+    "model-fields": _model_fields,
+}
 
 
 def on_page_markdown(markdown: str, page, config, files) -> str:
