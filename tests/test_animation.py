@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from phongscene import animation
+from phongscene import animation, dask_runtime
 from phongscene.cli import main
 from phongscene.errors import SceneError
 from phongscene.images import read_image
@@ -339,7 +339,7 @@ def test_a_stage_read_once_reads_a_changed_texture_again(tmp_path):
 
 
 def test_a_kept_stage_is_reused_until_its_file_or_a_layer_changes(tmp_path):
-    from phongscene import workers
+    from phongscene.usd import stage_reuse as workers
 
     layer, root = tmp_path / "ball.usda", tmp_path / "shot.usda"
     layer.write_text('#usda 1.0\ndef Sphere "Ball" {\n    double radius = 1\n}\n')
@@ -361,9 +361,11 @@ def test_a_kept_stage_is_reused_until_its_file_or_a_layer_changes(tmp_path):
 
 
 def test_frames_read_from_the_kept_stage_are_bit_identical_to_render_time(tmp_path):
-    from phongscene import workers
+    from phongscene.usd import stage_reuse as workers
 
-    options = {"mapping": None, "width": 48, "height": None, "samples": 2, "threads": 1}
+    from phongscene.overrides import RenderOverrides
+
+    options = RenderOverrides(width=48, samples=2, threads=1)
     try:
         for frame in (1, 9, 17, 24):
             metrics = animation.render_frame(str(ANIMATED), frame, str(tmp_path / f"task.{frame}.exr"), "native", options)
@@ -380,9 +382,9 @@ def test_frames_read_from_the_kept_stage_are_bit_identical_to_render_time(tmp_pa
 def test_a_worker_has_made_its_imports_when_it_joins():
     from distributed import Client
 
-    from phongscene.workers import WARM_IMPORTS, warm_plugin
+    from phongscene.dask_runtime import WARM_IMPORTS, warm_plugin
 
-    with animation.local_cluster(1) as cluster, Client(cluster) as client:
+    with dask_runtime.local_cluster(1) as cluster, Client(cluster) as client:
         before = client.run(lambda: [m for m in WARM_IMPORTS if m in sys.modules])
         client.register_plugin(warm_plugin())
         after = client.run(lambda: [m for m in WARM_IMPORTS if m in sys.modules])
@@ -408,10 +410,10 @@ def test_frame_ranges_and_names():
 
 def test_the_cluster_is_the_option_else_the_environment_else_a_local_one(monkeypatch):
     monkeypatch.delenv("DASK_SCHEDULER_ADDRESS", raising=False)
-    assert animation.scheduler_address(None) is None  # a LocalCluster
+    assert dask_runtime.scheduler_address(None) is None  # a LocalCluster
     monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", "tcp://10.0.0.1:8786")
-    assert animation.scheduler_address(None) == "tcp://10.0.0.1:8786"
-    assert animation.scheduler_address("tcp://127.0.0.1:9999") == "tcp://127.0.0.1:9999"
+    assert dask_runtime.scheduler_address(None) == "tcp://10.0.0.1:8786"
+    assert dask_runtime.scheduler_address("tcp://127.0.0.1:9999") == "tcp://127.0.0.1:9999"
 
 
 def test_a_scheduler_that_is_not_there_is_one_error_naming_it(tmp_path, capsys):
@@ -510,7 +512,7 @@ def test_a_failing_task_is_retried_once_and_a_frame_failing_twice_is_reported_by
             raise RuntimeError(f"frame {frame} broke on try {tries}")
         return {"frame": frame, "pid": os.getpid()}
 
-    run = animation.run_frames(flaky, (1, 2, 3), lambda f: (f, str(attempts)), workers=1)
+    run = dask_runtime.run_frames(flaky, (1, 2, 3), lambda f: (f, str(attempts)), workers=1)
     assert sorted(run.results) == [1, 3] and set(run.failures) == {2}
     assert run.failures[2] == "frame 2 broke on try 2"  # tried once more, then reported
     assert sorted(p.name for p in attempts.iterdir()) == ["1.1", "2.1", "2.2", "3.1", "3.2"]

@@ -59,7 +59,7 @@ def test_render_rejects_an_invalid_scene_before_any_backend_runs(backend):
 
 
 def test_a_prepared_native_render_frees_the_model_and_renders_the_same_image():
-    # The CLI drops the model once the C++ scene is built (phongscene.cli._run_render): the
+    # The CLI drops the model once the C++ scene is built (phongscene.cli.render.run_render): the
     # prepared render must not keep it alive, and must render what render() renders.
     import gc
     import weakref

@@ -192,13 +192,13 @@ def test_ctrl_c_at_the_first_heavy_import_exits_130_without_a_traceback(delay):
 
 
 def test_preimport_finishes_the_import_then_raises_the_deferred_ctrl_c(tmp_path, monkeypatch):
-    from phongscene import cli
+    from phongscene.cli.process import preimport
 
     (tmp_path / "probe_ctrl_c.py").write_text(
         "import os, signal\nos.kill(os.getpid(), signal.SIGINT)\nx = sum(range(1000))\nFINISHED = True\n"
     )
     monkeypatch.syspath_prepend(str(tmp_path))
     with pytest.raises(KeyboardInterrupt):
-        cli._preimport(["probe_ctrl_c"])
+        preimport(["probe_ctrl_c"])
     assert sys.modules["probe_ctrl_c"].FINISHED  # not interrupted half-way
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the handler is back

@@ -1,8 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """What a process that runs many tasks (a Dask worker) keeps between them: the USD file it
 opened last (``open_stage``), so that each frame of an animation reads the model at its time
-from a stage opened once, and the heavy imports, made when a worker joins (``warm_plugin``),
-not inside its first task.
+from a stage opened once.
 
 A task still receives only the scene's path and its time: the cache is an optimisation inside
 the worker, and a frame read from it is the same model ``phongscene render --time T`` reads
@@ -14,19 +13,6 @@ where only lights' and gprims' own inputs vary, only those are read again at eac
 from __future__ import annotations
 
 import os
-
-# Imported by every task (the USD reader, OpenImageIO, both backends, the report); a worker
-# imports them once when it joins the cluster.
-WARM_IMPORTS = (
-    "phongscene.usd",
-    "phongscene.images",
-    "phongscene.rendering",
-    "phongscene.backends.native",
-    "phongscene.backends.povray",
-    "phongscene.crossvalidation",
-    "phongscene.report",
-    "OpenImageIO",
-)
 
 # (path as given, the files it was composed from with their states, the open stage): one entry,
 # a worker renders the frames of one file at a time.
@@ -40,7 +26,7 @@ def open_stage(path: str):
     global _last
     if _last is not None and _last[0] == path and _states(_last[1]) == _last[2]:
         return _last[3]
-    from .usd import open_stage as open_usd
+    from . import open_stage as open_usd
 
     if _last is not None and _last[0] == path:
         # USD keeps a layer that is still referenced (by the old stage, or a caller holding it) in
@@ -69,7 +55,7 @@ def _layer_files(path: str, stage) -> tuple[str, ...]:
 
 
 def _states(files: tuple[str, ...]) -> tuple:
-    from .usd.read_cache import file_state
+    from .read_cache import file_state
 
     return tuple(file_state(file) for file in files)
 
@@ -78,26 +64,3 @@ def forget() -> None:
     """Drop the kept stage (tests; a long-lived process that is done with a file)."""
     global _last
     _last = None
-
-
-def warm() -> None:
-    """Import what the tasks import (WARM_IMPORTS)."""
-    import importlib
-
-    for name in WARM_IMPORTS:
-        importlib.import_module(name)
-
-
-def warm_plugin():
-    """A Dask ``WorkerPlugin`` that imports WARM_IMPORTS on every worker of the cluster, those
-    there now and those that join later (``Client.register_plugin``)."""
-    from distributed import WorkerPlugin
-
-    class WarmImports(WorkerPlugin):
-        name = "phongscene-warm-imports"
-        idempotent = True
-
-        def setup(self, worker) -> None:
-            warm()
-
-    return WarmImports()
