@@ -10,7 +10,8 @@ import subprocess
 import sys
 
 import pytest
-from conftest import REPO
+
+from support.paths import REPO
 
 mkdocs = pytest.importorskip("mkdocs", reason="the docs extra is not installed (pip install '.[docs]')")
 from mkdocs.exceptions import PluginError  # noqa: E402
@@ -70,6 +71,7 @@ def test_shader_table_has_the_schema_defaults():
 
 
 @pytest.mark.slow
+@pytest.mark.subprocess
 def test_site_builds_with_warnings_as_errors(tmp_path):
     run = subprocess.run(
         [sys.executable, "-m", "mkdocs", "build", "--strict", "--quiet", "--site-dir", str(tmp_path / "site")],

@@ -10,11 +10,11 @@ import re
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES, REPO
 
 import phongscene as ps
 from phongscene.scene import SphereAreaLight
 from phongscene.usd import read_usd
+from support.paths import EXAMPLES, REPO
 
 HAND_WRITTEN = EXAMPLES / "first_scene.usda"
 FROM_BLENDER = EXAMPLES / "first_scene_blender.usda"
