@@ -50,6 +50,10 @@ def _attribute_meanings() -> dict[str, str]:
         names.SPECULAR_CONVENTION: "`seed` \\| `povray-classic`: the specular convention (the POV-Ray mapping "
         "`exact` \\| `classic`)",
         names.BACKGROUND: "the colour of rays that hit nothing, linear RGB (default black)",
+        names.MAX_DEPTH: "the deepest reflected or refracted ray (the camera ray is depth 0; default 5; "
+        "deeper rays return black)",
+        names.TRANSMISSION_CONVENTION: "`book` \\| `povray`: the radiance of refracted rays, kt/η²·L (the book) "
+        "or kt·L (POV-Ray)",
     }
 
 
