@@ -18,6 +18,10 @@ MAX_THREADS = 1024  # worker threads (C++ int; far more than any machine here ha
 # A texture's side: as an image side (OpenImageIO reads bigger ones, but one 16K texture is
 # already 3.2 GB of float32 RGB here).
 MAX_TEXTURE_SIDE = 16384
+# The texels all textures of a scene may hold: as many as a render's pixels (MAX_PIXELS; one 16K
+# texture, or sixteen 4K ones: 3.2 GB as the model's float32 RGB). Checked from the files' headers,
+# before decoding (phongscene.usd.texture_files.TexelBudget).
+MAX_SCENE_TEXELS = 2**28
 # The largest texel POV-Ray can hold: it stores an EXR image map as half floats (ref §16).
 MAX_TEXEL = 65504.0
 # An area light's shadow grid per axis: 257 = 2^8 + 1 (66 049 shadow rays per light and point).
