@@ -125,6 +125,7 @@ def _textured_quads(folder, count: int, side: int) -> str:
     return str(path)
 
 
+@pytest.mark.subprocess
 @pytest.mark.slow
 @pytest.mark.povray
 def test_a_scene_with_several_4k_textures_passes_validate_and_diff(tmp_path):
@@ -138,6 +139,7 @@ def test_a_scene_with_several_4k_textures_passes_validate_and_diff(tmp_path):
     assert (tmp_path / "report" / "metrics.json").is_file()
 
 
+@pytest.mark.subprocess
 def test_the_reader_announces_each_layer_and_texture_before_reading_it(tmp_path):
     from phongscene import memory_model
 
@@ -225,6 +227,7 @@ def _wait_gone(pid: int) -> bool:
 PARENT = "import sys; from phongscene.sandbox import read_usd_sandboxed; read_usd_sandboxed(sys.argv[1])"
 
 
+@pytest.mark.subprocess
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux's")
 def test_a_sigkilled_parent_leaves_no_sandbox_child(tmp_path):
     parent = subprocess.Popen([sys.executable, "-c", PARENT, str(EXAMPLES / "seed_exponents.usda")])
@@ -239,6 +242,7 @@ def test_a_sigkilled_parent_leaves_no_sandbox_child(tmp_path):
             os.kill(child, signal.SIGKILL)
 
 
+@pytest.mark.subprocess
 def test_an_interrupted_parent_kills_its_sandbox_child(tmp_path):
     parent = subprocess.Popen([sys.executable, "-c", PARENT, str(EXAMPLES / "seed_exponents.usda")],
                               stderr=subprocess.PIPE)

@@ -57,6 +57,7 @@ def _png_header_only(path, width: int, height: int) -> str:
     return str(path)
 
 
+@pytest.mark.subprocess
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs POSIX FIFOs")
 @pytest.mark.parametrize("kind", ["fifo", "folder", "device", "stdin"])
 def test_a_texture_that_is_not_a_regular_file_is_the_fallback_with_a_warning_promptly(tmp_path, kind):
@@ -84,6 +85,7 @@ def test_a_side_beyond_the_bound_is_an_error_from_the_header(tmp_path):
     assert f"{MAX_TEXTURE_SIDE + 1} x 1 texels (its header)" in problem.message
 
 
+@pytest.mark.subprocess
 def test_a_decompression_bomb_is_refused_before_decoding(tmp_path):
     # 30000² in the header, one row of data: decoding would take 900 MB (or fail on the missing
     # rows); the header check refuses it first, in a few kilobytes.
