@@ -2,8 +2,10 @@
 """Run POV-Ray 3.7 on compiled scenes and read the images back (ref §1, §8, §11).
 
 Every render runs in a fresh temporary directory (the working directory of the process) with
-``HOME`` pointed at a ``.povray/3.7/povray.conf`` there that restricts file I/O and forbids shell
-commands; ``POVINI`` is unset so no user ini file adds options. Switches: ``+FE`` (half-float
+``HOME`` pointed at a ``.povray/3.7/povray.conf`` there that forbids shell commands and asks for
+file I/O restricted to that directory (which this POV-Ray build does not enforce for ``#fopen``:
+docs/security.md); ``POVINI`` is unset so no user ini file adds options; POV-Ray is started
+without a shell, with generated file names only. Switches: ``+FE`` (half-float
 EXR, linear), ``-D -V -GD -GR -GS +Q9 -J``, and ``-A`` or ``+AM1 +A0.0 +R n`` for anti-aliasing.
 "grid" anti-aliasing renders at n× the resolution with ``-A`` and box-averages n×n blocks
 (exact, ref §8). POV-Ray's start-up costs ~0.7 s per process, so all render passes, and in
@@ -76,8 +78,8 @@ class PovJob:
         """An ``.ini`` file with the same options (``povray NAME.ini`` in its directory)."""
         lines = [
             "; phongscene: POV-Ray 3.7 options for this scene (run: povray <this file>)",
-            f"Input_File_Name={pov}",
-            f"Output_File_Name={output}",
+            f"Input_File_Name={pov_quoted(pov)}",  # checked: a name cannot add a line
+            f"Output_File_Name={pov_quoted(output)}",
             *self.switches,
             *self.frame_switches(),
         ]
@@ -88,12 +90,29 @@ class PovJob:
         return "\n".join(lines) + "\n"
 
 
+# POV-Ray 3.7.0.10 reads a file name with these characters only inside double quotes: on the
+# command line (``+Ix;y.pov`` fails) or in an .ini (``Input_File_Name=x,y.pov`` fails; ``;`` starts
+# a comment there), measured one character at a time. Quoted, every printable ASCII character but
+# the quote and the backslash works in both; nothing outside printable ASCII does.
+NEEDS_QUOTES = frozenset("#',;= ")
+CANNOT_QUOTE = frozenset('"\\')
+
+
 def pov_quoted(name: str) -> str:
-    """A file name as POV-Ray's command line reads it: in its own double quotes when it has
-    white space (``+Imy scene.pov`` is "Failed to parse command-line option"; ``+I"my scene.pov"``
-    works, measured with POV-Ray 3.7.0.10). The .ini keeps names unquoted (it reads the whole
-    line)."""
-    return f'"{name}"' if any(c.isspace() for c in name) else name
+    """A file name as POV-Ray's command line and .ini read it: itself, or in double quotes when
+    it has a character POV-Ray reads only quoted (white space, ``# ' , ; =``).
+
+    Raises:
+        PhongSceneError: a name POV-Ray cannot read, or that would inject options: a control
+            character (a newline would start a new ``.ini`` line, e.g. ``Pre_Scene_Command=``),
+            a double quote or backslash, or a character outside printable ASCII.
+    """
+    bad = next((c for c in name if not " " <= c <= "~" or c in CANNOT_QUOTE), None)
+    if bad is not None:
+        raise PhongSceneError(
+            f"{name!r}: POV-Ray cannot read a file name with {bad!r} (printable ASCII only, no double quote or "
+            "backslash): choose another name")
+    return f'"{name}"' if any(c in NEEDS_QUOTES for c in name) else name
 
 
 def aa_threshold(value: float) -> str:
@@ -270,11 +289,7 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
         (workdir / f"{stem}.ini").write_text(job.ini(pov.name, output.name), encoding="ascii")
     except OSError as e:  # a full disk: say where (Python's write error names no file)
         raise BackendError(f"cannot write the POV-Ray scene into {workdir}: {e.strerror or e}") from None
-    home = workdir / "home"
-    (home / ".povray" / "3.7").mkdir(parents=True, exist_ok=True)
-    (home / ".povray" / "3.7" / "povray.conf").write_text(POVRAY_CONF, encoding="ascii")
-    env = dict(os.environ, HOME=str(home), LC_ALL="C")
-    env.pop("POVINI", None)
+    env = povray_environment(workdir)
     for old in _frame_files(workdir, stem):
         old.unlink()
 
@@ -342,6 +357,20 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
             )
     frame_done(job.frames)
     return frames
+
+
+def povray_environment(workdir: Path) -> dict[str, str]:
+    """The environment POV-Ray runs in, in ``workdir`` (a fresh temporary folder): ``HOME`` at a
+    folder there whose ``.povray/3.7/povray.conf`` (POVRAY_CONF) forbids shell-outs and asks for
+    file I/O only in the working directory, ``POVINI`` unset (no user .ini adds options), the C
+    locale. POV-Ray 3.7.0.10 enforces the shell-out ban but NOT the file I/O restriction for
+    ``#fopen`` (docs/security.md): the protection is that no scene text reaches the SDL."""
+    home = workdir / "home"
+    (home / ".povray" / "3.7").mkdir(parents=True, exist_ok=True)
+    (home / ".povray" / "3.7" / "povray.conf").write_text(POVRAY_CONF, encoding="ascii")
+    env = dict(os.environ, HOME=str(home), LC_ALL="C")
+    env.pop("POVINI", None)
+    return env
 
 
 def _hold_signals() -> tuple[dict, list[int]]:
