@@ -9,7 +9,11 @@ without a shell, with generated file names only. Switches: ``+FE`` (half-float
 EXR, linear), ``-D -V -GD -GR -GS +Q9 -J``, and ``-A`` or ``+AM1 +A0.0 +R n`` for anti-aliasing.
 "grid" anti-aliasing renders at n× the resolution with ``-A`` and box-averages n×n blocks
 (exact, ref §8). POV-Ray's start-up costs ~0.7 s per process, so all render passes, and in
-``render_many`` several scenes, are animation frames of ONE process.
+``render_many`` several scenes, are animation frames of ONE process. The passes are added up as
+POV-Ray writes them (``PassSums``), and each frame file is removed once added: memory is one
+float64 image per scene plus the frame being added, and disk two frames, whatever the light count
+(512², 32 lights: 557 -> 80 MiB peak, ``benchmarks/povray_passes.py``). So no bound on lights or
+passes is needed for memory; the time is linear in them (each pass is a frame, parsed again).
 
 POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 """
@@ -231,13 +235,10 @@ def render_many(
             if progress:
                 progress(base + frames, total)
 
-        frames = _run(job, f"group{g}-" if len(groups) > 1 else "scene", timeout, keep_dir, frame_done, phase)
+        sums = _run(job, f"group{g}-" if len(groups) > 1 else "scene", timeout, keep_dir, frame_done, phase,
+                    PassSums(passes))
         done += job.frames
-        start = 0
-        for i, n in zip(members, passes):
-            # Direct light is linear in the lights: the passes add up (float64, then float32).
-            image = np.sum([f.astype(np.float64) for f in frames[start : start + n]], axis=0)
-            start += n
+        for i, image in zip(members, sums):
             if k > 1:
                 h, w = image.shape[0] // k, image.shape[1] // k
                 image = image.reshape(h, k, w, k, 3).mean(axis=(1, 3))
@@ -261,14 +262,40 @@ def _batch_sdl(items: list[tuple[Scene, RenderSettings, str]]) -> str:
     return "\n".join(out) + "\n"
 
 
-def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, frame_done, phase=None) -> list[np.ndarray]:
-    """Run one POV-Ray process for ``job``; return its frames as float32 images. The temporary
-    directory is removed afterwards, except after a ``BackendError`` (it holds the kept .pov).
-    ``frame_done(frames)`` gets the frames done (fractional: pixels of the current one);
+class PassSums:
+    """The images of a POV-Ray run's frames added up as they arrive, one sum per consecutive
+    range of frames (a scene's passes; several scenes share one run in ``render_many``): direct
+    light is linear in the lights, so the passes add up (in float64: exact for half-float frames).
+    Memory is one float64 image per scene and the frame being added, whatever the light count;
+    frames are added in order, so the sums are those of adding the whole list at once."""
+
+    def __init__(self, counts: Sequence[int]):
+        self.owner = [i for i, n in enumerate(counts) for _ in range(n)]  # frame -> its range
+        self.sums: list[np.ndarray | None] = [None] * len(counts)
+        self.added = 0  # frames added so far (in order)
+
+    def add(self, image: np.ndarray) -> None:
+        i = self.owner[self.added]
+        if self.sums[i] is None:
+            self.sums[i] = image.astype(np.float64)
+        else:
+            self.sums[i] += image
+        self.added += 1
+
+    def __len__(self) -> int:
+        return len(self.owner)
+
+
+def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, frame_done, phase,
+         sums: PassSums) -> list[np.ndarray]:
+    """Run one POV-Ray process for ``job``, adding its frames into ``sums`` as they arrive (each
+    frame file is removed once added, unless ``keep_dir``); return the sums (float64). The
+    temporary directory is removed afterwards, except after a ``BackendError`` (it holds the kept
+    .pov). ``frame_done(frames)`` gets the frames done (fractional: pixels of the current one);
     ``phase(text)``, when given, is told while POV-Ray parses."""
     workdir = Path(keep_dir) if keep_dir else Path(tempfile.mkdtemp(prefix="phongscene-povray-"))
     try:
-        frames = _run_in(job, workdir, stem, timeout, frame_done, phase)
+        images = _run_in(job, workdir, stem, timeout, frame_done, phase, sums, keep=bool(keep_dir))
     except BackendError:
         raise
     except BaseException:  # Ctrl-C, a full disk, ...: nothing worth keeping
@@ -277,10 +304,11 @@ def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, fr
         raise
     if not keep_dir:
         shutil.rmtree(workdir, ignore_errors=True)
-    return frames
+    return images
 
 
-def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_done, phase) -> list[np.ndarray]:
+def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_done, phase, sums: PassSums,
+            keep: bool) -> list[np.ndarray]:
     workdir.mkdir(parents=True, exist_ok=True)
     pov, output, log = workdir / f"{stem}.pov", workdir / f"{stem}.exr", workdir / f"{stem}.log"
     try:
@@ -295,6 +323,24 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
 
     def fail(message: str) -> BackendError:
         return BackendError(message, detail=_tail(log), kept=str(pov))
+
+    def add_finished(running: bool) -> None:
+        """Add the frames POV-Ray has finished: while it runs, those before the last file it
+        has started (frames are rendered in order, each file written whole before the next)."""
+        files = _frame_files(workdir, stem)
+        if keep:  # the frames added so far are still there
+            files = files[sums.added :]
+        if running:
+            files = files[:-1]
+        for f in files[: len(sums) - sums.added]:
+            try:
+                image = read_image(f)
+            except PhongSceneError as e:
+                raise fail(f"cannot read POV-Ray's output: {e}") from None
+            _check_frame(image, f.name, job, fail)
+            sums.add(image)
+            if not keep:
+                f.unlink()
 
     with open(log, "wb") as log_file:
         # Signals whose handlers raise (Ctrl-C; SIGTERM, SIGHUP in the CLI) are held back while
@@ -334,29 +380,30 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
                         proc.kill()
                         proc.wait()
                         raise fail(f"POV-Ray timed out after {timeout:g} s")
+                    if job.frames > 1:
+                        add_finished(running=True)
         finally:
             _stop(proc)
     if rc != 0:
         raise fail(f"POV-Ray failed (exit code {rc})")
-    files = _frame_files(workdir, stem)
-    if len(files) != job.frames:
-        raise fail(f"POV-Ray wrote {len(files)} of {job.frames} frames")
-    try:
-        frames = [read_image(f) for f in files]
-    except PhongSceneError as e:
-        raise fail(f"cannot read POV-Ray's output: {e}") from None
-    for f, image in zip(files, frames):
-        if image.shape != (job.height, job.width, 3):
-            raise fail(f"{f.name}: expected {job.width}x{job.height} pixels, got {image.shape[1]}x{image.shape[0]}")
-        bad = ~np.isfinite(image).all(axis=2)
-        if bad.any():
-            y, x = (int(v) for v in np.argwhere(bad)[0])
-            raise fail(
-                f"{f.name}: POV-Ray wrote {int(bad.sum())} non-finite pixels, e.g. ({x}, {y}): a light exactly on a "
-                f"surface, or a value beyond its half-float EXR's range ({HALF_MAX:g}: lower the light's intensity)"
-            )
+    add_finished(running=False)
+    if sums.added != job.frames:
+        raise fail(f"POV-Ray wrote {sums.added} of {job.frames} frames")
     frame_done(job.frames)
-    return frames
+    return sums.sums
+
+
+def _check_frame(image: np.ndarray, name: str, job: PovJob, fail) -> None:
+    """Raise ``fail(...)`` unless a frame has the job's size and finite pixels."""
+    if image.shape != (job.height, job.width, 3):
+        raise fail(f"{name}: expected {job.width}x{job.height} pixels, got {image.shape[1]}x{image.shape[0]}")
+    bad = ~np.isfinite(image).all(axis=2)
+    if bad.any():
+        y, x = (int(v) for v in np.argwhere(bad)[0])
+        raise fail(
+            f"{name}: POV-Ray wrote {int(bad.sum())} non-finite pixels, e.g. ({x}, {y}): a light exactly on a "
+            f"surface, or a value beyond its half-float EXR's range ({HALF_MAX:g}: lower the light's intensity)"
+        )
 
 
 def povray_environment(workdir: Path) -> dict[str, str]:
