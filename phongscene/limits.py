@@ -32,3 +32,7 @@ MAX_ADAPTIVE = 100
 # The cells estimator's points per partial cell per axis (256 per cell at most, as stratified's budget).
 MAX_CELL_SAMPLES = 16
 
+# A light's radiance (each channel of its model colour): the renderers shade in float32 (largest
+# 3.4e38 = 2^128); 2^96 (7.9e28) leaves 2^32 for the shading's sums and products (billions of lights,
+# colours, specular peaks) below it, and is far beyond any real light (the sun's luminance: 1.6e9).
+MAX_RADIANCE = 2.0**96

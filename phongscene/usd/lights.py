@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from pxr import Usd, UsdLux
 
+from ..limits import MAX_RADIANCE
 from ..scene import AmbientLight, Cone, DirectionalLight, PointLight, RectAreaLight, SphereAreaLight
 from . import names
 from .context import ReadContext, unit
@@ -184,7 +185,17 @@ def read_light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) ->
     luminance = _luminance(ctx, prim)
     terms = _terms(ctx, prim)
     common = _Common(path, world, centre, seed, luminance, terms, "none" if seed else "inverse-square")
+    first_light, first_ambient = len(lights), len(ambient)
     read(ctx, prim, common, lights, ambient)
+    for made in (*lights[first_light:], *ambient[first_ambient:]):
+        if max(made.color) > MAX_RADIANCE:
+            exposure = prim.GetAttribute("inputs:exposure")
+            attribute = "inputs:exposure" if exposure and exposure.HasAuthoredValue() else "inputs:intensity"
+            ctx.problem(prim, attribute, (
+                f"the light's radiance intensity · 2^exposure · color (× its area) is {max(made.color):.4g}, beyond the "
+                f"{MAX_RADIANCE:.4g} the renderers' float32 radiance can shade without overflowing to inf"))
+            del lights[first_light:], ambient[first_ambient:]
+            break
 
 
 def _dome_light(ctx: ReadContext, prim: Usd.Prim, light: _Common, lights: list, ambient: list) -> None:
