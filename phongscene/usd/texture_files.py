@@ -124,7 +124,7 @@ def read_header(path: str, shown: str) -> ImageHeader:
 
     inp = oiio.ImageInput.open(path)
     if inp is None:
-        raise TextureRefused(f"cannot read {shown}: {_first_line(oiio.geterror()) or 'OpenImageIO cannot open it'}")
+        raise TextureRefused(f"cannot read {shown}: {_error(oiio.geterror) or 'OpenImageIO cannot open it'}")
     try:
         spec = inp.spec()
     finally:
@@ -160,14 +160,14 @@ def decode(header: ImageHeader, shown: str) -> np.ndarray:
     announce(texture_decode_bytes(header.texels, header.channels, native.size()), shown)
     inp = oiio.ImageInput.open(header.path)
     if inp is None:
-        raise TextureRefused(f"cannot read {shown}: {_first_line(oiio.geterror()) or 'OpenImageIO cannot open it'}")
+        raise TextureRefused(f"cannot read {shown}: {_error(oiio.geterror) or 'OpenImageIO cannot open it'}")
     try:
         pixels = inp.read_image(0, 0, 0, header.channels, native)
-        error = inp.geterror()
+        error = _error(inp.geterror)
     finally:
         inp.close()
     if pixels is None or error:
-        raise TextureRefused(f"cannot decode {shown}: {_first_line(error) or 'OpenImageIO cannot decode its pixels'}")
+        raise TextureRefused(f"cannot decode {shown}: {error or 'OpenImageIO cannot decode its pixels'}")
     return np.asarray(pixels).reshape(header.height, header.width, header.channels)
 
 
@@ -252,6 +252,15 @@ def _colorconvert(rgb: np.ndarray) -> np.ndarray:
     converted = oiio.ImageBufAlgo.colorconvert(oiio.ImageBuf(np.ascontiguousarray(rgb)), "sRGB", "linear")
     values = converted.get_pixels(oiio.TypeFloat)
     return np.asarray(values, dtype=np.float32).reshape(rgb.shape)
+
+
+def _error(get) -> str:
+    """The first line of OpenImageIO's pending error message (``get()``): a corrupt file's message
+    may quote its bytes, which the binding fails to decode as UTF-8 (found by the fuzzer)."""
+    try:
+        return _first_line(get())
+    except UnicodeDecodeError:
+        return "(OpenImageIO's message could not be decoded)"
 
 
 def _first_line(text: str) -> str:
