@@ -344,6 +344,8 @@ def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
     problem) when it cannot be read."""
     from ..errors import PhongSceneError
     from ..images import read_image  # OpenImageIO: only for a scene with a textured dome
+    from ..memory_model import announce, texture_model_bytes
+    from .texture_files import TextureRefused, TextureTooBig, read_header
 
     path = asset.resolvedPath or asset.path
     why = not_regular(path)
@@ -351,8 +353,14 @@ def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
         ctx.problem(prim, "inputs:texture:file", f"{path} {why}")
         return None
     try:
+        # Its header first, as for a UsdUVTexture: a decompression bomb is refused undecoded.
+        header = read_header(path, path)
+        announce(texture_model_bytes(header.texels), path)
         image = read_image(path)
-    except PhongSceneError as e:
+    except TextureTooBig as e:
+        ctx.problem(prim, "inputs:texture:file", str(e))
+        return None
+    except (PhongSceneError, TextureRefused) as e:
         ctx.problem(prim, "inputs:texture:file", f"cannot read the texture: {e}")
         return None
     rows = image.shape[0]

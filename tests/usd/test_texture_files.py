@@ -135,3 +135,14 @@ def test_an_8bit_texture_is_decoded_as_bytes_and_converted_a_block_at_a_time(tmp
     buf = oiio.ImageBufAlgo.colorconvert(buf, "sRGB", "linear")
     expected = np.asarray(buf.get_pixels(oiio.TypeFloat), np.float32).reshape(BIG_SIDE, BIG_SIDE, 1)
     np.testing.assert_array_equal(image, np.repeat(expected, 3, axis=2))
+
+
+def test_a_dome_texture_bomb_is_refused_from_its_header(tmp_path):
+    _png_header_only(tmp_path / "bomb.png", 30000, 30000)
+    (tmp_path / "s.usda").write_text('#usda 1.0\ndef DomeLight "Dome" {\n    asset inputs:texture:file = @./bomb.png@\n}\n'
+                                     'def Sphere "Ball" {\n}\n')
+    with pytest.raises(SceneError) as info:
+        load_usd(tmp_path / "s.usda")
+    (problem,) = info.value.problems
+    assert (problem.prim, problem.attribute) == ("/Dome", "inputs:texture:file")
+    assert "30000 x 30000 texels (its header)" in problem.message
