@@ -286,13 +286,15 @@ class PassSums:
         return len(self.owner)
 
 
-def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, frame_done, phase,
-         sums: PassSums) -> list[np.ndarray]:
+def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, frame_done, phase=None,
+         sums: PassSums | None = None) -> list[np.ndarray]:
     """Run one POV-Ray process for ``job``, adding its frames into ``sums`` as they arrive (each
     frame file is removed once added, unless ``keep_dir``); return the sums (float64). The
     temporary directory is removed afterwards, except after a ``BackendError`` (it holds the kept
     .pov). ``frame_done(frames)`` gets the frames done (fractional: pixels of the current one);
-    ``phase(text)``, when given, is told while POV-Ray parses."""
+    ``phase(text)``, when given, is told while POV-Ray parses. Without ``sums``, each frame is its
+    own sum (the frames are returned, as float64)."""
+    sums = PassSums([1] * job.frames) if sums is None else sums
     workdir = Path(keep_dir) if keep_dir else Path(tempfile.mkdtemp(prefix="phongscene-povray-"))
     try:
         images = _run_in(job, workdir, stem, timeout, frame_done, phase, sums, keep=bool(keep_dir))
