@@ -36,3 +36,7 @@ MAX_CELL_SAMPLES = 16
 # 3.4e38 = 2^128); 2^96 (7.9e28) leaves 2^32 for the shading's sums and products (billions of lights,
 # colours, specular peaks) below it, and is far beyond any real light (the sun's luminance: 1.6e9).
 MAX_RADIANCE = 2.0**96
+
+# The deepest secondary ray (RenderSettings.max_depth): POV-Ray caps max_trace_level (= max_depth + 1)
+# at 256; the native tracer's recursion is as deep (a few hundred stack frames).
+MAX_DEPTH = 255
