@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from pxr import Usd, UsdLux
 
+from ..limits import MAX_RADIANCE
 from ..scene import AmbientLight, Cone, DirectionalLight, PointLight, RectAreaLight, SphereAreaLight
 from . import names
 from .context import ReadContext, unit
@@ -184,7 +185,17 @@ def read_light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) ->
     luminance = _luminance(ctx, prim)
     terms = _terms(ctx, prim)
     common = _Common(path, world, centre, seed, luminance, terms, "none" if seed else "inverse-square")
+    first_light, first_ambient = len(lights), len(ambient)
     read(ctx, prim, common, lights, ambient)
+    for made in (*lights[first_light:], *ambient[first_ambient:]):
+        if max(made.color) > MAX_RADIANCE:
+            exposure = prim.GetAttribute("inputs:exposure")
+            attribute = "inputs:exposure" if exposure and exposure.HasAuthoredValue() else "inputs:intensity"
+            ctx.problem(prim, attribute, (
+                f"the light's radiance intensity · 2^exposure · color (× its area) is {max(made.color):.4g}, beyond the "
+                f"{MAX_RADIANCE:.4g} the renderers' float32 radiance can shade without overflowing to inf"))
+            del lights[first_light:], ambient[first_ambient:]
+            break
 
 
 def _dome_light(ctx: ReadContext, prim: Usd.Prim, light: _Common, lights: list, ambient: list) -> None:
@@ -333,6 +344,8 @@ def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
     problem) when it cannot be read."""
     from ..errors import PhongSceneError
     from ..images import read_image  # OpenImageIO: only for a scene with a textured dome
+    from ..memory_model import announce, texture_model_bytes
+    from .texture_files import TextureRefused, TextureTooBig, read_header
 
     path = asset.resolvedPath or asset.path
     why = not_regular(path)
@@ -340,8 +353,14 @@ def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
         ctx.problem(prim, "inputs:texture:file", f"{path} {why}")
         return None
     try:
+        # Its header first, as for a UsdUVTexture: a decompression bomb is refused undecoded.
+        header = read_header(path, path)
+        announce(texture_model_bytes(header.texels), path)
         image = read_image(path)
-    except PhongSceneError as e:
+    except TextureTooBig as e:
+        ctx.problem(prim, "inputs:texture:file", str(e))
+        return None
+    except (PhongSceneError, TextureRefused) as e:
         ctx.problem(prim, "inputs:texture:file", f"cannot read the texture: {e}")
         return None
     rows = image.shape[0]
