@@ -73,7 +73,7 @@ def run_info(args) -> int:
         f"{f', threshold {s.aa_threshold:g}' if s.aa_threshold else ''}), "
         f"specular {s.specular}, background {_vector(s.background)}"
     )
-    print_warnings(result.warnings, sys.stdout)
+    print_warnings(result.warnings, sys.stdout, every=True)
     return EXIT_OK
 
 
