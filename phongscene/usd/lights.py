@@ -330,17 +330,18 @@ _READERS_BY_NAME = {"DomeLight_1": _dome_light}
 def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
     """The mean radiance of a DomeLight's texture (OpenImageIO), over texels weighted by the
     solid angle they cover in a lat-long map (cos of the latitude), with a warning; 1 (an
-    untextured dome) with a warning when it cannot be read."""
+    untextured dome) with a warning when it cannot be read; None (and a problem) when it is
+    not a regular file."""
     from ..errors import PhongSceneError
     from ..images import read_image  # OpenImageIO: only for a scene with a textured dome
 
     path = asset.resolvedPath or asset.path
     why = not_regular(path)
+    if why is not None:  # could block: refused, as layers are
+        ctx.problem(prim, "inputs:texture:file", f"{path} {why}")
+        return None
     # A texture that cannot be read is a warning, and the dome lights as an untextured one (its
     # intensity and colour), as a missing UsdUVTexture image falls back: the rest is drawn.
-    if why is not None:
-        ctx.warn(f"{prim.GetPath()}.inputs:texture:file: {path} {why} (the dome lights untextured)")
-        return np.ones(3)
     try:
         image = read_image(path)
     except PhongSceneError as e:

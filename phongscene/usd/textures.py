@@ -119,7 +119,7 @@ class TextureReader:
         resolved = asset.resolvedPath if isinstance(asset, Sdf.AssetPath) else ""
         if not resolved:
             if asset is None or (isinstance(asset, Sdf.AssetPath) and not asset.path):
-                self.ctx.warn(f"{path}: has no inputs:file (the fallback {value} is used)")
+                self.ctx.warn(f"{path}.inputs:file: not authored, so there is no image (the fallback {value} is used)")
             else:
                 shown = asset.path if isinstance(asset, Sdf.AssetPath) else asset
                 self.ctx.warn(f"{path}.inputs:file: cannot find the image {shown!r} (the fallback {value} is used)")
