@@ -340,8 +340,9 @@ _READERS_BY_NAME = {"DomeLight_1": _dome_light}
 
 def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
     """The mean radiance of a DomeLight's texture (OpenImageIO), over texels weighted by the
-    solid angle they cover in a lat-long map (cos of the latitude), with a warning; None (and a
-    problem) when it cannot be read."""
+    solid angle they cover in a lat-long map (cos of the latitude), with a warning; 1 (an
+    untextured dome) with a warning when it cannot be read; None (and a problem) when it is
+    not a regular file."""
     from ..errors import PhongSceneError
     from ..images import read_image  # OpenImageIO: only for a scene with a textured dome
     from ..memory_model import announce, texture_model_bytes
@@ -349,9 +350,11 @@ def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
 
     path = asset.resolvedPath or asset.path
     why = not_regular(path)
-    if why is not None:
+    if why is not None:  # could block: refused, as layers are
         ctx.problem(prim, "inputs:texture:file", f"{path} {why}")
         return None
+    # A texture that cannot be read is a warning, and the dome lights as an untextured one (its
+    # intensity and colour), as a missing UsdUVTexture image falls back: the rest is drawn.
     try:
         # Its header first, as for a UsdUVTexture: a decompression bomb is refused undecoded.
         header = read_header(path, path)
@@ -361,8 +364,8 @@ def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
         ctx.problem(prim, "inputs:texture:file", str(e))
         return None
     except (PhongSceneError, TextureRefused) as e:
-        ctx.problem(prim, "inputs:texture:file", f"cannot read the texture: {e}")
-        return None
+        ctx.warn(f"{prim.GetPath()}.inputs:texture:file: cannot read the texture: {e} (the dome lights untextured)")
+        return np.ones(3)
     rows = image.shape[0]
     latitude = (np.arange(rows) + 0.5) / rows * math.pi - math.pi / 2
     weights = np.cos(latitude)[:, None] * np.ones(image.shape[1])

@@ -118,8 +118,11 @@ class TextureReader:
         asset = _value(tex_shader.GetInput("file"), time, None)
         resolved = asset.resolvedPath if isinstance(asset, Sdf.AssetPath) else ""
         if not resolved:
-            shown = asset.path if isinstance(asset, Sdf.AssetPath) else asset
-            self.ctx.warn(f"{path}.inputs:file: cannot find the image {shown!r} (the fallback {value} is used)")
+            if asset is None or (isinstance(asset, Sdf.AssetPath) and not asset.path):
+                self.ctx.warn(f"{path}.inputs:file: not authored, so there is no image (the fallback {value} is used)")
+            else:
+                shown = asset.path if isinstance(asset, Sdf.AssetPath) else asset
+                self.ctx.warn(f"{path}.inputs:file: cannot find the image {shown!r} (the fallback {value} is used)")
             return Connected(None, value, st)
         header = self._header(resolved, prim)
         if header is None:
