@@ -188,8 +188,16 @@ class Texture:
     file: str = ""  # the image file it was read from (resolved path)
 
     def __post_init__(self) -> None:
-        with np.errstate(over="ignore"):  # beyond float32: inf, which validate reports as texels not finite
-            image = np.array(_real_array(self.image, "Texture", "image", self.source), dtype=np.float32, order="C", copy=True)
+        image = self.image
+        # A read-only float32 array that owns its data is taken as it is (the USD reader builds
+        # one: a copy of a 16K texture would be 3.2 GB more, if only for a moment); anything else
+        # is copied, so that the caller's array cannot change the model.
+        owned = isinstance(image, np.ndarray) and image.dtype == np.float32 and image.flags.c_contiguous \
+            and image.flags.owndata and not image.flags.writeable
+        if not owned:
+            with np.errstate(over="ignore"):  # beyond float32: inf, which validate reports as texels not finite
+                image = np.array(_real_array(image, "Texture", "image", self.source), dtype=np.float32, order="C",
+                                 copy=True)
         if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] < 1 or image.shape[1] < 1:
             raise _bad_value("Texture", "image", self.source, f"expected a texture image of shape (H, W, 3), got {image.shape}")
         image.setflags(write=False)
