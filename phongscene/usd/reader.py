@@ -295,7 +295,15 @@ def _usd_error_text(error: Exception) -> str:
         return "the file is not valid UTF-8 text (USD's message could not be decoded)"
     messages = [m.group(1) for m in re.finditer(r"Error in '[^']*' at line \d+ in file \S+ : '(.*)'", text)]
     specific = [m for m in messages if not m.startswith("Failed to open layer")]
-    return (specific or messages or [text.strip()])[-1]
+    message = (specific or messages or [text.strip()])[-1]
+    if len(message) > MAX_USD_MESSAGE_CHARS:  # a corrupt crate lists every invalid spec: the start says it
+        message = message[:MAX_USD_MESSAGE_CHARS] + f"... ({len(message) - MAX_USD_MESSAGE_CHARS} more characters)"
+    return message
+
+
+# USD's message about a file it cannot open, at most this long in our one error line (a corrupt
+# .usdz listed 2,900 characters of "spec ... has invalid spec type"; the first specs say it).
+MAX_USD_MESSAGE_CHARS = 400
 
 
 def _warm_transform(ctx: ReadContext, prim: Usd.Prim) -> None:

@@ -80,3 +80,16 @@ def test_every_command_stops_a_runaway_file_with_one_line(tmp_path, command):
     (line,) = result.stderr.splitlines()
     assert line.startswith(f"error: {RUNAWAY}: ") and "sandboxed child process" in line
     assert not list(tmp_path.iterdir())  # no partial output
+
+
+LONG_MESSAGE = REPO / "tests" / "scenes" / "corrupt" / "long_usd_message.usdz"  # found by the campaign, seed 2
+
+
+def test_a_corrupt_file_with_a_long_usd_message_is_one_short_line():
+    from phongscene.usd.reader import MAX_USD_MESSAGE_CHARS
+
+    with pytest.raises(SceneError) as info:
+        load_usd(LONG_MESSAGE)
+    (problem,) = info.value.problems
+    assert "cannot read USD: Corrupt asset" in problem.message and "more characters)" in problem.message
+    assert len(problem.message) <= MAX_USD_MESSAGE_CHARS + 100
