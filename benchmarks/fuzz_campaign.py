@@ -46,7 +46,7 @@ def apply(data: bytes, edits) -> bytes:
         if kind == "bitflip":
             if data:
                 at = min(int(where * len(data)), len(data) - 1)
-                data = data[:at] + bytes([data[at] ^ arg]) + data[at + 1:]
+                data = data[:at] + bytes([data[at] ^ arg]) + data[at + 1 :]
         else:
             data = mutate(data, [(kind, where, arg)])
     return data
@@ -84,7 +84,7 @@ def main() -> int:
                         problem = f"left {list(out.iterdir())}"
                 except AssertionError as e:
                     result, problem = None, str(e)[:500]
-                except Exception as e:  # noqa: BLE001 - a timeout is a failure to report
+                except Exception as e:
                     result, problem = None, f"{type(e).__name__}: {e}"
                 results.append((command[0], result, problem, time.monotonic() - t0))
                 shutil.rmtree(out, ignore_errors=True)
@@ -109,8 +109,10 @@ def main() -> int:
                         print(f"FAIL {name} {path.name}: {problem}", flush=True)
                 path.unlink(missing_ok=True)
         files = runs // len(COMMANDS)
-        print(f"{files} files x {len(COMMANDS)} commands = {runs} runs in {time.monotonic() - start:.0f} s, "
-              f"{failures} failures, slowest run {slowest:.1f} s (limit {60} s)")
+        print(
+            f"{files} files x {len(COMMANDS)} commands = {runs} runs in {time.monotonic() - start:.0f} s, "
+            f"{failures} failures, slowest run {slowest:.1f} s (limit {60} s)"
+        )
         for name, counter in codes.items():
             print(f"  {name:9s} " + ", ".join(f"exit {k}: {v}" for k, v in sorted(counter.items(), key=str)))
         return 1 if failures else 0

@@ -98,7 +98,9 @@ def _real_array(array, node: str, field: str, source: str, expected: str = "real
         if source_array.dtype == object:  # a list mixing numbers and None, say: numbers or an error
             source_array = np.asarray(array, dtype=np.float64)
     except (TypeError, ValueError) as e:  # a ragged list, a string that is not a number
-        raise _bad_value(node, field, source, f"expected an array of {expected}, got {_describe(array)} ({e})") from None
+        raise _bad_value(
+            node, field, source, f"expected an array of {expected}, got {_describe(array)} ({e})"
+        ) from None
     if source_array.size and source_array.dtype.kind not in "iuf":
         raise _bad_value(node, field, source, f"expected an array of {expected}, got an array of {source_array.dtype}")
     return source_array
@@ -114,16 +116,23 @@ def _readonly(array, dtype, shape_tail: tuple[int, ...], node: str, field: str, 
     if integer and source_array.size:
         if source_array.dtype.kind == "f":
             if not np.all(np.isfinite(source_array)) or np.any(source_array != np.round(source_array)):
-                raise _bad_value(node, field, source, "expected whole-number indices, got fractional or non-finite values")
+                raise _bad_value(
+                    node, field, source, "expected whole-number indices, got fractional or non-finite values"
+                )
         info = np.iinfo(dtype)
         if source_array.min() < info.min or source_array.max() > info.max:
             bad = source_array.max() if source_array.max() > info.max else source_array.min()
-            raise _bad_value(node, field, source, f"index {int(bad)} does not fit the model's {np.dtype(dtype).name} "
-                             f"indices ({info.min}..{info.max})")
+            raise _bad_value(
+                node,
+                field,
+                source,
+                f"index {int(bad)} does not fit the model's {np.dtype(dtype).name} indices ({info.min}..{info.max})",
+            )
     out = np.array(source_array, dtype=dtype, order="C", copy=True)
     if out.ndim != 1 + len(shape_tail) or out.shape[1:] != shape_tail:
-        raise _bad_value(node, field, source, f"expected an array of shape (N, {', '.join(map(str, shape_tail))}), "
-                         f"got {out.shape}")
+        raise _bad_value(
+            node, field, source, f"expected an array of shape (N, {', '.join(map(str, shape_tail))}), got {out.shape}"
+        )
     out.setflags(write=False)
     return out
 
@@ -154,7 +163,10 @@ def _as_triples(node, *fields: str) -> None:
         elif isinstance(value, list) and len(value) == 3:
             value = tuple(value)
         if isinstance(value, tuple) and len(value) == 3:
-            if all(isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, (bool, np.bool_)) for x in value):
+            if all(
+                isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, (bool, np.bool_))
+                for x in value
+            ):
                 value = tuple(float(x) for x in value)
             object.__setattr__(node, name, value)  # hashable either way
 
@@ -192,14 +204,22 @@ class Texture:
         # A read-only float32 array that owns its data is taken as it is (the USD reader builds
         # one: a copy of a 16K texture would be 3.2 GB more, if only for a moment); anything else
         # is copied, so that the caller's array cannot change the model.
-        owned = isinstance(image, np.ndarray) and image.dtype == np.float32 and image.flags.c_contiguous \
-            and image.flags.owndata and not image.flags.writeable
+        owned = (
+            isinstance(image, np.ndarray)
+            and image.dtype == np.float32
+            and image.flags.c_contiguous
+            and image.flags.owndata
+            and not image.flags.writeable
+        )
         if not owned:
             with np.errstate(over="ignore"):  # beyond float32: inf, which validate reports as texels not finite
-                image = np.array(_real_array(image, "Texture", "image", self.source), dtype=np.float32, order="C",
-                                 copy=True)
+                image = np.array(
+                    _real_array(image, "Texture", "image", self.source), dtype=np.float32, order="C", copy=True
+                )
         if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] < 1 or image.shape[1] < 1:
-            raise _bad_value("Texture", "image", self.source, f"expected a texture image of shape (H, W, 3), got {image.shape}")
+            raise _bad_value(
+                "Texture", "image", self.source, f"expected a texture image of shape (H, W, 3), got {image.shape}"
+            )
         image.setflags(write=False)
         object.__setattr__(self, "image", image)
 
@@ -265,9 +285,21 @@ class PhongMaterial:
 
     def without_textures(self) -> PhongMaterial:
         """The same material with its constant colours only (the textures' fallbacks)."""
-        return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source,
-                             kr=self.kr, reflective_color=self.reflective_color, kt=self.kt, ior=self.ior,
-                             fresnel=self.fresnel, interior_filter=self.interior_filter)
+        return PhongMaterial(
+            self.ka,
+            self.kd,
+            self.ks,
+            self.exponent,
+            self.diffuse_color,
+            self.specular_color,
+            self.source,
+            kr=self.kr,
+            reflective_color=self.reflective_color,
+            kt=self.kt,
+            ior=self.ior,
+            fresnel=self.fresnel,
+            interior_filter=self.interior_filter,
+        )
 
 
 DEFAULT_MATERIAL = PhongMaterial()
@@ -466,7 +498,9 @@ class Sphere:
     source: str = ""
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "world_from_object", _matrix(self.world_from_object, "Sphere", "world_from_object", self.source))
+        object.__setattr__(
+            self, "world_from_object", _matrix(self.world_from_object, "Sphere", "world_from_object", self.source)
+        )
 
     @staticmethod
     def at(center: Vec3, radius: float, material: PhongMaterial = DEFAULT_MATERIAL, source: str = "") -> Sphere:
@@ -509,8 +543,12 @@ class TriangleMesh:
     def __post_init__(self) -> None:
         for array, partner in (("uvs", "uv_indices"), ("normals", "normal_indices")):
             if (getattr(self, array) is None) != (getattr(self, partner) is None):
-                raise _bad_value("TriangleMesh", partner if getattr(self, partner) is None else array, self.source,
-                                 f"{array} and {partner} go together")
+                raise _bad_value(
+                    "TriangleMesh",
+                    partner if getattr(self, partner) is None else array,
+                    self.source,
+                    f"{array} and {partner} go together",
+                )
         for name, dtype, tail in (
             ("points", np.float64, (3,)),
             ("triangles", np.int32, (3,)),
@@ -522,7 +560,9 @@ class TriangleMesh:
             if getattr(self, name) is None and name in ("points", "triangles"):
                 raise _bad_value("TriangleMesh", name, self.source, "is required, got None")
             if getattr(self, name) is not None:
-                object.__setattr__(self, name, _readonly(getattr(self, name), dtype, tail, "TriangleMesh", name, self.source))
+                object.__setattr__(
+                    self, name, _readonly(getattr(self, name), dtype, tail, "TriangleMesh", name, self.source)
+                )
 
     def local_origin(self) -> np.ndarray:
         """The origin of a frame in which a float32 copy of the mesh (POV-Ray's mesh2 storage)

@@ -11,15 +11,15 @@ import subprocess
 import sys
 
 import pytest
-from support.paths import EXAMPLES, REPO
 
 from phongscene import scene_files
 from phongscene.errors import SceneError
 from phongscene.usd import load_usd
+from support.paths import EXAMPLES, REPO
 
 RUNAWAY = REPO / "tests" / "scenes" / "corrupt" / "runaway_allocation.usdc"
 RUNAWAY_TIMEOUT_S = 120  # as tests/cli/test_sandbox.py: the child reaches its limit in seconds
-TEXT = "#usda 1.0\n(\n    upAxis = \"Y\"\n)\n\ndef Sphere \"s\"\n{\n}\n"
+TEXT = '#usda 1.0\n(\n    upAxis = "Y"\n)\n\ndef Sphere "s"\n{\n}\n'
 
 
 def test_a_self_contained_text_layer_is_read_in_process(tmp_path):
@@ -69,13 +69,24 @@ def test_load_usd_of_a_runaway_file_is_a_scene_error():
 
 @pytest.mark.slow
 @pytest.mark.subprocess
-@pytest.mark.parametrize("command", [["render", "-o", "{tmp}/x.png", "--width", "8"], ["info"],
-                                     ["compile", "-o", "{tmp}/x.pov"], ["bench", "-o", "{tmp}/bench", "--repeat", "1", "--native-only"]])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["render", "-o", "{tmp}/x.png", "--width", "8"],
+        ["info"],
+        ["compile", "-o", "{tmp}/x.pov"],
+        ["bench", "-o", "{tmp}/bench", "--repeat", "1", "--native-only"],
+    ],
+)
 def test_every_command_stops_a_runaway_file_with_one_line(tmp_path, command):
     argv = [a.format(tmp=tmp_path) for a in command]
-    result = subprocess.run([sys.executable, "-m", "phongscene", argv[0], str(RUNAWAY), *argv[1:]],
-                            capture_output=True, text=True, timeout=RUNAWAY_TIMEOUT_S,
-                            env={**os.environ, "PYTHONWARNINGS": "ignore"})
+    result = subprocess.run(
+        [sys.executable, "-m", "phongscene", argv[0], str(RUNAWAY), *argv[1:]],
+        capture_output=True,
+        text=True,
+        timeout=RUNAWAY_TIMEOUT_S,
+        env={**os.environ, "PYTHONWARNINGS": "ignore"},
+    )
     assert result.returncode == 2, result.stderr
     (line,) = result.stderr.splitlines()
     assert line.startswith(f"error: {RUNAWAY}: ") and "sandboxed child process" in line

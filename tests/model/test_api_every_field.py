@@ -47,11 +47,38 @@ LIGHTS = (
     RectAreaLight((0, 2, 0), (1, 0, 0), (0, 0, 1), (1, 1, 1), samples=3),
     SphereAreaLight((0, 2, 0), 0.5, (1, 1, 1), samples=3),
 )
-BASE = dict(camera=Camera(), ambient=AmbientLight((0.1, 0.1, 0.1)), lights=LIGHTS, spheres=(BALL,), meshes=(MESH,),
-            settings=RenderSettings(width=4, height=4))
-HOSTILE = [None, "x", "", [1, 2], (1, 2, 3, 4), np.zeros((2, 2)), np.array(["a", "b", "c"]), float("nan"),
-           float("inf"), True, object(), {}, -1, 1e308, 1 + 2j, np.array([1 + 1j, 0, 0]), [[1, 2, 3]], b"abc",
-           (None, None, None), ("1", "2", "3"), np.float32(0.5), 2**40]
+BASE = dict(
+    camera=Camera(),
+    ambient=AmbientLight((0.1, 0.1, 0.1)),
+    lights=LIGHTS,
+    spheres=(BALL,),
+    meshes=(MESH,),
+    settings=RenderSettings(width=4, height=4),
+)
+HOSTILE = [
+    None,
+    "x",
+    "",
+    [1, 2],
+    (1, 2, 3, 4),
+    np.zeros((2, 2)),
+    np.array(["a", "b", "c"]),
+    float("nan"),
+    float("inf"),
+    True,
+    object(),
+    {},
+    -1,
+    1e308,
+    1 + 2j,
+    np.array([1 + 1j, 0, 0]),
+    [[1, 2, 3]],
+    b"abc",
+    (None, None, None),
+    ("1", "2", "3"),
+    np.float32(0.5),
+    2**40,
+]
 
 
 def _scene(**changes) -> Scene:
@@ -67,8 +94,10 @@ NODES = [
     ("camera", BASE["camera"], lambda n: _scene(camera=n)),
     ("ambient", BASE["ambient"], lambda n: _scene(ambient=n)),
     ("settings", BASE["settings"], lambda n: _scene(settings=n)),
-    *[(f"lights[{i}]", light, lambda n, i=i: _scene(lights=LIGHTS[:i] + (n,) + LIGHTS[i + 1:]))
-      for i, light in enumerate(LIGHTS)],
+    *[
+        (f"lights[{i}]", light, lambda n, i=i: _scene(lights=LIGHTS[:i] + (n,) + LIGHTS[i + 1 :]))
+        for i, light in enumerate(LIGHTS)
+    ],
     ("cone", LIGHTS[0].cone, lambda n: _scene(lights=(_replaced(LIGHTS[0], "cone", n),))),
     ("sphere", BALL, lambda n: _scene(spheres=(n,))),
     ("sphere.material", BALL.material, lambda n: _scene(spheres=(_replaced(BALL, "material", n),))),
@@ -77,7 +106,9 @@ NODES = [
     ("texture", TEXTURE, lambda n: _scene(meshes=(_replaced(MESH, "material", PhongMaterial(diffuse_texture=n)),))),
 ]
 CASES = [
-    pytest.param(make, node, f.name, id=f"{where}.{f.name}") for where, node, make in NODES for f in dataclasses.fields(node)
+    pytest.param(make, node, f.name, id=f"{where}.{f.name}")
+    for where, node, make in NODES
+    for f in dataclasses.fields(node)
 ] + [pytest.param(lambda n: n, Scene(**BASE), f.name, id=f"scene.{f.name}") for f in dataclasses.fields(Scene)]
 
 
@@ -112,7 +143,9 @@ def test_a_colour_or_point_as_a_numpy_array_or_list_is_the_documented_tuple():
     # floats the model documents, so materials stay hashable and compare equal to tuple-built ones.
     m = PhongMaterial(diffuse_color=np.array([0.5, 0.25, 1.0], dtype=np.float32), specular_color=[1, 1, 1])
     assert m.diffuse_color == (0.5, 0.25, 1.0) and type(m.diffuse_color[0]) is float
-    assert m == PhongMaterial(diffuse_color=(0.5, 0.25, 1.0)) and hash(m) == hash(PhongMaterial(diffuse_color=(0.5, 0.25, 1.0)))
+    assert m == PhongMaterial(diffuse_color=(0.5, 0.25, 1.0)) and hash(m) == hash(
+        PhongMaterial(diffuse_color=(0.5, 0.25, 1.0))
+    )
     assert PointLight(np.zeros(3), np.ones(3)).position == (0.0, 0.0, 0.0)
     assert RenderSettings(background=np.array([0.0, 0.5, 0.0])).background == (0.0, 0.5, 0.0)
 

@@ -38,23 +38,29 @@ def test_a_negative_light_colour(tmp_path, radius):
 
 @pytest.mark.parametrize("kelvin", ["1e38", "999", "10001", "-5"])
 def test_a_colour_temperature_outside_usdlux_table(tmp_path, kelvin):
-    body = (f'def DistantLight "l" {{\n bool inputs:enableColorTemperature = 1\n float inputs:colorTemperature = {kelvin}\n}}\n'
-            + SPHERE)
+    body = (
+        f'def DistantLight "l" {{\n bool inputs:enableColorTemperature = 1\n float inputs:colorTemperature = {kelvin}\n}}\n'
+        + SPHERE
+    )
     assert "/l.inputs:colorTemperature: must be" in _error(tmp_path, body)
 
 
 @pytest.mark.parametrize("kelvin", [MIN_KELVIN, 6500.0, MAX_KELVIN])
 def test_colour_temperatures_inside_the_table_are_read(tmp_path, kelvin):
-    body = (f'def DistantLight "l" {{\n bool inputs:enableColorTemperature = 1\n float inputs:colorTemperature = {kelvin}\n}}\n'
-            + SPHERE)
+    body = (
+        f'def DistantLight "l" {{\n bool inputs:enableColorTemperature = 1\n float inputs:colorTemperature = {kelvin}\n}}\n'
+        + SPHERE
+    )
     (light,) = read(tmp_path, body).scene.lights
     assert max(light.color) > 0
 
 
 @pytest.mark.parametrize("aperture", ["1e38", "1e20"])
 def test_an_absurd_orthographic_aperture(tmp_path, aperture):
-    body = (f'def Camera "cam" {{\n token projection = "orthographic"\n float horizontalAperture = {aperture}\n'
-            f' float verticalAperture = {aperture}\n}}\n' + SPHERE)
+    body = (
+        f'def Camera "cam" {{\n token projection = "orthographic"\n float horizontalAperture = {aperture}\n'
+        f" float verticalAperture = {aperture}\n}}\n" + SPHERE
+    )
     assert "/cam.horizontalAperture: the orthographic view window must be" in _error(tmp_path, body)
 
 
@@ -91,10 +97,13 @@ def test_matching_point_instancer_arrays_are_read(tmp_path):
 
 
 def test_an_unknown_sample_pattern_on_the_render_settings(tmp_path):
-    body = """
+    body = (
+        """
 def RenderSettings "S" {
     uniform int2 resolution = (8, 8)
     uniform token phong:samplePattern = "bogus"
 }
-""" + SPHERE
+"""
+        + SPHERE
+    )
     assert "/S.phong:samplePattern: must be one of grid," in _error(tmp_path, body)
