@@ -41,6 +41,15 @@ def open_stage(path: str):
     return opened
 
 
+def used_files(path: str) -> tuple[str, ...]:
+    """The files the stage kept for ``path`` was composed from (its root and every layer it
+    used), or only the root when no stage of it is kept (none opened yet, or the last open
+    failed): what a live preview watches (``phongscene.preview``)."""
+    if _last is not None and _last[0] == path:
+        return _last[1]
+    return (os.path.abspath(path),)
+
+
 def _layer_files(path: str, stage) -> tuple[str, ...]:
     """The files on disk the stage was composed from: the root and every layer it used (a
     package's inner layer counts as the package)."""
