@@ -73,7 +73,7 @@ class Preview:
         self.stop = threading.Event()
         self._watched: tuple[str, ...] = (self.scene,)
         self._states: tuple = ()
-        self._tmp = tempfile.TemporaryDirectory(prefix="phongscene-preview-")
+        self._tmp: tempfile.TemporaryDirectory | None = None  # made by the first image
 
     # -- the watch-and-render loop (the main thread of ``phongscene preview``) --
 
@@ -87,7 +87,8 @@ class Preview:
                 self.stop.wait(POLL_SECONDS)
 
     def close(self) -> None:
-        self._tmp.cleanup()
+        if self._tmp is not None:
+            self._tmp.cleanup()
 
     def _file_states(self) -> tuple:
         from .usd.read_cache import file_state
@@ -115,9 +116,10 @@ class Preview:
             self._publish(stage="error", errors=[str(p) for p in in_file_terms(e).problems], warnings=[],
                           start=start)
             return
-        except (PhongSceneError, OSError) as e:
+        except Exception as e:  # noqa: BLE001 - whatever stops a read is shown, and the next edit may fix it
             self._watch(used_files(self.scene))
-            self._publish(stage="error", errors=[str(e)], warnings=[], start=start)
+            said = str(e) if isinstance(e, (PhongSceneError, OSError)) else f"{type(e).__name__}: {e}"
+            self._publish(stage="error", errors=[said], warnings=[], start=start)
             return
         textures = {t.file for g in (*scene.spheres, *scene.meshes) for t in g.material.textures if t.file}
         self._watch(used_files(self.scene) + tuple(sorted(textures)))
@@ -146,6 +148,8 @@ class Preview:
     def _png(self, image) -> bytes:
         from .images import write_image
 
+        if self._tmp is None:
+            self._tmp = tempfile.TemporaryDirectory(prefix="phongscene-preview-")
         return write_image(Path(self._tmp.name) / "preview.png", image).read_bytes()
 
     def _publish(self, *, stage: str, start: float, png: bytes | None = None, size=None, errors=(), warnings=()):

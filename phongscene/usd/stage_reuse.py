@@ -31,9 +31,12 @@ def open_stage(path: str):
     if _last is not None and _last[0] == path:
         # USD keeps a layer that is still referenced (by the old stage, or a caller holding it) in
         # its registry and would hand it out again as it was: reread the old stage's layers.
-        from pxr import Sdf
+        from pxr import Sdf, Tf
 
-        Sdf.Layer.ReloadLayers(set(_last[3].stage.GetUsedLayers()), force=True)
+        try:
+            Sdf.Layer.ReloadLayers(set(_last[3].stage.GetUsedLayers()), force=True)
+        except Tf.ErrorException:
+            pass  # a layer that no longer parses: opening it anew below reports it (a SceneError naming it)
     _last = None  # release the old stage first
     opened = open_usd(path)
     files = _layer_files(path, opened.stage)
