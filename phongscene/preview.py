@@ -16,7 +16,9 @@ skips it. A scene that does not read (a typo, a broken edit) keeps the last imag
 errors on the page; the next good edit recovers.
 
 The page polls ``/state.json`` (a generation counter that grows with each new image, the pass,
-the errors and warnings) and reloads ``/image.png`` when the counter moves."""
+the errors and warnings) and reloads ``/image.png`` when the counter moves. Its button posts
+``/diff``: the loop runs ``phongscene diff`` on the scene (POV-Ray against the native tracer) and
+the report is served under ``/diff/``."""
 
 from __future__ import annotations
 
@@ -55,10 +57,14 @@ class PreviewState:
     errors: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     seconds: float = 0.0  # from the change seen to this image
+    # The POV-Ray diff the page's button asks for: "", "running", "done" or "error", and its verdict.
+    diff: str = ""
+    diff_summary: str = ""
 
     def as_json(self) -> dict:
         return {"generation": self.generation, "width": self.width, "height": self.height, "pass": self.stage,
-                "errors": self.errors, "warnings": self.warnings, "seconds": round(self.seconds, 4)}
+                "errors": self.errors, "warnings": self.warnings, "seconds": round(self.seconds, 4),
+                "diff": self.diff, "diff_summary": self.diff_summary}
 
 
 class Preview:
@@ -71,6 +77,7 @@ class Preview:
         self.state = PreviewState()
         self.lock = threading.Lock()
         self.stop = threading.Event()
+        self.diff_requested = threading.Event()  # the page's button (run by the loop, between renders)
         self._watched: tuple[str, ...] = (self.scene,)
         self._states: tuple = ()
         self._tmp: tempfile.TemporaryDirectory | None = None  # made by the first image
@@ -83,6 +90,9 @@ class Preview:
             states = self._file_states()
             if states != self._states:
                 self.render_once()
+            elif self.diff_requested.is_set():
+                self.diff_requested.clear()
+                self.run_diff()
             else:
                 self.stop.wait(POLL_SECONDS)
 
@@ -135,6 +145,42 @@ class Preview:
             self._publish(stage=stage, png=self._png(image), size=(settings.width, settings.height),
                           warnings=list(warnings), start=start)
 
+    @property
+    def diff_folder(self) -> Path:
+        """Where the last POV-Ray diff's report is (served under /diff/)."""
+        return Path(self._tmp_folder()) / "diff"
+
+    def run_diff(self) -> None:
+        """``phongscene diff`` of the scene as it is now, with the preview's overrides (the exact
+        mapping unless --mapping says otherwise); its report replaces the last one. In the
+        loop's thread: USD's stage is not shared between threads, and edits wait for it."""
+        from .crossvalidation import diff
+        from .usd.stage_reuse import open_stage
+
+        with self.lock:
+            self.state.diff, self.state.diff_summary = "running", ""
+            self.state.generation += 1
+        try:
+            overrides = replace(self.overrides, mapping=self.overrides.mapping or "exact")
+            result = diff(open_stage(self.scene), self.diff_folder, overrides=overrides)
+            r = result.report
+            verdict, summary = "done", (f"{'agree' if result.ok else 'DIFFER'}: max error {r.max_error:.3g}, "
+                                        f"{r.failing_pixels} of {r.pixels} pixels ({r.failing_percent:.3g} %) fail")
+        except SceneError as e:
+            from .rendering import in_file_terms
+
+            verdict, summary = "error", "; ".join(str(p) for p in in_file_terms(e).problems)
+        except Exception as e:  # noqa: BLE001 - POV-Ray missing or failing: said on the page
+            verdict, summary = "error", f"{type(e).__name__}: {e}" if not isinstance(e, PhongSceneError) else str(e)
+        with self.lock:
+            self.state.diff, self.state.diff_summary = verdict, summary
+            self.state.generation += 1
+
+    def _tmp_folder(self) -> str:
+        if self._tmp is None:
+            self._tmp = tempfile.TemporaryDirectory(prefix="phongscene-preview-")
+        return self._tmp.name
+
     def _watch(self, files: tuple[str, ...]) -> None:
         """Watch ``files`` (and the scene) from now on: each with its state before the read when
         it was watched then (an edit made during the read shows at the next poll), else as it
@@ -148,9 +194,7 @@ class Preview:
     def _png(self, image) -> bytes:
         from .images import write_image
 
-        if self._tmp is None:
-            self._tmp = tempfile.TemporaryDirectory(prefix="phongscene-preview-")
-        return write_image(Path(self._tmp.name) / "preview.png", image).read_bytes()
+        return write_image(Path(self._tmp_folder()) / "preview.png", image).read_bytes()
 
     def _publish(self, *, stage: str, start: float, png: bytes | None = None, size=None, errors=(), warnings=()):
         with self.lock:
@@ -184,6 +228,8 @@ body {{ font-family: sans-serif; margin: 1em; background: #222; color: #ddd; }}
 <h1>{name}</h1>
 <p id="status">waiting for the first image</p>
 <img id="image" alt="the latest render of {name}">
+<p><button id="diff" onclick="fetch('diff', {{method: 'POST'}})">POV-Ray diff</button>
+<span id="diffstatus"></span></p>
 <pre id="errors"></pre>
 <pre id="warnings"></pre>
 <script>
@@ -200,6 +246,14 @@ async function poll() {{
       }}
       document.getElementById("errors").textContent = state.errors.map(e => "error: " + e).join("\\n");
       document.getElementById("warnings").textContent = state.warnings.map(w => "warning: " + w).join("\\n");
+      const diff = document.getElementById("diffstatus");
+      diff.textContent = state.diff === "running" ? "rendering with POV-Ray ..." : state.diff_summary;
+      document.getElementById("diff").disabled = state.diff === "running";
+      if (state.diff === "done") {{
+        const link = document.createElement("a");
+        link.href = "diff/index.html?g=" + state.generation; link.textContent = " the report";
+        diff.appendChild(link);
+      }}
       document.getElementById("status").textContent =
         "image " + state.generation + ", " + state.pass + " pass, " + state.seconds.toFixed(3) + " s";
     }}
@@ -235,8 +289,26 @@ def make_server(preview: Preview, port: int = 0) -> ThreadingHTTPServer:
                     self._send(200, "image/png", png)
                 else:
                     self._send(404, "text/plain", b"no image yet")
+            elif path.startswith("/diff/"):
+                self._send_report_file(path[len("/diff/"):])
             else:
                 self._send(404, "text/plain", b"not found")
+
+        def do_POST(self):
+            if self.path.split("?", 1)[0] == "/diff":
+                preview.diff_requested.set()
+                self._send(202, "text/plain", b"diff requested")
+            else:
+                self._send(404, "text/plain", b"not found")
+
+        def _send_report_file(self, name: str) -> None:
+            # The report's own files only (flat folder): no path leads out of it.
+            kinds = {".html": "text/html; charset=utf-8", ".png": "image/png", ".json": "application/json"}
+            file = preview.diff_folder / name
+            if "/" in name or name.startswith(".") or file.suffix not in kinds or not file.is_file():
+                self._send(404, "text/plain", b"not found")
+            else:
+                self._send(200, kinds[file.suffix], file.read_bytes())
 
         def _send(self, status: int, kind: str, body: bytes) -> None:
             self.send_response(status)

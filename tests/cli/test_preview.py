@@ -14,6 +14,7 @@ import subprocess
 import sys
 import threading
 import time
+import urllib.error
 import urllib.request
 from pathlib import Path
 
@@ -229,4 +230,21 @@ def test_the_page_in_chromium_shows_the_image(served):
     ).stdout
     # The page's script ran: the image element points at the latest image, at the scene's size.
     assert f'src="image.png?g={state["generation"]}"' in dom, dom
-    assert f'width="{WIDTH}"' in dom and "full pass" in dom
+    assert f'width="{WIDTH}"' in dom and "full pass" in dom and "POV-Ray diff" in dom
+
+
+@pytest.mark.povray
+@pytest.mark.slow
+def test_the_diff_button_runs_the_povray_diff_and_serves_its_report(served):
+    _, base = served
+    first = _wait_for(base, _full)
+    request = urllib.request.Request(base + "diff", method="POST")
+    with urllib.request.urlopen(request, timeout=WAIT_SECONDS) as response:
+        assert response.status == 202
+    done = _wait_for(base, lambda s: s["diff"] in ("done", "error"), after=first["generation"])
+    assert done["diff"] == "done" and done["diff_summary"].startswith("agree: max error "), done
+    report = _get(base + "diff/index.html").decode()
+    assert 'src="povray.png"' in report
+    assert _get(base + "diff/povray.png").startswith(b"\x89PNG")
+    with pytest.raises(urllib.error.HTTPError):
+        _get(base + "diff/%2e%2e%2fscene.usda")  # nothing outside the report's folder
