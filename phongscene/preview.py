@@ -32,7 +32,7 @@ from dataclasses import dataclass, field, replace
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
-from .errors import PhongSceneError, SceneError
+from .errors import BackendError, PhongSceneError, SceneError
 from .overrides import RenderOverrides
 
 # How often the watched files are checked: well under the 0.5 s an edit may take to show
@@ -107,7 +107,7 @@ class Preview:
 
     def render_once(self) -> None:
         """Read the scene, render the coarse pass, then (no change seen meanwhile) the full one."""
-        from .rendering import load_scene, render
+        from .rendering import check_settings, load_scene, render
         from .usd.stage_reuse import open_stage, used_files
 
         start = time.perf_counter()
@@ -116,8 +116,6 @@ class Preview:
         try:
             scene, warnings = load_scene(open_stage(self.scene), time=self.overrides.time)
             scene, settings = self.overrides.apply(scene)
-            from .rendering import check_settings
-
             check_settings(scene, settings)
         except SceneError as e:
             from .rendering import in_file_terms
@@ -141,7 +139,11 @@ class Preview:
         for stage, pass_settings in passes:
             if stage == "full" and self._file_states() != self._states:
                 return  # edited again: the next loop renders the new version, coarse first
-            image = render(scene, "native", pass_settings)
+            try:
+                image = render(scene, "native", pass_settings)
+            except BackendError as e:  # the tracer refused (out of memory, say): shown, the next edit retries
+                self._publish(stage="error", errors=[str(e)], warnings=list(warnings), start=start)
+                return
             self._publish(stage=stage, png=self._png(image), size=(settings.width, settings.height),
                           warnings=list(warnings), start=start)
 

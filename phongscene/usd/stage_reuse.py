@@ -33,8 +33,12 @@ def open_stage(path: str):
         # its registry and would hand it out again as it was: reread the old stage's layers.
         from pxr import Sdf, Tf
 
+        from .diagnostics import usd_output
+
         try:
-            Sdf.Layer.ReloadLayers(set(_last[3].stage.GetUsedLayers()), force=True)
+            # USD's "Unable to re-read" warning is held back: the open below says what is wrong.
+            with usd_output([]):
+                Sdf.Layer.ReloadLayers(set(_last[3].stage.GetUsedLayers()), force=True)
         except Tf.ErrorException:
             pass  # a layer that no longer parses: opening it anew below reports it (a SceneError naming it)
     _last = None  # release the old stage first
