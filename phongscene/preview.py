@@ -81,6 +81,7 @@ class Preview:
         self._watched: tuple[str, ...] = (self.scene,)
         self._states: tuple = ()
         self._tmp: tempfile.TemporaryDirectory | None = None  # made by the first image
+        self._tmp_lock = threading.Lock()
 
     # -- the watch-and-render loop (the main thread of ``phongscene preview``) --
 
@@ -179,9 +180,10 @@ class Preview:
             self.state.generation += 1
 
     def _tmp_folder(self) -> str:
-        if self._tmp is None:
-            self._tmp = tempfile.TemporaryDirectory(prefix="phongscene-preview-")
-        return self._tmp.name
+        with self._tmp_lock:  # the loop and the server's threads both ask
+            if self._tmp is None:
+                self._tmp = tempfile.TemporaryDirectory(prefix="phongscene-preview-")
+            return self._tmp.name
 
     def _watch(self, files: tuple[str, ...]) -> None:
         """Watch ``files`` (and the scene) from now on: each with its state before the read when
