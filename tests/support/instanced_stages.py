@@ -52,10 +52,10 @@ def _stage_basics(stage: Usd.Stage, extent: float, width: int = 96, height: int 
     m = Gf.Matrix4d().SetLookAt(eye, Gf.Vec3d(0, 0, 0), Gf.Vec3d(0, 1, 0)).GetInverse()
     cam.AddTransformOp().Set(m)
     cam.CreateFocalLengthAttr(20.0)
-    light = UsdLux.SphereLight.Define(stage, "/Light")
-    light.CreateTreatAsPointAttr(True)
-    light.CreateIntensityAttr(3.0)
-    light.AddTranslateOp().Set(Gf.Vec3d(extent, extent * 2, extent))
+    light = UsdLux.DistantLight.Define(stage, "/Light")
+    light.CreateIntensityAttr(2.5)
+    light.AddRotateXYZOp().Set(Gf.Vec3f(-55, 30, 0))
+    UsdLux.DomeLight.Define(stage, "/Sky").CreateIntensityAttr(0.15)
     settings = stage.DefinePrim("/Render/Settings", "RenderSettings")
     settings.CreateAttribute("resolution", Sdf.ValueTypeNames.Int2).Set(Gf.Vec2i(width, height))
     settings.CreateRelationship("camera").SetTargets(["/Camera"])
@@ -72,9 +72,11 @@ def _material(stage: Usd.Stage, path: str, color) -> UsdShade.Material:
 
 
 def point_instancer_stage(path, count: int, rings: int = 12, sides: int = 8, spacing: float = 1.0, *,
-                          width: int = 96, height: int = 54, seed: int = 1, with_sphere: bool = False) -> str:
+                          width: int = 96, height: int = 54, seed: int = 1, with_sphere: bool = False,
+                          uniform_scales: bool = False) -> str:
     """A PointInstancer placing ``count`` copies of a torus on a grid, each rotated and scaled
-    differently (orientations, scales); optionally a second prototype, a sphere, every 7th copy."""
+    differently (orientations, scales: uniform ones with ``uniform_scales``); optionally a second
+    prototype, a sphere, every 7th copy."""
     stage = Usd.Stage.CreateNew(str(path))
     positions = grid_positions(count, spacing)
     extent = float(np.abs(positions).max()) + spacing
@@ -97,7 +99,8 @@ def point_instancer_stage(path, count: int, rings: int = 12, sides: int = 8, spa
     quats = np.concatenate([np.cos(angles / 2)[:, None], axes * np.sin(angles / 2)[:, None]], 1)
     inst.CreatePositionsAttr(Vt.Vec3fArray.FromNumpy(positions.astype(np.float32)))
     inst.CreateOrientationsAttr(Vt.QuathArray([Gf.Quath(*map(float, q)) for q in quats]))
-    inst.CreateScalesAttr(Vt.Vec3fArray.FromNumpy(rng.uniform(0.6, 1.3, (count, 3)).astype(np.float32)))
+    scales = rng.uniform(0.6, 1.3, (count, 1 if uniform_scales else 3)) * np.ones(3)
+    inst.CreateScalesAttr(Vt.Vec3fArray.FromNumpy(scales.astype(np.float32)))
     inst.CreateProtoIndicesAttr(Vt.IntArray.FromNumpy(indices))
     stage.GetRootLayer().Save()
     return str(path)

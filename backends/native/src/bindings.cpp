@@ -208,7 +208,9 @@ nb::tuple intersect(const phong::Scene& scene, const Rows3& origins, const Rows3
             phong::Hit hit;
             if (scene.closest_hit(ray, t_min, HUGE_VAL, hit)) {
                 t[i] = hit.t;
-                id[i] = scene.primitive_id(hit.ref);
+                // An instance's hit: -2 - the instance's number (its prototype's primitives are its own).
+                id[i] = hit.instance >= 0 ? -2 - int64_t(scene.instances->instance_id(hit.instance))
+                                          : scene.primitive_id(hit.ref);
             } else {
                 t[i] = HUGE_VAL;
                 id[i] = -1;
@@ -390,6 +392,20 @@ NB_MODULE(_native, m) {
         .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
              "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and specular_texture, and the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order.")
+        .def("add_instances",
+             [](phong::Scene& self, phong::Scene& prototype, const Matrices& world_from_prototype) {
+                 if (&prototype == &self) throw std::invalid_argument("a scene cannot be its own prototype");
+                 if (!prototype.instances_empty()) throw std::invalid_argument("a prototype holds no instances");
+                 auto taken = std::make_unique<phong::Scene>(std::move(prototype));
+                 nb::gil_scoped_release release;
+                 self.add_instances(std::move(taken), world_from_prototype.data(), world_from_prototype.shape(0));
+             },
+             "prototype"_a, "world_from_prototype"_a,
+             "Adds copies of `prototype` (a Scene of its meshes in prototype space, taken over: it is empty "
+             "afterwards), copy k placed by world_from_prototype[k] (K, 4, 4), column vectors, affine and "
+             "invertible; the top-level BVH over every instance is rebuilt.")
+        .def_prop_ro("instance_count", [](const phong::Scene& s) { return s.instances ? s.instances->size() : 0; })
+        .def_prop_ro("prototype_count", [](const phong::Scene& s) { return s.instances ? s.instances->prototype_count() : 0; })
         .def_prop_ro("magnitude", [](const phong::Scene& s) { return s.magnitude; })
         .def_prop_ro("single_precision_triangles", [](const phong::Scene& s) { return s.triangles.single_precision(); },
                      "Whether the triangles' corners are held as floats (every vertex a float: the same doubles).")
