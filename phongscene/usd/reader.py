@@ -39,7 +39,7 @@ from .names import in_usd_terms
 from .scene_checks import warn_clipping_lights, warn_single_sided
 from .stage_checks import check_stage
 
-_GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cone", "Capsule"}
+_GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cone", "Capsule", "Points"}
 
 
 @dataclass
@@ -350,6 +350,11 @@ def _gprim(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, materials: Mater
     if type_name == "Sphere":
         spheres.append(geometry.sphere(ctx, prim, world, material))
         ctx.nodes.append((path, "Sphere"))
+        return
+    if type_name == "Points":
+        placed = geometry.points(ctx, prim, world, material)
+        spheres.extend(placed)
+        ctx.nodes.append((path, f"Points ({len(placed)} spheres)"))
         return
     if type_name == "Mesh":
         subsets = materials.face_subsets(prim)
