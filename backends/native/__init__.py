@@ -220,7 +220,7 @@ def add_instances(native: _native.Scene, scene: Scene, numerics: str) -> None:
     groups: dict[int, list] = {}
     for group in scene.instances:
         groups.setdefault(id(group.prototype), []).append(group)
-    for same in groups.values():
+    for n, same in enumerate(groups.values()):
         prototype = same[0].prototype
         part = Scene(meshes=prototype.meshes, source_file=scene.source_file)
         arrays = scene_arrays(part)
@@ -231,7 +231,7 @@ def add_instances(native: _native.Scene, scene: Scene, numerics: str) -> None:
         if textures is not None:
             built.set_textures(**textures)
         transforms = np.ascontiguousarray(np.concatenate([g.world_from_prototype for g in same]), dtype=np.float64)
-        native.add_instances(built, transforms)
+        native.add_instances(built, transforms, rebuild=n == len(groups) - 1)  # the top level once, at the end
 
 
 def render(

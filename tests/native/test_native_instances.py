@@ -131,3 +131,22 @@ def test_singular_and_non_affine_transforms_are_refused():
     proto = native.build(Scene(meshes=group.prototype.meshes))
     with pytest.raises(ValueError, match="singular"):
         built.add_instances(proto, np.ascontiguousarray(bad))
+
+
+def test_a_stale_top_level_is_refused_and_many_prototypes_build_once():
+    scene = _ground_and_post(1.0)
+    group = scene.instances[0]
+    built = native.build(replace(scene, instances=()))
+    built.add_instances(native.build(Scene(meshes=group.prototype.meshes)), np.ascontiguousarray(group.world_from_prototype),
+                        rebuild=False)
+    origins, dirs = np.array([[0.0, 3.0, 7.0]]), np.array([[-2.5, -2.7, -7.0]]) / np.linalg.norm([-2.5, -2.7, -7.0])  # at copy 0's post
+    with pytest.raises(ValueError, match="rebuild=False"):
+        built.intersect(origins, dirs)
+    moved = group.world_from_prototype.copy()
+    moved[:, 2, 3] -= 3.0
+    built.add_instances(native.build(Scene(meshes=group.prototype.meshes)), np.ascontiguousarray(moved))
+    assert built.instance_count == 4 and built.prototype_count == 2
+    t, ids = built.intersect(origins, dirs)
+    two = replace(scene, instances=(group, Instances(group.prototype, moved)))
+    t_flat, _ = native.build(two.flattened()).intersect(origins, dirs)
+    assert np.isfinite(t[0]) and abs(t[0] - t_flat[0]) <= SAME_HIT * t_flat[0] and ids[0] <= -2

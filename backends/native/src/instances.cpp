@@ -71,7 +71,8 @@ size_t InstanceLayer::triangle_count() const {
     return n;
 }
 
-void InstanceLayer::add(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count) {
+void InstanceLayer::add(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
+                        bool rebuild) {
     const uint32_t index = uint32_t(prototypes_.size());
     const Bounds local = prototype->bounds;
     if (!prototype->instances_empty())
@@ -95,7 +96,9 @@ void InstanceLayer::add(std::unique_ptr<Scene> prototype, const double* world_fr
     for (size_t k = 0; k < count; ++k) all[added[k].id] = added[k];
     instances_ = std::move(all);
     world_boxes_.insert(world_boxes_.end(), boxes.begin(), boxes.end());
-    build();
+    for (const Bounds& b : boxes) bounds.grow(b);
+    stale_ = true;
+    if (rebuild) build();
 }
 
 void InstanceLayer::build() {
@@ -108,6 +111,7 @@ void InstanceLayer::build() {
     }
     magnitude_ = bounds.empty() ? 0.0 : std::fmax(max_abs_component(bounds.lo), max_abs_component(bounds.hi));
     nodes_.clear();
+    stale_ = false;
     if (prims.empty()) return;
     Bvh bvh;
     bvh.build(std::move(prims));

@@ -55,9 +55,11 @@ class InstanceLayer {
 
     // Adds `count` copies of `prototype` (taken over), copy k placed by the 4x4 row-major
     // world-from-prototype matrix world_from_prototype[16k..16k+16) (affine, invertible:
-    // Python validates), and rebuilds the top level. Throws std::invalid_argument for a
-    // singular or non-affine matrix.
-    void add(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count);
+    // Python validates), and rebuilds the top level unless `rebuild` is false (many
+    // prototypes: build once, after the last; until then the layer is stale() and must not be
+    // traced). Throws std::invalid_argument for a singular or non-affine matrix.
+    void add(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count, bool rebuild = true);
+    bool stale() const { return stale_; }
 
     // The closest hit in (t_min, t_max) among the instances (hit.instance: the instance's
     // leaf position, hit.ref and hit.bary: the prototype's own) and any hit, as Scene's.
@@ -84,6 +86,7 @@ class InstanceLayer {
     std::vector<Bounds> world_boxes_;   // by instance (input order), for rebuilds
     std::vector<Bvh4Node> nodes_;
     double magnitude_ = 0.0;  // largest absolute coordinate of the instances' boxes
+    bool stale_ = false;      // instances added since the last build
 };
 
 }  // namespace phong

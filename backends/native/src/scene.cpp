@@ -228,9 +228,10 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     first_triangle_ = std::move(first_triangle);
 }
 
-void Scene::add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count) {
+void Scene::add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
+                          bool rebuild) {
     if (!instances) instances = std::make_unique<InstanceLayer>();
-    instances->add(std::move(prototype), world_from_prototype, count);
+    instances->add(std::move(prototype), world_from_prototype, count, rebuild);
     bounds.grow(instances->bounds);
 }
 

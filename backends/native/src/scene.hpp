@@ -137,7 +137,8 @@ class Scene {
     // The scene (this, or an instance's prototype) whose primitive `hit.ref` names.
     const Scene& surface_of(const Hit& hit) const { return hit.instance < 0 ? *this : instances->prototype_of(hit.instance); }
     // Adds copies of a prototype (instances.hpp) and grows `bounds` by their boxes.
-    void add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count);
+    void add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
+                       bool rebuild = true);
 
     Bounds bounds;           // of the geometry, instances included (empty without primitives)
     double magnitude = 0.0;  // largest absolute coordinate of the geometry bounds
