@@ -74,6 +74,7 @@ class InstanceLayer {
     uint32_t instance_id(int32_t instance) const { return instances_[size_t(instance)].id; }
     size_t size() const { return instances_.size(); }
     size_t prototype_count() const { return prototypes_.size(); }
+    const Scene& prototype(size_t p) const { return *prototypes_[p]; }
     size_t triangle_count() const;  // stored: each prototype's once
 
     Bounds bounds;  // of every instance's world box
