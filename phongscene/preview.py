@@ -130,7 +130,8 @@ class Preview:
             said = str(e) if isinstance(e, (PhongSceneError, OSError)) else f"{type(e).__name__}: {e}"
             self._publish(stage="error", errors=[said], warnings=[], start=start)
             return
-        textures = {t.file for g in (*scene.spheres, *scene.meshes) for t in g.material.textures if t.file}
+        gprims = (*scene.spheres, *scene.meshes, *(m for i in scene.instances for m in i.prototype.meshes))
+        textures = {t.file for g in gprims for t in g.material.textures if t.file}
         self._watch(used_files(self.scene) + tuple(sorted(textures)))
         coarse = replace(settings, width=max(1, settings.width // COARSE_DIVISOR),
                          height=max(1, settings.height // COARSE_DIVISOR), samples=1)
