@@ -3,7 +3,7 @@
 and the tests call) and ``build_parser``. Each command group has its module, with its parser and
 a thin ``run_<command>`` that calls the public API and prints the result: ``render`` (render,
 compile), ``diff`` (diff, compare), ``info`` (info, validate), ``mesh_import`` (import),
-``bench``; ``frames`` runs --frames for render, compile and diff. The options more than one
+``bench``, ``preview``; ``frames`` runs --frames for render, compile and diff. The options more than one
 command takes, the render overrides among them, are in ``options``; the exit statuses, signals
 and deferred imports in ``process``.
 
@@ -38,6 +38,7 @@ from .process import (
     install_signal_handlers,
     preimport,
 )
+from .preview import add_preview_command
 from .render import add_compile_command, add_render_command
 
 __all__ = [
@@ -70,6 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
         add_render_command,
         add_compile_command,
         add_bench_command,
+        add_preview_command,
     ):
         add_command(sub)
     return parser

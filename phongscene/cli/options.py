@@ -172,6 +172,11 @@ def add_timeout_option(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS", help=help)
 
 
+def add_single_time_option(p: argparse.ArgumentParser) -> None:
+    """--time alone (a command with no --frames: preview)."""
+    p.add_argument("--time", type=_time_code, metavar="T", help="read the stage at USD time code T")
+
+
 def add_time_options(p: argparse.ArgumentParser, output: str) -> None:
     group = p.add_argument_group("time (an animated stage; default: its start time, with a warning)")
     when = group.add_mutually_exclusive_group()

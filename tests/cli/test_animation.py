@@ -360,6 +360,27 @@ def test_a_kept_stage_is_reused_until_its_file_or_a_layer_changes(tmp_path):
         workers.forget()
 
 
+def test_a_kept_stage_whose_layer_no_longer_parses_is_a_scene_error_then_recovers(tmp_path, capfd):
+    """A layer broken by an edit (the live preview, a worker): the reopen names the file; USD's
+    own re-read warning is held back; the fixed file opens again."""
+    from phongscene.errors import SceneError
+    from phongscene.usd import stage_reuse as workers
+
+    root = tmp_path / "shot.usda"
+    good = '#usda 1.0\ndef Sphere "Ball" {\n    double radius = 1\n}\n'
+    root.write_text(good)
+    try:
+        workers.open_stage(str(root))
+        root.write_text(good + "def Xform {{{\n")
+        with pytest.raises(SceneError, match="shot.usda"):
+            workers.open_stage(str(root))
+        assert "Unable to re-read" not in capfd.readouterr().err
+        root.write_text(good.replace("radius = 1", "radius = 3"))
+        assert load_scene(workers.open_stage(str(root)))[0].spheres[0].world_from_object[0, 0] == 3.0
+    finally:
+        workers.forget()
+
+
 def test_frames_read_from_the_kept_stage_are_bit_identical_to_render_time(tmp_path):
     from phongscene.usd import stage_reuse as workers
 
