@@ -85,8 +85,9 @@ def _load(scene: str, frame: int, overrides: RenderOverrides):
 
 def render_frame(scene: str, frame: int, output: str, backend: str, overrides: RenderOverrides) -> dict:
     """Render ``scene`` at time ``frame`` and write ``output`` (atomically)."""
+    from .diagnostics import ImageChecks
     from .images import write_image
-    from .rendering import render
+    from .rendering import prepare_render
 
     # CPU seconds of this process beside the wall clock: on a shared machine the wall clock of
     # each part says as much about the other jobs as about the part (benchmarks/animation.py).
@@ -94,7 +95,9 @@ def render_frame(scene: str, frame: int, output: str, backend: str, overrides: R
     loaded, settings, warnings, load_seconds = _load(scene, frame, overrides)
     cpu.append(_time.process_time())
     start = _time.perf_counter()
-    image = render(loaded, backend, settings)
+    checks = ImageChecks.of(loaded, settings, warnings)
+    image = prepare_render(loaded, backend, settings)()
+    warnings = [*warnings, *checks.warnings(image)]
     render_seconds = _time.perf_counter() - start
     cpu.append(_time.process_time())
     write_image(output, image)
@@ -139,4 +142,5 @@ def diff_frame(scene: str, frame: int, outdir: str, overrides: RenderOverrides, 
             "failing_pixels": r.failing_pixels, "failing_percent": r.failing_percent, "pixels": r.pixels,
             "explained_pixels": len(result.explained), "timings": result.timings,
             "width": result.settings.width, "height": result.settings.height,
-            "seconds": _time.perf_counter() - start, "warnings": result.warnings, "pid": os.getpid()}
+            "seconds": _time.perf_counter() - start, "warnings": [*result.warnings, *result.image_warnings],
+            "pid": os.getpid()}

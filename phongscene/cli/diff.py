@@ -19,6 +19,7 @@ from .options import (
     add_time_options,
     add_timeout_option,
     overrides_from_args,
+    print_warnings,
     thresholds,
 )
 from .process import EXIT_BACKEND, EXIT_DIFFERENT, EXIT_OK, EXIT_SCENE
@@ -58,6 +59,7 @@ def run_diff(args) -> int:
     check_output_folder(args.outdir)  # before the renders; OUTDIR may be new, its parent must exist
     result = diff(args.scene, args.outdir, overrides=overrides_from_args(args), thresholds=limits,
                   progress=sys.stderr, timeout=args.timeout, sandbox=args.sandbox)
+    print_warnings(result.image_warnings)
     s = result.settings
     print(f"{args.scene}: {s.width} x {s.height}, mapping {result.mapping} (native {s.specular})")
     print(f"  povray {result.timings['povray']:.3f} s, native {result.timings['native']:.3f} s")

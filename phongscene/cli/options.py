@@ -254,12 +254,13 @@ def print_warnings(warnings, stream=None) -> None:
         print(f"warning: {warning}", file=sys.stderr if stream is None else stream)
 
 
-def scene_and_settings(args):
+def scene_and_settings(args, with_warnings: bool = False):
     """The scene of ``args.scene`` (its warnings printed) and its settings with the command's
-    overrides."""
+    overrides (and, ``with_warnings``, the reader's warnings: the image checks read them)."""
     from ..rendering import load_scene
 
     overrides = overrides_from_args(args)
     scene, warnings = load_scene(args.scene, time=overrides.time)
     print_warnings(warnings)
-    return overrides.apply(scene)
+    scene, settings = overrides.apply(scene)
+    return (scene, settings, warnings) if with_warnings else (scene, settings)

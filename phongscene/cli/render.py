@@ -15,6 +15,7 @@ from .options import (
     add_scene_argument,
     add_time_options,
     add_timeout_option,
+    print_warnings,
     scene_and_settings,
 )
 from .process import EXIT_BACKEND, EXIT_OK, preimport
@@ -42,6 +43,7 @@ def add_render_command(sub) -> None:
 def run_render(args) -> int:
     import time
 
+    from ..diagnostics import ImageChecks
     from ..files import check_output
     from ..images import WRITABLE, write_image
     from ..memory import release_free_heap
@@ -61,12 +63,13 @@ def run_render(args) -> int:
     bar = ProgressBar(args.backend)
     start = time.perf_counter()
     bar.phase(f"reading {Path(args.scene).name}")  # a big USD file takes seconds
-    scene, settings = scene_and_settings(args)
+    scene, settings, warnings = scene_and_settings(args, with_warnings=True)
     # Peak memory (benchmarks/memory_stages.py): what the reader freed, then the model once the
     # C++ scene holds its own copy, then the C++ scene before OpenImageIO's import and the write,
     # each handed back to the system as soon as it is garbage.
     release_free_heap()
     render = prepare_render(scene, args.backend, settings, progress=bar, timeout=args.timeout)
+    checks = ImageChecks.of(scene, settings, warnings)  # what the image checks need, before the scene is freed
     del scene
     release_free_heap()
     image = render()
@@ -75,6 +78,7 @@ def run_render(args) -> int:
     bar.done(time.perf_counter() - start)
     preimport(("OpenImageIO",))
     write_image(args.output, image)
+    print_warnings(checks.warnings(image))
     print(f"{args.output}: {settings.width} x {settings.height}, {args.backend}, specular {settings.specular}")
     return EXIT_OK
 
@@ -115,6 +119,7 @@ def run_compile(args) -> int:
     import shlex
 
     from ..backends.povray import MAPPING_OF_SPECULAR, pov_quoted, prepare
+    from ..diagnostics import ImageChecks
     from ..files import atomic_files, check_output
     from ..rendering import check_settings
 
@@ -131,6 +136,7 @@ def run_compile(args) -> int:
     check_output(out)
     scene, settings = scene_and_settings(args)
     job = prepare(scene, check_settings(scene, settings), args.mapping)
+    print_warnings(ImageChecks.of(scene, settings).model_warnings())  # the image to come shows nothing
     with atomic_files(out, ini) as (tmp_pov, tmp_ini):  # both appear, or neither
         tmp_pov.write_text(job.sdl, encoding="ascii")
         tmp_ini.write_text(job.ini(out.name, image.name), encoding="ascii")
