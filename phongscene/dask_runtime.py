@@ -137,11 +137,23 @@ def local_cluster(workers: int):
     /health routes; no dashboard without bokeh) takes a free port: Dask's default, 8787, is
     taken by any other cluster on the machine, and falling back from it is a warning."""
     import logging
+    import signal
+    import threading
 
     from distributed import LocalCluster
 
-    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                        silence_logs=logging.CRITICAL)
+    # Ctrl-C goes to the terminal's whole process group: each worker would print its own
+    # KeyboardInterrupt traceback (~40 lines). The workers start with SIGINT ignored (an ignored
+    # signal stays ignored across exec, and Python installs no KeyboardInterrupt handler then),
+    # so only this process hears it: it stops, closes the cluster, and says one line.
+    quiet = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if quiet else None
+    try:
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                            silence_logs=logging.CRITICAL)
+    finally:
+        if quiet:
+            signal.signal(signal.SIGINT, previous)
 
 
 def run_serially(

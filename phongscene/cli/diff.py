@@ -54,9 +54,10 @@ def run_diff(args) -> int:
 
     limits = thresholds(args)
     check_cluster_needs_frames(args)
+    # Before the renders (and before any frame's task): OUTDIR may be new, its parent must exist.
+    check_output_folder(args.outdir)
     if args.frames:
         return _diff_frames(args, limits)
-    check_output_folder(args.outdir)  # before the renders; OUTDIR may be new, its parent must exist
     result = diff(args.scene, args.outdir, overrides=overrides_from_args(args), thresholds=limits,
                   progress=sys.stderr, timeout=args.timeout, sandbox=args.sandbox)
     print_warnings(result.image_warnings)

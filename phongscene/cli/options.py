@@ -169,14 +169,23 @@ def add_timeout_option(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS", help=help)
 
 
-def add_time_options(p: argparse.ArgumentParser, output: str) -> None:
+def add_time_options(p: argparse.ArgumentParser, output: str, *, skip_existing: bool = False,
+                     contact_sheet: bool = False) -> None:
     group = p.add_argument_group("time (an animated stage; default: its start time, with a warning)")
     when = group.add_mutually_exclusive_group()
     when.add_argument("--time", type=_time_code, metavar="T", help="read the stage at USD time code T")
-    when.add_argument("--frames", type=_frame_range, metavar="START:END[:STEP]",
-                      help=f"frames START, START+STEP, ... END (whole time codes): {output}. Frames run as Dask "
-                      "tasks: a LocalCluster here, or --scheduler")
+    when.add_argument("--frames", type=_frame_range, metavar="FRAMES",
+                      help=f"whole time codes, usdrecord's way: N, START:END, START:ENDxSTRIDE (1:9x4 is 1, 5, 9) or "
+                      f"START:END:STEP, several separated by commas: {output}. Frames run as Dask tasks: a "
+                      "LocalCluster here, or --scheduler")
     add_cluster_options(group, "with --frames: ", "one per core")
+    if skip_existing:
+        group.add_argument("--skip-existing", action="store_true",
+                           help="with --frames: do not redo a frame whose output exists (outputs are written "
+                           "atomically, so one that exists is whole): resume an interrupted run")
+    if contact_sheet:
+        group.add_argument("--contact-sheet", metavar="SHEET", help="with --frames: also write a grid of the frames, "
+                           "each labelled, as one image (.png or .exr)")
 
 
 def add_cluster_options(group, which: str, default_workers: str) -> None:
