@@ -155,7 +155,7 @@ def diff(
         reading = ProgressBar("scene", progress)
         reading.phase(f"reading {Path(scene_or_path).name}")  # a big USD file takes seconds
     start = perf_counter()
-    scene, warnings = load_scene(scene_or_path, overrides.time, sandbox=sandbox)
+    scene, warnings = load_scene(scene_or_path, overrides.time, sandbox=sandbox, camera=overrides.camera)
     if reading is not None:
         reading.done(perf_counter() - start, "read")
     if progress is not None:
@@ -213,6 +213,7 @@ def diff(
                 meta={
                     "scene": source,
                     "time": overrides.time,
+                    "camera": scene.camera.source,
                     "mapping": mapping,
                     "native_specular": settings.specular,
                     "settings": _settings_dict(settings),

@@ -56,22 +56,25 @@ def settings_with(
 
 
 def load_scene(
-    scene_or_path: Scene | str | os.PathLike, time: float | None = None, *, sandbox: bool = False
+    scene_or_path: Scene | str | os.PathLike, time: float | None = None, *, sandbox: bool = False,
+    camera: str | None = None,
 ) -> tuple[Scene, list[str]]:
     """A Scene as given, or read from a USD file (or a ``phongscene.usd.OpenStage`` of one) at USD
     time code ``time`` (None: the reader's choice, ``phongscene.usd.read_usd``), with the reader's
     warnings (raises SceneError for a bad file). ``sandbox``: read the file in a child process
-    with a memory limit (``phongscene.sandbox``), so a crash inside USD is a SceneError."""
+    with a memory limit (``phongscene.sandbox``), so a crash inside USD is a SceneError.
+    ``camera``: the path of the Camera prim to render through (None: the reader's choice); a
+    Scene given keeps its camera."""
     if isinstance(scene_or_path, Scene):
         return scene_or_path, []
     if sandbox:
         from .sandbox import read_usd_sandboxed
 
-        result = read_usd_sandboxed(scene_or_path, time=time)
+        result = read_usd_sandboxed(scene_or_path, time=time, camera=camera)
         return result.scene, list(result.warnings)
     from .usd import read_usd  # lazily: the USD reader imports pxr
 
-    result = read_usd(scene_or_path, time=time)  # a path, or an OpenStage
+    result = read_usd(scene_or_path, time=time, camera=camera)  # a path, or an OpenStage
     return result.scene, list(result.warnings)
 
 
@@ -171,7 +174,7 @@ def render(
 
     reader_warnings: list[str] = []
     if not isinstance(scene, Scene):
-        scene, reader_warnings = load_scene(scene, overrides.time)
+        scene, reader_warnings = load_scene(scene, overrides.time, camera=overrides.camera)
         for text in reader_warnings:
             warnings.warn(f"{scene.source_file}: {text}", SceneWarning, stacklevel=2)
     scene = overrides.scene(scene)

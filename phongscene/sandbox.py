@@ -65,8 +65,9 @@ def memory_limit_for(path: str | os.PathLike) -> int:
     return min(BASE_MEMORY + MEMORY_PER_FILE_BYTE * size, default_memory_limit())
 
 
-def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None, time: float | None = None):
-    """``phongscene.usd.read_usd(path, time)`` in a child process (see the module's doc).
+def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None, time: float | None = None,
+                       camera: str | None = None):
+    """``phongscene.usd.read_usd(path, time, camera)`` in a child process (see the module's doc).
 
     Raises:
         SceneError: the file is invalid, or reading it crashed USD or exceeded ``memory_limit``
@@ -75,7 +76,7 @@ def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None,
     path = os.fspath(path)
     limit = memory_limit_for(path) if memory_limit is None else int(memory_limit)
     proc = subprocess.run(
-        [sys.executable, "-m", "phongscene.sandbox", path, str(limit), repr(time)],
+        [sys.executable, "-m", "phongscene.sandbox", path, str(limit), repr(time), *([] if camera is None else [camera])],
         stdin=subprocess.DEVNULL, capture_output=True,
     )
     if proc.returncode == 0:
@@ -99,7 +100,7 @@ def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None,
     raise SceneError(Problem(f"the sandboxed reader failed (exit {proc.returncode}): {last}", file=path))
 
 
-def _child(path: str, limit: int, time: float | None) -> int:
+def _child(path: str, limit: int, time: float | None, camera: str | None = None) -> int:
     import resource
 
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
@@ -108,7 +109,7 @@ def _child(path: str, limit: int, time: float | None) -> int:
     try:
         from .usd import read_usd
 
-        payload = ("ok", read_usd(path, time=time))
+        payload = ("ok", read_usd(path, time=time, camera=camera))
     except SceneError as e:
         payload = ("error", e.problems)
     except MemoryError:
@@ -133,4 +134,6 @@ def _child(path: str, limit: int, time: float | None) -> int:
 
 if __name__ == "__main__":
     # The time code travels as its repr (None, or a float's shortest exact text).
-    raise SystemExit(_child(sys.argv[1], int(sys.argv[2]), None if sys.argv[3] == "None" else float(sys.argv[3])))
+    # The camera's path, when one is chosen, is the fourth argument.
+    raise SystemExit(_child(sys.argv[1], int(sys.argv[2]), None if sys.argv[3] == "None" else float(sys.argv[3]),
+                            sys.argv[4] if len(sys.argv) > 4 else None))

@@ -146,6 +146,8 @@ def add_override_options(p: argparse.ArgumentParser, *, mapping_help: str, mappi
     from ..scene import SAMPLE_PATTERNS
 
     add_mapping_option(p, mapping_help, mapping_default)
+    p.add_argument("--camera", metavar="PATH", help="the Camera prim to render through, e.g. /World/Cam (default: the "
+                   "RenderSettings' camera, else the stage's first; `phongscene info` lists them)")
     p.add_argument("--width", type=image_side, metavar="W", help="image width (alone: keeps the aspect ratio)")
     p.add_argument("--height", type=image_side, metavar="H", help="image height (alone: keeps the aspect ratio)")
     p.add_argument("--spp", dest="samples", type=_samples_per_axis, metavar="N", help=spp_help)
@@ -269,7 +271,7 @@ def scene_and_settings(args, with_warnings: bool = False):
     from ..rendering import load_scene
 
     overrides = overrides_from_args(args)
-    scene, warnings = load_scene(args.scene, time=overrides.time)
+    scene, warnings = load_scene(args.scene, time=overrides.time, camera=overrides.camera)
     print_warnings(warnings)
     scene, settings = overrides.apply(scene)
     return (scene, settings, warnings) if with_warnings else (scene, settings)
