@@ -229,6 +229,17 @@ class Report:
     def pixels(self) -> int:
         return self.width * self.height
 
+    def _repr_html_(self) -> str:
+        """Jupyter's display: the verdict, coloured, over the summary's facts."""
+        import html
+
+        colour = "#1a7f37" if self.ok else "#cf222e"
+        verdict = "PASS" if self.ok else "FAIL"
+        rows = "".join(f"<tr><td style='text-align:left'>{html.escape(line.strip())}</td></tr>"
+                       for line in self.summary().splitlines() if line.strip() not in ("PASS", "FAILURE"))
+        return (f"<div class='phongscene-report'><b style='color:{colour}'>{verdict}</b>: {self.failing_pixels} of "
+                f"{self.pixels} pixels fail, max error {self.max_error:.3g}<table>{rows}</table></div>")
+
     def summary(self) -> str:
         """idiff-style text block, one fact per line."""
         t = self.thresholds

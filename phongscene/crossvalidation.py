@@ -76,6 +76,28 @@ class DiffResult:
             and 0 < len(self.explained) <= allowed
         )
 
+    def _repr_html_(self) -> str:
+        """Jupyter's display: the verdict and the report's facts, both images side by side (sRGB
+        PNGs, as ``Image`` shows them), the explanation and the image warnings."""
+        import base64
+        import html
+
+        from .images import Image
+
+        def png(image, label) -> str:
+            data = np.asarray(image, dtype=np.float32).view(Image)._repr_png_()
+            return (f"<figure style='display:inline-block;margin:4px'><img src='data:image/png;base64,"
+                    f"{base64.b64encode(data).decode('ascii')}' alt='{label}'><figcaption>{label}</figcaption></figure>")
+
+        s = self.settings
+        verdict = "PASS" if self.ok else "FAIL"
+        notes = "".join(f"<li>{html.escape(line.strip())}</li>" for line in self.explanation().splitlines())
+        notes += "".join(f"<li>warning: {html.escape(w)}</li>" for w in self.image_warnings)
+        return (f"<div class='phongscene-diff'><b>{verdict}</b>: {s.width} x {s.height}, mapping {self.mapping} (native "
+                f"{s.specular}){' &rarr; ' + html.escape(str(self.outdir)) if self.outdir else ''}<br>"
+                f"{png(self.povray, 'povray')}{png(self.native, 'native')}{self.report._repr_html_()}"
+                f"{'<ul>' + notes + '</ul>' if notes else ''}</div>")
+
     def explanation(self) -> str:
         """Lines for the summary: the explained pixels and the numerics difference."""
         lines = []
