@@ -311,6 +311,14 @@ def load(image) -> np.ndarray:
 def compare(a, b, thresholds: Thresholds | None = None) -> Report:
     """Compare two linear images pixel by pixel.
 
+    Two images only: how they were rendered is not known here, so ``compare`` applies none of
+    what ``phongscene.diff`` does for a POV-Ray mapping (diff renders the native image in
+    POV-Ray's numerics, ``numerics="povray"``; widens the floor for the exact mapping's one
+    half-float pass per light, ``for_povray_passes``; and explains the pixels POV-Ray's shadow
+    cache decides, which needs the scene). ``compare(povray_image, ps.render(scene))`` therefore
+    fails pixels that ``diff`` passes: compare the backends with ``diff(scene)``, or pass
+    ``thresholds=for_povray_passes(n)`` and render the native image with ``numerics="povray"``.
+
     Args:
         a: the reference image: a float array (H, W, 3) or a path OpenImageIO can read.
         b: the image under test, same kind.
