@@ -73,8 +73,10 @@ class ImageChecks:
         """The checks of an image of ``scene`` rendered with ``settings`` (default: the scene's);
         ``reader_warnings``: the USD reader's (they name misspelt light inputs)."""
         settings = scene.settings if settings is None else settings
-        boxes = _object_bounds(scene)
-        causes = _camera_causes(scene) + _light_causes(scene, boxes, reader_warnings) + _material_causes(scene)
+        spheres = _Spheres.of(scene)
+        boxes = _object_bounds(scene, spheres)
+        causes = (_camera_causes(scene, spheres) + _light_causes(scene, boxes, spheres, reader_warnings)
+                  + _material_causes(scene))
         return ImageChecks(
             background=tuple(map(float, settings.background)),
             nothing_in_view=_nothing_in_view(scene, settings, boxes),
@@ -138,24 +140,45 @@ def _srgb_code(linear: float) -> int:
     return int(round(255 * min(1.0, max(0.0, encoded))))
 
 
-def _object_bounds(scene: Scene) -> tuple[np.ndarray, np.ndarray, list[str]]:
+@dataclass(frozen=True)
+class _Spheres:
+    """The scene's spheres as arrays (a Points prim may make a million of them): their
+    ``world_from_object`` matrices (N, 4, 4) and names."""
+
+    matrices: np.ndarray
+    names: tuple[str, ...]
+
+    @staticmethod
+    def of(scene: Scene) -> _Spheres:
+        if not scene.spheres:
+            return _Spheres(np.zeros((0, 4, 4)), ())
+        return _Spheres(np.stack([s.world_from_object for s in scene.spheres]), tuple(s.source for s in scene.spheres))
+
+    def containing(self, point) -> list[str]:
+        """The names of the spheres ``point`` is inside of."""
+        if not len(self.matrices):
+            return []
+        offset = np.asarray(point, dtype=np.float64) - self.matrices[:, :3, 3]
+        local = np.linalg.solve(self.matrices[:, :3, :3], offset[:, :, None])[:, :, 0]
+        return [self.names[i] or "a sphere" for i in np.flatnonzero((local**2).sum(axis=1) < 1.0)]
+
+    def sample_points(self) -> np.ndarray:
+        """Each sphere's centre and top (its object +Y pole)."""
+        centres = self.matrices[:, :3, 3]
+        return np.concatenate([centres, centres + self.matrices[:, :3, 1]])
+
+
+def _object_bounds(scene: Scene, spheres: _Spheres) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """(lows (N, 3), highs (N, 3), names) of every object's world-space bounds."""
-    lows, highs, names = [], [], []
-    for m in scene.meshes:
-        if len(m.points):
-            lows.append(m.points.min(axis=0))
-            highs.append(m.points.max(axis=0))
-            names.append(m.source)
-    if scene.spheres:
+    meshes = [m for m in scene.meshes if len(m.points)]
+    lows = [np.array([m.points.min(axis=0) for m in meshes]).reshape(-1, 3)]
+    highs = [np.array([m.points.max(axis=0) for m in meshes]).reshape(-1, 3)]
+    if len(spheres.matrices):
         # Exact bounds of an affinely mapped unit sphere: centre ± the row norms of its 3×3 part.
-        matrices = np.stack([s.world_from_object for s in scene.spheres])
-        centres, radii = matrices[:, :3, 3], np.sqrt((matrices[:, :3, :3] ** 2).sum(axis=2))
-        lows.extend(centres - radii)
-        highs.extend(centres + radii)
-        names.extend(s.source for s in scene.spheres)
-    if not lows:
-        return np.zeros((0, 3)), np.zeros((0, 3)), []
-    return np.asarray(lows, dtype=np.float64), np.asarray(highs, dtype=np.float64), names
+        centres, radii = spheres.matrices[:, :3, 3], np.sqrt((spheres.matrices[:, :3, :3] ** 2).sum(axis=2))
+        lows.append(centres - radii)
+        highs.append(centres + radii)
+    return np.concatenate(lows), np.concatenate(highs), [m.source for m in meshes] + list(spheres.names)
 
 
 def _vector(v) -> str:
@@ -193,7 +216,7 @@ def _nothing_in_view(scene: Scene, settings: RenderSettings, boxes) -> str:
                | np.all(y > reach_y, axis=1) | np.all(y < -reach_y, axis=1))
     lo, hi = lows.min(axis=0), highs.max(axis=0)
     centre = (lo + hi) / 2
-    where = f"the camera {cam.source or ''} at {_vector(eye)} looks along {_vector(forward)}".replace("camera  at", "camera at")
+    where = f"the camera{' ' + cam.source if cam.source else ''} at {_vector(eye)} looks along {_vector(forward)}"
     to_centre = centre - eye
     off_axis = math.degrees(math.acos(max(-1.0, min(1.0, float(to_centre @ forward) / max(np.linalg.norm(to_centre), 1e-300)))))
     if np.all(behind):
@@ -228,22 +251,22 @@ def _nothing_in_view(scene: Scene, settings: RenderSettings, boxes) -> str:
             f"{_vector(centre)}) are {distance:.3g} units away and span {span:.2g} pixel across{hint}")
 
 
-def _camera_causes(scene: Scene) -> list[str]:
+def _camera_causes(scene: Scene, spheres: _Spheres) -> list[str]:
     """The camera inside a sphere: it sees the sphere's inside, where no light outside reaches."""
-    eye = np.append(np.asarray(scene.camera.position, dtype=np.float64), 1.0)
-    inside = [s.source or "a sphere" for s in scene.spheres
-              if float(np.linalg.norm((np.linalg.inv(s.world_from_object) @ eye)[:3])) < 1.0]
+    inside = spheres.containing(scene.camera.position)
     return [f"the camera is inside {inside[0]}" + (f" (and {len(inside) - 1} more spheres)" if len(inside) > 1 else "")
             ] if inside else []
 
 
-def _sample_points(scene: Scene) -> np.ndarray:
-    """Points of the geometry (mesh points, evenly strided to about SAMPLE_POINTS; sphere centres
-    and the tops of spheres), as the reader's clip warning samples them."""
-    per_mesh = max(1, SAMPLE_POINTS // max(1, len(scene.meshes)))
-    points = [m.points[:: max(1, len(m.points) // per_mesh)] for m in scene.meshes if len(m.points)]
-    for s in scene.spheres:
-        points.append((s.world_from_object @ np.array([[0.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0]]).T).T[:, :3])
+def _sample_points(scene: Scene, spheres: _Spheres) -> np.ndarray:
+    """Points of the geometry (mesh points, evenly strided to about SAMPLE_POINTS; the centres
+    and tops of the spheres, likewise), as the reader's clip warning samples them."""
+    parts = len(scene.meshes) + (1 if len(spheres.matrices) else 0)
+    per_part = max(1, SAMPLE_POINTS // max(1, parts))
+    points = [m.points[:: max(1, len(m.points) // per_part)] for m in scene.meshes if len(m.points)]
+    if len(spheres.matrices):
+        on_spheres = spheres.sample_points()
+        points.append(on_spheres[:: max(1, len(on_spheres) // per_part)])
     return np.concatenate(points) if points else np.zeros((0, 3))
 
 
@@ -279,14 +302,14 @@ def _typos(reader_warnings) -> dict[str, list[tuple[str, str | None]]]:
     return found
 
 
-def _light_causes(scene: Scene, boxes, reader_warnings) -> list[str]:
+def _light_causes(scene: Scene, boxes, spheres: _Spheres, reader_warnings) -> list[str]:
     """What about each light makes the surfaces dark (see the module's doc)."""
     lows, highs, _ = boxes
     if not scene.lights:
         return ["the scene has no lights" + (" (only ambient light)" if any(scene.ambient.color) else "")]
     if not len(lows):
         return []
-    points = _sample_points(scene)
+    points = _sample_points(scene, spheres)
     lo, hi = lows.min(axis=0), highs.max(axis=0)
     scene_radius = float(np.linalg.norm(hi - lo)) / 2
     eye_height = float(scene.camera.position[1])
@@ -309,11 +332,9 @@ def _light_causes(scene: Scene, boxes, reader_warnings) -> list[str]:
         if isinstance(light, DirectionalLight) and light.direction[1] > 0 and eye_height > lo[1]:
             said.append(f"{name} shines upward (direction {_vector(light.direction)}): only the undersides of "
                         "the surfaces face it, and the camera is above them")
-        if position is not None:
-            for s in scene.spheres:
-                if float(np.linalg.norm((np.linalg.inv(s.world_from_object) @ np.append(position, 1.0))[:3])) < 1.0:
-                    said.append(f"{name} is inside {s.source or 'a sphere'}, which hides it from everything outside")
-                    break
+        inside = spheres.containing(position) if position is not None else []
+        if inside:
+            said.append(f"{name} is inside {inside[0]}, which hides it from everything outside")
         if isinstance(light, SphereAreaLight) and light.radius > HUGE_LIGHT_RATIO * scene_radius:
             said.append(f"{name} has a radius ({light.radius:.3g}) larger than the whole scene (bounding radius "
                         f"{scene_radius:.3g}): a light sized in metres in a scene in centimetres? (with inputs:normalize "
