@@ -76,9 +76,24 @@ def dask_client(scheduler: str | None, local_workers: Callable[[], int]):
             # Each worker imports what the tasks need now (and any that joins later, when it joins).
             client.register_plugin(warm_plugin())
             yield client, "LocalCluster" if cluster is not None else address
+    except KeyboardInterrupt:
+        # Ctrl-C: the scheduler (in this process, for a LocalCluster) and the client log each
+        # message they could not deliver, with a traceback, while the cluster closes; the CLI
+        # says one line instead.
+        _silence_dask_logs()
+        raise
     finally:
         if cluster is not None:
             cluster.close()
+
+
+def _silence_dask_logs() -> None:
+    import logging
+
+    # Every logger of theirs: Dask sets levels on its child loggers too (distributed.scheduler, ...).
+    names = [n for n in logging.root.manager.loggerDict if n.split(".")[0] in ("distributed", "tornado", "asyncio")]
+    for name in ("distributed", "tornado", "asyncio", *names):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 def run_frames(
