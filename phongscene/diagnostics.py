@@ -374,8 +374,9 @@ def _material_causes(scene: Scene) -> list[str]:
     def reflects(m) -> float:
         cd = max(float(np.max(m.diffuse_texture.image)) if m.diffuse_texture is not None else 0.0, max(m.diffuse_color))
         cs = max(float(np.max(m.specular_texture.image)) if m.specular_texture is not None else 0.0, max(m.specular_color))
-        return (m.ka + m.kd) * cd + m.ks * cs
+        # A mirror or a glass shows what it reflects or transmits (kr, kt), not black.
+        return (m.ka + m.kd) * cd + m.ks * cs + m.kr + m.kt
 
     if all(reflects(m) == 0 for m in materials):
-        return ["every material is black (ka, kd and ks times their colours are 0)"]
+        return ["every material is black (ka, kd, ks, kr and kt times their colours are 0)"]
     return []
