@@ -178,7 +178,25 @@ def _object_bounds(scene: Scene, spheres: _Spheres) -> tuple[np.ndarray, np.ndar
         centres, radii = spheres.matrices[:, :3, 3], np.sqrt((spheres.matrices[:, :3, :3] ** 2).sum(axis=2))
         lows.append(centres - radii)
         highs.append(centres + radii)
-    return np.concatenate(lows), np.concatenate(highs), [m.source for m in meshes] + list(spheres.names)
+    names = [m.source for m in meshes] + list(spheres.names)
+    for group in getattr(scene, "instances", ()):
+        boxes = _copy_boxes(group)
+        if boxes is not None:
+            lows.append(boxes[0] - boxes[1])
+            highs.append(boxes[0] + boxes[1])
+            names.extend([group.source] * len(group))
+    return np.concatenate(lows), np.concatenate(highs), names
+
+
+def _copy_boxes(group) -> tuple[np.ndarray, np.ndarray] | None:
+    """(centres (K, 3), half sizes (K, 3)) of the world-space box of each copy of an
+    ``Instances`` group (its prototype's box under each transform), or None without points."""
+    b = group.prototype.bounds()
+    if b is None or not len(group):
+        return None
+    centre, half = (b[0] + b[1]) / 2, (b[1] - b[0]) / 2
+    a = group.world_from_prototype[:, :3, :3]
+    return np.einsum("kij,j->ki", a, centre) + group.world_from_prototype[:, :3, 3], np.einsum("kij,j->ki", np.abs(a), half)
 
 
 def _vector(v) -> str:
@@ -261,12 +279,16 @@ def _camera_causes(scene: Scene, spheres: _Spheres) -> list[str]:
 def _sample_points(scene: Scene, spheres: _Spheres) -> np.ndarray:
     """Points of the geometry (mesh points, evenly strided to about SAMPLE_POINTS; the centres
     and tops of the spheres, likewise), as the reader's clip warning samples them."""
-    parts = len(scene.meshes) + (1 if len(spheres.matrices) else 0)
+    groups = [g for g in getattr(scene, "instances", ()) if _copy_boxes(g) is not None]
+    parts = len(scene.meshes) + (1 if len(spheres.matrices) else 0) + len(groups)
     per_part = max(1, SAMPLE_POINTS // max(1, parts))
     points = [m.points[:: max(1, len(m.points) // per_part)] for m in scene.meshes if len(m.points)]
     if len(spheres.matrices):
         on_spheres = spheres.sample_points()
         points.append(on_spheres[:: max(1, len(on_spheres) // per_part)])
+    for group in groups:  # each copy's centre
+        centres = _copy_boxes(group)[0]
+        points.append(centres[:: max(1, len(centres) // per_part)])
     return np.concatenate(points) if points else np.zeros((0, 3))
 
 
