@@ -209,3 +209,21 @@ def test_cli_render_with_povray_and_diff_warn(tmp_path, capsys):
     meta = json.loads((tmp_path / "report" / "metrics.json").read_text())
     (dark,) = meta["image_warnings"]
     assert dark.startswith("the image is too dark")
+
+
+def test_instanced_copies_count_as_geometry():
+    from phongscene.scene import Prototype
+
+    tri = ps.TriangleMesh(np.array([[-1.0, -1, 0], [1, -1, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
+    copies = np.stack([np.eye(4)] * 2)
+    copies[:, 2, 3] = -5.0
+    copies[1, 0, 3] = 2.0
+    group = ps.Instances(Prototype((tri,)), copies)
+    settings = ps.RenderSettings(width=WIDTH, height=30)
+    lit = ps.Scene(instances=(group,), lights=(ps.PointLight((0, 0, 0), (3, 3, 3)),), settings=settings)
+    assert ImageChecks.of(lit).nothing_in_view == ""
+    assert explain_image(lit, ps.render(lit, explain=False)) == []
+    behind_copies = copies.copy()
+    behind_copies[:, 2, 3] = 5.0  # behind the default camera, which looks down -Z from the origin
+    behind = ps.Scene(instances=(ps.Instances(Prototype((tri,)), behind_copies),), lights=lit.lights, settings=settings)
+    assert ImageChecks.of(behind).nothing_in_view.startswith("the camera faces away from every object")
