@@ -640,6 +640,42 @@ class Scene:
                 meshes.extend(group.placed_meshes(k))
         return replace(self, meshes=tuple(meshes), instances=())
 
+    def with_material(self, path: str, **changes) -> Scene:
+        """This scene with the material at ``path`` changed: ``scene.with_material(
+        "/World/Looks/Red", ks=0.5, diffuse_color=(1, 0, 0))``. ``path`` is a material's (its
+        shader's or its Material prim's path, every object bound to it changes) or an object's
+        (that object's material only). Keywords are ``PhongMaterial`` fields; the scene is
+        validated when it renders.
+
+        Raises:
+            TypeError: a keyword that is not a PhongMaterial field.
+            KeyError: nothing in the scene has that path (the message lists the materials).
+        """
+        import dataclasses
+        import difflib
+
+        known = [f.name for f in dataclasses.fields(PhongMaterial) if f.name != "source"]
+        for name in changes:
+            if name not in known:
+                close = difflib.get_close_matches(name, known, n=1)
+                raise TypeError(f"with_material: {name!r} is not a PhongMaterial field"
+                                + (f" (did you mean {close[0]!r}?)" if close else f"; the fields: {', '.join(known)}"))
+
+        def matches(obj) -> bool:
+            source = obj.material.source
+            return obj.source == path or source == path or (bool(source) and source.startswith(path.rstrip("/") + "/"))
+
+        found = [obj for obj in (*self.spheres, *self.meshes) if matches(obj)]
+        if not found:
+            materials = sorted({o.material.source for o in (*self.spheres, *self.meshes) if o.material.source})
+            raise KeyError(f"with_material: no material or object at {path!r}; the materials: "
+                           f"{', '.join(materials) or '(none named)'}")
+
+        def changed(obj):
+            return dataclasses.replace(obj, material=dataclasses.replace(obj.material, **changes)) if matches(obj) else obj
+
+        return dataclasses.replace(self, spheres=tuple(map(changed, self.spheres)), meshes=tuple(map(changed, self.meshes)))
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
         """World-space axis-aligned bounds of all geometry, or None for an empty scene."""
         lows, highs = [], []

@@ -20,6 +20,7 @@ def add_info_command(sub) -> None:
         epilog="Exit codes: 0 ok, 2 the scene is invalid (one problem per line on stderr).",
     )
     p.add_argument("scene", metavar="SCENE", nargs="?", help=SCENE_HELP)
+    p.add_argument("--camera", metavar="PATH", help="show the scene as seen through this Camera prim")
     p.add_argument("--usd-plugin-path", action="store_true",
                    help="print the folder of the Phong shader's Sdr definition and exit: other USD tools know the "
                    "shader with PXR_SDR_FS_PLUGIN_SEARCH_PATHS=<it> PXR_SDR_FS_PLUGIN_ALLOWED_EXTS=usda")
@@ -36,7 +37,7 @@ def run_info(args) -> int:
         raise UsageError("info needs SCENE (or --usd-plugin-path)")
     from ..usd import read_usd
 
-    result = read_usd(args.scene)
+    result = read_usd(args.scene, camera=args.camera)
     scene = result.scene
     print(f"file: {scene.source_file}")
     print("prims -> model nodes:")
@@ -84,6 +85,9 @@ def run_info(args) -> int:
         f"camera: {cam.source or '(model default)'}: {cam.projection}, {extent}, position {_vector(cam.position)}, "
         f"forward {_vector(cam.forward)}, up {_vector(cam.up)}"
     )
+    print(f"cameras ({len(result.cameras)}; --camera PATH chooses one):" if result.cameras else "cameras: none")
+    for path in result.cameras:
+        print(f"  {path}{'  (used)' if path == cam.source else ''}")
     s = scene.settings
     print(
         f"settings: {s.source or '(defaults)'}: {s.width}x{s.height}, samples {s.samples} ({s.sample_pattern}"

@@ -26,7 +26,7 @@ from ..errors import Problem, SceneError, SceneFileNotFoundError
 from ..scene import AmbientLight, Camera, RenderSettings, Scene, framing_camera, head_light
 from ..validate import validate
 from . import geometry
-from .camera import conform_to_aperture, read_camera, read_render_settings
+from .camera import choose_camera, conform_to_aperture, read_camera, read_render_settings
 from .diagnostics import as_warnings, usd_output
 from .layers import preflight
 from .context import ReadContext, tf_error_text
@@ -49,9 +49,10 @@ class ReadResult:
     scene: Scene
     warnings: list[str] = field(default_factory=list)
     nodes: list[tuple[str, str]] = field(default_factory=list)  # (prim path, model node)
+    cameras: list[str] = field(default_factory=list)  # every Camera prim that renders, in stage order
 
 
-def load_usd(source, time: float | None = None) -> Scene:
+def load_usd(source, time: float | None = None, camera: str | None = None) -> Scene:
     """Read a USD file (.usda/.usdc/.usdz) or an open ``Usd.Stage`` into a validated Scene.
 
     Args:
@@ -59,11 +60,13 @@ def load_usd(source, time: float | None = None) -> Scene:
         time: the USD time code to read every value at (camera, lights, materials, visibility,
             transforms; USD interpolates between time samples). None: the stage's start time
             when it is animated (with a warning), else its default values.
+        camera: the path of the Camera prim to render through; None: the RenderSettings'
+            camera, else the stage's first (with a warning when it has more than one).
 
     Raises:
         SceneError: listing every problem found, each with file, prim path and attribute.
     """
-    return read_usd(source, time=time).scene
+    return read_usd(source, time=time, camera=camera).scene
 
 
 @dataclass(eq=False)
@@ -96,12 +99,14 @@ def open_stage(path) -> OpenStage:
     return OpenStage(stage, file, "".join(texts))
 
 
-def read_usd(source, time: float | None = None) -> ReadResult:
+def read_usd(source, time: float | None = None, camera: str | None = None) -> ReadResult:
     """Like ``load_usd`` but also returns the warnings and the prim → node mapping. ``source``
     may also be an ``OpenStage`` (``open_stage``): read at a time, a stage nothing of which
     varies in time gives its first read again (``read_cache``), and one where only lights' and
-    gprims' own inputs vary reads only those again (``read_parts``)."""
-    cache = source.reads if isinstance(source, OpenStage) else None
+    gprims' own inputs vary reads only those again (``read_parts``). ``camera``: the path of the
+    Camera prim to render through (the CLI's --camera; None: the RenderSettings' camera, else the
+    stage's first, with a warning when it has more than one); such reads are not cached."""
+    cache = source.reads if isinstance(source, OpenStage) and camera is None else None
     if cache is not None:
         cache.survey(source.stage)  # once per stage
     texts: list[str] = []
@@ -121,20 +126,21 @@ def read_usd(source, time: float | None = None) -> ReadResult:
         if kept is None:
             try:
                 try:
-                    result = _read(opened, code, parts or EveryPart())
+                    result = _read(opened, code, parts or EveryPart(), camera)
                 except Redo:
                     parts = None
-                    result = _read(opened, code, EveryPart())
+                    result = _read(opened, code, EveryPart(), camera)
             except Tf.ErrorException as e:
                 # A value USD itself cannot produce while we read it (where no prim-level check
                 # caught it first): one error naming the file, not a traceback.
                 raise SceneError(Problem(f"USD could not read a value: {tf_error_text(e)}", file=file)) from None
     read_text = "".join(texts)
     if kept is not None:
-        result = ReadResult(kept.scene, list(kept.warnings), list(kept.nodes))
+        result = ReadResult(kept.scene, list(kept.warnings), list(kept.nodes), list(kept.cameras))
         read_text = kept.usd_text + read_text
     elif assets is not None:
-        cache.keep(code, KeptRead(result.scene, tuple(result.warnings), tuple(result.nodes), read_text, assets))
+        cache.keep(code, KeptRead(result.scene, tuple(result.warnings), tuple(result.nodes), read_text, assets,
+                                  tuple(result.cameras)))
         if isinstance(parts, RecordParts):
             cache.keep_parts(code, parts, assets)
     # As a read of the file gives them: which time is read first, USD's diagnostics last.
@@ -143,7 +149,7 @@ def read_usd(source, time: float | None = None) -> ReadResult:
     return result
 
 
-def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult:
+def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart, chosen: str | None = None) -> ReadResult:
     stage, file = opened.stage, opened.file
     ctx = ReadContext(stage, file, code, opened.types)
     if opened.checks is None:
@@ -154,7 +160,8 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
         ctx.problems.extend(opened.checks[0])
         ctx.warnings.extend(opened.checks[1])
     settings, camera_prim = read_render_settings(ctx)
-    camera, lights, ambient, spheres, meshes = None, [], [], [], []
+    named_camera = camera_prim is not None  # the RenderSettings' camera
+    camera, lights, ambient, spheres, meshes, cameras = None, [], [], [], [], []
     # Each light and gprim is read through ``parts``: anew, or replayed from a stage's first read.
     materials = parts.materials(ctx)
     parts.start(ctx, (lights, ambient, spheres, meshes))
@@ -173,6 +180,7 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
             it.PruneChildren()  # the prototype is read once, for every instance
             parts.read(prim, lambda: instancing.instance(prim, ctx.world(prim)), keep=False)
         elif prim.IsA(UsdGeom.Camera):
+            cameras.append(str(prim.GetPath()))
             if camera_prim is None:
                 camera_prim = prim
         elif prim.HasAPI(UsdLux.LightAPI):
@@ -183,6 +191,12 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
         elif prim.IsA(UsdGeom.Gprim):
             parts.read(prim, lambda: _gprim(ctx, prim, ctx.world(prim), materials, spheres, meshes))
 
+    if chosen is not None:
+        camera_prim = choose_camera(ctx, chosen, cameras)
+    elif len(cameras) > 1 and not named_camera:
+        ctx.warn(f"the stage has {len(cameras)} cameras ({', '.join(cameras[:5])}{' ...' if len(cameras) > 5 else ''}) "
+                 f"and none is chosen: using the first, {camera_prim.GetPath()} (choose one with --camera PATH, or "
+                 "a RenderSettings camera)")
     instances = instancing.build(spheres, meshes)
     if camera_prim is not None:
         camera = read_camera(ctx, camera_prim)
@@ -224,7 +238,7 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
     problems = ctx.problems + [p for p in found if (p.prim, p.attribute) not in reported]
     if problems:
         raise SceneError(problems)
-    return ReadResult(scene, ctx.warnings, ctx.nodes)
+    return ReadResult(scene, ctx.warnings, ctx.nodes, cameras)
 
 
 def _time_to_read(stage: Usd.Stage, time: float | None) -> tuple[Usd.TimeCode, str]:

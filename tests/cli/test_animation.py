@@ -420,8 +420,20 @@ def test_a_worker_has_made_its_imports_when_it_joins():
 def test_frame_ranges_and_names():
     assert animation.parse_frames("1:24:8") == (1, 9, 17)
     assert animation.parse_frames("3:3") == (3,)
+    assert animation.parse_frames("7") == (7,)
+
+
+def test_usdrecords_frame_specs_read_as_usd_reads_them():
+    # usdrecord's --frames (UsdAppUtils.framesArgs): comma-separated specs, a stride after 'x';
+    # UsdUtils.TimeCodeRange is the oracle for each spec.
+    from pxr import UsdUtils
+
+    for spec in ("1:9x4", "1:10x4", "-3:3x2", "5", "2:6"):
+        expected = tuple(int(t.GetValue()) for t in UsdUtils.TimeCodeRange.CreateFromFrameSpec(spec))
+        assert animation.parse_frames(spec) == expected, spec
+    assert animation.parse_frames("1:9x4,2,5") == (1, 5, 9, 2)  # in order, each frame once
     for bad, message in (("5:1", "before the start"), ("1:5:0", "step must be >= 1"), ("1:2.5", "whole numbers"),
-                         ("7", "START:END")):
+                         ("1:9x0", "step must be >= 1"), ("1::2:3", "START:END"), ("", "START:END"), ("1,", "START:END")):
         with pytest.raises(ValueError, match=message):
             animation.parse_frames(bad)
     assert animation.frame_name("out/a.####.exr", 7) == os.path.join("out", "a.0007.exr")
