@@ -173,8 +173,11 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     malloc_trim(0);
 #endif
     // The rays walk the 4-wide tree; the binary one's nodes are freed once it is collapsed.
-    bvh4_ = collapse_to_bvh4(bvh_.nodes);
-    if (use_avx2()) bvh8_ = collapse_to_bvh8(bvh_.nodes);
+    // (Or the 8-wide tree where the CPU has AVX2: every walk takes it then.)
+    if (use_avx2())
+        bvh8_ = collapse_to_bvh8(bvh_.nodes);
+    else
+        bvh4_ = collapse_to_bvh4(bvh_.nodes);
     std::vector<BvhNode>().swap(bvh_.nodes);
 
     // Primitive refs and triangle data in leaf order, so leaves read memory sequentially.

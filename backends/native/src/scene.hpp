@@ -146,9 +146,9 @@ class Scene {
     }
 
     Bvh bvh_;                      // the binary tree; its nodes are freed once collapsed
-    std::vector<Bvh4Node> bvh4_;   // what the rays walk (bundles and the POV-Ray walk always)
-    // closest_hit() and occluded() walk this instead where the CPU has AVX2 (simd_dispatch.hpp);
-    // empty on the SSE2 path.
+    // What the rays and bundles walk: the 8-wide tree where the CPU has AVX2 (simd_dispatch.hpp),
+    // else the 4-wide one; the other is empty.
+    std::vector<Bvh4Node> bvh4_;
     std::vector<Bvh8Node> bvh8_;
     std::vector<int32_t> refs_;  // BVH leaf order
     std::vector<size_t> first_triangle_;  // mesh m's input rows start at first_triangle_[m]
