@@ -46,15 +46,22 @@ struct FloatSlabRay8 {
     int near_row[3], far_row[3];
     __m256 t_min;
 
-    PHONG_AVX2 explicit FloatSlabRay8(const FloatSlabRay& four) {
+    // FloatSlabRay's constructor, the same numbers in eight lanes.
+    PHONG_AVX2 FloatSlabRay8(const FloatSlabOrigin& origin, const Vec3& dir, const Vec3& inv_dir, double t_min_) {
+        const double d[3] = {dir.x, dir.y, dir.z};
+        const double r[3] = {inv_dir.x, inv_dir.y, inv_dir.z};
         for (int k = 0; k < 3; ++k) {
-            near_row[k] = four.near_row[k];
-            far_row[k] = four.far_row[k];
-            origin_near[k] = _mm256_set1_ps(_mm_cvtss_f32(four.origin_near[k]));
-            origin_far[k] = _mm256_set1_ps(_mm_cvtss_f32(four.origin_far[k]));
-            inv[k] = _mm256_set1_ps(_mm_cvtss_f32(four.inv[k]));
+            const bool negative = std::signbit(d[k]);
+            near_row[k] = negative ? 3 + k : k;
+            far_row[k] = negative ? k : 3 + k;
+            origin_near[k] = _mm256_set1_ps(negative ? origin.down[k] : origin.up[k]);
+            origin_far[k] = _mm256_set1_ps(negative ? origin.up[k] : origin.down[k]);
+            const float inv_k = std::fabs(r[k]) <= double(FLT_MAX) ? float(r[k])
+                                : d[k] == 0.0                      ? float(r[k])
+                                                                   : NAN;
+            inv[k] = _mm256_set1_ps(inv_k);
         }
-        t_min = _mm256_set1_ps(_mm_cvtss_f32(four.t_min));
+        t_min = _mm256_set1_ps(round_down(t_min_));
     }
 
     // Bit i set when child i's box is entered; entry[i] its t0 (FloatSlabRay::hit, per lane).
@@ -88,7 +95,7 @@ PHONG_AVX2 void traverse_bvh8(const std::vector<Bvh8Node>& nodes, double scene_m
     Pending current{0, 0, 0.0f};
     const bool float_test = FloatSlabRay::applies(ray.origin, ray.dir, t_min, scene_magnitude);
     const Vec3 inv{1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z};
-    const FloatSlabRay8 fray(FloatSlabRay(origin, ray.dir, inv, t_min));
+    const FloatSlabRay8 fray(origin, ray.dir, inv, t_min);
     __m256 t_max_up = _mm256_set1_ps(_mm_cvtss_f32(FloatSlabRay::far_limit(t_max)));
     float t_max_f = _mm256_cvtss_f32(t_max_up);
     while (true) {
