@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import dataclasses
 
-import calibration
 import numpy as np
 import pytest
+from support import calibration
 from test_native_bvh4 import T_MINS, assert_equals_brute_force, float32_triangles, mesh_scene, unit
 
 from phongscene.backends import native
