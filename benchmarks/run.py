@@ -200,7 +200,6 @@ def in_process_table(args, names, thread_counts) -> dict:
         header += f"  {'mitsuba build/render s (rays, agreeing with native)'}"
     print(header)
     render_times: dict = {}
-    build_times: dict = {}
     for name in names:
         scene = load_usd(scene_path(name))
         for threads in thread_counts:
@@ -210,7 +209,6 @@ def in_process_table(args, names, thread_counts) -> dict:
             t_render, image = best_time(lambda: built.render(camera=camera, settings=native_settings), args.repeat)
             t_native, image = best_time(lambda: native.render(scene, settings), args.repeat)
             render_times[name, threads] = t_render
-            build_times[name, threads] = t_build
             row = f"{name:<8}{threads:>8}{scene.triangle_count:>10}{t_build:>9.3f}{t_render:>9.3f}{t_native:>9.3f}"
             if not args.native_only:
                 t_pov, img_pov = best_time(lambda: povray.render(scene, settings, mapping=args.mapping), args.repeat)
@@ -219,27 +217,30 @@ def in_process_table(args, names, thread_counts) -> dict:
             if with_mitsuba:
                 row += "  " + mitsuba_cell(scene, settings, built, args.repeat, threads)
             print(row, flush=True)
-    return render_times, build_times
+    return render_times
 
 
-def compiled_peers_table(args, names, thread_counts, render_times, build_times) -> None:
-    """The compiled peers (compiled_peers.py) on the same rays, against native's render and build
-    of table 1 (native's render shades every pixel; the peers trace the rays only)."""
+def compiled_peers_table(args, names, thread_counts) -> None:
+    """The compiled peers (compiled_peers.py) on the same rays, each scene and thread count with
+    native's build and render timed again just before its peers (side by side on a shared machine;
+    native's render shades every pixel, the peers trace the rays only)."""
     from phongscene.backends import native
     from phongscene.backends.povray import SPECULAR_OF_MAPPING
     from phongscene.usd import load_usd
 
     print(f"\n2. Compiled peers on the same rays (primary + a shadow ray per hit and target), best of {args.repeat};"
-          "\n   ratio = peer / native (below 1: the peer is faster); native render = table 1's (it also shades)")
+          "\n   ratio = peer / native, timed side by side (below 1: the peer is faster); native render shades too")
     print(f"{'scene':<8}{'threads':>8}  {'peer':<22}{'rays':>8}{'build s':>9}{'ratio':>7}{'render s':>10}{'ratio':>7}"
           f"{'agreeing':>10}")
     for name in names:
         scene = load_usd(scene_path(name))
-        built = native.build(scene)
         for threads in thread_counts:
             settings = dataclasses.replace(scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping])
-            t_render, t_build = render_times[name, threads], build_times[name, threads]
-            print(f"{name:<8}{threads:>8}  {'native':<22}{'':>8}{t_build:>9.3f}{'':>7}{t_render:>10.3f}", flush=True)
+            camera, native_settings = native._camera(scene.camera), native._settings(settings)
+            t_build, built = best_time(lambda: native.build(scene), args.repeat)
+            t_render, _ = best_time(lambda: built.render(camera=camera, settings=native_settings), args.repeat)
+            print(f"{name:<8}{threads:>8}  {'native (' + str(built.walk_width) + '-wide walk)':<22}{'':>8}{t_build:>9.3f}"
+                  f"{'':>7}{t_render:>10.3f}", flush=True)
             for peer, figures in compiled_peers.run_peers(scene, settings, built, threads, args.repeat).items():
                 if isinstance(figures, str):
                     print(f"{name:<8}{threads:>8}  {peer:<22}- ({figures})")
@@ -290,6 +291,7 @@ def main() -> None:
     parser.add_argument("--mapping", choices=("classic", "exact"), default="classic",
                         help="POV-Ray mapping (classic = one idiomatic pass; exact = one pass per light)")
     parser.add_argument("--native-only", action="store_true", help="time the native tracer only")
+    parser.add_argument("--peers-only", action="store_true", help="only table 2 (native against the compiled peers)")
     parser.add_argument("--no-scaling", action="store_true", help="skip the S2 triangle-count table")
     parser.add_argument("--baseline-extension", type=Path, metavar="SO",
                         help="only compare the installed extension with this build (in a child process)")
@@ -338,9 +340,12 @@ def main() -> None:
         return
 
     print(f"{cores} cores; peers: {peers_line()}")
-    render_times, build_times = in_process_table(args, names, thread_counts)
+    if args.peers_only:
+        compiled_peers_table(args, names, thread_counts)
+        return
+    render_times = in_process_table(args, names, thread_counts)
     if not args.native_only:
-        compiled_peers_table(args, names, thread_counts, render_times, build_times)
+        compiled_peers_table(args, names, thread_counts)
     whole_process_table(args, names, thread_counts[-1])
     if len(thread_counts) > 1:
         lo, hi = thread_counts[0], thread_counts[-1]
