@@ -52,9 +52,16 @@ _SPECULAR_CONVENTIONS = {
 
 
 def _material(m: PhongMaterial) -> _native.Material:
-    return _native.Material(
+    native = _native.Material(
         ka=m.ka, kd=m.kd, ks=m.ks, exponent=m.exponent, diffuse_color=m.diffuse_color, specular_color=m.specular_color
     )
+    native.kr = m.kr
+    native.reflective_color = m.reflective_color
+    native.kt = m.kt
+    native.ior = m.ior
+    native.fresnel = bool(m.fresnel)
+    native.interior_filter = m.interior_filter
+    return native
 
 
 def _materials(models) -> list[_native.Material]:
@@ -163,6 +170,8 @@ def _settings(s: RenderSettings) -> _native.RenderSettings:
         numerics=_NUMERICS[s.numerics],
     )
     native.aa_threshold = float(s.aa_threshold)
+    native.max_depth = int(s.max_depth)
+    native.transmission_convention = _native.TransmissionConvention.book if s.transmission == "book" else _native.TransmissionConvention.povray
     return native
 
 

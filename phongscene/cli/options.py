@@ -142,7 +142,7 @@ def add_override_options(p: argparse.ArgumentParser, *, mapping_help: str, mappi
     """The render overrides (``RenderOverrides``) but --time, which ``add_time_options`` adds:
     --mapping, the size, the anti-aliasing and the area-light estimators; --shadow-cells (native
     only) and --threads for the commands that render natively."""
-    from ..limits import MAX_ADAPTIVE
+    from ..limits import MAX_ADAPTIVE, MAX_DEPTH
     from ..scene import SAMPLE_PATTERNS
 
     add_mapping_option(p, mapping_help, mapping_default)
@@ -155,6 +155,9 @@ def add_override_options(p: argparse.ArgumentParser, *, mapping_help: str, mappi
                    help="POV-Ray's +A threshold of povray-am1/am2: supersample where colours differ by >= T "
                    "(0: everywhere); stratified: its stopping tolerance; adaptive: split a cell of side s while "
                    "its corners' spread x s^1.5 >= T")
+    p.add_argument("--max-depth", type=int_in(0, MAX_DEPTH), metavar="D",
+                   help="the deepest reflected or refracted ray (RenderSettings.max_depth, phong:maxDepth; the camera "
+                   "ray has depth 0, deeper rays return black; POV-Ray: max_trace_level D + 1; default: the scene's)")
     p.add_argument("--shadow-adaptive", type=int_in(0, MAX_ADAPTIVE), metavar="N",
                    help="POV-Ray's 'adaptive N' on every area light (default: each light's own)")
     if shadow_cells:
@@ -249,9 +252,14 @@ def thresholds(args, base=None):
         raise UsageError(str(e)) from None
 
 
-def print_warnings(warnings, stream=None) -> None:
-    for warning in warnings:
-        print(f"warning: {warning}", file=sys.stderr if stream is None else stream)
+def print_warnings(warnings, stream=None, *, every: bool = False) -> None:
+    """Each warning as a ``warning:`` line; the same message about many prims as one line, and
+    at most warning_groups.MAX_WARNING_LINES lines unless ``every`` (`info` lists them all)."""
+    from ..warning_groups import capped, grouped
+
+    lines = grouped(warnings)
+    for line in lines if every else capped(lines):
+        print(f"warning: {line}", file=sys.stderr if stream is None else stream)
 
 
 def scene_and_settings(args):

@@ -23,7 +23,7 @@ import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux
 
 from ..errors import Problem, SceneError, SceneFileNotFoundError
-from ..scene import AmbientLight, Camera, Scene, framing_camera, head_light
+from ..scene import AmbientLight, Camera, RenderSettings, Scene, framing_camera, head_light
 from ..validate import validate
 from . import geometry
 from .camera import conform_to_aperture, read_camera, read_render_settings
@@ -181,6 +181,13 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
         if camera is not None:
             settings = conform_to_aperture(ctx, camera_prim, settings)
     ambient_color = tuple(float(sum(a.color[i] for a in ambient)) for i in range(3)) if ambient else (0.0, 0.0, 0.0)
+    if ambient and settings.background == RenderSettings().background and any(
+        o.material.reflects or o.material.transmits for o in (*spheres, *meshes)
+    ):
+        # A DomeLight is the environment at infinity: what a mirror or a glass (and a camera ray
+        # that misses) sees there, as every USD renderer shows it. Only scenes with secondary rays
+        # (and no phong:background of their own) get it, so that no other image changes.
+        settings = replace(settings, background=ambient_color)
     scene = Scene(
         camera=camera or Camera(),
         ambient=AmbientLight(ambient_color, ambient[0].source if len(ambient) == 1 else ""),
@@ -225,7 +232,9 @@ def _time_to_read(stage: Usd.Stage, time: float | None) -> tuple[Usd.TimeCode, s
         outside = ranged and not (start <= time <= end)
         said = f"time {time:g} is outside the stage's time codes {start:g} to {end:g}: USD holds the nearest sample" if outside else ""
         return Usd.TimeCode(float(time)), said
-    if ranged and end > start:
+    # A range alone animates nothing (49 public files author start/end codes and no sample):
+    # such a stage reads the same at every time, so it is read at its start without a word.
+    if ranged and end > start and _earliest_time_sample(stage) is not None:
         return Usd.TimeCode(start), (
             f"the stage is animated (time codes {start:g} to {end:g}): rendering its start time {start:g} "
             "(choose one with --time T, or all with --frames START:END)"
