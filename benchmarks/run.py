@@ -292,6 +292,7 @@ def main() -> None:
                         help="POV-Ray mapping (classic = one idiomatic pass; exact = one pass per light)")
     parser.add_argument("--native-only", action="store_true", help="time the native tracer only")
     parser.add_argument("--peers-only", action="store_true", help="only table 2 (native against the compiled peers)")
+    parser.add_argument("--processes-only", action="store_true", help="only table 3 (whole processes)")
     parser.add_argument("--no-scaling", action="store_true", help="skip the S2 triangle-count table")
     parser.add_argument("--baseline-extension", type=Path, metavar="SO",
                         help="only compare the installed extension with this build (in a child process)")
@@ -342,6 +343,9 @@ def main() -> None:
     print(f"{cores} cores; peers: {peers_line()}")
     if args.peers_only:
         compiled_peers_table(args, names, thread_counts)
+        return
+    if args.processes_only:
+        whole_process_table(args, names, thread_counts[-1])
         return
     render_times = in_process_table(args, names, thread_counts)
     if not args.native_only:
