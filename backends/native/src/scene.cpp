@@ -234,6 +234,13 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     first_triangle_ = std::move(first_triangle);
 }
 
+void Scene::add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
+                          bool rebuild) {
+    if (!instances) instances = std::make_unique<InstanceLayer>();
+    instances->add(std::move(prototype), world_from_prototype, count, rebuild);
+    bounds.grow(instances->bounds);
+}
+
 int32_t Scene::triangle_mesh(size_t slot) const {
     const size_t i = triangle_source[slot];
     return int32_t(std::upper_bound(first_triangle_.begin() + 1, first_triangle_.end(), i) - first_triangle_.begin() - 1);
@@ -280,6 +287,14 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
         traverse_bvh8<true>(bvh8_, magnitude, ray, origin, t_min, t_cull, leaf);
     else
         traverse_bvh4<true>(bvh4_, magnitude, ray, origin, t_min, t_cull, leaf);
+    // Instances after the world's own primitives: a copy wins only by being closer.
+    if (!instances_empty()) {
+        Hit instance_hit;
+        if (instances->closest_hit(ray, t_min, t_best, instance_hit) && (!found || instance_hit.t < t_best)) {
+            hit = instance_hit;
+            found = true;
+        }
+    }
     return found;
 }
 
@@ -309,7 +324,7 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
         traverse_bvh8<false>(bvh8_, magnitude, ray, origin, t_min, t_limit, leaf);
     else
         traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, leaf);
-    return blocked;
+    return blocked || (!instances_empty() && instances->occluded(ray, t_min, t_max));
 }
 
 int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const {
