@@ -430,6 +430,9 @@ NB_MODULE(_native, m) {
                      "Whether the triangles' corners are held as floats (every vertex a float: the same doubles).")
         .def_prop_ro("single_precision_normals", [](const phong::Scene& s) { return s.normals.single_precision(); },
                      "Whether the meshes' normals are held as floats (every coordinate a float: the same doubles).")
+        .def_prop_ro("walk_width", [](const phong::Scene& s) { return s.walk_width(); },
+                     "Children per BVH node of the rays' walk: 8 on the AVX2 path, 4 on the SSE2 one (chosen when "
+                     "the scene is built; PHONGSCENE_NATIVE_SIMD=sse2 forces the portable path).")
         .def("render", &render, "camera"_a, "settings"_a, "progress"_a = nb::none(),
              "The image, float32 (height, width, 3), row 0 at the top. progress(done, total) is called from this "
              "thread while rendering; an exception it raises (or Ctrl-C) stops the render.")

@@ -3,6 +3,8 @@
 // (shadow-ray bundles: shadow_bundles.cpp).
 #include "scene.hpp"
 
+#include "simd_dispatch.hpp"
+
 #include <emmintrin.h>
 
 #include <algorithm>
@@ -171,7 +173,11 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     malloc_trim(0);
 #endif
     // The rays walk the 4-wide tree; the binary one's nodes are freed once it is collapsed.
-    bvh4_ = collapse_to_bvh4(bvh_.nodes);
+    // (Or the 8-wide tree where the CPU has AVX2: every walk takes it then.)
+    if (use_avx2())
+        bvh8_ = collapse_to_bvh8(bvh_.nodes);
+    else
+        bvh4_ = collapse_to_bvh4(bvh_.nodes);
     std::vector<BvhNode>().swap(bvh_.nodes);
 
     // Primitive refs and triangle data in leaf order, so leaves read memory sequentially.
@@ -256,7 +262,7 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool found = false;
     double t_best = t_max, t_test = t_max, t_cull = t_max;
-    traverse_bvh4<true>(bvh4_, magnitude, ray, origin, t_min, t_cull, [&](int32_t first, int count, double& cull) {
+    auto leaf = [&](int32_t first, int count, double& cull) {
         for (int k = 0; k < count; ++k) {
             const int32_t ref = refs_[size_t(first + k)];
             double t;
@@ -276,7 +282,11 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
             cull = t_best + std::fabs(t_best) * kTieCullMargin;
         }
         return false;
-    });
+    };
+    if (!bvh8_.empty())
+        traverse_bvh8<true>(bvh8_, magnitude, ray, origin, t_min, t_cull, leaf);
+    else
+        traverse_bvh4<true>(bvh4_, magnitude, ray, origin, t_min, t_cull, leaf);
     // Instances after the world's own primitives: a copy wins only by being closer.
     if (!instances_empty()) {
         Hit instance_hit;
@@ -292,7 +302,7 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool blocked = false;
     double t_limit = t_max;
-    traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, [&](int32_t first, int count, double& t_best) {
+    auto leaf = [&](int32_t first, int count, double& t_best) {
         for (int k = 0; k < count; ++k) {
             const int32_t ref = refs_[size_t(first + k)];
             double t;
@@ -309,7 +319,11 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
             }
         }
         return false;
-    });
+    };
+    if (!bvh8_.empty())
+        traverse_bvh8<false>(bvh8_, magnitude, ray, origin, t_min, t_limit, leaf);
+    else
+        traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, leaf);
     return blocked || (!instances_empty() && instances->occluded(ray, t_min, t_max));
 }
 

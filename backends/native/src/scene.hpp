@@ -11,6 +11,7 @@
 
 #include "bvh.hpp"
 #include "bvh4.hpp"
+#include "bvh8.hpp"
 #include "instances.hpp"
 #include "lights.hpp"
 #include "materials.hpp"
@@ -113,6 +114,9 @@ class Scene {
     // The primitive's id as Python numbers them: spheres 0..S-1, then triangles in mesh order.
     int64_t primitive_id(int32_t ref) const;
 
+    // Children per node of the walk closest_hit() and occluded() take: 8 (AVX2) or 4 (SSE2).
+    int walk_width() const { return bvh8_.empty() ? 4 : 8; }
+
     // The mesh of leaf-order triangle `slot` (from its input row: the POV-Ray walk's rare
     // question needs no per-triangle array).
     int32_t triangle_mesh(size_t slot) const;
@@ -154,7 +158,10 @@ class Scene {
     }
 
     Bvh bvh_;                      // the binary tree; its nodes are freed once collapsed
-    std::vector<Bvh4Node> bvh4_;   // what the rays walk
+    // What the rays and bundles walk: the 8-wide tree where the CPU has AVX2 (simd_dispatch.hpp),
+    // else the 4-wide one; the other is empty.
+    std::vector<Bvh4Node> bvh4_;
+    std::vector<Bvh8Node> bvh8_;
     std::vector<int32_t> refs_;  // BVH leaf order
     std::vector<size_t> first_triangle_;  // mesh m's input rows start at first_triangle_[m]
 };
