@@ -34,7 +34,6 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-
 from peer_rays import agreement, primary_rays, shadow_targets, sphere_centre_radius
 
 HERE = Path(__file__).resolve().parent / "peers"
@@ -42,7 +41,6 @@ MAGIC = 0x52504850  # peer_input.h
 # The naive loop tests every ray against every primitive: beyond this many it is not a peer.
 NAIVE_MAX_PRIMITIVES = 64
 EMBREE_MODES = ("single", "packet8", "packet16")
-
 
 
 def _build_dir() -> Path:
@@ -101,11 +99,13 @@ def write_rays(scene, settings, path: Path) -> tuple[np.ndarray, np.ndarray, lis
     targets = [shadow_targets(light) for light in scene.lights]
     offsets = np.cumsum([0] + [len(m.points) for m in scene.meshes])
     points = np.concatenate([np.asarray(m.points, np.float32) for m in scene.meshes] or [np.zeros((0, 3), np.float32)])
-    triangles = np.concatenate([np.asarray(m.triangles, np.int64) + o for m, o in zip(scene.meshes, offsets)]
-                               or [np.zeros((0, 3), np.int64)]).astype(np.uint32)
+    triangles = np.concatenate(
+        [np.asarray(m.triangles, np.int64) + o for m, o in zip(scene.meshes, offsets)] or [np.zeros((0, 3), np.int64)]
+    ).astype(np.uint32)
     spheres = np.asarray([[*c, r] for c, r in map(sphere_centre_radius, scene.spheres)], np.float32).reshape(-1, 4)
-    head = struct.pack("<7i", MAGIC, settings.width, settings.height, len(points), len(triangles), len(spheres),
-                       len(targets))
+    head = struct.pack(
+        "<7i", MAGIC, settings.width, settings.height, len(points), len(triangles), len(spheres), len(targets)
+    )
     with open(path, "wb") as f:
         f.write(head + struct.pack(f"<{len(targets)}i", *(len(t) for t in targets)))
         for array in (points, triangles, spheres, origins, dirs, *targets):
@@ -148,8 +148,9 @@ def run_peers(scene, settings, native_scene, threads: int, repeat: int) -> dict[
         def checked(cmd: list[str]) -> dict:
             figures = _run(cmd)
             valid, t, points, occluded = _answers(hits_path, origins, dirs, targets)
-            figures["agreement"] = agreement(native_scene, origins, dirs, valid, t, points, targets, occluded,
-                                             who=Path(cmd[0]).name)
+            figures["agreement"] = agreement(
+                native_scene, origins, dirs, valid, t, points, targets, occluded, who=Path(cmd[0]).name
+            )
             return figures
 
         primitives = len(scene.spheres) + scene.triangle_count
@@ -165,6 +166,9 @@ def run_peers(scene, settings, native_scene, threads: int, repeat: int) -> dict[
         binary = embree_binary()
         for mode in EMBREE_MODES:
             name = f"Embree {mode}"
-            results[name] = binary if isinstance(binary, str) else checked(
-                [str(binary), str(rays_path), str(hits_path), mode, str(threads), str(repeat)])
+            results[name] = (
+                binary
+                if isinstance(binary, str)
+                else checked([str(binary), str(rays_path), str(hits_path), mode, str(threads), str(repeat)])
+            )
     return results

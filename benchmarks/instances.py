@@ -29,8 +29,23 @@ WIDTH, HEIGHT = 320, 180
 
 def measure(scene: Path, backend: str, out: Path, threads: int) -> tuple[float, float]:
     """(peak RSS in MiB, wall seconds) of one ``phongscene render`` process."""
-    command = ["/usr/bin/time", "-v", str(REPO / ".venv" / "bin" / "phongscene"), "render", str(scene), "-o", str(out),
-               "--backend", backend, "--width", str(WIDTH), "--height", str(HEIGHT), "--threads", str(threads)]
+    command = [
+        "/usr/bin/time",
+        "-v",
+        str(REPO / ".venv" / "bin" / "phongscene"),
+        "render",
+        str(scene),
+        "-o",
+        str(out),
+        "--backend",
+        backend,
+        "--width",
+        str(WIDTH),
+        "--height",
+        str(HEIGHT),
+        "--threads",
+        str(threads),
+    ]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(command)} failed:\n{done.stderr[-2000:]}")
@@ -50,13 +65,29 @@ def main() -> None:
     backends = ["native"] + ([] if args.no_povray else ["povray"])
     with tempfile.TemporaryDirectory() as folder:
         tmp = Path(folder)
-        cases = [(f"PointInstancer, K = {k}", lambda k=k: point_instancer_stage(
-            tmp / f"pi_{k}.usdc", k, RINGS, SIDES, 1.2, width=WIDTH, height=HEIGHT)) for k in args.k]
+        cases = [
+            (
+                f"PointInstancer, K = {k}",
+                lambda k=k: point_instancer_stage(
+                    tmp / f"pi_{k}.usdc", k, RINGS, SIDES, 1.2, width=WIDTH, height=HEIGHT
+                ),
+            )
+            for k in args.k
+        ]
         if args.refs:
-            cases.append((f"instanceable references, K = {args.refs}", lambda: reference_stage(
-                tmp / f"refs_{args.refs}.usdc", args.refs, RINGS, SIDES, 1.2, width=WIDTH, height=HEIGHT)))
-        print(f"| scene ({2 * RINGS * SIDES} triangles per copy, {WIDTH}x{HEIGHT}, {args.threads} threads) | "
-              + " | ".join(f"{b} peak RSS | {b} wall" for b in backends) + " |")
+            cases.append(
+                (
+                    f"instanceable references, K = {args.refs}",
+                    lambda: reference_stage(
+                        tmp / f"refs_{args.refs}.usdc", args.refs, RINGS, SIDES, 1.2, width=WIDTH, height=HEIGHT
+                    ),
+                )
+            )
+        print(
+            f"| scene ({2 * RINGS * SIDES} triangles per copy, {WIDTH}x{HEIGHT}, {args.threads} threads) | "
+            + " | ".join(f"{b} peak RSS | {b} wall" for b in backends)
+            + " |"
+        )
         print("| --- |" + " --- | --- |" * len(backends))
         for name, make in cases:
             scene = Path(make())

@@ -25,7 +25,6 @@ import subprocess
 import sys
 
 import numpy as np
-
 from peer_rays import SHADOW_OFFSET, agreement, primary_rays, shadow_targets, sphere_centre_radius
 from timing import best_time
 
@@ -49,8 +48,11 @@ def unavailable() -> str | None:
         return "mitsuba not installed"
     done = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True)
     if done.returncode != 0:
-        hint = "" if os.environ.get("DRJIT_LIBLLVM_PATH") else \
-            "; DRJIT_LIBLLVM_PATH not set (point it at libLLVM.so.19.1: benchmarks/README.md)"
+        hint = (
+            ""
+            if os.environ.get("DRJIT_LIBLLVM_PATH")
+            else "; DRJIT_LIBLLVM_PATH not set (point it at libLLVM.so.19.1: benchmarks/README.md)"
+        )
         last = (done.stderr.strip().splitlines() or [f"exit status {done.returncode}"])[-1]
         return f"mitsuba {VARIANT} does not start: {last[-200:]}{hint}"
     return None
@@ -92,8 +94,10 @@ def times(scene, settings, native_scene, repeat: int, threads: int) -> dict:
     targets = _targets(scene)
 
     def build():
-        shapes = {f"sphere{i}": {"type": "sphere", "center": list(c), "radius": r}
-                  for i, (c, r) in enumerate(map(sphere_centre_radius, scene.spheres))}
+        shapes = {
+            f"sphere{i}": {"type": "sphere", "center": list(c), "radius": r}
+            for i, (c, r) in enumerate(map(sphere_centre_radius, scene.spheres))
+        }
         shapes.update({f"mesh{i}": _mesh(mi, m, f"mesh{i}") for i, m in enumerate(scene.meshes)})
         built = mi.load_dict({"type": "scene", **shapes})
         dr.sync_thread()
@@ -118,8 +122,9 @@ def times(scene, settings, native_scene, repeat: int, threads: int) -> dict:
                 to_light = target - points
                 dist = dr.norm(to_light)
                 to_light /= dist
-                occluded = mi_scene.ray_test(mi.Ray3f(points + to_light * SHADOW_OFFSET, to_light,
-                                                      dist - 2 * SHADOW_OFFSET))
+                occluded = mi_scene.ray_test(
+                    mi.Ray3f(points + to_light * SHADOW_OFFSET, to_light, dist - 2 * SHADOW_OFFSET)
+                )
                 dr.eval(occluded)
                 count += dr.width(points)
             first_occluded.append(occluded if len(light) == 1 else None)
@@ -127,6 +132,15 @@ def times(scene, settings, native_scene, repeat: int, threads: int) -> dict:
         return count, hit.t, valid, points, first_occluded
 
     t_render, (count, t_hit, valid, points, occluded) = best_time(render, repeat)
-    agreement_ = agreement(native_scene, origins, dirs, np.asarray(valid), np.asarray(t_hit),
-                           np.asarray(points).T.astype(np.float64), targets, occluded, who="Mitsuba")
+    agreement_ = agreement(
+        native_scene,
+        origins,
+        dirs,
+        np.asarray(valid),
+        np.asarray(t_hit),
+        np.asarray(points).T.astype(np.float64),
+        targets,
+        occluded,
+        who="Mitsuba",
+    )
     return {"build": t_build, "render": t_render, "rays": count, "agreement": agreement_}

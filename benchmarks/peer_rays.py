@@ -37,8 +37,11 @@ def shadow_targets(light) -> np.ndarray | None:
     if isinstance(light, RectAreaLight):
         s = np.linspace(-0.5, 0.5, light.samples)
         a, b = np.meshgrid(s, s, indexing="ij")
-        grid = (np.asarray(light.center) + a.reshape(-1, 1) * np.asarray(light.axis_u)
-                + b.reshape(-1, 1) * np.asarray(light.axis_v))
+        grid = (
+            np.asarray(light.center)
+            + a.reshape(-1, 1) * np.asarray(light.axis_u)
+            + b.reshape(-1, 1) * np.asarray(light.axis_v)
+        )
         return grid.astype(np.float32)
     return None
 
@@ -89,6 +92,8 @@ def agreement(native_scene, origins, dirs, valid, t_hit, points, targets, occlud
         fractions.append(float(np.mean((t < dist - 2 * SHADOW_OFFSET) == np.asarray(peer_occluded))))
     worst = min(fractions)
     if worst < MIN_AGREEMENT:
-        raise SystemExit(f"{who} and the native tracer agree on only {worst:.4f} of the rays "
-                         f"(fractions {fractions}; at least {MIN_AGREEMENT} expected): not the same scene")
+        raise SystemExit(
+            f"{who} and the native tracer agree on only {worst:.4f} of the rays "
+            f"(fractions {fractions}; at least {MIN_AGREEMENT} expected): not the same scene"
+        )
     return worst

@@ -92,8 +92,10 @@ def main() -> int:
     for scene in scenes:
         coarse, full, cpu = measure(scene, args.edits, args.threads)
         slowest = max(slowest, statistics.median(full))
-        print(f"{scene.name:28} {statistics.median(coarse):14.3f} {statistics.median(full):12.3f} {max(full):11.3f} "
-              f"{statistics.median(cpu):11.3f}")
+        print(
+            f"{scene.name:28} {statistics.median(coarse):14.3f} {statistics.median(full):12.3f} {max(full):11.3f} "
+            f"{statistics.median(cpu):11.3f}"
+        )
     print(f"slowest median edit -> full image: {slowest:.3f} s (goal < {GOAL_SECONDS} s)")
     return 0 if slowest < GOAL_SECONDS else 1
 

@@ -109,11 +109,25 @@ def time_baseline(args: argparse.Namespace, name: str, threads: int) -> tuple[fl
     with tempfile.TemporaryDirectory() as tmp:
         image_path = Path(tmp) / "image.npy"
         out = subprocess.run(
-            [sys.executable, __file__, name, "--extension", str(args.baseline_extension),
-             *(["--wrapper", str(args.baseline_wrapper)] if args.baseline_wrapper else []),
-             "--threads", str(threads), "--repeat", str(args.repeat), "--mapping", args.mapping,
-             "--save-image", str(image_path)],
-            check=True, capture_output=True, text=True,
+            [
+                sys.executable,
+                __file__,
+                name,
+                "--extension",
+                str(args.baseline_extension),
+                *(["--wrapper", str(args.baseline_wrapper)] if args.baseline_wrapper else []),
+                "--threads",
+                str(threads),
+                "--repeat",
+                str(args.repeat),
+                "--mapping",
+                args.mapping,
+                "--save-image",
+                str(image_path),
+            ],
+            check=True,
+            capture_output=True,
+            text=True,
         ).stdout
         return json.loads(out.splitlines()[-1])["native"], np.load(image_path)
 
@@ -124,8 +138,14 @@ def run_process(cmd: list[str], cwd: Path | None = None, env: dict | None = None
     report this process's size, which ru_maxrss keeps across exec."""
     with tempfile.NamedTemporaryFile("r", suffix=".time") as report:
         start = time.perf_counter()
-        done = subprocess.run([GNU_TIME, "-f", "%M", "-o", report.name, *cmd], cwd=cwd, env=env,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        done = subprocess.run(
+            [GNU_TIME, "-f", "%M", "-o", report.name, *cmd],
+            cwd=cwd,
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         wall = time.perf_counter() - start
         if done.returncode != 0:
             raise SystemExit(f"{cmd[0]} failed ({done.returncode}): {done.stderr.strip()[-500:]}")
@@ -168,8 +188,9 @@ def mitsuba_cell(scene, settings, built, repeat: int, threads: int) -> str:
     if reason := mitsuba_peer.why_not(scene):
         return f"- ({reason})"
     peer = mitsuba_peer.times(scene, settings, built, repeat, threads)
-    return (f"{peer['build']:.3f} / {peer['render']:.3f} ({peer['rays'] / 1e6:.1f}M rays, "
-            f"{100 * peer['agreement']:.3f} %)")
+    return (
+        f"{peer['build']:.3f} / {peer['render']:.3f} ({peer['rays'] / 1e6:.1f}M rays, {100 * peer['agreement']:.3f} %)"
+    )
 
 
 def peers_line() -> str:
@@ -228,10 +249,14 @@ def compiled_peers_table(args, names, thread_counts) -> None:
     from phongscene.backends.povray import SPECULAR_OF_MAPPING
     from phongscene.usd import load_usd
 
-    print(f"\n2. Compiled peers on the same rays (primary + a shadow ray per hit and target), best of {args.repeat};"
-          "\n   ratio = peer / native, timed side by side (below 1: the peer is faster); native render shades too")
-    print(f"{'scene':<8}{'threads':>8}  {'peer':<22}{'rays':>8}{'build s':>9}{'ratio':>7}{'render s':>10}{'ratio':>7}"
-          f"{'agreeing':>10}")
+    print(
+        f"\n2. Compiled peers on the same rays (primary + a shadow ray per hit and target), best of {args.repeat};"
+        "\n   ratio = peer / native, timed side by side (below 1: the peer is faster); native render shades too"
+    )
+    print(
+        f"{'scene':<8}{'threads':>8}  {'peer':<22}{'rays':>8}{'build s':>9}{'ratio':>7}{'render s':>10}{'ratio':>7}"
+        f"{'agreeing':>10}"
+    )
     for name in names:
         scene = load_usd(scene_path(name))
         for threads in thread_counts:
@@ -239,16 +264,25 @@ def compiled_peers_table(args, names, thread_counts) -> None:
             camera, native_settings = native._camera(scene.camera), native._settings(settings)
             t_build, built = best_time(lambda: native.build(scene), args.repeat)
             t_render, _ = best_time(lambda: built.render(camera=camera, settings=native_settings), args.repeat)
-            print(f"{name:<8}{threads:>8}  {'native (' + str(built.walk_width) + '-wide walk)':<22}{'':>8}{t_build:>9.3f}"
-                  f"{'':>7}{t_render:>10.3f}", flush=True)
+            print(
+                f"{name:<8}{threads:>8}  {'native (' + str(built.walk_width) + '-wide walk)':<22}{'':>8}{t_build:>9.3f}"
+                f"{'':>7}{t_render:>10.3f}",
+                flush=True,
+            )
             for peer, figures in compiled_peers.run_peers(scene, settings, built, threads, args.repeat).items():
                 if isinstance(figures, str):
                     print(f"{name:<8}{threads:>8}  {peer:<22}- ({figures})")
                     continue
-                build = (f"{figures['build']:>9.3f}{figures['build'] / max(t_build, 1e-9):>6.2f}x" if "build" in figures
-                         else f"{'-':>9}{'':>7}")
-                print(f"{name:<8}{threads:>8}  {peer:<22}{figures['rays'] / 1e6:>7.1f}M{build}{figures['render']:>10.3f}"
-                      f"{figures['render'] / t_render:>6.2f}x{100 * figures['agreement']:>9.3f}%", flush=True)
+                build = (
+                    f"{figures['build']:>9.3f}{figures['build'] / max(t_build, 1e-9):>6.2f}x"
+                    if "build" in figures
+                    else f"{'-':>9}{'':>7}"
+                )
+                print(
+                    f"{name:<8}{threads:>8}  {peer:<22}{figures['rays'] / 1e6:>7.1f}M{build}{figures['render']:>10.3f}"
+                    f"{figures['render'] / t_render:>6.2f}x{100 * figures['agreement']:>9.3f}%",
+                    flush=True,
+                )
 
 
 def whole_process_table(args, names, threads: int) -> None:
@@ -265,13 +299,27 @@ def whole_process_table(args, names, threads: int) -> None:
         for name in ["tiny", *names]:
             path = scene_path("S1" if name == "tiny" else name)
             size = ["--width", str(TINY_SIZE[0]), "--height", str(TINY_SIZE[1])] if name == "tiny" else []
-            cmd = [sys.executable, "-m", "phongscene", "render", str(path), "-o", str(work / "native.exr"),
-                   "--threads", str(threads), "--mapping", args.mapping, *size]
+            cmd = [
+                sys.executable,
+                "-m",
+                "phongscene",
+                "render",
+                str(path),
+                "-o",
+                str(work / "native.exr"),
+                "--threads",
+                str(threads),
+                "--mapping",
+                args.mapping,
+                *size,
+            ]
             t_native, rss_native = best_process(cmd, args.repeat, env=cached_bytecode_env(work / "pycache"))
             row = f"{name:<8}{t_native:>11.3f} s {rss_native:>4.0f} M"
             if not args.native_only:
                 scene = load_usd(path)
-                settings = dataclasses.replace(scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping])
+                settings = dataclasses.replace(
+                    scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping]
+                )
                 if name == "tiny":
                     settings = dataclasses.replace(settings, width=TINY_SIZE[0], height=TINY_SIZE[1])
                 job = prepare(scene, settings, args.mapping)
@@ -288,17 +336,29 @@ def main() -> None:
     parser.add_argument("scenes", nargs="*", metavar="SCENE", help="any of S1, S2, S3 (default: all)")
     parser.add_argument("--threads", type=int, nargs="+", help="thread counts (0 = all cores; default: 1 and all)")
     parser.add_argument("--repeat", type=int, default=3, help="runs per renderer; the best counts")
-    parser.add_argument("--mapping", choices=("classic", "exact"), default="classic",
-                        help="POV-Ray mapping (classic = one idiomatic pass; exact = one pass per light)")
+    parser.add_argument(
+        "--mapping",
+        choices=("classic", "exact"),
+        default="classic",
+        help="POV-Ray mapping (classic = one idiomatic pass; exact = one pass per light)",
+    )
     parser.add_argument("--native-only", action="store_true", help="time the native tracer only")
     parser.add_argument("--peers-only", action="store_true", help="only table 2 (native against the compiled peers)")
     parser.add_argument("--processes-only", action="store_true", help="only table 3 (whole processes)")
     parser.add_argument("--no-scaling", action="store_true", help="skip the S2 triangle-count table")
-    parser.add_argument("--baseline-extension", type=Path, metavar="SO",
-                        help="only compare the installed extension with this build (in a child process)")
-    parser.add_argument("--baseline-wrapper", type=Path, metavar="PY",
-                        help="the baseline's backends/native/__init__.py, when its extension's arguments differ "
-                        "from today's (git show COMMIT:backends/native/__init__.py > old_native.py)")
+    parser.add_argument(
+        "--baseline-extension",
+        type=Path,
+        metavar="SO",
+        help="only compare the installed extension with this build (in a child process)",
+    )
+    parser.add_argument(
+        "--baseline-wrapper",
+        type=Path,
+        metavar="PY",
+        help="the baseline's backends/native/__init__.py, when its extension's arguments differ "
+        "from today's (git show COMMIT:backends/native/__init__.py > old_native.py)",
+    )
     parser.add_argument("--extension", type=Path, metavar="SO", help=argparse.SUPPRESS)  # the child's
     parser.add_argument("--wrapper", type=Path, metavar="PY", help=argparse.SUPPRESS)  # the child's
     parser.add_argument("--save-image", type=Path, help=argparse.SUPPRESS)  # the child's: one scene, JSON
@@ -321,23 +381,32 @@ def main() -> None:
     if args.save_image:
         (name,) = names
         scene = load_usd(scene_path(name))
-        settings = dataclasses.replace(scene.settings, threads=thread_counts[-1], specular=SPECULAR_OF_MAPPING[args.mapping])
+        settings = dataclasses.replace(
+            scene.settings, threads=thread_counts[-1], specular=SPECULAR_OF_MAPPING[args.mapping]
+        )
         t_native, image = best_time(lambda: native.render(scene, settings), args.repeat)
         np.save(args.save_image, image)
         print(json.dumps({"native": t_native}))
         return
 
     if args.baseline_extension:
-        print(f"threads {thread_counts[-1]}, mapping {args.mapping}, best of {args.repeat}; native = flatten + build + render")
+        print(
+            f"threads {thread_counts[-1]}, mapping {args.mapping}, best of {args.repeat}; native = flatten + build + render"
+        )
         print(f"{'scene':<8}{'triangles':>10}{'baseline s':>12}{'native s':>10}{'gain':>7}{'identical':>11}")
         for name in names:
             scene = load_usd(scene_path(name))
-            settings = dataclasses.replace(scene.settings, threads=thread_counts[-1], specular=SPECULAR_OF_MAPPING[args.mapping])
+            settings = dataclasses.replace(
+                scene.settings, threads=thread_counts[-1], specular=SPECULAR_OF_MAPPING[args.mapping]
+            )
             t_baseline, img_baseline = time_baseline(args, name, thread_counts[-1])
             t_native, img_native = best_time(lambda: native.render(scene, settings), args.repeat)
             identical = "yes" if np.array_equal(img_native, img_baseline) else "NO"
-            print(f"{name:<8}{scene.triangle_count:>10}{t_baseline:>12.3f}{t_native:>10.3f}"
-                  f"{t_baseline / t_native:>6.2f}x{identical:>11}", flush=True)
+            print(
+                f"{name:<8}{scene.triangle_count:>10}{t_baseline:>12.3f}{t_native:>10.3f}"
+                f"{t_baseline / t_native:>6.2f}x{identical:>11}",
+                flush=True,
+            )
         return
 
     print(f"{cores} cores; peers: {peers_line()}")

@@ -5,7 +5,15 @@ and diff the two backends."""
 import importlib as _importlib
 from typing import TYPE_CHECKING
 
-from .errors import BackendError, ImageWarning, PhongSceneError, Problem, SceneError, SceneFileNotFoundError, SceneWarning
+from .errors import (
+    BackendError,
+    ImageWarning,
+    PhongSceneError,
+    Problem,
+    SceneError,
+    SceneFileNotFoundError,
+    SceneWarning,
+)
 
 __version__ = "0.1.0"
 

@@ -23,7 +23,7 @@ def write_contact_sheet(path: str | os.PathLike, frames: list[tuple[int, str]], 
     ((frame number, image file) pairs, in that order) in a grid of ``columns`` (default: about
     square), each THUMBNAIL_WIDTH wide at most, labelled with its frame number."""
     import OpenImageIO as oiio
-    from OpenImageIO import ImageBuf, ImageBufAlgo, ImageSpec, ROI
+    from OpenImageIO import ROI, ImageBuf, ImageBufAlgo, ImageSpec
 
     from .errors import PhongSceneError
     from .images import write_image
@@ -40,8 +40,11 @@ def write_contact_sheet(path: str | os.PathLike, frames: list[tuple[int, str]], 
             buf = ImageBufAlgo.colorconvert(buf, "sRGB", "linear")  # the sheet is assembled in linear light
         width = min(THUMBNAIL_WIDTH, spec.width)
         height = max(1, round(spec.height * width / spec.width))
-        small = ImageBufAlgo.resize(buf, roi=ROI(0, width, 0, height, 0, 1, 0, 3)) if width != spec.width else \
-            ImageBufAlgo.channels(buf, (0, 1, 2))
+        small = (
+            ImageBufAlgo.resize(buf, roi=ROI(0, width, 0, height, 0, 1, 0, 3))
+            if width != spec.width
+            else ImageBufAlgo.channels(buf, (0, 1, 2))
+        )
         thumbs.append((frame, small))
     cell_w = max(t.spec().width for _, t in thumbs)
     cell_h = max(t.spec().height for _, t in thumbs)
@@ -54,5 +57,7 @@ def write_contact_sheet(path: str | os.PathLike, frames: list[tuple[int, str]], 
         ImageBufAlgo.render_text(sheet, x + 3, y + LABEL_SIZE, str(frame), LABEL_SIZE, "", (1.0, 1.0, 1.0))
     import numpy as np
 
-    pixels = np.asarray(sheet.get_pixels(oiio.TypeFloat), dtype=np.float32).reshape(sheet.spec().height, sheet.spec().width, 3)
+    pixels = np.asarray(sheet.get_pixels(oiio.TypeFloat), dtype=np.float32).reshape(
+        sheet.spec().height, sheet.spec().width, 3
+    )
     return write_image(path, pixels)

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import math
 import os
-from time import perf_counter
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
+from time import perf_counter
 from typing import TextIO
 
 import numpy as np
@@ -34,8 +34,8 @@ from .comparison import (
     for_povray_passes,
 )
 from .errors import BackendError
-from .progress import ProgressBar
 from .overrides import RenderOverrides
+from .progress import ProgressBar
 from .rendering import load_scene, render
 from .scene import RenderSettings, Scene
 
@@ -70,11 +70,7 @@ class DiffResult:
         if self.report.ok:
             return True
         allowed = POVRAY_SHADOW_CACHE.fail_percent / 100 * self.report.pixels
-        return (
-            not self.report.hard_fail
-            and not self.unexplained
-            and 0 < len(self.explained) <= allowed
-        )
+        return not self.report.hard_fail and not self.unexplained and 0 < len(self.explained) <= allowed
 
     def _repr_html_(self) -> str:
         """Jupyter's display: the verdict and the report's facts, both images side by side (sRGB
@@ -86,30 +82,40 @@ class DiffResult:
 
         def png(image, label) -> str:
             data = np.asarray(image, dtype=np.float32).view(Image)._repr_png_()
-            return (f"<figure style='display:inline-block;margin:4px'><img src='data:image/png;base64,"
-                    f"{base64.b64encode(data).decode('ascii')}' alt='{label}'><figcaption>{label}</figcaption></figure>")
+            return (
+                f"<figure style='display:inline-block;margin:4px'><img src='data:image/png;base64,"
+                f"{base64.b64encode(data).decode('ascii')}' alt='{label}'><figcaption>{label}</figcaption></figure>"
+            )
 
         s = self.settings
         verdict = "PASS" if self.ok else "FAIL"
         notes = "".join(f"<li>{html.escape(line.strip())}</li>" for line in self.explanation().splitlines())
         notes += "".join(f"<li>warning: {html.escape(w)}</li>" for w in self.image_warnings)
-        return (f"<div class='phongscene-diff'><b>{verdict}</b>: {s.width} x {s.height}, mapping {self.mapping} (native "
-                f"{s.specular}){' &rarr; ' + html.escape(str(self.outdir)) if self.outdir else ''}<br>"
-                f"{png(self.povray, 'povray')}{png(self.native, 'native')}{self.report._repr_html_()}"
-                f"{'<ul>' + notes + '</ul>' if notes else ''}</div>")
+        return (
+            f"<div class='phongscene-diff'><b>{verdict}</b>: {s.width} x {s.height}, mapping {self.mapping} (native "
+            f"{s.specular}){' &rarr; ' + html.escape(str(self.outdir)) if self.outdir else ''}<br>"
+            f"{png(self.povray, 'povray')}{png(self.native, 'native')}{self.report._repr_html_()}"
+            f"{'<ul>' + notes + '</ul>' if notes else ''}</div>"
+        )
 
     def explanation(self) -> str:
         """Lines for the summary: the explained pixels and the numerics difference."""
         lines = []
         if self.explained:
-            shown = ", ".join(f"({x}, {y})" for x, y in self.explained[:10]) + (" ..." if len(self.explained) > 10 else "")
+            shown = ", ".join(f"({x}, {y})" for x, y in self.explained[:10]) + (
+                " ..." if len(self.explained) > 10 else ""
+            )
             lines.append(f"  {len(self.explained)} failing pixels explained by POV-Ray's shadow cache: {shown}")
         if self.unexplained:
-            shown = ", ".join(f"({x}, {y})" for x, y in self.unexplained[:10]) + (" ..." if len(self.unexplained) > 10 else "")
+            shown = ", ".join(f"({x}, {y})" for x, y in self.unexplained[:10]) + (
+                " ..." if len(self.unexplained) > 10 else ""
+            )
             lines.append(f"  {len(self.unexplained)} failing pixels not explained: {shown}")
         if self.numerics_differ:
-            lines.append(f"  {self.numerics_differ} pixels of a plain native render (scale-invariant tolerances) differ "
-                         "from the one in POV-Ray's numerics")
+            lines.append(
+                f"  {self.numerics_differ} pixels of a plain native render (scale-invariant tolerances) differ "
+                "from the one in POV-Ray's numerics"
+            )
         if self.explained and not self.report.ok:
             lines.append("  PASS (every failing pixel explained)" if self.ok else "  FAILURE")
         return "\n".join(lines)
@@ -164,8 +170,16 @@ def diff(
     """
     from .backends.povray import check_mapping
 
-    named = {"width": width, "height": height, "samples": samples, "threads": threads, "time": time,
-             "sample_pattern": sample_pattern, "aa_threshold": aa_threshold, "shadow_adaptive": shadow_adaptive}
+    named = {
+        "width": width,
+        "height": height,
+        "samples": samples,
+        "threads": threads,
+        "time": time,
+        "sample_pattern": sample_pattern,
+        "aa_threshold": aa_threshold,
+        "shadow_adaptive": shadow_adaptive,
+    }
     if overrides is None:
         overrides = RenderOverrides(mapping=mapping, **named)
     elif any(v is not None for v in named.values()):
@@ -212,8 +226,20 @@ def diff(
     from .diagnostics import ImageChecks
 
     image_warnings = tuple(ImageChecks.of(scene, settings, warnings).warnings(images["native"]))
-    result = DiffResult(report, None, timings, images["povray"], images["native"], settings, mapping, warnings,
-                        explained, unexplained, numerics_differ, image_warnings)
+    result = DiffResult(
+        report,
+        None,
+        timings,
+        images["povray"],
+        images["native"],
+        settings,
+        mapping,
+        warnings,
+        explained,
+        unexplained,
+        numerics_differ,
+        image_warnings,
+    )
     if outdir is not None:
         from .files import atomic_folder
         from .report import write_report
@@ -268,8 +294,9 @@ def render_native_as_povray(scene: Scene, settings: RenderSettings, mapping: str
     return total.astype(np.float32)
 
 
-def _explain(scene: Scene, settings: RenderSettings, mapping: str, images: dict, report: Report,
-             thresholds: Thresholds):
+def _explain(
+    scene: Scene, settings: RenderSettings, mapping: str, images: dict, report: Report, thresholds: Thresholds
+):
     """(explained, unexplained) failing pixels: a failing pixel where POV-Ray agrees with a native
     render in its shadow cache's window is explained by the cache."""
     if report.ok or not report.failing_pixels:
@@ -289,4 +316,3 @@ def _settings_dict(settings: RenderSettings) -> dict:
         if isinstance(value, float) and not math.isfinite(value):
             out[name] = str(value)
     return out
-

@@ -55,8 +55,10 @@ HUGE_LIGHT_RATIO = 1.0
 SAMPLE_POINTS = 1024
 
 # The reader's warning for a light input no schema defines (phongscene.usd.typos.check_names).
-_TYPO = re.compile(r"^(?P<prim>/\S*?)\.(?P<name>inputs:\S+): not an input of \S+ \(ignored\)"
-                   r"(?: \(did you mean (?P<meant>\S+)\?\))?$")
+_TYPO = re.compile(
+    r"^(?P<prim>/\S*?)\.(?P<name>inputs:\S+): not an input of \S+ \(ignored\)"
+    r"(?: \(did you mean (?P<meant>\S+)\?\))?$"
+)
 
 
 @dataclass(frozen=True)
@@ -75,8 +77,11 @@ class ImageChecks:
         settings = scene.settings if settings is None else settings
         spheres = _Spheres.of(scene)
         boxes = _object_bounds(scene, spheres)
-        causes = (_camera_causes(scene, spheres) + _light_causes(scene, boxes, spheres, reader_warnings)
-                  + _material_causes(scene))
+        causes = (
+            _camera_causes(scene, spheres)
+            + _light_causes(scene, boxes, spheres, reader_warnings)
+            + _material_causes(scene)
+        )
         return ImageChecks(
             background=tuple(map(float, settings.background)),
             nothing_in_view=_nothing_in_view(scene, settings, boxes),
@@ -105,16 +110,24 @@ class ImageChecks:
         if bright == 0:
             what = f"no light reaches what the camera sees: {black:.3g} % of the image is black"
         elif bright < BLACK_RADIANCE:
-            what = (f"what the camera sees is black: {black:.3g} % of the image is black (the brightest 1 % of what "
-                    f"the camera sees reaches {bright:.2g}, which a PNG stores as 0)")
+            what = (
+                f"what the camera sees is black: {black:.3g} % of the image is black (the brightest 1 % of what "
+                f"the camera sees reaches {bright:.2g}, which a PNG stores as 0)"
+            )
         else:
-            what = (f"the image is too dark: {black:.3g} % of it is black and the brightest 1 % of what the camera "
-                    f"sees reaches {bright:.2g} (sRGB {_srgb_code(bright)}/255)")
+            what = (
+                f"the image is too dark: {black:.3g} % of it is black and the brightest 1 % of what the camera "
+                f"sees reaches {bright:.2g} (sRGB {_srgb_code(bright)}/255)"
+            )
         if bright > 0:
-            what += (f"; inputs:exposure {math.log2(EXPOSURE_TARGET / bright):+.2f} on every light would bring it "
-                     f"to {EXPOSURE_TARGET:g}")
-        causes = self.causes or ("no cause found in the camera, the lights or the materials (shadows? surfaces "
-                                 "that face away from every light?)",)
+            what += (
+                f"; inputs:exposure {math.log2(EXPOSURE_TARGET / bright):+.2f} on every light would bring it "
+                f"to {EXPOSURE_TARGET:g}"
+            )
+        causes = self.causes or (
+            "no cause found in the camera, the lights or the materials (shadows? surfaces "
+            "that face away from every light?)",
+        )
         return [f"{what}. " + "; ".join(causes)]
 
 
@@ -196,7 +209,9 @@ def _copy_boxes(group) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     centre, half = (b[0] + b[1]) / 2, (b[1] - b[0]) / 2
     a = group.world_from_prototype[:, :3, :3]
-    return np.einsum("kij,j->ki", a, centre) + group.world_from_prototype[:, :3, 3], np.einsum("kij,j->ki", np.abs(a), half)
+    return np.einsum("kij,j->ki", a, centre) + group.world_from_prototype[:, :3, 3], np.einsum(
+        "kij,j->ki", np.abs(a), half
+    )
 
 
 def _vector(v) -> str:
@@ -230,16 +245,25 @@ def _nothing_in_view(scene: Scene, settings: RenderSettings, boxes) -> str:
         reach_x = reach_y = np.full_like(z, half_x)
         reach_y = reach_y * aspect
     behind = np.all(z <= 0, axis=1)
-    outside = (behind | np.all(x > reach_x, axis=1) | np.all(x < -reach_x, axis=1)
-               | np.all(y > reach_y, axis=1) | np.all(y < -reach_y, axis=1))
+    outside = (
+        behind
+        | np.all(x > reach_x, axis=1)
+        | np.all(x < -reach_x, axis=1)
+        | np.all(y > reach_y, axis=1)
+        | np.all(y < -reach_y, axis=1)
+    )
     lo, hi = lows.min(axis=0), highs.max(axis=0)
     centre = (lo + hi) / 2
     where = f"the camera{' ' + cam.source if cam.source else ''} at {_vector(eye)} looks along {_vector(forward)}"
     to_centre = centre - eye
-    off_axis = math.degrees(math.acos(max(-1.0, min(1.0, float(to_centre @ forward) / max(np.linalg.norm(to_centre), 1e-300)))))
+    off_axis = math.degrees(
+        math.acos(max(-1.0, min(1.0, float(to_centre @ forward) / max(np.linalg.norm(to_centre), 1e-300))))
+    )
     if np.all(behind):
-        return (f"the camera faces away from every object, all of them are behind it ({where}; the scene's centre "
-                f"{_vector(centre)} is {off_axis:.0f}° off its view axis)")
+        return (
+            f"the camera faces away from every object, all of them are behind it ({where}; the scene's centre "
+            f"{_vector(centre)} is {off_axis:.0f}° off its view axis)"
+        )
     if np.all(outside):
         if perspective:
             view = f"the view spans {cam.horizontal_fov_deg:.3g}° across"
@@ -265,15 +289,20 @@ def _nothing_in_view(scene: Scene, settings: RenderSettings, boxes) -> str:
     if perspective:
         half = min(math.atan(half_x), math.atan(half_x * aspect))
         hint = f"; a camera {radius / math.sin(half):.3g} units from its centre would frame it"
-    return (f"the scene is too far from the camera to be seen: its bounds (radius {radius:.3g}, centre "
-            f"{_vector(centre)}) are {distance:.3g} units away and span {span:.2g} pixel across{hint}")
+    return (
+        f"the scene is too far from the camera to be seen: its bounds (radius {radius:.3g}, centre "
+        f"{_vector(centre)}) are {distance:.3g} units away and span {span:.2g} pixel across{hint}"
+    )
 
 
 def _camera_causes(scene: Scene, spheres: _Spheres) -> list[str]:
     """The camera inside a sphere: it sees the sphere's inside, where no light outside reaches."""
     inside = spheres.containing(scene.camera.position)
-    return [f"the camera is inside {inside[0]}" + (f" (and {len(inside) - 1} more spheres)" if len(inside) > 1 else "")
-            ] if inside else []
+    return (
+        [f"the camera is inside {inside[0]}" + (f" (and {len(inside) - 1} more spheres)" if len(inside) > 1 else "")]
+        if inside
+        else []
+    )
 
 
 def _sample_points(scene: Scene, spheres: _Spheres) -> np.ndarray:
@@ -342,31 +371,44 @@ def _light_causes(scene: Scene, boxes, spheres: _Spheres, reader_warnings) -> li
         said = []
         for typo, meant in typos.get(light.source, ()) if light.source else ():
             if meant:
-                said.append(f"{name} has no {meant} ({name}.{typo} is not an input: did you mean {meant}?)"
-                            + (", so it has UsdLux's default intensity 1" if meant == "inputs:intensity" else ""))
+                said.append(
+                    f"{name} has no {meant} ({name}.{typo} is not an input: did you mean {meant}?)"
+                    + (", so it has UsdLux's default intensity 1" if meant == "inputs:intensity" else "")
+                )
             else:
                 said.append(f"{name}.{typo} is not an input of the light (ignored)")
-        position = None if isinstance(light, DirectionalLight) else np.asarray(
-            getattr(light, "position", getattr(light, "center", None)), dtype=np.float64)
+        position = (
+            None
+            if isinstance(light, DirectionalLight)
+            else np.asarray(getattr(light, "position", getattr(light, "center", None)), dtype=np.float64)
+        )
         if position is not None and position[1] < lo[1] and eye_height > lo[1]:
-            said.append(f"{name} is below every surface (y = {position[1]:.3g}, the lowest at y = {lo[1]:.3g}): "
-                        "only their undersides face it, and the camera is above them")
+            said.append(
+                f"{name} is below every surface (y = {position[1]:.3g}, the lowest at y = {lo[1]:.3g}): "
+                "only their undersides face it, and the camera is above them"
+            )
         if isinstance(light, DirectionalLight) and light.direction[1] > 0 and eye_height > lo[1]:
-            said.append(f"{name} shines upward (direction {_vector(light.direction)}): only the undersides of "
-                        "the surfaces face it, and the camera is above them")
+            said.append(
+                f"{name} shines upward (direction {_vector(light.direction)}): only the undersides of "
+                "the surfaces face it, and the camera is above them"
+            )
         inside = spheres.containing(position) if position is not None else []
         if inside:
             said.append(f"{name} is inside {inside[0]}, which hides it from everything outside")
         if isinstance(light, SphereAreaLight) and light.radius > HUGE_LIGHT_RATIO * scene_radius:
-            said.append(f"{name} has a radius ({light.radius:.3g}) larger than the whole scene (bounding radius "
-                        f"{scene_radius:.3g}): a light sized in metres in a scene in centimetres? (with inputs:normalize "
-                        "its intensity is divided by its area)")
+            said.append(
+                f"{name} has a radius ({light.radius:.3g}) larger than the whole scene (bounding radius "
+                f"{scene_radius:.3g}): a light sized in metres in a scene in centimetres? (with inputs:normalize "
+                "its intensity is divided by its area)"
+            )
         if isinstance(light, RectAreaLight):
             size = max(float(np.linalg.norm(light.axis_u)), float(np.linalg.norm(light.axis_v)))
             if size > HUGE_LIGHT_RATIO * 2 * scene_radius:
-                said.append(f"{name} is larger ({size:.3g} across) than the whole scene ({2 * scene_radius:.3g} "
-                            "across): a light sized in metres in a scene in centimetres? (with inputs:normalize its "
-                            "intensity is divided by its area)")
+                said.append(
+                    f"{name} is larger ({size:.3g} across) than the whole scene ({2 * scene_radius:.3g} "
+                    "across): a light sized in metres in a scene in centimetres? (with inputs:normalize its "
+                    "intensity is divided by its area)"
+                )
         radiance = white_radiance(light, points) if len(points) else np.zeros(0)
         if len(radiance) and not np.any(radiance > 0):
             if isinstance(light, RectAreaLight) and light.falloff == "inverse-square":
@@ -380,9 +422,11 @@ def _light_causes(scene: Scene, boxes, spheres: _Spheres, reader_warnings) -> li
         elif len(radiance):
             median = float(np.partition(radiance, len(radiance) // 2)[len(radiance) // 2])
             if 0 < median < DARK_RADIANCE:
-                said.append(f"{name} lights a white surface to radiance {median:.2g} at the median point of the "
-                            f"geometry: inputs:exposure {math.log2(EXPOSURE_TARGET / median):+.2f} would bring it to "
-                            f"{EXPOSURE_TARGET:g}")
+                said.append(
+                    f"{name} lights a white surface to radiance {median:.2g} at the median point of the "
+                    f"geometry: inputs:exposure {math.log2(EXPOSURE_TARGET / median):+.2f} would bring it to "
+                    f"{EXPOSURE_TARGET:g}"
+                )
         causes.extend(said)
     return causes
 
@@ -395,7 +439,9 @@ def _material_causes(scene: Scene) -> list[str]:
 
     def reflects(m) -> float:
         cd = max(float(np.max(m.diffuse_texture.image)) if m.diffuse_texture is not None else 0.0, max(m.diffuse_color))
-        cs = max(float(np.max(m.specular_texture.image)) if m.specular_texture is not None else 0.0, max(m.specular_color))
+        cs = max(
+            float(np.max(m.specular_texture.image)) if m.specular_texture is not None else 0.0, max(m.specular_color)
+        )
         # A mirror or a glass shows what it reflects or transmits (kr, kt), not black.
         return (m.ka + m.kd) * cd + m.ks * cs + m.kr + m.kt
 

@@ -46,8 +46,10 @@ class Region:
     max_error: float
 
     def __str__(self) -> str:
-        return (f"({self.x}, {self.y})-({self.x + self.width - 1}, {self.y + self.height - 1}): "
-                f"{self.failing_pixels} failing pixels, total error {self.total_error:.4g}, max {self.max_error:.4g}")
+        return (
+            f"({self.x}, {self.y})-({self.x + self.width - 1}, {self.y + self.height - 1}): "
+            f"{self.failing_pixels} failing pixels, total error {self.total_error:.4g}, max {self.max_error:.4g}"
+        )
 
 
 def failing_regions(error: np.ndarray, failing: np.ndarray, size: int = REGION_SIZE) -> list[Region]:
@@ -65,8 +67,17 @@ def failing_regions(error: np.ndarray, failing: np.ndarray, size: int = REGION_S
         r, c = divmod(int(index), cols)
         if counts[r, c] == 0:
             break
-        regions.append(Region(c * size, r * size, min(size, width - c * size), min(size, height - r * size),
-                              int(counts[r, c]), float(totals[r, c]), float(peaks[r, c])))
+        regions.append(
+            Region(
+                c * size,
+                r * size,
+                min(size, width - c * size),
+                min(size, height - r * size),
+                int(counts[r, c]),
+                float(totals[r, c]),
+                float(peaks[r, c]),
+            )
+        )
     return regions
 
 
@@ -128,11 +139,14 @@ def flip_compare(a, b, *, ldr: bool = False, fail_percent: float = FLIP_FAIL_PER
     try:
         import flip_evaluator
     except ImportError:
-        raise ImportError("compare --metric flip needs NVIDIA's FLIP: pip install flip-evaluator "
-                          "(or phongscene[flip])") from None
+        raise ImportError(
+            "compare --metric flip needs NVIDIA's FLIP: pip install flip-evaluator (or phongscene[flip])"
+        ) from None
     a, b = (np.ascontiguousarray(x, dtype=np.float32) for x in (a, b))
     if a.shape != b.shape:
-        raise ImageMismatchError(f"the images differ in size: {a.shape[1]} x {a.shape[0]} vs {b.shape[1]} x {b.shape[0]}")
+        raise ImageMismatchError(
+            f"the images differ in size: {a.shape[1]} x {a.shape[0]} vs {b.shape[1]} x {b.shape[0]}"
+        )
     if ldr:
         a, b = (_srgb(np.clip(x, 0.0, 1.0)) for x in (a, b))
     else:
@@ -140,8 +154,16 @@ def flip_compare(a, b, *, ldr: bool = False, fail_percent: float = FLIP_FAIL_PER
     error, mean, _ = flip_evaluator.evaluate(a, b, "LDR" if ldr else "HDR", applyMagma=False)
     error = np.asarray(error, dtype=np.float64).reshape(a.shape[:2])
     failing = error >= FLIP_FAIL
-    return FlipReport(a.shape[1], a.shape[0], float(mean), error, int(failing.sum()),
-                      tuple(failing_regions(error, failing)), "LDR" if ldr else "HDR", fail_percent)
+    return FlipReport(
+        a.shape[1],
+        a.shape[0],
+        float(mean),
+        error,
+        int(failing.sum()),
+        tuple(failing_regions(error, failing)),
+        "LDR" if ldr else "HDR",
+        fail_percent,
+    )
 
 
 def _srgb(linear: np.ndarray) -> np.ndarray:

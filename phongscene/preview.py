@@ -62,9 +62,17 @@ class PreviewState:
     diff_summary: str = ""
 
     def as_json(self) -> dict:
-        return {"generation": self.generation, "width": self.width, "height": self.height, "pass": self.stage,
-                "errors": self.errors, "warnings": self.warnings, "seconds": round(self.seconds, 4),
-                "diff": self.diff, "diff_summary": self.diff_summary}
+        return {
+            "generation": self.generation,
+            "width": self.width,
+            "height": self.height,
+            "pass": self.stage,
+            "errors": self.errors,
+            "warnings": self.warnings,
+            "seconds": round(self.seconds, 4),
+            "diff": self.diff,
+            "diff_summary": self.diff_summary,
+        }
 
 
 class Preview:
@@ -122,10 +130,9 @@ class Preview:
             from .rendering import in_file_terms
 
             self._watch(used_files(self.scene))
-            self._publish(stage="error", errors=[str(p) for p in in_file_terms(e).problems], warnings=[],
-                          start=start)
+            self._publish(stage="error", errors=[str(p) for p in in_file_terms(e).problems], warnings=[], start=start)
             return
-        except Exception as e:  # noqa: BLE001 - whatever stops a read is shown, and the next edit may fix it
+        except Exception as e:
             self._watch(used_files(self.scene))
             said = str(e) if isinstance(e, (PhongSceneError, OSError)) else f"{type(e).__name__}: {e}"
             self._publish(stage="error", errors=[said], warnings=[], start=start)
@@ -133,8 +140,12 @@ class Preview:
         gprims = (*scene.spheres, *scene.meshes, *(m for i in scene.instances for m in i.prototype.meshes))
         textures = {t.file for g in gprims for t in g.material.textures if t.file}
         self._watch(used_files(self.scene) + tuple(sorted(textures)))
-        coarse = replace(settings, width=max(1, settings.width // COARSE_DIVISOR),
-                         height=max(1, settings.height // COARSE_DIVISOR), samples=1)
+        coarse = replace(
+            settings,
+            width=max(1, settings.width // COARSE_DIVISOR),
+            height=max(1, settings.height // COARSE_DIVISOR),
+            samples=1,
+        )
         passes = [("coarse", coarse), ("full", settings)]
         if (coarse.width, coarse.height, coarse.samples) == (settings.width, settings.height, settings.samples):
             passes = passes[1:]  # a tiny image: the coarse pass would be the full one
@@ -146,8 +157,13 @@ class Preview:
             except BackendError as e:  # the tracer refused (out of memory, say): shown, the next edit retries
                 self._publish(stage="error", errors=[str(e)], warnings=list(warnings), start=start)
                 return
-            self._publish(stage=stage, png=self._png(image), size=(settings.width, settings.height),
-                          warnings=list(warnings), start=start)
+            self._publish(
+                stage=stage,
+                png=self._png(image),
+                size=(settings.width, settings.height),
+                warnings=list(warnings),
+                start=start,
+            )
 
     @property
     def diff_folder(self) -> Path:
@@ -168,13 +184,18 @@ class Preview:
             overrides = replace(self.overrides, mapping=self.overrides.mapping or "exact")
             result = diff(open_stage(self.scene), self.diff_folder, overrides=overrides)
             r = result.report
-            verdict, summary = "done", (f"{'agree' if result.ok else 'DIFFER'}: max error {r.max_error:.3g}, "
-                                        f"{r.failing_pixels} of {r.pixels} pixels ({r.failing_percent:.3g} %) fail")
+            verdict, summary = (
+                "done",
+                (
+                    f"{'agree' if result.ok else 'DIFFER'}: max error {r.max_error:.3g}, "
+                    f"{r.failing_pixels} of {r.pixels} pixels ({r.failing_percent:.3g} %) fail"
+                ),
+            )
         except SceneError as e:
             from .rendering import in_file_terms
 
             verdict, summary = "error", "; ".join(str(p) for p in in_file_terms(e).problems)
-        except Exception as e:  # noqa: BLE001 - POV-Ray missing or failing: said on the page
+        except Exception as e:
             verdict, summary = "error", f"{type(e).__name__}: {e}" if not isinstance(e, PhongSceneError) else str(e)
         with self.lock:
             self.state.diff, self.state.diff_summary = verdict, summary
@@ -295,7 +316,7 @@ def make_server(preview: Preview, port: int = 0) -> ThreadingHTTPServer:
                 else:
                     self._send(404, "text/plain", b"no image yet")
             elif path.startswith("/diff/"):
-                self._send_report_file(path[len("/diff/"):])
+                self._send_report_file(path[len("/diff/") :])
             else:
                 self._send(404, "text/plain", b"not found")
 
@@ -332,7 +353,8 @@ def make_server(preview: Preview, port: int = 0) -> ThreadingHTTPServer:
 
 
 def serve_in_thread(server: ThreadingHTTPServer) -> threading.Thread:
-    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.1}, daemon=True,
-                              name="phongscene-preview-http")
+    thread = threading.Thread(
+        target=server.serve_forever, kwargs={"poll_interval": 0.1}, daemon=True, name="phongscene-preview-http"
+    )
     thread.start()
     return thread

@@ -91,8 +91,9 @@ def memory_limit_for(path: str | os.PathLike) -> int:
     return min(BASE_MEMORY + MEMORY_PER_FILE_BYTE * size, default_memory_limit())
 
 
-def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None, time: float | None = None,
-                       camera: str | None = None):
+def read_usd_sandboxed(
+    path: str | os.PathLike, memory_limit: int | None = None, time: float | None = None, camera: str | None = None
+):
     """``phongscene.usd.read_usd(path, time, camera)`` in a child process (see the module's doc).
 
     Args:
@@ -107,9 +108,20 @@ def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None,
     env = dict(os.environ, MALLOC_ARENA_MAX=str(MALLOC_ARENAS))
     with tempfile.TemporaryFile() as stderr:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "phongscene.sandbox", path, mode, repr(time), str(os.getpid()),
-             *([] if camera is None else [camera])],
-            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=stderr, env=env,
+            [
+                sys.executable,
+                "-m",
+                "phongscene.sandbox",
+                path,
+                mode,
+                repr(time),
+                str(os.getpid()),
+                *([] if camera is None else [camera]),
+            ],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=stderr,
+            env=env,
         )
         try:
             payload = _receive(proc.stdout)
@@ -130,14 +142,22 @@ def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None,
         name = signal.Signals(-returncode).name
         # USD aborts when an allocation fails in C++ (std::bad_alloc is not turned into MemoryError).
         memory = " or ran out of its memory limit" if name == "SIGABRT" else ""
-        raise SceneError(Problem(
-            f"USD crashed reading this file ({name}){memory}; it was read in a sandboxed child process, which "
-            "alone died: the file is corrupt or triggers a bug in USD", file=path))
+        raise SceneError(
+            Problem(
+                f"USD crashed reading this file ({name}){memory}; it was read in a sandboxed child process, which "
+                "alone died: the file is corrupt or triggers a bug in USD",
+                file=path,
+            )
+        )
     if returncode == EXIT_OUT_OF_MEMORY:
-        raise SceneError(Problem(
-            f"reading this file needs more than the sandbox's memory limit ({last}): a corrupt file "
-            "(USD allocates what its header claims), or a scene too big to read sandboxed (--no-sandbox reads it in "
-            "process)", file=path))
+        raise SceneError(
+            Problem(
+                f"reading this file needs more than the sandbox's memory limit ({last}): a corrupt file "
+                "(USD allocates what its header claims), or a scene too big to read sandboxed (--no-sandbox reads it in "
+                "process)",
+                file=path,
+            )
+        )
     raise SceneError(Problem(f"the sandboxed reader failed (exit {returncode}): {last}", file=path))
 
 
@@ -265,7 +285,7 @@ def _child(path: str, mode: str, time: float | None, parent: int, camera: str | 
             return _out_of_memory(shown)
         print(f"{type(e).__name__}: {e}", file=sys.stderr)
         return EXIT_UNEXPECTED
-    except Exception as e:  # noqa: BLE001 - reported by the parent as one line naming the file
+    except Exception as e:
         print(f"{type(e).__name__}: {e}", file=sys.stderr)
         return EXIT_UNEXPECTED
     try:
@@ -283,5 +303,12 @@ def _out_of_memory(shown) -> int:
 
 if __name__ == "__main__":
     # The time code travels as its repr (None, or a float's shortest exact text).
-    raise SystemExit(_child(sys.argv[1], sys.argv[2], None if sys.argv[3] == "None" else float(sys.argv[3]),
-                            int(sys.argv[4]), sys.argv[5] if len(sys.argv) > 5 else None))  # the camera, if chosen
+    raise SystemExit(
+        _child(
+            sys.argv[1],
+            sys.argv[2],
+            None if sys.argv[3] == "None" else float(sys.argv[3]),
+            int(sys.argv[4]),
+            sys.argv[5] if len(sys.argv) > 5 else None,
+        )
+    )  # the camera, if chosen

@@ -97,8 +97,9 @@ def _readonly(array, dtype, shape_tail: tuple[int, ...]) -> np.ndarray:
         info = np.iinfo(dtype)
         if source.size and (source.min() < info.min or source.max() > info.max):
             bad = source.max() if source.max() > info.max else source.min()
-            raise ValueError(f"index {int(bad)} does not fit the model's {np.dtype(dtype).name} indices "
-                             f"({info.min}..{info.max})")
+            raise ValueError(
+                f"index {int(bad)} does not fit the model's {np.dtype(dtype).name} indices ({info.min}..{info.max})"
+            )
         array = source
     out = np.array(array, dtype=dtype, order="C", copy=True)
     if out.ndim != 1 + len(shape_tail) or out.shape[1:] != shape_tail:
@@ -148,8 +149,13 @@ class Texture:
         # A read-only float32 array that owns its data is taken as it is (the USD reader builds
         # one: a copy of a 16K texture would be 3.2 GB more, if only for a moment); anything else
         # is copied, so that the caller's array cannot change the model.
-        owned = isinstance(image, np.ndarray) and image.dtype == np.float32 and image.flags.c_contiguous \
-            and image.flags.owndata and not image.flags.writeable
+        owned = (
+            isinstance(image, np.ndarray)
+            and image.dtype == np.float32
+            and image.flags.c_contiguous
+            and image.flags.owndata
+            and not image.flags.writeable
+        )
         if not owned:
             image = np.array(image, dtype=np.float32, order="C", copy=True)
         if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] < 1 or image.shape[1] < 1:
@@ -216,9 +222,21 @@ class PhongMaterial:
 
     def without_textures(self) -> PhongMaterial:
         """The same material with its constant colours only (the textures' fallbacks)."""
-        return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source,
-                             kr=self.kr, reflective_color=self.reflective_color, kt=self.kt, ior=self.ior,
-                             fresnel=self.fresnel, interior_filter=self.interior_filter)
+        return PhongMaterial(
+            self.ka,
+            self.kd,
+            self.ks,
+            self.exponent,
+            self.diffuse_color,
+            self.specular_color,
+            self.source,
+            kr=self.kr,
+            reflective_color=self.reflective_color,
+            kt=self.kt,
+            ior=self.ior,
+            fresnel=self.fresnel,
+            interior_filter=self.interior_filter,
+        )
 
 
 DEFAULT_MATERIAL = PhongMaterial()
@@ -379,7 +397,7 @@ class SphereAreaLight:
     cell_samples: int | None = None  # as RectAreaLight.cell_samples
 
 
-Light = Union[PointLight, DirectionalLight, RectAreaLight, SphereAreaLight]
+Light = Union[PointLight, DirectionalLight, RectAreaLight, SphereAreaLight]  # noqa: UP007 (a runtime alias)
 
 
 # --------------------------------------------------------------------------------------------
@@ -627,7 +645,9 @@ class Scene:
     @property
     def instanced_triangle_count(self) -> int:
         """Triangles the scene draws: the world meshes' plus every copy's."""
-        return sum(len(m.triangles) for m in self.meshes) + sum(len(i) * i.prototype.triangle_count for i in self.instances)
+        return sum(len(m.triangles) for m in self.meshes) + sum(
+            len(i) * i.prototype.triangle_count for i in self.instances
+        )
 
     def flattened(self) -> Scene:
         """The same scene with every instance written out as world-space meshes (for tools
@@ -658,8 +678,10 @@ class Scene:
         for name in changes:
             if name not in known:
                 close = difflib.get_close_matches(name, known, n=1)
-                raise TypeError(f"with_material: {name!r} is not a PhongMaterial field"
-                                + (f" (did you mean {close[0]!r}?)" if close else f"; the fields: {', '.join(known)}"))
+                raise TypeError(
+                    f"with_material: {name!r} is not a PhongMaterial field"
+                    + (f" (did you mean {close[0]!r}?)" if close else f"; the fields: {', '.join(known)}")
+                )
 
         def matches(obj) -> bool:
             source = obj.material.source
@@ -668,13 +690,19 @@ class Scene:
         found = [obj for obj in (*self.spheres, *self.meshes) if matches(obj)]
         if not found:
             materials = sorted({o.material.source for o in (*self.spheres, *self.meshes) if o.material.source})
-            raise KeyError(f"with_material: no material or object at {path!r}; the materials: "
-                           f"{', '.join(materials) or '(none named)'}")
+            raise KeyError(
+                f"with_material: no material or object at {path!r}; the materials: "
+                f"{', '.join(materials) or '(none named)'}"
+            )
 
         def changed(obj):
-            return dataclasses.replace(obj, material=dataclasses.replace(obj.material, **changes)) if matches(obj) else obj
+            return (
+                dataclasses.replace(obj, material=dataclasses.replace(obj.material, **changes)) if matches(obj) else obj
+            )
 
-        return dataclasses.replace(self, spheres=tuple(map(changed, self.spheres)), meshes=tuple(map(changed, self.meshes)))
+        return dataclasses.replace(
+            self, spheres=tuple(map(changed, self.spheres)), meshes=tuple(map(changed, self.meshes))
+        )
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
         """World-space axis-aligned bounds of all geometry, or None for an empty scene."""

@@ -27,6 +27,7 @@ from .diff import add_compare_command, add_diff_command
 from .info import add_info_command, add_validate_command
 from .mesh_import import add_import_command
 from .options import BACKEND_CHOICES, MAPPING_CHOICES, UsageError, check_estimator_options
+from .preview import add_preview_command
 from .process import (
     EXIT_BACKEND,
     EXIT_DIFFERENT,
@@ -38,7 +39,6 @@ from .process import (
     install_signal_handlers,
     preimport,
 )
-from .preview import add_preview_command
 from .render import add_compile_command, add_render_command
 
 __all__ = [

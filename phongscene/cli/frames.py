@@ -34,8 +34,10 @@ def frames_to_run(args, output_of) -> tuple[int, ...]:
         return args.frames
     todo = tuple(f for f in args.frames if not os.path.exists(output_of(f)))
     if len(todo) < len(args.frames):
-        print(f"{args.scene}: {len(args.frames) - len(todo)} of {len(args.frames)} frames skipped, their outputs "
-              f"exist (--skip-existing){'' if todo else ': nothing to do'}")
+        print(
+            f"{args.scene}: {len(args.frames) - len(todo)} of {len(args.frames)} frames skipped, their outputs "
+            f"exist (--skip-existing){'' if todo else ': nothing to do'}"
+        )
     return todo
 
 
@@ -60,8 +62,9 @@ def run_frames(args, task, arguments, label: str, frames: tuple[int, ...] | None
     if len(frames) == 1 and not (args.scheduler or args.workers):
         run = run_serially(task, frames, arguments, progress=bar, on_frame=on_frame)
     else:
-        run = run_frames(task, frames, arguments, scheduler=args.scheduler, workers=args.workers,
-                         progress=bar, on_frame=on_frame)
+        run = run_frames(
+            task, frames, arguments, scheduler=args.scheduler, workers=args.workers, progress=bar, on_frame=on_frame
+        )
     bar.done(run.seconds)
     # Warnings the first frame did not have (a light that clips only later, ...), once each.
     later: dict[str, list[int]] = {}
@@ -70,11 +73,17 @@ def run_frames(args, task, arguments, label: str, frames: tuple[int, ...] | None
             if warning not in warnings:
                 later.setdefault(warning, []).append(frame)
     print_warnings(f"frames {', '.join(map(str, frames))}: {warning}" for warning, frames in later.items())
-    where = f"on {run.workers} Dask worker{'' if run.workers == 1 else 's'} ({run.cluster})" if run.cluster else "in this process"
+    where = (
+        f"on {run.workers} Dask worker{'' if run.workers == 1 else 's'} ({run.cluster})"
+        if run.cluster
+        else "in this process"
+    )
     print(f"{args.scene}: {len(run.results)} of {len(frames)} {label} {where} in {run.seconds:.2f} s")
     if run.failures:
-        print(f"error: frames failed (each tried {1 + TASK_RETRIES} times): "
-              f"{', '.join(map(str, sorted(run.failures)))}", file=sys.stderr)
+        print(
+            f"error: frames failed (each tried {1 + TASK_RETRIES} times): {', '.join(map(str, sorted(run.failures)))}",
+            file=sys.stderr,
+        )
     return run
 
 

@@ -19,11 +19,20 @@ def add_preview_command(sub) -> None:
         epilog="Exit codes: 130 ended with Ctrl-C, 2 bad usage (a port in use).",
     )
     add_scene_argument(p)
-    p.add_argument("--port", type=int_in(0, 65535), default=8000, metavar="N",
-                   help="the local port to serve on (default 8000; 0: any free port)")
+    p.add_argument(
+        "--port",
+        type=int_in(0, 65535),
+        default=8000,
+        metavar="N",
+        help="the local port to serve on (default 8000; 0: any free port)",
+    )
     add_single_time_option(p)
-    add_override_options(p, mapping_help="specular convention: exact or classic (as render --mapping); "
-                         "default: the scene's", shadow_cells=True, threads_help="worker threads (0 = all cores)")
+    add_override_options(
+        p,
+        mapping_help="specular convention: exact or classic (as render --mapping); default: the scene's",
+        shadow_cells=True,
+        threads_help="worker threads (0 = all cores)",
+    )
     p.set_defaults(func=run_preview)
 
 

@@ -40,12 +40,17 @@ def add_render_command(sub) -> None:
     add_scene_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="IMAGE", help="output image, .exr or .png (atomic write)")
     p.add_argument("--backend", choices=BACKEND_CHOICES, default="native", help="renderer (default: native)")
-    add_override_options(p, mapping_help="specular convention: exact (the seed model) or classic (plain POV-Ray "
-                         "phong, native 'povray-classic'); default: the scene's",
-                         shadow_cells=True, threads_help="worker threads (0 = all cores)")
+    add_override_options(
+        p,
+        mapping_help="specular convention: exact (the seed model) or classic (plain POV-Ray "
+        "phong, native 'povray-classic'); default: the scene's",
+        shadow_cells=True,
+        threads_help="worker threads (0 = all cores)",
+    )
     add_timeout_option(p, "--backend povray only: stop POV-Ray after SECONDS (exit 3)")
-    add_time_options(p, "one image per frame, #### in IMAGE becomes the frame number", skip_existing=True,
-                     contact_sheet=True)
+    add_time_options(
+        p, "one image per frame, #### in IMAGE becomes the frame number", skip_existing=True, contact_sheet=True
+    )
     p.set_defaults(func=run_render)
 
 
@@ -109,9 +114,13 @@ def _render_frames(args) -> int:
     frames = frames_to_run(args, lambda f: frame_name(args.output, f))
     failed = False
     if frames:
-        run = run_frames(args, render_frame,
-                         lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), args.backend, overrides),
-                         "frames rendered", frames)
+        run = run_frames(
+            args,
+            render_frame,
+            lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), args.backend, overrides),
+            "frames rendered",
+            frames,
+        )
         if run.results:
             m = next(iter(run.results.values()))
             print(f"{args.output}: {m['width']} x {m['height']}, {args.backend}, specular {m['specular']}")
@@ -137,8 +146,11 @@ def add_compile_command(sub) -> None:
     )
     add_scene_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT.pov", help="the SDL file to write")
-    add_override_options(p, mapping_help="exact (the seed model, one pass per light) or classic (one plain POV-Ray "
-                         "finish per material); default: the scene's specular convention")
+    add_override_options(
+        p,
+        mapping_help="exact (the seed model, one pass per light) or classic (one plain POV-Ray "
+        "finish per material); default: the scene's specular convention",
+    )
     add_time_options(p, "a .pov and an .ini per frame, #### in OUT.pov becomes the frame number", skip_existing=True)
     p.set_defaults(func=run_compile)
 
@@ -194,8 +206,13 @@ def _compile_frames(args) -> int:
     frames = frames_to_run(args, lambda f: frame_name(args.output, f))
     if not frames:
         return EXIT_OK
-    run = run_frames(args, compile_frame, lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), overrides),
-                     "frames compiled", frames)
+    run = run_frames(
+        args,
+        compile_frame,
+        lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), overrides),
+        "frames compiled",
+        frames,
+    )
     for frame in sorted(run.results):
         print(f"  {run.results[frame]['output']}")
     return EXIT_BACKEND if run.failures else EXIT_OK

@@ -25,8 +25,8 @@ geometry through instance proxies. Spheres in prototypes are placed in the world
 from __future__ import annotations
 
 from collections import defaultdict
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 from pxr import Usd, UsdGeom, UsdLux, UsdShade
@@ -108,8 +108,12 @@ class Instancing:
             ctx.time, ctx.time, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
         )
         if len(transforms) != len(proto_indices):  # USD gives none when positions and protoIndices disagree
-            ctx.problem(prim, "positions", f"{len(proto_indices)} protoIndices but the instance transforms could not be "
-                        "computed (positions, orientations or scales of another length)")
+            ctx.problem(
+                prim,
+                "positions",
+                f"{len(proto_indices)} protoIndices but the instance transforms could not be "
+                "computed (positions, orientations or scales of another length)",
+            )
             return
         # Gf matrices are row-vector: transpose into the model's column-vector convention.
         local = np.array(transforms, dtype=np.float64).reshape(-1, 4, 4).transpose(0, 2, 1)
@@ -117,7 +121,11 @@ class Instancing:
         mask = instancer.ComputeMaskAtTime(ctx.time)
         keep = np.ones(len(proto_indices), bool) if not mask else np.asarray(mask, bool)
         ids = instancer.GetIdsAttr().Get(ctx.time)
-        ids = np.asarray(ids, np.int64) if ids is not None and len(ids) == len(proto_indices) else np.arange(len(proto_indices))
+        ids = (
+            np.asarray(ids, np.int64)
+            if ids is not None and len(ids) == len(proto_indices)
+            else np.arange(len(proto_indices))
+        )
         path = str(prim.GetPath())
         for j, target in enumerate(prototypes):
             chosen = np.flatnonzero(keep & (proto_indices == j))
@@ -201,9 +209,11 @@ class Instancing:
             if len(sources) != len(transforms):  # a nested copy is named by its prim in the prototype
                 sources = ()
             for s in read.spheres:
-                suffix = s.source[len(read.source):] if s.source.startswith(read.source) else ""
+                suffix = s.source[len(read.source) :] if s.source.startswith(read.source) else ""
                 for k, m in enumerate(transforms):
-                    spheres.append(Sphere(m @ s.world_from_object, s.material, sources[k] + suffix if sources else s.source))
+                    spheres.append(
+                        Sphere(m @ s.world_from_object, s.material, sources[k] + suffix if sources else s.source)
+                    )
             if not read.meshes:
                 continue
             if read.prototype is None:
@@ -213,5 +223,7 @@ class Instancing:
                 meshes.extend(group.placed_meshes(0))
                 continue
             out.append(group)
-            self.ctx.nodes.append((read.source, f"Instances ({len(transforms)} copies of {read.prototype.triangle_count} triangles)"))
+            self.ctx.nodes.append(
+                (read.source, f"Instances ({len(transforms)} copies of {read.prototype.triangle_count} triangles)")
+            )
         return tuple(out)

@@ -77,7 +77,9 @@ def _frame(x, y, origin) -> np.ndarray:
 # -- authoring helpers ----------------------------------------------------------------------
 
 
-def _texture_shader(stage: Usd.Stage, path: str, texture, image_file: str, fallback, scale: float = 1.0) -> UsdShade.Shader:
+def _texture_shader(
+    stage: Usd.Stage, path: str, texture, image_file: str, fallback, scale: float = 1.0
+) -> UsdShade.Shader:
     """A UsdUVTexture reading ``image_file`` (a linear float EXR: sourceColorSpace raw) at the
     mesh's ``st`` primvar (texCoord2d, faceVarying: what define_mesh writes), its texels × scale;
     ``fallback`` (the material's own colour) where the image is missing."""
@@ -144,7 +146,11 @@ def define_phong_material(
     preview.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(float(math.sqrt(alpha)))
     if material.diffuse_texture is not None:
         albedo_texture = _texture_shader(
-            stage, f"{path}/PreviewDiffuseTexture", material.diffuse_texture, texture_file(material.diffuse_texture), albedo,
+            stage,
+            f"{path}/PreviewDiffuseTexture",
+            material.diffuse_texture,
+            texture_file(material.diffuse_texture),
+            albedo,
             float(material.kd),
         )
         preview.GetInput("diffuseColor").ConnectToSource(albedo_texture.ConnectableAPI(), "rgb")
@@ -177,7 +183,9 @@ def define_mesh(stage: Usd.Stage, path: str, mesh: TriangleMesh) -> UsdGeom.Mesh
     points = np.asarray(mesh.points, dtype=np.float32)
     prim.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
     prim.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(mesh.triangles), 3, dtype=np.int32)))
-    prim.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.triangles.ravel(), dtype=np.int32)))
+    prim.CreateFaceVertexIndicesAttr(
+        Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.triangles.ravel(), dtype=np.int32))
+    )
     prim.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     prim.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
     prim.CreateDoubleSidedAttr(True)  # the model shades both sides (so do both backends)
@@ -196,7 +204,9 @@ def define_mesh(stage: Usd.Stage, path: str, mesh: TriangleMesh) -> UsdGeom.Mesh
             primvar.SetIndices(Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.normal_indices.ravel(), dtype=np.int32)))
     if mesh.uvs is not None:
         # Double precision: the model's uvs read back unchanged.
-        st = UsdGeom.PrimvarsAPI(prim).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2dArray, UsdGeom.Tokens.faceVarying)
+        st = UsdGeom.PrimvarsAPI(prim).CreatePrimvar(
+            "st", Sdf.ValueTypeNames.TexCoord2dArray, UsdGeom.Tokens.faceVarying
+        )
         st.Set(Vt.Vec2dArray.FromNumpy(np.ascontiguousarray(mesh.uvs, dtype=np.float64)))
         st.SetIndices(Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.uv_indices.ravel(), dtype=np.int32)))
     return prim
@@ -270,7 +280,9 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
         if light.adaptive is not None:
             prim.GetPrim().CreateAttribute(names.SHADOW_ADAPTIVE, Sdf.ValueTypeNames.Int).Set(int(light.adaptive))
         if light.cell_samples is not None:
-            prim.GetPrim().CreateAttribute(names.SHADOW_CELL_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.cell_samples))
+            prim.GetPrim().CreateAttribute(names.SHADOW_CELL_SAMPLES, Sdf.ValueTypeNames.Int).Set(
+                int(light.cell_samples)
+            )
         if falloff != "none":
             strength = strength * 4.0
     elif isinstance(light, DirectionalLight):
@@ -291,7 +303,9 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
         if light.adaptive is not None:
             prim.GetPrim().CreateAttribute(names.SHADOW_ADAPTIVE, Sdf.ValueTypeNames.Int).Set(int(light.adaptive))
         if light.cell_samples is not None:
-            prim.GetPrim().CreateAttribute(names.SHADOW_CELL_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.cell_samples))
+            prim.GetPrim().CreateAttribute(names.SHADOW_CELL_SAMPLES, Sdf.ValueTypeNames.Int).Set(
+                int(light.cell_samples)
+            )
     else:
         raise TypeError(f"not a light: {light!r}")
     api = UsdLux.LightAPI(prim.GetPrim())
@@ -327,7 +341,9 @@ def define_camera(stage: Usd.Stage, path: str, camera: Camera, aspect: float = 4
     return prim
 
 
-def define_render_settings(stage: Usd.Stage, path: str, settings: RenderSettings, camera_path: str | None) -> UsdRender.Settings:
+def define_render_settings(
+    stage: Usd.Stage, path: str, settings: RenderSettings, camera_path: str | None
+) -> UsdRender.Settings:
     """A UsdRender.Settings prim with resolution, camera and our ``phong:`` knobs; it becomes
     the stage's render settings."""
     prim = UsdRender.Settings.Define(stage, path)
@@ -467,8 +483,9 @@ def write_usd(scene: Scene, path) -> Path:
 DEFAULT_CREASE_ANGLE_DEG = 30.0
 
 
-def import_mesh(mesh_file, output, material: PhongMaterial = DEFAULT_MATERIAL, *,
-                crease_angle_deg: float = DEFAULT_CREASE_ANGLE_DEG) -> Path:
+def import_mesh(
+    mesh_file, output, material: PhongMaterial = DEFAULT_MATERIAL, *, crease_angle_deg: float = DEFAULT_CREASE_ANGLE_DEG
+) -> Path:
     """Convert a mesh file (anything ``trimesh.load`` reads: OBJ, PLY, STL, OFF, GLB, ...) to a
     USD file: one Mesh (subdivisionScheme none, world space) per object of the file (a GLB's or
     OBJ's scene nodes, each named after its node; a file of one object is named after the file).
@@ -514,8 +531,9 @@ def import_mesh(mesh_file, output, material: PhongMaterial = DEFAULT_MATERIAL, *
         colours = _display_colours(tm)
         if colours is not None:
             values, interpolation = colours
-            primvar = UsdGeom.PrimvarsAPI(prim).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
-                                                              interpolation)
+            primvar = UsdGeom.PrimvarsAPI(prim).CreatePrimvar(
+                "displayColor", Sdf.ValueTypeNames.Color3fArray, interpolation
+            )
             primvar.Set(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(values, dtype=np.float32)))
         else:
             if usd_material is None:

@@ -60,7 +60,9 @@ def test_two_cameras_and_none_chosen_warns_naming_the_one_used(two):
     result = ps.read_usd(two)
     assert result.cameras == ["/Front", "/Side"]
     assert result.scene.camera.source == "/Front"
-    assert any("has 2 cameras (/Front, /Side) and none is chosen: using the first, /Front" in w for w in result.warnings)
+    assert any(
+        "has 2 cameras (/Front, /Side) and none is chosen: using the first, /Front" in w for w in result.warnings
+    )
     chosen = ps.read_usd(two, camera="/Side")
     assert chosen.scene.camera.source == "/Side" and not any("none is chosen" in w for w in chosen.warnings)
     assert chosen.scene.camera.position == pytest.approx((14, 2, 0))
@@ -90,10 +92,13 @@ def test_compile_and_frames_use_the_chosen_camera(two, tmp_path):
     assert main(["compile", two, "-o", str(tmp_path / "side.pov"), "--camera", "/Side"]) == 0
     sdl = (tmp_path / "side.pov").read_text()
     assert "/Side" in sdl and "/Front" not in sdl
-    assert main(["render", two, "-o", str(tmp_path / "f.####.exr"), "--width", "32", "--camera", "/Side",
-                 "--frames", "1"]) == 0
-    np.testing.assert_array_equal(read_image(tmp_path / "f.0001.exr"),
-                                  ps.render(two, overrides=ps.RenderOverrides(width=32, camera="/Side")))
+    assert (
+        main(["render", two, "-o", str(tmp_path / "f.####.exr"), "--width", "32", "--camera", "/Side", "--frames", "1"])
+        == 0
+    )
+    np.testing.assert_array_equal(
+        read_image(tmp_path / "f.0001.exr"), ps.render(two, overrides=ps.RenderOverrides(width=32, camera="/Side"))
+    )
 
 
 def test_info_lists_every_camera(two, capsys):

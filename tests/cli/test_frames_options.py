@@ -53,8 +53,9 @@ def animated(tmp_path):
 
 
 def test_a_missing_output_folder_is_one_error_before_any_frame(animated, tmp_path, capsys):
-    code = main(["render", animated, "-o", str(tmp_path / "nodir" / "f.####.png"), "--width", str(WIDTH),
-                 "--frames", "1:24"])
+    code = main(
+        ["render", animated, "-o", str(tmp_path / "nodir" / "f.####.png"), "--width", str(WIDTH), "--frames", "1:24"]
+    )
     err = capsys.readouterr().err
     assert code == 2 and err.count("error:") == 1 and "does not exist" in err and "frames rendered" not in err
     assert main(["compile", animated, "-o", str(tmp_path / "nodir" / "f.####.pov"), "--frames", "1:24"]) == 2
@@ -84,7 +85,9 @@ def test_skip_existing_renders_only_the_missing_frames_and_says_how_many_were_sk
 
 
 def test_usdrecords_stride_is_accepted(animated, tmp_path, capsys):
-    assert main(["render", animated, "-o", str(tmp_path / "s.####.exr"), "--width", str(WIDTH), "--frames", "9:9x4"]) == 0
+    assert (
+        main(["render", animated, "-o", str(tmp_path / "s.####.exr"), "--width", str(WIDTH), "--frames", "9:9x4"]) == 0
+    )
     assert sorted(p.name for p in tmp_path.glob("s.*.exr")) == ["s.0009.exr"]
     with pytest.raises(SystemExit) as exit:  # argparse's usage error
         main(["render", animated, "-o", str(tmp_path / "s.####.exr"), "--frames", "5x1"])
@@ -95,8 +98,25 @@ def test_usdrecords_stride_is_accepted(animated, tmp_path, capsys):
 @pytest.mark.slow
 def test_a_stride_range_with_a_contact_sheet(animated, tmp_path, capsys):
     sheet = tmp_path / "sheet.png"
-    assert main(["render", animated, "-o", str(tmp_path / "f.####.exr"), "--width", str(WIDTH), "--frames", "1:9x4",
-                 "--workers", "2", "--contact-sheet", str(sheet)]) == 0
+    assert (
+        main(
+            [
+                "render",
+                animated,
+                "-o",
+                str(tmp_path / "f.####.exr"),
+                "--width",
+                str(WIDTH),
+                "--frames",
+                "1:9x4",
+                "--workers",
+                "2",
+                "--contact-sheet",
+                str(sheet),
+            ]
+        )
+        == 0
+    )
     assert sorted(p.name for p in tmp_path.glob("f.*.exr")) == ["f.0001.exr", "f.0005.exr", "f.0009.exr"]
     assert "contact sheet of 3 frames" in capsys.readouterr().out
     grid = read_image(sheet)
@@ -105,14 +125,24 @@ def test_a_stride_range_with_a_contact_sheet(animated, tmp_path, capsys):
     # 3 frames: 2 columns, 2 rows of WIDTH x 18 thumbnails (the frames are smaller than a thumbnail).
     assert grid.shape == (GAP + 2 * (18 + GAP), GAP + 2 * (WIDTH + GAP), 3)
     first = read_image(tmp_path / "f.0001.exr")
-    cell = grid[GAP:GAP + 18, GAP:GAP + WIDTH]
+    cell = grid[GAP : GAP + 18, GAP : GAP + WIDTH]
     below_label = slice(16, 18)  # the label sits in the cell's top rows
     assert np.allclose(cell[below_label], np.clip(first[below_label], 0, 1), atol=1 / 255 + 1e-3)  # 8-bit sRGB
 
 
 def test_the_contact_sheet_is_checked_before_the_frames(animated, tmp_path, capsys):
-    code = main(["render", animated, "-o", str(tmp_path / "f.####.exr"), "--frames", "1:2",
-                 "--contact-sheet", str(tmp_path / "sheet.jpg")])
+    code = main(
+        [
+            "render",
+            animated,
+            "-o",
+            str(tmp_path / "f.####.exr"),
+            "--frames",
+            "1:2",
+            "--contact-sheet",
+            str(tmp_path / "sheet.jpg"),
+        ]
+    )
     assert code == 2 and "the contact sheet must end in one of" in capsys.readouterr().err
 
 
@@ -123,9 +153,29 @@ def test_ctrl_c_during_frames_on_dask_is_one_line_and_exit_130(animated, tmp_pat
     out = tmp_path / "frames"
     out.mkdir()
     # A Python parent: its child starts with SIGINT at its default (a shell's background job would ignore it).
-    proc = subprocess.Popen([sys.executable, "-m", "phongscene", "render", animated, "-o", str(out / "f.####.png"),
-                             "--width", "160", "--spp", "3", "--frames", "1:400", "--workers", "2"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "phongscene",
+            "render",
+            animated,
+            "-o",
+            str(out / "f.####.png"),
+            "--width",
+            "160",
+            "--spp",
+            "3",
+            "--frames",
+            "1:400",
+            "--workers",
+            "2",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     deadline = time.monotonic() + 120
     while not any(out.iterdir()) and time.monotonic() < deadline:
         time.sleep(0.2)

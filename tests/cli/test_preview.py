@@ -187,8 +187,12 @@ def test_the_coarse_pass_comes_first(tmp_path):
 def test_the_command_serves_and_ctrl_c_ends_it_with_one_line(tmp_path):
     scene = tmp_path / "scene.usda"
     shutil.copy(SCENE, scene)
-    child = subprocess.Popen([str(PHONGSCENE), "preview", str(scene), "--port", "0", "--width", str(WIDTH)],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    child = subprocess.Popen(
+        [str(PHONGSCENE), "preview", str(scene), "--port", "0", "--width", str(WIDTH)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         line = child.stdout.readline()
         assert line.startswith(f"previewing {scene} on http://127.0.0.1:"), line
@@ -226,7 +230,10 @@ def test_the_page_in_chromium_shows_the_image(served):
     state = _wait_for(base, _full)
     dom = subprocess.run(
         [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--virtual-time-budget=3000", "--dump-dom", base],
-        check=True, capture_output=True, text=True, timeout=WAIT_SECONDS * 2,
+        check=True,
+        capture_output=True,
+        text=True,
+        timeout=WAIT_SECONDS * 2,
     ).stdout
     # The page's script ran: the image element points at the latest image, at the scene's size.
     assert f'src="image.png?g={state["generation"]}"' in dom, dom

@@ -32,8 +32,10 @@ def scene_image(disc_colour, seed: int, noise: float = NOISE) -> np.ndarray:
 
 def on_the_disc(region) -> bool:
     cx, cy = DISC_CENTRE
-    return region.x - DISC_RADIUS <= cx <= region.x + region.width + DISC_RADIUS and \
-        region.y - DISC_RADIUS <= cy <= region.y + region.height + DISC_RADIUS
+    return (
+        region.x - DISC_RADIUS <= cx <= region.x + region.width + DISC_RADIUS
+        and region.y - DISC_RADIUS <= cy <= region.y + region.height + DISC_RADIUS
+    )
 
 
 @pytest.fixture
@@ -51,7 +53,9 @@ def test_the_pixel_metric_ranks_the_wrong_object_first_not_near_black_pixels(pai
     assert fail_percent > 90  # noise: nearly every pixel fails a half-float test
     import re
 
-    tiles = re.findall(r"^    \((\d+), (\d+)\)-\((\d+), (\d+)\): (\d+) failing pixels", out.split("worst regions")[1], re.M)
+    tiles = re.findall(
+        r"^    \((\d+), (\d+)\)-\((\d+), (\d+)\): (\d+) failing pixels", out.split("worst regions")[1], re.M
+    )
     x, y, x2, y2, _ = map(int, tiles[0])  # the worst tile
     assert on_the_disc(Region(x, y, x2 - x + 1, y2 - y + 1, 0, 0.0, 0.0))
 

@@ -54,15 +54,28 @@ def Mesh "Floor"
     point3f[] points = [(-%(floor)s, 0, -%(floor)s), (-%(floor)s, 0, %(floor)s), (%(floor)s, 0, %(floor)s), (%(floor)s, 0, -%(floor)s)]
 }
 """
-LIT = dict(mpu=1, eye="(0, 2, 14)", rotate="", intensity_name="intensity", intensity=2000, radius=0.1,
-           normalize=0, light="(2, 4, 2)", size=1, floor=5)
+LIT = dict(
+    mpu=1,
+    eye="(0, 2, 14)",
+    rotate="",
+    intensity_name="intensity",
+    intensity=2000,
+    radius=0.1,
+    normalize=0,
+    light="(2, 4, 2)",
+    size=1,
+    floor=5,
+)
 
 
 def scene_file(tmp_path, name="scene", **changes) -> str:
     values = {**LIT, **changes}
     rotate = values.pop("rotate")
-    camera = CAMERA % {"eye": values.pop("eye"), "rotate": f"    float xformOp:rotateY = {rotate}\n" if rotate else "",
-                       "order": '"xformOp:translate", "xformOp:rotateY"' if rotate else '"xformOp:translate"'}
+    camera = CAMERA % {
+        "eye": values.pop("eye"),
+        "rotate": f"    float xformOp:rotateY = {rotate}\n" if rotate else "",
+        "order": '"xformOp:translate", "xformOp:rotateY"' if rotate else '"xformOp:translate"',
+    }
     path = tmp_path / f"{name}.usda"
     path.write_text(SCENE % {**values, "camera": camera})
     return str(path)
@@ -121,14 +134,26 @@ def test_a_misspelt_intensity_is_connected_to_the_dark_image(tmp_path):
     assert any("inputs:intensty: not an input" in t for t in texts)  # the reader's own warning
     (dark,) = [t for t in texts if "too dark" in t]
     assert "% of it is black" in dark
-    assert "/Light has no inputs:intensity (/Light.inputs:intensty is not an input: did you mean inputs:intensity?)" in dark
+    assert (
+        "/Light has no inputs:intensity (/Light.inputs:intensty is not an input: did you mean inputs:intensity?)"
+        in dark
+    )
 
 
 def test_a_metre_light_in_a_centimetre_scene_is_named(tmp_path):
     # Ball and floor in centimetres; the light's radius a metre (100 units), normalized: its
     # intensity spread over 100² times the area.
-    path = scene_file(tmp_path, mpu=0.01, eye="(0, 20, 140)", light="(20, 40, 20)", radius=100, normalize=1,
-                      intensity=100, size=10, floor=50)
+    path = scene_file(
+        tmp_path,
+        mpu=0.01,
+        eye="(0, 20, 140)",
+        light="(20, 40, 20)",
+        radius=100,
+        normalize=1,
+        intensity=100,
+        size=10,
+        floor=50,
+    )
     text = one_warning(path)
     assert "too dark" in text and "/Light has a radius (100) larger than the whole scene" in text
 
@@ -153,8 +178,11 @@ def test_thresholds_are_what_their_comments_say():
 
 def test_a_scene_built_in_python_without_lights_or_with_black_materials():
     sphere = ps.Sphere.at((0, 0, -5), 1, ps.PhongMaterial(ka=0, kd=0, ks=0))
-    scene = ps.Scene(spheres=(sphere,), lights=(ps.PointLight((0, 5, 0), (3, 3, 3)),),
-                     settings=ps.RenderSettings(width=WIDTH, height=30))
+    scene = ps.Scene(
+        spheres=(sphere,),
+        lights=(ps.PointLight((0, 5, 0), (3, 3, 3)),),
+        settings=ps.RenderSettings(width=WIDTH, height=30),
+    )
     image = ps.render(scene, explain=False)
     (text,) = explain_image(scene, image)
     assert "every material is black" in text
@@ -164,17 +192,22 @@ def test_a_scene_built_in_python_without_lights_or_with_black_materials():
 
 
 def test_the_camera_inside_a_sphere_is_named():
-    scene = ps.Scene(spheres=(ps.Sphere.at((0, 0, 0), 10),), lights=(ps.PointLight((0, 50, 0), (3, 3, 3)),),
-                     settings=ps.RenderSettings(width=WIDTH, height=30))
+    scene = ps.Scene(
+        spheres=(ps.Sphere.at((0, 0, 0), 10),),
+        lights=(ps.PointLight((0, 50, 0), (3, 3, 3)),),
+        settings=ps.RenderSettings(width=WIDTH, height=30),
+    )
     (text,) = explain_image(scene, ps.render(scene, explain=False))
     assert "the camera is inside a sphere" in text and "/Light" not in text
 
 
 def test_a_rect_light_facing_away_is_named():
-    light = ps.RectAreaLight((0, 5, -5), (1, 0, 0), (0, 0, 1), (50, 50, 50), samples=3, falloff="inverse-square",
-                             source="/Panel")  # emits along -(u x v) = +y: up, away from the ball
-    scene = ps.Scene(spheres=(ps.Sphere.at((0, 0, -5), 1),), lights=(light,),
-                     settings=ps.RenderSettings(width=WIDTH, height=30))
+    light = ps.RectAreaLight(
+        (0, 5, -5), (1, 0, 0), (0, 0, 1), (50, 50, 50), samples=3, falloff="inverse-square", source="/Panel"
+    )  # emits along -(u x v) = +y: up, away from the ball
+    scene = ps.Scene(
+        spheres=(ps.Sphere.at((0, 0, -5), 1),), lights=(light,), settings=ps.RenderSettings(width=WIDTH, height=30)
+    )
     (text,) = explain_image(scene, ps.render(scene, explain=False))
     assert "/Panel faces away from every object" in text
 

@@ -11,8 +11,12 @@ from phongscene.validate import validate
 
 
 def _triangle() -> TriangleMesh:
-    return TriangleMesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float), np.array([[0, 1, 2]]),
-                        normals=np.array([[0, 0, 1.0]]), normal_indices=np.array([[0, 0, 0]]))
+    return TriangleMesh(
+        np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float),
+        np.array([[0, 1, 2]]),
+        normals=np.array([[0, 0, 1.0]]),
+        normal_indices=np.array([[0, 0, 0]]),
+    )
 
 
 def _copies() -> np.ndarray:

@@ -86,11 +86,28 @@ def test_hits_agree_with_flattened_ray_by_ray(tmp_path):
 def _ground_and_post(scale: float) -> Scene:
     """A post standing on a ground quad (one prototype), placed twice at ``scale`` with the
     camera and the grazing light scaled with it: contact shadows and self-shadow at any size."""
-    ground = TriangleMesh(np.array([[-2, 0, -2], [2, 0, -2], [2, 0, 2], [-2, 0, 2]], float), np.array([[0, 2, 1], [0, 3, 2]]),
-                          material=PhongMaterial(ka=0.1, kd=0.8, ks=0.0))
+    ground = TriangleMesh(
+        np.array([[-2, 0, -2], [2, 0, -2], [2, 0, 2], [-2, 0, 2]], float),
+        np.array([[0, 2, 1], [0, 3, 2]]),
+        material=PhongMaterial(ka=0.1, kd=0.8, ks=0.0),
+    )
     box = np.array([[x, y, z] for x in (-0.2, 0.2) for y in (0.0, 1.0) for z in (-0.2, 0.2)])
-    faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-                      [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    faces = np.array(
+        [
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 6, 7],
+            [4, 7, 5],
+            [0, 4, 5],
+            [0, 5, 1],
+            [2, 3, 7],
+            [2, 7, 6],
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3],
+        ]
+    )
     post = TriangleMesh(box, faces, material=PhongMaterial(ka=0.1, kd=0.7, ks=0.3, diffuse_color=(0.9, 0.3, 0.2)))
     prototype = Prototype((ground, post))
     m = np.zeros((2, 4, 4))
@@ -98,9 +115,15 @@ def _ground_and_post(scale: float) -> Scene:
         c, s = math.cos(turn), math.sin(turn)
         m[k] = [[c * scale, 0, s * scale, x * scale], [0, scale, 0, 0], [-s * scale, 0, c * scale, 0], [0, 0, 0, 1]]
     camera = Camera.look_at((0.0, 3.0 * scale, 7.0 * scale), (0.0, 0.3 * scale, 0.0), 60.0)
-    return Scene(camera=camera, ambient=AmbientLight((0.2, 0.2, 0.2)),
-                 lights=(DirectionalLight(tuple(np.array([0.6, -0.35, -0.4]) / np.linalg.norm([0.6, -0.35, -0.4])), (3.0, 3.0, 3.0)),),
-                 instances=(Instances(prototype, m),), settings=RenderSettings(width=80, height=45))
+    return Scene(
+        camera=camera,
+        ambient=AmbientLight((0.2, 0.2, 0.2)),
+        lights=(
+            DirectionalLight(tuple(np.array([0.6, -0.35, -0.4]) / np.linalg.norm([0.6, -0.35, -0.4])), (3.0, 3.0, 3.0)),
+        ),
+        instances=(Instances(prototype, m),),
+        settings=RenderSettings(width=80, height=45),
+    )
 
 
 @pytest.mark.parametrize("scale", [1e-4, 1.0, 1e4])
@@ -137,9 +160,15 @@ def test_a_stale_top_level_is_refused_and_many_prototypes_build_once():
     scene = _ground_and_post(1.0)
     group = scene.instances[0]
     built = native.build(replace(scene, instances=()))
-    built.add_instances(native.build(Scene(meshes=group.prototype.meshes)), np.ascontiguousarray(group.world_from_prototype),
-                        rebuild=False)
-    origins, dirs = np.array([[0.0, 3.0, 7.0]]), np.array([[-2.5, -2.7, -7.0]]) / np.linalg.norm([-2.5, -2.7, -7.0])  # at copy 0's post
+    built.add_instances(
+        native.build(Scene(meshes=group.prototype.meshes)),
+        np.ascontiguousarray(group.world_from_prototype),
+        rebuild=False,
+    )
+    origins, dirs = (
+        np.array([[0.0, 3.0, 7.0]]),
+        np.array([[-2.5, -2.7, -7.0]]) / np.linalg.norm([-2.5, -2.7, -7.0]),
+    )  # at copy 0's post
     with pytest.raises(ValueError, match="rebuild=False"):
         built.intersect(origins, dirs)
     moved = group.world_from_prototype.copy()

@@ -11,11 +11,11 @@ import dataclasses
 
 import numpy as np
 import pytest
-from support import calibration
 from test_native_bvh4 import T_MINS, assert_equals_brute_force, float32_triangles, mesh_scene, unit
 
 from phongscene.backends import native
 from phongscene.scene import PhongMaterial, PointLight, RenderSettings, Scene, Sphere, TriangleMesh
+from support import calibration
 
 SIMD = "PHONGSCENE_NATIVE_SIMD"
 
@@ -100,6 +100,10 @@ def test_both_paths_give_the_same_hits_and_equal_brute_force(monkeypatch, path):
 def test_thread_count_does_not_change_a_bit_on_either_path(monkeypatch):
     scene = crowd()
     for simd in ("sse2", "auto"):
-        images = [render_with(monkeypatch, dataclasses.replace(scene, settings=dataclasses.replace(
-            scene.settings, threads=t)), simd) for t in (1, 2)]
+        images = [
+            render_with(
+                monkeypatch, dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, threads=t)), simd
+            )
+            for t in (1, 2)
+        ]
         assert images[0].tobytes() == images[1].tobytes()

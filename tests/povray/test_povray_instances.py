@@ -26,7 +26,7 @@ def test_prototype_declared_once_and_one_object_per_copy(tmp_path):
     numbers = np.array([float(x) for x in objects[0].split(",")])
     assert np.array_equal(numbers, np.concatenate([m[:3, :3].T.reshape(-1), m[:3, 3]]))
     # The declared mesh carries no texture (each object adds its own, after its matrix).
-    declared = sdl[sdl.index("#declare Prototype_0_0"):]
+    declared = sdl[sdl.index("#declare Prototype_0_0") :]
     assert "texture" not in declared[: declared.index("\n}")]
     # A tenfold scene is only longer by its object lines.
     longer = compile_pov(load_usd(point_instancer_stage(tmp_path / "pi3000.usda", 3000, rings=12, sides=8)))

@@ -11,12 +11,16 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
 
-def torus_mesh(stage: Usd.Stage, path: str, rings: int = 12, sides: int = 8, radius: float = 0.4, tube: float = 0.15) -> UsdGeom.Mesh:
+def torus_mesh(
+    stage: Usd.Stage, path: str, rings: int = 12, sides: int = 8, radius: float = 0.4, tube: float = 0.15
+) -> UsdGeom.Mesh:
     """A torus of 2·rings·sides triangles (quads split), vertex normals."""
     u = np.arange(rings) * 2 * math.pi / rings
     v = np.arange(sides) * 2 * math.pi / sides
     uu, vv = np.meshgrid(u, v, indexing="ij")
-    points = np.stack([(radius + tube * np.cos(vv)) * np.cos(uu), tube * np.sin(vv), (radius + tube * np.cos(vv)) * np.sin(uu)], -1)
+    points = np.stack(
+        [(radius + tube * np.cos(vv)) * np.cos(uu), tube * np.sin(vv), (radius + tube * np.cos(vv)) * np.sin(uu)], -1
+    )
     normals = np.stack([np.cos(vv) * np.cos(uu), np.sin(vv), np.cos(vv) * np.sin(uu)], -1)
     i, j = np.meshgrid(np.arange(rings), np.arange(sides), indexing="ij")
     a = i * sides + j
@@ -42,7 +46,9 @@ def grid_positions(count: int, spacing: float = 1.0) -> np.ndarray:
     """``count`` points on a square grid in the XZ plane, centred on the origin."""
     side = math.ceil(math.sqrt(count))
     k = np.arange(count)
-    return np.stack([(k % side - (side - 1) / 2) * spacing, np.zeros(count), (k // side - (side - 1) / 2) * spacing], -1)
+    return np.stack(
+        [(k % side - (side - 1) / 2) * spacing, np.zeros(count), (k // side - (side - 1) / 2) * spacing], -1
+    )
 
 
 def _stage_basics(stage: Usd.Stage, extent: float, width: int = 96, height: int = 54) -> None:
@@ -71,9 +77,19 @@ def _material(stage: Usd.Stage, path: str, color) -> UsdShade.Material:
     return material
 
 
-def point_instancer_stage(path, count: int, rings: int = 12, sides: int = 8, spacing: float = 1.0, *,
-                          width: int = 96, height: int = 54, seed: int = 1, with_sphere: bool = False,
-                          uniform_scales: bool = False) -> str:
+def point_instancer_stage(
+    path,
+    count: int,
+    rings: int = 12,
+    sides: int = 8,
+    spacing: float = 1.0,
+    *,
+    width: int = 96,
+    height: int = 54,
+    seed: int = 1,
+    with_sphere: bool = False,
+    uniform_scales: bool = False,
+) -> str:
     """A PointInstancer placing ``count`` copies of a torus on a grid, each rotated and scaled
     differently (orientations, scales: uniform ones with ``uniform_scales``); optionally a second
     prototype, a sphere, every 7th copy."""
@@ -106,8 +122,18 @@ def point_instancer_stage(path, count: int, rings: int = 12, sides: int = 8, spa
     return str(path)
 
 
-def reference_stage(path, count: int, rings: int = 12, sides: int = 8, spacing: float = 1.0, *,
-                    width: int = 96, height: int = 54, instanceable: bool = True, red_every: int = 0) -> str:
+def reference_stage(
+    path,
+    count: int,
+    rings: int = 12,
+    sides: int = 8,
+    spacing: float = 1.0,
+    *,
+    width: int = 96,
+    height: int = 54,
+    instanceable: bool = True,
+    red_every: int = 0,
+) -> str:
     """``count`` instanceable references of one asset (an Xform holding a torus and a small
     sphere) on a grid, each turned about Y; every ``red_every``-th binds another material on the
     instance prim (the override USD allows an instance)."""

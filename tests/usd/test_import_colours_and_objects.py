@@ -54,11 +54,16 @@ def test_ply_vertex_colours_become_a_vertex_display_color(tmp_path):
 def test_a_glb_scene_keeps_one_prim_per_node_with_its_name_and_colour(tmp_path):
     scene = trimesh.Scene()
     red = trimesh.creation.box()
-    red.visual = trimesh.visual.TextureVisuals(material=trimesh.visual.material.PBRMaterial(
-        baseColorFactor=[255, 0, 0, 255]))
+    red.visual = trimesh.visual.TextureVisuals(
+        material=trimesh.visual.material.PBRMaterial(baseColorFactor=[255, 0, 0, 255])
+    )
     scene.add_geometry(red, node_name="RedBox", geom_name="box")
-    scene.add_geometry(trimesh.creation.icosphere(), node_name="Ball", geom_name="ball",
-                       transform=trimesh.transformations.translation_matrix([3, 0, 0]))
+    scene.add_geometry(
+        trimesh.creation.icosphere(),
+        node_name="Ball",
+        geom_name="ball",
+        transform=trimesh.transformations.translation_matrix([3, 0, 0]),
+    )
     scene.export(tmp_path / "two.glb")
     assert main(["import", str(tmp_path / "two.glb"), "-o", str(tmp_path / "two.usda")]) == 0
     stage = Usd.Stage.Open(str(tmp_path / "two.usda"))
@@ -77,8 +82,12 @@ def test_two_nodes_of_one_prim_name_get_distinct_prims(tmp_path):
     # "Box 1" and "Box-1" are both Box_1 as USD identifiers.
     scene = trimesh.Scene()
     for x, name in ((0, "Box 1"), (3, "Box-1")):
-        scene.add_geometry(trimesh.creation.box(), node_name=name,
-                           transform=trimesh.transformations.translation_matrix([x, 0, 0]))
+        scene.add_geometry(
+            trimesh.creation.box(), node_name=name, transform=trimesh.transformations.translation_matrix([x, 0, 0])
+        )
     scene.export(tmp_path / "boxes.glb")
     assert main(["import", str(tmp_path / "boxes.glb"), "-o", str(tmp_path / "boxes.usda")]) == 0
-    assert sorted(m.source for m in read_usd(tmp_path / "boxes.usda").scene.meshes) == ["/World/Box_1", "/World/Box_1_1"]
+    assert sorted(m.source for m in read_usd(tmp_path / "boxes.usda").scene.meshes) == [
+        "/World/Box_1",
+        "/World/Box_1_1",
+    ]

@@ -109,7 +109,9 @@ def test_nested_instancing_is_composed(tmp_path):
         prim.SetInstanceable(False) if prim.IsInstance() else None
     flattened = read_usd(stage).scene
     assert len(flattened.instances) == 3  # each group's own instancer (nothing shared)
-    assert np.allclose(_sorted_points(scene.flattened().meshes), _sorted_points(flattened.flattened().meshes), atol=COMPOSED)
+    assert np.allclose(
+        _sorted_points(scene.flattened().meshes), _sorted_points(flattened.flattened().meshes), atol=COMPOSED
+    )
 
 
 def test_a_prototype_used_once_is_flattened(tmp_path):

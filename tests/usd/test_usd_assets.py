@@ -9,9 +9,9 @@ import math
 import pytest
 from pxr import Usd, UsdGeom
 
-from support.paths import SHARED_ASSETS
 from phongscene.usd import read_usd
 from phongscene.usd.materials import PREVIEW_MAX_EXPONENT
+from support.paths import SHARED_ASSETS
 
 pytestmark = pytest.mark.shared_assets
 
@@ -82,4 +82,6 @@ def test_roughness_usdz_preview_surfaces():
     assert by_name["Const033"].exponent == pytest.approx(1 / (2 * 0.33**4) - 2, rel=1e-5)
     assert by_name["Const066"].exponent == pytest.approx(max(1 / (2 * 0.66**4) - 2, 0.0), rel=1e-5)
     # The roughness textures have no per-point form (an exponent per point): their mean is used.
-    assert any("the texture's mean is used" in w and "Tex033/Principled_BSDF.inputs:roughness" in w for w in result.warnings)
+    assert any(
+        "the texture's mean is used" in w and "Tex033/Principled_BSDF.inputs:roughness" in w for w in result.warnings
+    )

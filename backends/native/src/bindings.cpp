@@ -250,8 +250,9 @@ nb::tuple count_hits(const phong::Scene& scene, const Rows3& origins, const Rows
 
 NB_MODULE(_native, m) {
     m.doc() = "phongscene native ray tracer (C++17)";
-    m.def("hardware_threads", [] { return std::thread::hardware_concurrency(); },
-          "Number of hardware threads the tracer uses when threads=0.");
+    m.def(
+        "hardware_threads", [] { return std::thread::hardware_concurrency(); },
+        "Number of hardware threads the tracer uses when threads=0.");
     m.attr("SHADOW_WINDOW") = phong::kShadowWindow;
     m.attr("PRIMARY_NEAR") = phong::kPrimaryNear;
     m.attr("SELF_HIT_WINDOW") = phong::kSelfHitWindow;
@@ -277,8 +278,8 @@ NB_MODULE(_native, m) {
 
     using phong::Material;
     nb::class_<Material>(m, "Material", "Suffern's Phong material (materials.hpp).")
-        .def(nb::init<double, double, double, double, phong::RGB, phong::RGB>(), "ka"_a, "kd"_a, "ks"_a,
-             "exponent"_a, "diffuse_color"_a, "specular_color"_a)
+        .def(nb::init<double, double, double, double, phong::RGB, phong::RGB>(), "ka"_a, "kd"_a, "ks"_a, "exponent"_a,
+             "diffuse_color"_a, "specular_color"_a)
         .def_rw("ka", &Material::ka)
         .def_rw("kd", &Material::kd)
         .def_rw("ks", &Material::ks)
@@ -323,11 +324,12 @@ NB_MODULE(_native, m) {
 
     using phong::DirectionalLight;
     nb::class_<DirectionalLight>(m, "DirectionalLight", "A light at infinity; made from the direction it travels.")
-        .def("__init__",
-             [](DirectionalLight* self, const phong::Vec3& direction, const phong::RGB& color) {
-                 new (self) DirectionalLight(DirectionalLight::travelling(direction, color));
-             },
-             "direction"_a, "color"_a)
+        .def(
+            "__init__",
+            [](DirectionalLight* self, const phong::Vec3& direction, const phong::RGB& color) {
+                new (self) DirectionalLight(DirectionalLight::travelling(direction, color));
+            },
+            "direction"_a, "color"_a)
         .def_rw("to_light", &DirectionalLight::to_light)
         .def_rw("color", &DirectionalLight::color)
         .def_rw("terms", &DirectionalLight::terms);
@@ -344,7 +346,8 @@ NB_MODULE(_native, m) {
         .def_rw("samples", &RectAreaLight::samples)
         .def_rw("terms", &RectAreaLight::terms)
         .def_rw("adaptive", &RectAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)")
-        .def_rw("cell_samples", &RectAreaLight::cell_samples, "> 0: the native cells estimator, cell_samples^2 points per partial cell");
+        .def_rw("cell_samples", &RectAreaLight::cell_samples,
+                "> 0: the native cells estimator, cell_samples^2 points per partial cell");
 
     using phong::SphereAreaLight;
     nb::class_<SphereAreaLight>(m, "SphereAreaLight", "A spherical light: POV-Ray's circular, oriented area light.")
@@ -357,12 +360,13 @@ NB_MODULE(_native, m) {
         .def_rw("samples", &SphereAreaLight::samples)
         .def_rw("terms", &SphereAreaLight::terms)
         .def_rw("adaptive", &SphereAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)")
-        .def_rw("cell_samples", &SphereAreaLight::cell_samples, "> 0: the native cells estimator, cell_samples^2 points per partial cell");
+        .def_rw("cell_samples", &SphereAreaLight::cell_samples,
+                "> 0: the native cells estimator, cell_samples^2 points per partial cell");
 
     using phong::CameraDescription;
     nb::class_<CameraDescription>(m, "CameraDescription", "The model's camera (camera.hpp).")
-        .def(nb::init<phong::Vec3, phong::Vec3, phong::Vec3, bool, double, double>(), "position"_a, "forward"_a,
-             "up"_a, "orthographic"_a, "horizontal_fov_deg"_a, "ortho_width"_a)
+        .def(nb::init<phong::Vec3, phong::Vec3, phong::Vec3, bool, double, double>(), "position"_a, "forward"_a, "up"_a,
+             "orthographic"_a, "horizontal_fov_deg"_a, "ortho_width"_a)
         .def_rw("position", &CameraDescription::position)
         .def_rw("forward", &CameraDescription::forward)
         .def_rw("up", &CameraDescription::up)
@@ -372,9 +376,10 @@ NB_MODULE(_native, m) {
 
     using phong::RenderSettings;
     nb::class_<RenderSettings>(m, "RenderSettings", "Image size, sampling, threads, background, convention.")
-        .def(nb::init<int, int, int, phong::SamplePattern, int, phong::RGB, phong::SpecularConvention, phong::Numerics>(), "width"_a,
-             "height"_a, "samples"_a, "sample_pattern"_a, "threads"_a, "background"_a, "specular_convention"_a,
-             "numerics"_a = phong::Numerics::kScaleInvariant)
+        .def(nb::init<int, int, int, phong::SamplePattern, int, phong::RGB, phong::SpecularConvention,
+                      phong::Numerics>(),
+             "width"_a, "height"_a, "samples"_a, "sample_pattern"_a, "threads"_a, "background"_a,
+             "specular_convention"_a, "numerics"_a = phong::Numerics::kScaleInvariant)
         .def_rw("numerics", &RenderSettings::numerics)
         .def_rw("width", &RenderSettings::width)
         .def_rw("height", &RenderSettings::height)
@@ -388,51 +393,59 @@ NB_MODULE(_native, m) {
         .def_rw("specular_convention", &RenderSettings::specular_convention);
 
     nb::class_<phong::Scene>(m, "Scene", "Geometry from flat arrays, materials and lights, with the BVH.")
-        .def("__init__",
-             [](phong::Scene* self, const Matrices& swo, const Matrices& sow, const Index1& smat,
-                const std::vector<Rows3>& points, const std::vector<Index3>& triangles, const std::vector<Rows3>& normals,
-                const std::vector<Index3>& normal_indices, const Index1& mesh_material, const Rows3& mesh_origins,
-                std::vector<phong::Material> materials, std::vector<phong::Light> lights, const phong::RGB& ambient,
-                bool povray_triangles) {
-                 std::unique_ptr<phong::Scene> built =
-                     make_scene(swo, sow, smat, points, triangles, normals, normal_indices, mesh_material, mesh_origins,
-                                std::move(materials), std::move(lights), ambient, povray_triangles);
-                 new (self) phong::Scene(std::move(*built));
-             },
-             "sphere_world_from_object"_a, "sphere_object_from_world"_a, "sphere_material"_a, "points"_a,
-             "triangles"_a, "normals"_a, "normal_indices"_a, "mesh_material"_a, "mesh_origins"_a, "materials"_a,
-             "lights"_a, "ambient"_a, "povray_triangles"_a = false,
-             "points, triangles, normals and normal_indices are lists with one array per mesh (normal_indices "
-             "(T, 3) or empty: flat; -1 rows: flat), read in place; triangles are numbered across the meshes in "
-             "order. Materials are indexed by sphere_material and mesh_material; lights are summed in list order. "
-             "Each mesh is one POV-Ray object with its frame's origin in mesh_origins; with povray_triangles, "
-             "triangles are tested as POV-Ray's mesh2 tests them.")
+        .def(
+            "__init__",
+            [](phong::Scene* self, const Matrices& swo, const Matrices& sow, const Index1& smat,
+               const std::vector<Rows3>& points, const std::vector<Index3>& triangles,
+               const std::vector<Rows3>& normals, const std::vector<Index3>& normal_indices,
+               const Index1& mesh_material, const Rows3& mesh_origins, std::vector<phong::Material> materials,
+               std::vector<phong::Light> lights, const phong::RGB& ambient, bool povray_triangles) {
+                std::unique_ptr<phong::Scene> built =
+                    make_scene(swo, sow, smat, points, triangles, normals, normal_indices, mesh_material, mesh_origins,
+                               std::move(materials), std::move(lights), ambient, povray_triangles);
+                new (self) phong::Scene(std::move(*built));
+            },
+            "sphere_world_from_object"_a, "sphere_object_from_world"_a, "sphere_material"_a, "points"_a, "triangles"_a,
+            "normals"_a, "normal_indices"_a, "mesh_material"_a, "mesh_origins"_a, "materials"_a, "lights"_a,
+            "ambient"_a, "povray_triangles"_a = false,
+            "points, triangles, normals and normal_indices are lists with one array per mesh (normal_indices "
+            "(T, 3) or empty: flat; -1 rows: flat), read in place; triangles are numbered across the meshes in "
+            "order. Materials are indexed by sphere_material and mesh_material; lights are summed in list order. "
+            "Each mesh is one POV-Ray object with its frame's origin in mesh_origins; with povray_triangles, "
+            "triangles are tested as POV-Ray's mesh2 tests them.")
         .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
-             "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and specular_texture, and the (u, v) "
+             "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and "
+             "specular_texture, and the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order.")
-        .def("add_instances",
-             [](phong::Scene& self, phong::Scene& prototype, const Matrices& world_from_prototype, bool rebuild) {
-                 if (&prototype == &self) throw std::invalid_argument("a scene cannot be its own prototype");
-                 if (!prototype.instances_empty()) throw std::invalid_argument("a prototype holds no instances");
-                 auto taken = std::make_unique<phong::Scene>(std::move(prototype));
-                 nb::gil_scoped_release release;
-                 self.add_instances(std::move(taken), world_from_prototype.data(), world_from_prototype.shape(0), rebuild);
-             },
-             "prototype"_a, "world_from_prototype"_a, "rebuild"_a = true,
-             "Adds copies of `prototype` (a Scene of its meshes in prototype space, taken over: it is empty "
-             "afterwards), copy k placed by world_from_prototype[k] (K, 4, 4), column vectors, affine and "
-             "invertible; the top-level BVH over every instance is rebuilt (rebuild=False: not yet, the scene cannot "
-             "be traced until an add with rebuild=True).")
+        .def(
+            "add_instances",
+            [](phong::Scene& self, phong::Scene& prototype, const Matrices& world_from_prototype, bool rebuild) {
+                if (&prototype == &self) throw std::invalid_argument("a scene cannot be its own prototype");
+                if (!prototype.instances_empty()) throw std::invalid_argument("a prototype holds no instances");
+                auto taken = std::make_unique<phong::Scene>(std::move(prototype));
+                nb::gil_scoped_release release;
+                self.add_instances(std::move(taken), world_from_prototype.data(), world_from_prototype.shape(0),
+                                   rebuild);
+            },
+            "prototype"_a, "world_from_prototype"_a, "rebuild"_a = true,
+            "Adds copies of `prototype` (a Scene of its meshes in prototype space, taken over: it is empty "
+            "afterwards), copy k placed by world_from_prototype[k] (K, 4, 4), column vectors, affine and "
+            "invertible; the top-level BVH over every instance is rebuilt (rebuild=False: not yet, the scene cannot "
+            "be traced until an add with rebuild=True).")
         .def_prop_ro("instance_count", [](const phong::Scene& s) { return s.instances ? s.instances->size() : 0; })
-        .def_prop_ro("prototype_count", [](const phong::Scene& s) { return s.instances ? s.instances->prototype_count() : 0; })
+        .def_prop_ro("prototype_count",
+                     [](const phong::Scene& s) { return s.instances ? s.instances->prototype_count() : 0; })
         .def_prop_ro("magnitude", [](const phong::Scene& s) { return s.magnitude; })
-        .def_prop_ro("single_precision_triangles", [](const phong::Scene& s) { return s.triangles.single_precision(); },
-                     "Whether the triangles' corners are held as floats (every vertex a float: the same doubles).")
-        .def_prop_ro("single_precision_normals", [](const phong::Scene& s) { return s.normals.single_precision(); },
-                     "Whether the meshes' normals are held as floats (every coordinate a float: the same doubles).")
-        .def_prop_ro("walk_width", [](const phong::Scene& s) { return s.walk_width(); },
-                     "Children per BVH node of the rays' walk: 8 on the AVX2 path, 4 on the SSE2 one (chosen when "
-                     "the scene is built; PHONGSCENE_NATIVE_SIMD=sse2 forces the portable path).")
+        .def_prop_ro(
+            "single_precision_triangles", [](const phong::Scene& s) { return s.triangles.single_precision(); },
+            "Whether the triangles' corners are held as floats (every vertex a float: the same doubles).")
+        .def_prop_ro(
+            "single_precision_normals", [](const phong::Scene& s) { return s.normals.single_precision(); },
+            "Whether the meshes' normals are held as floats (every coordinate a float: the same doubles).")
+        .def_prop_ro(
+            "walk_width", [](const phong::Scene& s) { return s.walk_width(); },
+            "Children per BVH node of the rays' walk: 8 on the AVX2 path, 4 on the SSE2 one (chosen when "
+            "the scene is built; PHONGSCENE_NATIVE_SIMD=sse2 forces the portable path).")
         .def("render", &render, "camera"_a, "settings"_a, "progress"_a = nb::none(),
              "The image, float32 (height, width, 3), row 0 at the top. progress(done, total) is called from this "
              "thread while rendering; an exception it raises (or Ctrl-C) stops the render.")

@@ -56,9 +56,7 @@ struct FloatSlabRay8 {
             far_row[k] = negative ? k : 3 + k;
             origin_near[k] = _mm256_set1_ps(negative ? origin.down[k] : origin.up[k]);
             origin_far[k] = _mm256_set1_ps(negative ? origin.up[k] : origin.down[k]);
-            const float inv_k = std::fabs(r[k]) <= double(FLT_MAX) ? float(r[k])
-                                : d[k] == 0.0                      ? float(r[k])
-                                                                   : NAN;
+            const float inv_k = std::fabs(r[k]) <= double(FLT_MAX) ? float(r[k]) : d[k] == 0.0 ? float(r[k]) : NAN;
             inv[k] = _mm256_set1_ps(inv_k);
         }
         t_min = _mm256_set1_ps(round_down(t_min_));

@@ -83,8 +83,8 @@ class InstanceLayer {
     void build();
 
     std::vector<std::unique_ptr<Scene>> prototypes_;
-    std::vector<Instance> instances_;   // leaf order once built
-    std::vector<Bounds> world_boxes_;   // by instance (input order), for rebuilds
+    std::vector<Instance> instances_;  // leaf order once built
+    std::vector<Bounds> world_boxes_;  // by instance (input order), for rebuilds
     std::vector<Bvh4Node> nodes_;
     double magnitude_ = 0.0;  // largest absolute coordinate of the instances' boxes
     bool stale_ = false;      // instances added since the last build

@@ -93,7 +93,8 @@ class Scene {
     // its box, as the BVH relies on for every node) with the same primitive tests: the same
     // answer, as any-hit does not depend on the order. The occluder moves to the front, where
     // the next ray tries it first.
-    bool shadow_candidates(const Vec3* hull, int hull_count, double t_min, std::vector<BundleCandidate>& candidates) const;
+    bool shadow_candidates(const Vec3* hull, int hull_count, double t_min,
+                           std::vector<BundleCandidate>& candidates) const;
     bool occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray, double t_min, double t_max) const;
     // occluded_by() for every ray of a bundle at once (an area light's full grid): ray k leaves
     // `origin` along dirs[k] and counts hits in (t_min, distances[k] − t_min); blocked[k] is
@@ -122,11 +123,11 @@ class Scene {
     int32_t triangle_mesh(size_t slot) const;
 
     std::vector<SphereShape> spheres;
-    TriangleStore triangles;                      // leaf order; float when that is exact
+    TriangleStore triangles;                        // leaf order; float when that is exact
     std::vector<TriangleShading> triangle_shading;  // leaf order
-    std::vector<uint32_t> triangle_source;        // leaf order -> input row
-    std::vector<PovrayTriangle> povray_triangles;  // leaf order; empty unless built in POV-Ray numerics
-    Vec3Store normals;  // float when that is exact
+    std::vector<uint32_t> triangle_source;          // leaf order -> input row
+    std::vector<PovrayTriangle> povray_triangles;   // leaf order; empty unless built in POV-Ray numerics
+    Vec3Store normals;                              // float when that is exact
     std::vector<Material> materials;
     std::vector<Light> lights;
     RGB ambient;
@@ -139,7 +140,9 @@ class Scene {
     std::unique_ptr<InstanceLayer> instances;
     bool instances_empty() const { return !instances || instances->size() == 0; }
     // The scene (this, or an instance's prototype) whose primitive `hit.ref` names.
-    const Scene& surface_of(const Hit& hit) const { return hit.instance < 0 ? *this : instances->prototype_of(hit.instance); }
+    const Scene& surface_of(const Hit& hit) const {
+        return hit.instance < 0 ? *this : instances->prototype_of(hit.instance);
+    }
     // Adds copies of a prototype (instances.hpp) and grows `bounds` by their boxes.
     void add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
                        bool rebuild = true);
@@ -157,12 +160,12 @@ class Scene {
         return intersect_triangle(triangles[size_t(ref)], ray, *wr, t_min, t_max, t, bary);
     }
 
-    Bvh bvh_;                      // the binary tree; its nodes are freed once collapsed
+    Bvh bvh_;  // the binary tree; its nodes are freed once collapsed
     // What the rays and bundles walk: the 8-wide tree where the CPU has AVX2 (simd_dispatch.hpp),
     // else the 4-wide one; the other is empty.
     std::vector<Bvh4Node> bvh4_;
     std::vector<Bvh8Node> bvh8_;
-    std::vector<int32_t> refs_;  // BVH leaf order
+    std::vector<int32_t> refs_;           // BVH leaf order
     std::vector<size_t> first_triangle_;  // mesh m's input rows start at first_triangle_[m]
 };
 

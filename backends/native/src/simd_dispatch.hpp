@@ -33,8 +33,7 @@ inline bool use_avx2() {
             throw std::invalid_argument(std::string(kSimdEnvironmentVariable) + "=avx2 but this CPU has no AVX2");
         return true;
     }
-    throw std::invalid_argument(std::string(kSimdEnvironmentVariable) + "=" + value +
-                                ": expected auto, sse2 or avx2");
+    throw std::invalid_argument(std::string(kSimdEnvironmentVariable) + "=" + value + ": expected auto, sse2 or avx2");
 }
 
 }  // namespace phong
