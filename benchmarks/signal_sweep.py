@@ -23,7 +23,7 @@ N = int(sys.argv[1])
 EXP = {signal.SIGINT: 130, signal.SIGTERM: 143, signal.SIGHUP: 129}
 tally = collections.Counter()
 bad = []
-for i in range(N):
+for _i in range(N):
     sig = rng.choice(list(EXP))
     delay = rng.uniform(0, 1.5)
     cmd = rng.choice(

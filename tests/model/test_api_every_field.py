@@ -127,7 +127,7 @@ def test_a_hostile_field_is_accepted_or_a_scene_error_naming_it(make, node, name
 @pytest.mark.slow
 def test_the_native_backend_survives_the_same_values():
     # One render per field with the values validation let through (a render is ~ms at 4×4).
-    for where, node, make in NODES:
+    for _where, node, make in NODES:
         for f in dataclasses.fields(node):
             for value in HOSTILE:
                 try:
