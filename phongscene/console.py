@@ -23,11 +23,34 @@ BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_TH
 
 
 def main() -> None:
+    import signal
+
+    # Until the CLI's own handlers are in place (they clean up temporary files and outputs),
+    # nothing exists to clean up: a signal while the CLI imports ends the process at once with
+    # its documented status and one line (issue 27.2), not a traceback from inside an import.
+    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, _exit_at_once)
     if not any(name in os.environ for name in BLAS_THREAD_VARIABLES):
         os.environ["OPENBLAS_NUM_THREADS"] = "1"  # before numpy is imported (the CLI imports it later)
     from .cli import main as cli_main
 
+    # SIGINT is KeyboardInterrupt again (cli.main turns it into "interrupted", 130, after its
+    # cleanup); cli.main replaces SIGTERM / SIGHUP's handlers with its own as it starts.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     _exit_without_teardown(cli_main())
+
+
+def _exit_at_once(signum, frame) -> None:
+    # The lines cli.main prints for the same signals; os.write: no buffered stream is half-written.
+    line = b"interrupted\n" if signum == 2 else f"terminated by {_name(signum)}\n".encode()
+    os.write(2, line)
+    os._exit(128 + signum)
+
+
+def _name(signum: int) -> str:
+    import signal
+
+    return signal.Signals(signum).name
 
 
 def _exit_without_teardown(code: int) -> None:

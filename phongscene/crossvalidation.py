@@ -138,7 +138,7 @@ def diff(
     aa_threshold: float | None = None,
     shadow_adaptive: int | None = None,
     overrides: RenderOverrides | None = None,
-    sandbox: bool = False,
+    sandbox: bool | None = None,
 ) -> DiffResult:
     """Render a scene with both backends, compare, and write the report if ``outdir`` is given.
 
@@ -158,7 +158,8 @@ def diff(
         shadow_adaptive: POV-Ray's ``adaptive n`` for every area light (None: each light's own).
         overrides: all the knobs as one ``RenderOverrides`` (instead of width ... shadow_adaptive
             and time; its ``mapping``, when set, is the mapping).
-        sandbox: read a USD file in a child process with a memory limit (``phongscene.sandbox``).
+        sandbox: read a USD file in a child process with a memory limit (``phongscene.sandbox``):
+            None decides per file (``phongscene.scene_files``), True / False always / never.
 
     Returns:
         A ``DiffResult``: the report, the folder, both timings and both images.

@@ -51,6 +51,12 @@ class SceneFileNotFoundError(SceneError, FileNotFoundError):
         return SceneError.__str__(self)
 
 
+class InvalidValueError(SceneError, ValueError, TypeError):
+    """A model node built in Python with a value of the wrong type or shape (a string matrix,
+    points of shape (N, 2), fractional indices): a SceneError naming the node's field, that is
+    also the ValueError / TypeError that Python code catching a bad argument expects."""
+
+
 class SceneWarning(UserWarning):
     """Something in a scene file that the model cannot represent (issued by ``render(path)``)."""
 

@@ -13,6 +13,15 @@ MAX_COORDINATE = 1e150
 # An image side: 16384 px (a 16K render); the pixel count: 2^28 (16384², 3.2 GB of float32 RGB):
 # beyond these a render would not fit this machine's memory (and C++ takes int sizes).
 MAX_IMAGE_SIDE = 16384
+# An orthographic camera's view window (Camera.ortho_width, USD: horizontalAperture / 10), world
+# units. The upper bound keeps the file's own float32 camera arithmetic finite: USD stores
+# apertures as float32 tenths of a unit, and the product of two apertures (the window's area, an
+# aspect conversion) overflows float32 beyond sqrt(FLT_MAX) ~ 1.8e19 tenths; 1e18 units is the
+# round bound below that (a window 1e18 times a metre scene's size is a typo, not a camera). The
+# lower bound is the reciprocal of MAX_COORDINATE: a pixel's step (width / MAX_IMAGE_SIDE) and its
+# square stay normal doubles.
+MAX_ORTHO_WIDTH = 1e18
+MIN_ORTHO_WIDTH = 1e-150
 MAX_PIXELS = 2**28
 MAX_THREADS = 1024  # worker threads (C++ int; far more than any machine here has cores)
 # A texture's side: as an image side (OpenImageIO reads bigger ones, but one 16K texture is

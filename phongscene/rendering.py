@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from .errors import BackendError, SceneError
+from .errors import BackendError, InvalidValueError, Problem, SceneError
 from .overrides import RenderOverrides
 from .scene import RenderSettings, Scene
 from .validate import check
@@ -68,25 +68,21 @@ def load_scene(
     scene_or_path: Scene | str | os.PathLike,
     time: float | None = None,
     *,
-    sandbox: bool = False,
+    sandbox: bool | None = None,
     camera: str | None = None,
 ) -> tuple[Scene, list[str]]:
     """A Scene as given, or read from a USD file (or a ``phongscene.usd.OpenStage`` of one) at USD
     time code ``time`` (None: the reader's choice, ``phongscene.usd.read_usd``), with the reader's
-    warnings (raises SceneError for a bad file). ``sandbox``: read the file in a child process
-    with a memory limit (``phongscene.sandbox``), so a crash inside USD is a SceneError.
-    ``camera``: the path of the Camera prim to render through (None: the reader's choice); a
-    Scene given keeps its camera."""
+    warnings (raises SceneError for a bad file). The file is read by ``phongscene.scene_files``:
+    in a child process with a memory limit (``phongscene.sandbox``) unless it is safe to read in
+    process (``sandbox`` None: decided per file; True / False: always / never the child), so a
+    crash inside USD is a SceneError. ``camera``: the path of the Camera prim to render through
+    (None: the reader's choice); a Scene given keeps its camera."""
     if isinstance(scene_or_path, Scene):
         return scene_or_path, []
-    if sandbox:
-        from .sandbox import read_usd_sandboxed
+    from .scene_files import read_scene_file
 
-        result = read_usd_sandboxed(scene_or_path, time=time, camera=camera)
-        return result.scene, list(result.warnings)
-    from .usd import read_usd  # lazily: the USD reader imports pxr
-
-    result = read_usd(scene_or_path, time=time, camera=camera)  # a path, or an OpenStage
+    result = read_scene_file(scene_or_path, time, sandbox=sandbox, camera=camera)
     return result.scene, list(result.warnings)
 
 
@@ -114,9 +110,12 @@ def check_settings(scene: Scene, settings: RenderSettings | None = None) -> Rend
             f"expected a phongscene Scene (phongscene.load_usd(path) reads a USD file), got "
             f"{type(scene).__name__} {scene!r:.80}"
         )
-    settings = scene.settings if settings is None else settings
-    if not isinstance(settings, RenderSettings):
-        raise TypeError(f"settings: expected a RenderSettings, got {type(settings).__name__}")
+    if settings is None:
+        settings = scene.settings  # a wrong type here is one of the scene's problems, below
+    elif not isinstance(settings, RenderSettings):
+        raise InvalidValueError(
+            Problem(f"expected a RenderSettings, got {type(settings).__name__}", attribute="settings")
+        )
     try:
         check(replace(scene, settings=settings))
     except SceneError as e:

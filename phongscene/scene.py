@@ -51,6 +51,8 @@ from typing import Literal, Union
 
 import numpy as np
 
+from .errors import InvalidValueError, Problem
+
 Vec3 = tuple[float, float, float]
 RGB = tuple[float, float, float]
 
@@ -83,37 +85,90 @@ Wrap = Literal["repeat", "clamp", "mirror", "black"]
 WRAPS: tuple[str, ...] = ("repeat", "clamp", "mirror", "black")
 
 
-def _readonly(array, dtype, shape_tail: tuple[int, ...]) -> np.ndarray:
+def _bad_value(node: str, field: str, source: str, message: str) -> InvalidValueError:
+    return InvalidValueError(Problem(message, prim=source, attribute=field, node=node))
+
+
+def _real_array(array, node: str, field: str, source: str, expected: str = "real numbers") -> np.ndarray:
+    """``array`` as a numpy array of real numbers (integer or floating point): text, booleans,
+    complex numbers (numpy would drop the imaginary part with only a warning) and objects that
+    are not numbers are an error naming the field."""
+    try:
+        source_array = np.asarray(array)
+        if source_array.dtype == object:  # a list mixing numbers and None, say: numbers or an error
+            source_array = np.asarray(array, dtype=np.float64)
+    except (TypeError, ValueError) as e:  # a ragged list, a string that is not a number
+        raise _bad_value(
+            node, field, source, f"expected an array of {expected}, got {_describe(array)} ({e})"
+        ) from None
+    if source_array.size and source_array.dtype.kind not in "iuf":
+        raise _bad_value(node, field, source, f"expected an array of {expected}, got an array of {source_array.dtype}")
+    return source_array
+
+
+def _readonly(array, dtype, shape_tail: tuple[int, ...], node: str, field: str, source: str) -> np.ndarray:
     """Copy ``array`` into a read-only C-contiguous array of ``dtype`` shaped (N, *shape_tail).
     Into an integer dtype only whole numbers that fit go: numpy's cast would wrap an int64
-    index >= 2^31 (2^32 + 2 becomes 2) and truncate 1.5 to 1 without a word."""
-    if np.issubdtype(dtype, np.integer):
-        source = np.asarray(array)
-        if source.size and not (np.issubdtype(source.dtype, np.integer) or np.issubdtype(source.dtype, np.floating)):
-            raise TypeError(f"expected integer indices, got an array of {source.dtype}")
-        if source.size and np.issubdtype(source.dtype, np.floating):
-            if not np.all(np.isfinite(source)) or np.any(source != np.round(source)):
-                raise ValueError("expected whole-number indices, got fractional or non-finite values")
+    index >= 2^31 (2^32 + 2 becomes 2) and truncate 1.5 to 1 without a word. A wrong type or
+    shape is an ``InvalidValueError`` (a SceneError) naming ``node``'s ``field``."""
+    integer = np.issubdtype(dtype, np.integer)
+    source_array = _real_array(array, node, field, source, "integer indices" if integer else "real numbers")
+    if integer and source_array.size:
+        if source_array.dtype.kind == "f":
+            if not np.all(np.isfinite(source_array)) or np.any(source_array != np.round(source_array)):
+                raise _bad_value(
+                    node, field, source, "expected whole-number indices, got fractional or non-finite values"
+                )
         info = np.iinfo(dtype)
-        if source.size and (source.min() < info.min or source.max() > info.max):
-            bad = source.max() if source.max() > info.max else source.min()
-            raise ValueError(
-                f"index {int(bad)} does not fit the model's {np.dtype(dtype).name} indices ({info.min}..{info.max})"
+        if source_array.size and (source_array.min() < info.min or source_array.max() > info.max):
+            bad = source_array.max() if source_array.max() > info.max else source_array.min()
+            raise _bad_value(
+                node,
+                field,
+                source,
+                f"index {int(bad)} does not fit the model's {np.dtype(dtype).name} indices ({info.min}..{info.max})",
             )
-        array = source
-    out = np.array(array, dtype=dtype, order="C", copy=True)
+    out = np.array(source_array, dtype=dtype, order="C", copy=True)
     if out.ndim != 1 + len(shape_tail) or out.shape[1:] != shape_tail:
-        raise ValueError(f"expected an array of shape (N, {', '.join(map(str, shape_tail))}), got {out.shape}")
+        raise _bad_value(
+            node, field, source, f"expected an array of shape (N, {', '.join(map(str, shape_tail))}), got {out.shape}"
+        )
     out.setflags(write=False)
     return out
 
 
-def _matrix(m) -> np.ndarray:
-    out = np.array(m, dtype=np.float64, order="C", copy=True)
+def _matrix(m, node: str, field: str, source: str) -> np.ndarray:
+    out = np.array(_real_array(m, node, field, source), dtype=np.float64, order="C", copy=True)
     if out.shape != (4, 4):
-        raise ValueError(f"expected a 4x4 matrix, got shape {out.shape}")
+        raise _bad_value(node, field, source, f"expected a 4x4 matrix, got shape {out.shape}")
     out.setflags(write=False)
     return out
+
+
+def _describe(value) -> str:
+    return f"{type(value).__name__} {value!r:.60}"
+
+
+def _as_triples(node, *fields: str) -> None:
+    """Store each of ``node``'s 3-vector fields (a colour, a point, a direction) given as a numpy
+    array or a list of 3 as a tuple (of Python floats when they are real numbers): the tuple the
+    model documents, hashable and comparable. What is not 3 real numbers is left for
+    ``validate`` to report ("must be 3 numbers") with every other problem of the scene."""
+    for name in fields:
+        value = getattr(node, name)
+        if type(value) is tuple and len(value) == 3 and all(type(x) is float for x in value):
+            continue  # the common case, untouched
+        if isinstance(value, np.ndarray) and value.shape == (3,):
+            value = tuple(value.tolist())
+        elif isinstance(value, list) and len(value) == 3:
+            value = tuple(value)
+        if isinstance(value, tuple) and len(value) == 3:
+            if all(
+                isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, (bool, np.bool_))
+                for x in value
+            ):
+                value = tuple(float(x) for x in value)
+            object.__setattr__(node, name, value)  # hashable either way
 
 
 def _arrays_equal(a: np.ndarray | None, b: np.ndarray | None) -> bool:
@@ -157,9 +212,14 @@ class Texture:
             and not image.flags.writeable
         )
         if not owned:
-            image = np.array(image, dtype=np.float32, order="C", copy=True)
+            with np.errstate(over="ignore"):  # beyond float32: inf, which validate reports as texels not finite
+                image = np.array(
+                    _real_array(image, "Texture", "image", self.source), dtype=np.float32, order="C", copy=True
+                )
         if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] < 1 or image.shape[1] < 1:
-            raise ValueError(f"expected a texture image of shape (H, W, 3), got {image.shape}")
+            raise _bad_value(
+                "Texture", "image", self.source, f"expected a texture image of shape (H, W, 3), got {image.shape}"
+            )
         image.setflags(write=False)
         object.__setattr__(self, "image", image)
 
@@ -215,6 +275,9 @@ class PhongMaterial:
         """Whether the material traces a reflected ray (kr > 0 and cr not black)."""
         return self.kr > 0 and any(c > 0 for c in self.reflective_color)
 
+    def __post_init__(self) -> None:
+        _as_triples(self, "diffuse_color", "specular_color", "reflective_color", "interior_filter")
+
     @property
     def textures(self) -> tuple[Texture, ...]:
         """The textures the material samples (diffuse first)."""
@@ -263,6 +326,9 @@ class Camera:
     ortho_width: float = 2.0  # orthographic only: width of the view window, world units, > 0
     source: str = ""
 
+    def __post_init__(self) -> None:
+        _as_triples(self, "position", "forward", "up")
+
     @staticmethod
     def look_at(
         position: Vec3,
@@ -304,6 +370,9 @@ class AmbientLight:
     color: RGB = (0.0, 0.0, 0.0)  # ls_a·cl_a, linear RGB
     source: str = ""
 
+    def __post_init__(self) -> None:
+        _as_triples(self, "color")
+
 
 @dataclass(frozen=True, slots=True)
 class Cone:
@@ -318,6 +387,9 @@ class Cone:
     cos_outer: float
     cos_inner: float
     focus: float = 0.0
+
+    def __post_init__(self) -> None:
+        _as_triples(self, "axis")
 
 
 @dataclass(frozen=True, slots=True)
@@ -337,6 +409,9 @@ class PointLight:
     diffuse: float = 1.0
     specular: float = 1.0
 
+    def __post_init__(self) -> None:
+        _as_triples(self, "position", "color")
+
 
 @dataclass(frozen=True, slots=True)
 class DirectionalLight:
@@ -347,6 +422,9 @@ class DirectionalLight:
     source: str = ""
     diffuse: float = 1.0  # multipliers of the two terms, as on PointLight
     specular: float = 1.0
+
+    def __post_init__(self) -> None:
+        _as_triples(self, "direction", "color")
 
 
 @dataclass(frozen=True, slots=True)
@@ -378,6 +456,9 @@ class RectAreaLight:
     # estimators. A power of 2 in 2..16.
     cell_samples: int | None = None
 
+    def __post_init__(self) -> None:
+        _as_triples(self, "center", "axis_u", "axis_v", "color")
+
 
 @dataclass(frozen=True, slots=True)
 class SphereAreaLight:
@@ -395,6 +476,9 @@ class SphereAreaLight:
     specular: float = 1.0
     adaptive: int | None = None  # as RectAreaLight.adaptive
     cell_samples: int | None = None  # as RectAreaLight.cell_samples
+
+    def __post_init__(self) -> None:
+        _as_triples(self, "center", "color")
 
 
 Light = Union[PointLight, DirectionalLight, RectAreaLight, SphereAreaLight]  # noqa: UP007 (a runtime alias)
@@ -414,7 +498,9 @@ class Sphere:
     source: str = ""
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "world_from_object", _matrix(self.world_from_object))
+        object.__setattr__(
+            self, "world_from_object", _matrix(self.world_from_object, "Sphere", "world_from_object", self.source)
+        )
 
     @staticmethod
     def at(center: Vec3, radius: float, material: PhongMaterial = DEFAULT_MATERIAL, source: str = "") -> Sphere:
@@ -455,18 +541,28 @@ class TriangleMesh:
     uv_indices: np.ndarray | None = None  # (M, 3) int32, indices into uvs
 
     def __post_init__(self) -> None:
-        if (self.uvs is None) != (self.uv_indices is None):
-            raise ValueError("uvs and uv_indices go together")
-        if self.uvs is not None:
-            object.__setattr__(self, "uvs", _readonly(self.uvs, np.float64, (2,)))
-            object.__setattr__(self, "uv_indices", _readonly(self.uv_indices, np.int32, (3,)))
-        object.__setattr__(self, "points", _readonly(self.points, np.float64, (3,)))
-        object.__setattr__(self, "triangles", _readonly(self.triangles, np.int32, (3,)))
-        if (self.normals is None) != (self.normal_indices is None):
-            raise ValueError("normals and normal_indices go together")
-        if self.normals is not None:
-            object.__setattr__(self, "normals", _readonly(self.normals, np.float64, (3,)))
-            object.__setattr__(self, "normal_indices", _readonly(self.normal_indices, np.int32, (3,)))
+        for array, partner in (("uvs", "uv_indices"), ("normals", "normal_indices")):
+            if (getattr(self, array) is None) != (getattr(self, partner) is None):
+                raise _bad_value(
+                    "TriangleMesh",
+                    partner if getattr(self, partner) is None else array,
+                    self.source,
+                    f"{array} and {partner} go together",
+                )
+        for name, dtype, tail in (
+            ("points", np.float64, (3,)),
+            ("triangles", np.int32, (3,)),
+            ("normals", np.float64, (3,)),
+            ("normal_indices", np.int32, (3,)),
+            ("uvs", np.float64, (2,)),
+            ("uv_indices", np.int32, (3,)),
+        ):
+            if getattr(self, name) is None and name in ("points", "triangles"):
+                raise _bad_value("TriangleMesh", name, self.source, "is required, got None")
+            if getattr(self, name) is not None:
+                object.__setattr__(
+                    self, name, _readonly(getattr(self, name), dtype, tail, "TriangleMesh", name, self.source)
+                )
 
     def local_origin(self) -> np.ndarray:
         """The origin of a frame in which a float32 copy of the mesh (POV-Ray's mesh2 storage)
@@ -612,6 +708,9 @@ class RenderSettings:
     # max_depth + 1, ref §18). Only scenes with reflective materials trace secondary rays.
     max_depth: int = 5
     transmission: TransmissionConvention = "book"  # the radiance of refracted rays (above)
+
+    def __post_init__(self) -> None:
+        _as_triples(self, "background")
 
 
 @dataclass(frozen=True, slots=True)

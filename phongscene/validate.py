@@ -24,6 +24,7 @@ from .limits import (
     MAX_COORDINATE,
     MAX_DEPTH,
     MAX_IMAGE_SIDE,
+    MAX_ORTHO_WIDTH,
     MAX_PIXELS,
     MAX_SAMPLES,
     MAX_SHADOW_SAMPLES,
@@ -31,6 +32,7 @@ from .limits import (
     MAX_TEXEL,
     MAX_TEXTURE_SIDE,
     MAX_THREADS,
+    MIN_ORTHO_WIDTH,
 )
 from .scene import (
     NUMERICS,
@@ -39,6 +41,7 @@ from .scene import (
     WRAPS,
     AmbientLight,
     Camera,
+    Cone,
     DirectionalLight,
     Instances,
     PhongMaterial,
@@ -49,6 +52,7 @@ from .scene import (
     Scene,
     Sphere,
     SphereAreaLight,
+    Texture,
     TriangleMesh,
 )
 from .tolerances import SINGULAR_RELATIVE_DET, UNIT_TOLERANCE, is_singular
@@ -76,8 +80,36 @@ class _Collector:
             return False
         return True
 
+    def real(self, node, field: str, value) -> bool:
+        """One finite real number (a bool, a string, an array or None is a problem naming the field)."""
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+            self.add(node, field, f"must be a number, got {_show(value)}")
+            return False
+        if not np.isfinite(value):
+            self.add(node, field, f"must be finite, got {_show(value)}")
+            return False
+        return True
+
+    def one_of(self, node, field: str, choices: tuple[str, ...]) -> bool:
+        value = getattr(node, field)
+        if isinstance(value, str) and value in choices:
+            return True
+        self.add(node, field, f"must be one of {', '.join(choices)}, got {_show(value)}")
+        return False
+
+    def triple(self, node, field: str, value) -> bool:
+        """3 real numbers (strings that look like numbers, complex numbers, bools are not)."""
+        if not _is_triple(value) or not all(_number(v) for v in value):
+            self.add(node, field, f"must be 3 numbers, got {_show(value)}")
+            return False
+        return True
+
     def position(self, node, field: str, value) -> bool:
-        """Finite, and within ±MAX_COORDINATE."""
+        """3 finite numbers within ±MAX_COORDINATE."""
+        return self.triple(node, field, value) and self.coordinates(node, field, value)
+
+    def coordinates(self, node, field: str, value) -> bool:
+        """Finite numbers (any array of them) within ±MAX_COORDINATE."""
         if not self.finite(node, field, value):
             return False
         arr = np.asarray(value, dtype=np.float64)
@@ -93,22 +125,12 @@ class _Collector:
 
     def colour(self, node, field: str) -> None:
         value = getattr(node, field)
-        if not _is_triple(value):
-            self.add(node, field, f"must be 3 numbers, got {value!r:.80}")
-        elif len(value) != 3:
-            self.add(node, field, f"must have 3 components, got {len(value)}")
-        elif self.finite(node, field, value) and min(value) < 0:
+        if self.triple(node, field, value) and self.finite(node, field, value) and min(value) < 0:
             self.add(node, field, f"must be >= 0 in every channel, got {_show(value)}")
 
     def vector(self, node, field: str, unit: bool) -> np.ndarray | None:
         value = getattr(node, field)
-        if not _is_triple(value):
-            self.add(node, field, f"must be 3 numbers, got {value!r:.80}")
-            return None
-        if len(value) != 3:
-            self.add(node, field, f"must have 3 components, got {len(value)}")
-            return None
-        if not self.finite(node, field, value):
+        if not self.triple(node, field, value) or not self.finite(node, field, value):
             return None
         v = np.asarray(value, dtype=np.float64)
         length = float(np.linalg.norm(v))
@@ -122,7 +144,7 @@ class _Collector:
 
     def unit_interval(self, node, field: str) -> None:
         value = getattr(node, field)
-        if self.finite(node, field, value) and not 0 <= value <= 1:
+        if self.real(node, field, value) and not 0 <= value <= 1:
             self.add(node, field, f"must be in [0, 1], got {_show(value)}")
 
     def samples_2k1(self, node) -> None:
@@ -215,12 +237,33 @@ def _wrong_types(scene: Scene) -> list[Problem]:
                 out.append(
                     Problem(
                         f"must be a PhongMaterial, got {type(item.material).__name__}",
-                        prim=item.source,
+                        prim=_text(item.source),
                         attribute="material",
                         file=scene.source_file,
                     )
                 )
+    if out:
+        return out
+    # Every node's ``source`` names its prim in every later message: it must be text.
+    nodes = [scene.camera, scene.ambient, scene.settings, *scene.lights, *scene.spheres, *scene.meshes]
+    nodes += [n.material for n in (*scene.spheres, *scene.meshes)]
+    for node in nodes:
+        if not isinstance(node.source, str):
+            out.append(
+                Problem(
+                    f'must be a str (the USD prim path, or ""), got {type(node.source).__name__}',
+                    attribute="source",
+                    file=scene.source_file,
+                    node=type(node).__name__,
+                )
+            )
+    if not isinstance(scene.source_file, str):
+        out.append(Problem(f"must be a str, got {type(scene.source_file).__name__}", attribute="source_file"))
     return out
+
+
+def _text(value) -> str:
+    return value if isinstance(value, str) else repr(value)
 
 
 def _a(name: str) -> str:
@@ -228,13 +271,18 @@ def _a(name: str) -> str:
 
 
 def _show(value) -> str:
-    if isinstance(value, (tuple, list)):
+    if isinstance(value, (tuple, list)) and all(_number(v) for v in value):
         return "(" + ", ".join(f"{float(v):.9g}" for v in value) + ")"
     if isinstance(value, np.ndarray):
         return f"array of shape {value.shape}"
     if isinstance(value, np.generic):  # a numpy scalar: its Python value, not "np.float64(...)"
         return repr(value.item())
-    return repr(value)
+    return f"{value!r:.80}"
+
+
+def _number(value) -> bool:
+    """A single real number (not a bool)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
 
 
 def validate(scene: Scene) -> list[Problem]:
@@ -274,7 +322,7 @@ def validate(scene: Scene) -> list[Problem]:
             c.add(mesh, "uvs", "a mesh with a textured material needs texture coordinates (uvs)")
     for material in _unique(materials):
         _check_material(c, material)
-    if any(m.kt > 0 for m in materials):
+    if any(_number(m.kt) and m.kt > 0 for m in materials):  # a kt that is not a number: reported above
         # Filtered shadows (through transmissive objects) are traced for single shadow rays only.
         for light in scene.lights:
             if isinstance(light, (RectAreaLight, SphereAreaLight)):
@@ -318,28 +366,34 @@ def _unique(materials: Iterable[PhongMaterial]) -> list[PhongMaterial]:
 def _check_material(c: _Collector, m: PhongMaterial) -> None:
     for field in ("ka", "kd", "ks"):
         c.unit_interval(m, field)
-    if c.finite(m, "exponent", m.exponent) and m.exponent < 0:
+    if c.real(m, "exponent", m.exponent) and m.exponent < 0:
         c.add(m, "exponent", f"must be >= 0, got {_show(m.exponent)}")
     c.colour(m, "diffuse_color")
     c.colour(m, "specular_color")
     c.unit_interval(m, "kr")
     c.colour(m, "reflective_color")
     c.unit_interval(m, "kt")
-    if c.finite(m, "ior", m.ior) and not m.ior > 0:
+    if c.real(m, "ior", m.ior) and not m.ior > 0:
         c.add(m, "ior", f"must be > 0, got {_show(m.ior)}")
     c.colour(m, "interior_filter")
-    if all(np.isfinite(m.interior_filter)) and not all(0 < f <= 1 for f in m.interior_filter):
-        c.add(m, "interior_filter", f"must be in (0, 1] per channel, got {_show(m.interior_filter)}")
+    f = m.interior_filter
+    if _is_triple(f) and all(_number(x) and np.isfinite(x) for x in f) and not all(0 < x <= 1 for x in f):
+        c.add(m, "interior_filter", f"must be in (0, 1] per channel, got {_show(f)}")
     if not isinstance(m.fresnel, (bool, np.bool_)):
         c.add(m, "fresnel", f"must be True or False, got {_show(m.fresnel)}")
-    for t in m.textures:
-        _check_texture(c, t)
+    for field in ("diffuse_texture", "specular_texture"):
+        t = getattr(m, field)
+        if t is None:
+            continue
+        if isinstance(t, Texture):
+            _check_texture(c, t)
+        else:
+            c.add(m, field, f"must be a Texture (or None), got {type(t).__name__}")
 
 
 def _check_texture(c: _Collector, t) -> None:
     for field in ("wrap_s", "wrap_t"):
-        if getattr(t, field) not in WRAPS:
-            c.add(t, field, f"must be one of {', '.join(WRAPS)}, got {getattr(t, field)!r}")
+        c.one_of(t, field, WRAPS)
     if max(t.image.shape[:2]) > MAX_TEXTURE_SIDE:
         c.add(t, "image", f"sides must be at most {MAX_TEXTURE_SIDE} texels, got {t.width} x {t.height}")
     image = t.image
@@ -358,15 +412,22 @@ def _check_camera(c: _Collector, cam: Camera) -> None:
     up = c.vector(cam, "up", unit=True)
     if forward is not None and up is not None and abs(float(forward @ up)) > UNIT_TOLERANCE:
         c.add(cam, "up", f"must be orthogonal to forward, got forward·up = {float(forward @ up):.9g}")
-    if cam.projection == "perspective":
-        fov = cam.horizontal_fov_deg
-        if c.finite(cam, "horizontal_fov_deg", fov) and not 0 < fov < 180:
-            c.add(cam, "horizontal_fov_deg", f"must be in (0, 180) degrees, got {_show(fov)}")
-    elif cam.projection == "orthographic":
-        if c.finite(cam, "ortho_width", cam.ortho_width) and cam.ortho_width <= 0:
-            c.add(cam, "ortho_width", f"must be > 0, got {_show(cam.ortho_width)}")
-    else:
-        c.add(cam, "projection", f"must be 'perspective' or 'orthographic', got {_show(cam.projection)}")
+    # Both extents reach the backends whatever the projection: both must be numbers; the one
+    # the projection uses must be in range.
+    fov_ok = c.real(cam, "horizontal_fov_deg", cam.horizontal_fov_deg)
+    width_ok = c.real(cam, "ortho_width", cam.ortho_width)
+    if not c.one_of(cam, "projection", ("perspective", "orthographic")):
+        pass
+    elif cam.projection == "perspective":
+        if fov_ok and not 0 < cam.horizontal_fov_deg < 180:
+            c.add(cam, "horizontal_fov_deg", f"must be in (0, 180) degrees, got {_show(cam.horizontal_fov_deg)}")
+    elif width_ok and not MIN_ORTHO_WIDTH <= cam.ortho_width <= MAX_ORTHO_WIDTH:
+        c.add(
+            cam,
+            "ortho_width",
+            f"the orthographic view window must be {MIN_ORTHO_WIDTH:g}..{MAX_ORTHO_WIDTH:g} "
+            f"world units wide, got {_show(cam.ortho_width)}",
+        )
 
 
 def _check_settings(c: _Collector, s: RenderSettings) -> None:
@@ -378,19 +439,17 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
             sides_ok = False
     if sides_ok and s.width * s.height > MAX_PIXELS:
         c.add(s, "width", f"width × height must be at most {MAX_PIXELS} pixels, got {s.width} × {s.height}")
-    most = MAX_STRATIFIED_SAMPLES if s.sample_pattern in ("stratified", "adaptive") else MAX_SAMPLES
+    pattern = s.sample_pattern if isinstance(s.sample_pattern, str) else None
+    most = MAX_STRATIFIED_SAMPLES if pattern in ("stratified", "adaptive") else MAX_SAMPLES
     if not isinstance(s.samples, (int, np.integer)) or not 1 <= s.samples <= most:
         c.add(s, "samples", f"must be an integer in 1..{most}, got {_show(s.samples)}")
-    elif s.sample_pattern == "adaptive" and s.samples & (s.samples - 1):
+    elif pattern == "adaptive" and s.samples & (s.samples - 1):
         # its cells halve down to 1/samples of a pixel
         c.add(s, "samples", f"must be a power of 2 for the adaptive pattern (1, 2, 4, 8, 16), got {_show(s.samples)}")
-    if s.sample_pattern not in SAMPLE_PATTERNS:
-        c.add(s, "sample_pattern", f"must be one of {', '.join(SAMPLE_PATTERNS)}, got {_show(s.sample_pattern)}")
+    c.one_of(s, "sample_pattern", SAMPLE_PATTERNS)
     c.unit_interval(s, "aa_threshold")  # POV-Ray clips +A to [0, 1]
-    if s.specular not in ("seed", "povray-classic"):
-        c.add(s, "specular", f"must be 'seed' or 'povray-classic', got {_show(s.specular)}")
-    if s.numerics not in NUMERICS:
-        c.add(s, "numerics", f"must be one of {', '.join(NUMERICS)}, got {_show(s.numerics)}")
+    c.one_of(s, "specular", ("seed", "povray-classic"))
+    c.one_of(s, "numerics", NUMERICS)
     if not isinstance(s.threads, (int, np.integer)) or not 0 <= s.threads <= MAX_THREADS:
         c.add(s, "threads", f"must be an integer in 0..{MAX_THREADS}, got {_show(s.threads)}")
     c.colour(s, "background")
@@ -400,8 +459,7 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
         or not 0 <= s.max_depth <= MAX_DEPTH
     ):
         c.add(s, "max_depth", f"must be an integer in 0..{MAX_DEPTH}, got {_show(s.max_depth)}")
-    if s.transmission not in TRANSMISSION_CONVENTIONS:
-        c.add(s, "transmission", f"must be one of {', '.join(TRANSMISSION_CONVENTIONS)}, got {_show(s.transmission)}")
+    c.one_of(s, "transmission", TRANSMISSION_CONVENTIONS)
 
 
 FALLOFFS = ("none", "inverse-square")
@@ -411,24 +469,33 @@ def _check_light(c: _Collector, light) -> None:
     c.colour(light, "color")
     for term in ("diffuse", "specular"):
         value = getattr(light, term, 1.0)
-        if c.finite(light, term, value) and value < 0:
+        if c.real(light, term, value) and value < 0:
             c.add(light, term, f"must be >= 0, got {_show(value)}")
-    falloff = getattr(light, "falloff", "none")
-    if falloff not in FALLOFFS:
-        c.add(light, "falloff", f"must be one of {', '.join(FALLOFFS)}, got {_show(falloff)}")
-    elif falloff != "none" and getattr(light, "fade_power", 0.0) > 0:
+    fade_power = getattr(light, "fade_power", 0.0)
+    if hasattr(light, "falloff") and not c.one_of(light, "falloff", FALLOFFS):
+        pass
+    elif getattr(light, "falloff", "none") != "none" and _number(fade_power) and fade_power > 0:
         c.add(light, "fade_power", "must be 0 with falloff 'inverse-square' (the fade is POV-Ray's alternative)")
     if isinstance(light, PointLight):
         c.position(light, "position", light.position)
         cone = light.cone
-        if cone is not None:
-            axis = np.asarray(cone.axis, dtype=np.float64)
+        if cone is not None and not isinstance(cone, Cone):
+            c.add(light, "cone", f"must be a Cone (or None), got {type(cone).__name__}")
+        elif cone is not None and not all(_number(x) for x in (cone.cos_outer, cone.cos_inner, cone.focus)):
+            c.add(
+                light,
+                "cone",
+                "cos_outer, cos_inner and focus must be numbers, got "
+                f"{_show(cone.cos_outer)}, {_show(cone.cos_inner)}, {_show(cone.focus)}",
+            )
+        elif cone is not None:
+            axis = np.asarray(cone.axis if _is_triple(cone.axis) and all(_number(x) for x in cone.axis) else [np.nan])
             if (
                 axis.shape != (3,)
                 or not np.all(np.isfinite(axis))
                 or abs(float(np.linalg.norm(axis)) - 1) > UNIT_TOLERANCE
             ):
-                c.add(light, "cone", f"the cone's axis must be a finite unit vector, got {_show(tuple(cone.axis))}")
+                c.add(light, "cone", f"the cone's axis must be a finite unit vector, got {_show(cone.axis)}")
             if not (
                 np.isfinite(cone.cos_outer)
                 and np.isfinite(cone.cos_inner)
@@ -441,8 +508,8 @@ def _check_light(c: _Collector, light) -> None:
                 )
             if not (np.isfinite(cone.focus) and cone.focus >= 0):
                 c.add(light, "cone", f"the cone's focus must be finite and >= 0, got {_show(cone.focus)}")
-        fd_ok = c.finite(light, "fade_distance", light.fade_distance)
-        if c.finite(light, "fade_power", light.fade_power):
+        fd_ok = c.real(light, "fade_distance", light.fade_distance)
+        if c.real(light, "fade_power", light.fade_power):
             if light.fade_power < 0:
                 c.add(light, "fade_power", f"must be >= 0, got {_show(light.fade_power)}")
             elif light.fade_power > 0 and fd_ok and light.fade_distance <= 0:
@@ -461,7 +528,7 @@ def _check_light(c: _Collector, light) -> None:
         c.adaptive(light)
     elif isinstance(light, SphereAreaLight):
         c.position(light, "center", light.center)
-        if c.finite(light, "radius", light.radius) and light.radius <= 0:
+        if c.real(light, "radius", light.radius) and light.radius <= 0:
             c.add(light, "radius", f"must be > 0, got {_show(light.radius)}")
         c.samples_2k1(light)
         c.adaptive(light)
@@ -527,7 +594,7 @@ class _Copy:
 
 
 def _check_mesh(c: _Collector, mesh: TriangleMesh) -> None:
-    c.position(mesh, "points", mesh.points)
+    c.coordinates(mesh, "points", mesh.points)
     n_points = len(mesh.points)
     tri = mesh.triangles
     if tri.size and (tri.min() < 0 or tri.max() >= n_points):

@@ -9,6 +9,7 @@ import os
 from .options import (
     add_cluster_options,
     add_mapping_option,
+    add_sandbox_option,
     add_scene_argument,
     add_threads_option,
     float_in,
@@ -66,6 +67,7 @@ def add_bench_command(sub) -> None:
         "where the settings run (each one a Dask task; a task never shares its cores with another)"
     )
     add_cluster_options(group, "", "as many as the cores hold renders of --threads, one with all threads")
+    add_sandbox_option(p)
     p.set_defaults(func=run_bench)
 
 
@@ -76,7 +78,7 @@ def run_bench(args) -> int:
     from .. import bench, bench_tasks
     from ..rendering import check_settings, load_scene
 
-    scene, warnings = load_scene(args.scene)
+    scene, warnings = load_scene(args.scene, sandbox=args.sandbox)  # then read again in process: read once
     print_warnings(warnings)
     overrides = replace(overrides_from_args(args), width=args.width or BENCH_WIDTH)
     settings = check_settings(scene, overrides.settings(scene))

@@ -50,7 +50,10 @@ def run_frames(args, task, arguments, label: str, frames: tuple[int, ...] | None
     from ..rendering import load_scene
 
     frames = args.frames if frames is None else frames
-    _, warnings = load_scene(args.scene, time=float(frames[0]), camera=getattr(args, "camera", None))
+    # The tasks then reopen the file in process: it was read once, here (sandboxed if need be).
+    _, warnings = load_scene(
+        args.scene, time=float(frames[0]), sandbox=getattr(args, "sandbox", None), camera=getattr(args, "camera", None)
+    )
     print_warnings(warnings)
     bar = ProgressBar("frames")
 

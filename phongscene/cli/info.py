@@ -27,6 +27,7 @@ def add_info_command(sub) -> None:
         help="print the folder of the Phong shader's Sdr definition and exit: other USD tools know the "
         "shader with PXR_SDR_FS_PLUGIN_SEARCH_PATHS=<it> PXR_SDR_FS_PLUGIN_ALLOWED_EXTS=usda",
     )
+    add_sandbox_option(p)
     p.set_defaults(func=run_info)
 
 
@@ -38,9 +39,9 @@ def run_info(args) -> int:
         return EXIT_OK
     if args.scene is None:
         raise UsageError("info needs SCENE (or --usd-plugin-path)")
-    from ..usd import read_usd
+    from ..scene_files import read_scene_file
 
-    result = read_usd(args.scene, camera=args.camera)
+    result = read_scene_file(args.scene, sandbox=args.sandbox, camera=args.camera)
     scene = result.scene
     print(f"file: {scene.source_file}")
     print("prims -> model nodes:")
@@ -132,12 +133,9 @@ def add_validate_command(sub) -> None:
 
 
 def run_validate(args) -> int:
-    if args.sandbox:
-        from ..sandbox import read_usd_sandboxed as read_usd
-    else:
-        from ..usd import read_usd
+    from ..scene_files import read_scene_file
 
-    result = read_usd(args.scene)
+    result = read_scene_file(args.scene, sandbox=args.sandbox)
     if args.strict and result.warnings:
         for warning in result.warnings:
             print(f"error: {args.scene}: {warning}", file=sys.stderr)

@@ -290,9 +290,12 @@ def add_sandbox_option(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--no-sandbox",
         dest="sandbox",
-        action="store_false",
-        help="read SCENE in this process (default: in a child process with a memory limit, so that a "
-        "corrupt file that crashes USD is an error, not a crash; ~0.5 s more)",
+        action="store_const",
+        const=False,
+        default=None,
+        help="read SCENE in this process (default: a binary file, or one naming other files, is read in "
+        "a child process with a memory limit, so that a corrupt file that crashes USD is an error, not a "
+        "crash; ~0.5 s more; a self-contained .usda is read in process)",
     )
 
 
@@ -350,7 +353,9 @@ def scene_and_settings(args, with_warnings: bool = False):
     from ..rendering import load_scene
 
     overrides = overrides_from_args(args)
-    scene, warnings = load_scene(args.scene, time=overrides.time, camera=overrides.camera)
+    scene, warnings = load_scene(
+        args.scene, time=overrides.time, sandbox=getattr(args, "sandbox", None), camera=overrides.camera
+    )
     print_warnings(warnings)
     scene, settings = overrides.apply(scene)
     return (scene, settings, warnings) if with_warnings else (scene, settings)

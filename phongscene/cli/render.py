@@ -20,6 +20,7 @@ from .options import (
     BACKEND_CHOICES,
     UsageError,
     add_override_options,
+    add_sandbox_option,
     add_scene_argument,
     add_time_options,
     add_timeout_option,
@@ -51,6 +52,7 @@ def add_render_command(sub) -> None:
     add_time_options(
         p, "one image per frame, #### in IMAGE becomes the frame number", skip_existing=True, contact_sheet=True
     )
+    add_sandbox_option(p)
     p.set_defaults(func=run_render)
 
 
@@ -152,6 +154,7 @@ def add_compile_command(sub) -> None:
         "finish per material); default: the scene's specular convention",
     )
     add_time_options(p, "a .pov and an .ini per frame, #### in OUT.pov becomes the frame number", skip_existing=True)
+    add_sandbox_option(p)
     p.set_defaults(func=run_compile)
 
 

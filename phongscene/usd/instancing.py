@@ -104,6 +104,18 @@ class Instancing:
         if bad.any():
             ctx.problem(prim, "protoIndices", f"{int(bad.sum())} indices out of range [0, {len(prototypes)})")
             return
+        # One entry per instance in every per-instance array that is authored (USD only warns and
+        # places no instance at all): a problem naming the array that is off.
+        for name in ("positions", "orientations", "orientationsf", "scales", "velocities", "angularVelocities"):
+            attr = prim.GetAttribute(name)
+            values = attr.Get(ctx.time) if attr else None
+            count = 0 if values is None else len(values)
+            if (name == "positions" and count == 0) or (count and count != len(proto_indices)):
+                got = "none" if count == 0 else str(count)
+                ctx.problem(
+                    prim, name, f"must have one entry per instance ({len(proto_indices)} protoIndices), got {got}"
+                )
+                return
         transforms = instancer.ComputeInstanceTransformsAtTime(
             ctx.time, ctx.time, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
         )

@@ -28,6 +28,11 @@ from .context import ReadContext, unit
 from .layers import not_regular
 from .names import INT_TYPES, STRING_TYPES
 
+# inputs:colorTemperature, Kelvin: UsdLux.BlackbodyTemperatureAsRgb tabulates 1000..10000 K and
+# returns the end colours beyond (500 K and 1e38 K give 1000 K's and 10000 K's colour), so a
+# temperature outside cannot be honoured by any renderer that follows UsdLux.
+MIN_KELVIN = 1000.0
+MAX_KELVIN = 10000.0
 DEFAULT_SHADOW_SAMPLES = 9  # phong:shadowSamples on area lights: a 9×9 grid (2^3 + 1)
 
 
@@ -37,9 +42,20 @@ def _luminance(ctx: ReadContext, prim: Usd.Prim) -> np.ndarray:
     api = UsdLux.LightAPI(prim)
     intensity = ctx.number(prim, "inputs:intensity", 1.0, minimum=0.0)
     exposure = ctx.number(prim, "inputs:exposure", 0.0)
-    color = np.asarray(ctx.color(prim, "inputs:color", (1.0, 1.0, 1.0)), dtype=np.float64)  # >= 0: validate
+    color = np.asarray(ctx.color(prim, "inputs:color", (1.0, 1.0, 1.0)), dtype=np.float64)
+    if np.any(color < 0):  # here, not only in validate: a factor of 0 (radius 0) would hide it
+        ctx.problem(prim, "inputs:color", f"must be >= 0 in every channel, got {tuple(float(c) for c in color)}")
+        color = np.zeros(3)  # reported once
     if api.GetEnableColorTemperatureAttr().Get(ctx.time):
         kelvin = ctx.number(prim, "inputs:colorTemperature", 6500.0, minimum=0.0, strict=True)
+        if not MIN_KELVIN <= kelvin <= MAX_KELVIN:
+            ctx.problem(
+                prim,
+                "inputs:colorTemperature",
+                f"must be in [{MIN_KELVIN:g}, {MAX_KELVIN:g}] K (the range "
+                f"UsdLux's blackbody table covers; it clamps beyond), got {kelvin!r}",
+            )
+            kelvin = 6500.0
         color = color * np.asarray(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
     with np.errstate(over="ignore"):
         scale = np.float64(intensity) * np.exp2(np.float64(exposure))

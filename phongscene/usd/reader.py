@@ -53,7 +53,7 @@ class ReadResult:
     cameras: list[str] = field(default_factory=list)  # every Camera prim that renders, in stage order
 
 
-def load_usd(source, time: float | None = None, camera: str | None = None) -> Scene:
+def load_usd(source, time: float | None = None, camera: str | None = None, *, sandbox: bool | None = None) -> Scene:
     """Read a USD file (.usda/.usdc/.usdz) or an open ``Usd.Stage`` into a validated Scene.
 
     Args:
@@ -63,11 +63,17 @@ def load_usd(source, time: float | None = None, camera: str | None = None) -> Sc
             when it is animated (with a warning), else its default values.
         camera: the path of the Camera prim to render through; None: the RenderSettings'
             camera, else the stage's first (with a warning when it has more than one).
+        sandbox: None (default): a file USD might crash on (binary, or naming other files) is
+            read in a child process with a memory limit, others in this one
+            (``phongscene.scene_files``); True / False: always / never in the child.
 
     Raises:
-        SceneError: listing every problem found, each with file, prim path and attribute.
+        SceneError: listing every problem found, each with file, prim path and attribute (also
+            when USD crashed or ran out of memory in the child).
     """
-    return read_usd(source, time=time, camera=camera).scene
+    from ..scene_files import read_scene_file
+
+    return read_scene_file(source, time, sandbox=sandbox, camera=camera).scene
 
 
 @dataclass(eq=False)
@@ -327,7 +333,15 @@ def _usd_error_text(error: Exception) -> str:
         return "the file is not valid UTF-8 text (USD's message could not be decoded)"
     messages = [m.group(1) for m in re.finditer(r"Error in '[^']*' at line \d+ in file \S+ : '(.*)'", text)]
     specific = [m for m in messages if not m.startswith("Failed to open layer")]
-    return (specific or messages or [text.strip()])[-1]
+    message = (specific or messages or [text.strip()])[-1]
+    if len(message) > MAX_USD_MESSAGE_CHARS:  # a corrupt crate lists every invalid spec: the start says it
+        message = message[:MAX_USD_MESSAGE_CHARS] + f"... ({len(message) - MAX_USD_MESSAGE_CHARS} more characters)"
+    return message
+
+
+# USD's message about a file it cannot open, at most this long in our one error line (a corrupt
+# .usdz listed 2,900 characters of "spec ... has invalid spec type"; the first specs say it).
+MAX_USD_MESSAGE_CHARS = 400
 
 
 def _warm_transform(ctx: ReadContext, prim: Usd.Prim) -> None:
@@ -381,6 +395,17 @@ def _gprim(
     path = str(prim.GetPath())
     if type_name not in _GEOMETRY_TYPES:
         ctx.unsupported["unsupported geometry (ignored)"].append(f"{path} ({type_name})")
+        return
+    # A projective transform (a matrix whose last column, in USD's row-vector convention, is not
+    # 0 0 0 1) maps points by a division by w, which neither backend's geometry can carry. Products
+    # of affine matrices keep that column exactly, so the comparison is exact.
+    if np.all(np.isfinite(world)) and not np.array_equal(world[3], [0.0, 0.0, 0.0, 1.0]):
+        ctx.problem(
+            prim,
+            "xformOpOrder",
+            "the world transform is projective (its matrix's last column is "
+            f"{tuple(float(x) for x in world[3])}, not (0, 0, 0, 1)): only affine transforms can be rendered",
+        )
         return
     material = materials.for_gprim(prim)
     if type_name != "Mesh" and material.textures:

@@ -5,9 +5,10 @@ end in exit 0, 2 or 3 with short ``error:`` / ``warning:`` lines: never a traceb
 
 Seeds: the examples and tests/scenes (valid, warned and invalid ones), each also written as
 .usdc and packed as .usdz. Mutations: bytes overwritten, inserted or deleted, a chunk
-duplicated, or the file truncated, at positions Hypothesis draws. Each file is run as
-``python -m phongscene validate`` in a child process with a timeout, two at a time (the machine
-has two cores)."""
+duplicated, or the file truncated, at positions Hypothesis draws. Each file is run through one
+of ``validate``, ``render``, ``info`` and ``compile`` (in turn: issue 27.5) in a child process with
+a timeout, two at a time (the machine has two cores). benchmarks/fuzz_campaign.py runs every
+command on thousands of mutants by hand."""
 
 from __future__ import annotations
 
@@ -33,6 +34,15 @@ TIMEOUT_S = 60
 MAX_STDERR_LINES = 40
 MAX_LINE_CHARS = 2000
 ALLOWED_EXIT = {0, 2, 3}
+# The commands a mutant goes through ({out}: a fresh folder for the outputs); render small.
+COMMANDS = (
+    ("validate",),
+    ("render", "-o", "{out}/image.png", "--width", "16"),
+    ("info",),
+    ("compile", "-o", "{out}/scene.pov"),
+)
+# Lines a command prints on stderr besides errors and warnings (render's timing line).
+INFO_PREFIXES = ("native: ", "povray: ")
 
 
 def _seeds(root: Path) -> list[Path]:
@@ -85,9 +95,11 @@ def mutate(data: bytes, edits) -> bytes:
     return data
 
 
-def _validate(path: Path) -> subprocess.CompletedProcess:
+def run_command(path: Path, command: tuple[str, ...], out: Path) -> subprocess.CompletedProcess:
+    """``python -m phongscene COMMAND path ...`` with its outputs in ``out``."""
+    args = [a.format(out=out) for a in command]
     return subprocess.run(
-        [sys.executable, "-m", "phongscene", "validate", str(path)], capture_output=True, timeout=TIMEOUT_S
+        [sys.executable, "-m", "phongscene", args[0], str(path), *args[1:]], capture_output=True, timeout=TIMEOUT_S
     )
 
 
@@ -99,7 +111,7 @@ def check_clear_answer(path: Path, result: subprocess.CompletedProcess) -> None:
     lines = err.splitlines()
     assert len(lines) <= MAX_STDERR_LINES, where
     for line in lines:
-        assert line.startswith(("error: ", "warning: ")) and len(line) <= MAX_LINE_CHARS, where
+        assert line.startswith(("error: ", "warning: ", *INFO_PREFIXES)) and len(line) <= MAX_LINE_CHARS, where
     if result.returncode == 2:
         assert any(line.startswith("error: ") for line in lines), where
 
@@ -116,16 +128,20 @@ def check_clear_answer(path: Path, result: subprocess.CompletedProcess) -> None:
 )
 def test_corrupt_files_get_a_clear_answer(seeds, tmp_path_factory, files):
     root = tmp_path_factory.mktemp("mutants")
-    paths = []
+    runs = []
     for i, (which, edits) in enumerate(files):
         original = seeds[which % len(seeds)]
         path = root / f"m{i}_{original.name}"
         path.write_bytes(mutate(original.read_bytes(), edits))
-        paths.append(path)
+        out = root / f"out{i}"
+        out.mkdir()
+        runs.append((path, COMMANDS[(which + i) % len(COMMANDS)], out))
     with ThreadPoolExecutor(max_workers=2) as pool:
-        results = list(pool.map(_validate, paths))
-    for path, result in zip(paths, results):
+        results = list(pool.map(lambda run: run_command(*run), runs))
+    for (path, command, out), result in zip(runs, results):
         check_clear_answer(path, result)
+        if result.returncode != 0:  # no partial output
+            assert not list(out.iterdir()), f"{path.name} {command[0]}: left {list(out.iterdir())}"
 
 
 # -- texture files (issue 29, item 6) ------------------------------------------------------------
