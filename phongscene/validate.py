@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 
 from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -21,8 +22,10 @@ from .scene import (
     SAMPLE_PATTERNS,
     Camera,
     DirectionalLight,
+    Instances,
     PhongMaterial,
     PointLight,
+    Prototype,
     RectAreaLight,
     RenderSettings,
     Scene,
@@ -151,6 +154,7 @@ _ITEM_TYPES = {
     "lights": (PointLight, DirectionalLight, RectAreaLight, SphereAreaLight),
     "spheres": (Sphere,),
     "meshes": (TriangleMesh,),
+    "instances": (Instances,),
 }
 
 
@@ -172,6 +176,10 @@ def _wrong_types(scene: Scene) -> list[Problem]:
             if not isinstance(item, kinds):
                 out.append(Problem(f"must be {expected}, got {type(item).__name__}", attribute=f"{name}[{i}]",
                                    file=scene.source_file))
+            elif name == "instances":
+                if not isinstance(item.prototype, Prototype) or not all(isinstance(m, TriangleMesh) for m in item.prototype.meshes):
+                    out.append(Problem("must be a Prototype of TriangleMeshes", prim=item.source, attribute=f"{name}[{i}]",
+                                       file=scene.source_file))
             elif name != "lights" and not isinstance(item.material, PhongMaterial):
                 out.append(Problem(f"must be a PhongMaterial, got {type(item.material).__name__}",
                                    prim=item.source, attribute="material", file=scene.source_file))
@@ -219,7 +227,10 @@ def validate(scene: Scene) -> list[Problem]:
         materials.append(sphere.material)
         if sphere.material.textures:
             c.add(sphere, "material", "a textured material needs texture coordinates, which only meshes carry")
-    for mesh in scene.meshes:
+    for group in scene.instances:
+        _check_instances(c, group)
+    prototype_meshes = [m for p in scene.prototypes for m in p.meshes]
+    for mesh in (*scene.meshes, *prototype_meshes):
         _check_mesh(c, mesh)
         materials.append(mesh.material)
         if mesh.material.textures and mesh.uvs is None:
@@ -416,6 +427,33 @@ def _check_sphere(c: _Collector, s: Sphere) -> None:
         if not reach <= MAX_COORDINATE:
             c.add(s, "world_from_object", f"the sphere must lie within ±{MAX_COORDINATE:g} (so that distances and "
                   f"their squares stay finite), it reaches {reach:.3g}")
+
+
+def _check_instances(c: _Collector, group: Instances) -> None:
+    """Each copy's transform: finite, affine (last row 0 0 0 1) and invertible (a ray is
+    carried into the prototype's space by its inverse); one problem per group, counting them."""
+    m = group.world_from_prototype
+    if not m.size:
+        return
+    finite = np.isfinite(m).all(axis=(1, 2))
+    affine = np.all(m[:, 3, :] == (0.0, 0.0, 0.0, 1.0), axis=1)
+    a = np.where(finite[:, None, None], m[:, :3, :3], 1.0)
+    # is_singular, for all copies at once (the same scale-invariant test).
+    scale = np.prod(np.linalg.norm(a, axis=1), axis=1)
+    singular = (scale == 0) | (np.abs(np.linalg.det(a)) <= SINGULAR_RELATIVE_DET * scale)
+    bad = ~finite | ~affine | singular
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        what = "not finite" if not finite[k] else "not affine" if not affine[k] else "singular (a zero or degenerate scale)"
+        c.add(_Copy(group.source_of(k)), "world_from_prototype",
+              f"{int(bad.sum())} of {len(m)} instance transforms are invalid, e.g. copy {k}: {what}")
+
+
+@dataclass(frozen=True)
+class _Copy:
+    """An instance as a node problems can name (its prim)."""
+
+    source: str
 
 
 def _check_mesh(c: _Collector, mesh: TriangleMesh) -> None:

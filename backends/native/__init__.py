@@ -218,7 +218,29 @@ def build(scene: Scene) -> _native.Scene:
     textures = texture_arrays(scene)
     if textures is not None:
         native.set_textures(**textures)
+    add_instances(native, scene, "scale-invariant")
     return native
+
+
+def add_instances(native: _native.Scene, scene: Scene, numerics: str) -> None:
+    """Give ``native`` the scene's instances: each prototype built once as a C++ scene of its
+    own (its meshes in prototype space, with its BVH, in the same numerics as the world's) and
+    placed by every transform that refers to it (the two-level BVH: src/instances.hpp)."""
+    groups: dict[int, list] = {}
+    for group in scene.instances:
+        groups.setdefault(id(group.prototype), []).append(group)
+    for n, same in enumerate(groups.values()):
+        prototype = same[0].prototype
+        part = Scene(meshes=prototype.meshes, source_file=scene.source_file)
+        arrays = scene_arrays(part)
+        if numerics != "scale-invariant":
+            arrays = _as_povray_stores(arrays, part)
+        built = _native.Scene(**arrays)
+        textures = texture_arrays(part, half_texels=numerics != "scale-invariant")
+        if textures is not None:
+            built.set_textures(**textures)
+        transforms = np.ascontiguousarray(np.concatenate([g.world_from_prototype for g in same]), dtype=np.float64)
+        native.add_instances(built, transforms, rebuild=n == len(groups) - 1)  # the top level once, at the end
 
 
 def render(
@@ -273,7 +295,9 @@ def prepare(
     # (phongscene.progress.report_phase: a progress callable may have a phase method).
     phase = getattr(progress, "phase", None)
     if callable(phase):
-        phase(f"building the BVH ({scene.triangle_count} triangles)" if scene.meshes else "building the BVH")
+        phase(f"building the BVH ({scene.triangle_count} triangles"
+              + (f", {scene.instance_count} instances" if scene.instances else "") + ")"
+              if scene.meshes or scene.instances else "building the BVH")
     arrays = scene_arrays(scene)
     if s.numerics != "scale-invariant":
         arrays = _as_povray_stores(arrays, scene)
@@ -281,6 +305,7 @@ def prepare(
     textures = texture_arrays(scene, half_texels=s.numerics != "scale-invariant")
     if textures is not None:
         native.set_textures(**textures)
+    add_instances(native, scene, s.numerics)
     return PreparedRender(native, _camera(scene.camera), _settings(s), progress)
 
 

@@ -42,7 +42,8 @@ def run_info(args) -> int:
     print("prims -> model nodes:")
     for prim, node in result.nodes:
         print(f"  {prim} -> {node}")
-    materials = {m.material for m in (*scene.spheres, *scene.meshes)}  # equal materials count once
+    prototype_meshes = tuple(m for p in scene.prototypes for m in p.meshes)
+    materials = {m.material for m in (*scene.spheres, *scene.meshes, *prototype_meshes)}  # equal materials count once
     kinds: dict[str, int] = {}
     for light in scene.lights:
         kinds[type(light).__name__] = kinds.get(type(light).__name__, 0) + 1
@@ -51,6 +52,10 @@ def run_info(args) -> int:
         f"{len(scene.lights)} lights ({', '.join(f'{n} {k}' for k, n in sorted(kinds.items())) or 'none'}), "
         f"{len(materials)} materials"
     )
+    if scene.instances:
+        # Triangles above are stored ones (each prototype once); a flattened copy would hold these.
+        print(f"instancing: {len(scene.prototypes)} prototypes, {scene.instance_count} instances, "
+              f"{scene.instanced_triangle_count} triangles drawn")
     textured = [m for m in materials if m.textures]
     if textured:
         print("textures:")

@@ -29,7 +29,8 @@ from . import geometry
 from .camera import conform_to_aperture, read_camera, read_render_settings
 from .diagnostics import as_warnings, usd_output
 from .layers import preflight
-from .context import ReadContext, gf_to_numpy, tf_error_text
+from .context import ReadContext, tf_error_text
+from .instancing import Instancing
 from .lights import read_light
 from .materials import MaterialReader
 from .read_cache import KeptRead, ReadCache
@@ -38,7 +39,7 @@ from .names import in_usd_terms
 from .scene_checks import warn_clipping_lights, warn_single_sided
 from .stage_checks import check_stage
 
-_GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cone", "Capsule"}
+_GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cone", "Capsule", "Points"}
 
 
 @dataclass
@@ -160,22 +161,29 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
 
     it = iter(Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
     renderable = _Renderable(ctx)
+    instancing = Instancing(
+        ctx, lambda prim, world, spheres, meshes: _gprim(ctx, prim, world, materials, spheres, meshes), lambda: _Renderable(ctx)
+    )
     for prim in it:
         if not renderable(prim):
             it.PruneChildren()
             continue
         _warm_transform(ctx, prim)
-        if prim.IsA(UsdGeom.Camera):
+        if prim.IsInstance() and instancing.keeps_instanced(prim):
+            it.PruneChildren()  # the prototype is read once, for every instance
+            parts.read(prim, lambda: instancing.instance(prim, ctx.world(prim)), keep=False)
+        elif prim.IsA(UsdGeom.Camera):
             if camera_prim is None:
                 camera_prim = prim
         elif prim.HasAPI(UsdLux.LightAPI):
             parts.read(prim, lambda: read_light(ctx, prim, lights, ambient))
         elif prim.IsA(UsdGeom.PointInstancer):
             it.PruneChildren()  # its prototypes may be anywhere: read at every time
-            parts.read(prim, lambda: _instances(ctx, prim, ctx.world(prim), materials, spheres, meshes), keep=False)
+            parts.read(prim, lambda: instancing.instancer(prim, ctx.world(prim)), keep=False)
         elif prim.IsA(UsdGeom.Gprim):
             parts.read(prim, lambda: _gprim(ctx, prim, ctx.world(prim), materials, spheres, meshes))
 
+    instances = instancing.build(spheres, meshes)
     if camera_prim is not None:
         camera = read_camera(ctx, camera_prim)
         if camera is not None:
@@ -196,6 +204,7 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
         meshes=tuple(meshes),
         settings=settings,
         source_file=file,
+        instances=instances,
     )
     if camera is None:
         scene = replace(scene, camera=framing_camera(scene))
@@ -351,6 +360,11 @@ def _gprim(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, materials: Mater
         spheres.append(geometry.sphere(ctx, prim, world, material))
         ctx.nodes.append((path, "Sphere"))
         return
+    if type_name == "Points":
+        placed = geometry.points(ctx, prim, world, material)
+        spheres.extend(placed)
+        ctx.nodes.append((path, f"Points ({len(placed)} spheres)"))
+        return
     if type_name == "Mesh":
         subsets = materials.face_subsets(prim)
         textured = [m for m in (material, *(m for _, m, _ in subsets)) if m.textures]
@@ -364,53 +378,3 @@ def _gprim(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, materials: Mater
     for mesh in built:
         meshes.append(mesh)
         ctx.nodes.append((mesh.source, f"TriangleMesh ({len(mesh.triangles)} triangles)"))
-
-
-def _instances(
-    ctx: ReadContext, instancer_prim: Usd.Prim, instancer_world: np.ndarray, materials, spheres, meshes, expanding=()
-) -> None:
-    """Expand a PointInstancer: each instance's prototype subtree, placed by the instance's
-    transform (which includes the prototype root's own transform) and the instancer's.
-    ``expanding`` are the instancers being expanded around this one: a prototype that contains
-    one of them (or this one) would recurse forever, and is a problem."""
-    instancer = UsdGeom.PointInstancer(instancer_prim)
-    prototypes = instancer.GetPrototypesRel().GetForwardedTargets()
-    expanding = (*expanding, instancer_prim.GetPath())
-    for target in prototypes:
-        if any(path.HasPrefix(target) for path in expanding):
-            ctx.problem(instancer_prim, "prototypes", f"the prototype {target} contains this instancer (a cycle)")
-            return
-    proto_indices = instancer.GetProtoIndicesAttr().Get(ctx.time)
-    if proto_indices is None or not prototypes:
-        return
-    proto_indices = np.asarray(proto_indices, dtype=np.int64)
-    bad = (proto_indices < 0) | (proto_indices >= len(prototypes))
-    if bad.any():
-        ctx.problem(instancer_prim, "protoIndices", f"{int(bad.sum())} indices out of range [0, {len(prototypes)})")
-        return
-    transforms = instancer.ComputeInstanceTransformsAtTime(
-        ctx.time, ctx.time, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
-    )
-    mask = instancer.ComputeMaskAtTime(ctx.time)
-
-    for i, (proto_index, instance) in enumerate(zip(proto_indices, transforms)):
-        if mask and not mask[i]:
-            continue
-        proto = ctx.stage.GetPrimAtPath(prototypes[proto_index])
-        # instancer-world ← instance ← prototype-root-relative
-        placed = instancer_world @ gf_to_numpy(instance)
-        it = iter(Usd.PrimRange(proto, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
-        renderable = _Renderable(ctx)
-        for prim in it:
-            if not renderable(prim):
-                it.PruneChildren()
-                continue
-            relative, _ = ctx.xforms.ComputeRelativeTransform(prim, proto)
-            local = gf_to_numpy(relative) if prim != proto else np.eye(4)
-            if prim.IsA(UsdGeom.PointInstancer):
-                it.PruneChildren()
-                _instances(ctx, prim, placed @ local, materials, spheres, meshes, expanding)
-            elif prim.IsA(UsdGeom.Gprim):
-                _gprim(ctx, prim, placed @ local, materials, spheres, meshes)
-            elif prim.HasAPI(UsdLux.LightAPI):
-                ctx.unsupported["lights inside PointInstancer prototypes (ignored)"].append(str(prim.GetPath()))

@@ -448,6 +448,8 @@ def write_usd(scene: Scene, path) -> Path:
         SceneError: the scene is invalid (nothing is written: a file with a NaN would not read back).
     """
     check(scene)
+    # Instances are written out as world meshes (a PointInstancer writer is not built yet).
+    scene = scene.flattened()
     path = Path(path)
     texture_files: dict[int, str] = {}
     for t in (t for obj in (*scene.spheres, *scene.meshes) for t in obj.material.textures):

@@ -228,6 +228,13 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     first_triangle_ = std::move(first_triangle);
 }
 
+void Scene::add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
+                          bool rebuild) {
+    if (!instances) instances = std::make_unique<InstanceLayer>();
+    instances->add(std::move(prototype), world_from_prototype, count, rebuild);
+    bounds.grow(instances->bounds);
+}
+
 int32_t Scene::triangle_mesh(size_t slot) const {
     const size_t i = triangle_source[slot];
     return int32_t(std::upper_bound(first_triangle_.begin() + 1, first_triangle_.end(), i) - first_triangle_.begin() - 1);
@@ -270,6 +277,14 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
         }
         return false;
     });
+    // Instances after the world's own primitives: a copy wins only by being closer.
+    if (!instances_empty()) {
+        Hit instance_hit;
+        if (instances->closest_hit(ray, t_min, t_best, instance_hit) && (!found || instance_hit.t < t_best)) {
+            hit = instance_hit;
+            found = true;
+        }
+    }
     return found;
 }
 
@@ -295,7 +310,7 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
         }
         return false;
     });
-    return blocked;
+    return blocked || (!instances_empty() && instances->occluded(ray, t_min, t_max));
 }
 
 int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const {

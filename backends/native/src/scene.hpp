@@ -11,6 +11,7 @@
 
 #include "bvh.hpp"
 #include "bvh4.hpp"
+#include "instances.hpp"
 #include "lights.hpp"
 #include "materials.hpp"
 #include "math.hpp"
@@ -50,6 +51,7 @@ struct Hit {
     double t;
     int32_t ref;
     Barycentric bary;
+    int32_t instance = -1;  // >= 0: the hit is on this instance (InstanceLayer), ref in its prototype
 };
 
 // A candidate occluder of a shadow-ray bundle (Scene::shadow_candidates): the primitive's
@@ -128,7 +130,17 @@ class Scene {
     // triangle row (triangle_source): 6 numbers per triangle; empty without textures.
     std::vector<Texture> textures;
     std::vector<double> corner_uv;
-    Bounds bounds;           // of the geometry (empty without primitives)
+    // Instanced geometry (instances.hpp): null without instances. The geometry above is the
+    // world's own; each instance's lies in its prototype's Scene.
+    std::unique_ptr<InstanceLayer> instances;
+    bool instances_empty() const { return !instances || instances->size() == 0; }
+    // The scene (this, or an instance's prototype) whose primitive `hit.ref` names.
+    const Scene& surface_of(const Hit& hit) const { return hit.instance < 0 ? *this : instances->prototype_of(hit.instance); }
+    // Adds copies of a prototype (instances.hpp) and grows `bounds` by their boxes.
+    void add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
+                       bool rebuild = true);
+
+    Bounds bounds;           // of the geometry, instances included (empty without primitives)
     double magnitude = 0.0;  // largest absolute coordinate of the geometry bounds
 
   private:

@@ -23,6 +23,7 @@ constexpr size_t kMaxBundleCandidates = 32;
 bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
                               std::vector<BundleCandidate>& candidates) const {
     candidates.clear();
+    if (!instances_empty()) return false;  // instances are not candidates: each ray asks occluded()
     if (bvh4_.empty()) return true;
     // Candidate separating axes: x, y, z, the parallelogram's normal and the four side faces of
     // the pyramid (apex hull[0]). Any vector is a valid axis: the hull's extent along it is
