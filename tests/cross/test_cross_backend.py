@@ -4,6 +4,9 @@ half-float precision (POV-Ray's EXR output) at every pixel, under both mappings:
 (POV-Ray's exact seed mapping vs native ``seed``) and ``classic`` (plain POV-Ray
 ``finish { phong }`` vs native ``povray-classic``). Every calibration scene, every example and
 every third-party scene in ``conftest.SHARED_ASSETS`` is covered.
+The native tracer renders in POV-Ray's numerics (``numerics="povray"``: its absolute ray
+tolerances, as ``phongscene diff`` renders), not in the scale-invariant ones, whose shadow window
+follows the scene's size (tests/native/test_native_povray_terminator.py).
 
 Two named allowances (``phongscene.comparison``), each for one known POV-Ray behaviour and only
 for the scenes it can affect; every pixel they let through must be *explained* by the
@@ -126,7 +129,10 @@ def povray_images() -> dict[tuple[str, str, str], object]:
 def _check(case: tuple[str, str, str], povray_images, tmp_path: Path, monkeypatch) -> None:
     kind, name, mapping = case
     scene = _scene(kind, name)
-    settings = settings_for(scene, mapping=mapping)
+    # The native tracer in POV-Ray's numerics (its absolute tolerances), as `phongscene diff`
+    # renders it: in the scale-invariant ones the shadow window follows the scene's size (1.05e-4
+    # for the tutorial's 11 m scene, not POV-Ray's 1e-3), which is a different renderer.
+    settings = replace(settings_for(scene, mapping=mapping), numerics="povray")
     pov = povray_images[case]
     native = render_native_as_povray(scene, settings, mapping)
     allowance, thresholds = _thresholds(scene)
@@ -185,15 +191,7 @@ def test_cross_backend_adaptive_estimator_agrees(case, povray_images, tmp_path, 
 
 
 # Known disagreements, each a finding to fix (strict: the xfail fails once the case agrees).
-KNOWN_DISAGREEMENTS = {
-    # The tutorial's ball on the floor under a 10 cm SphereLight, 64×48: 2 dark pixels at the
-    # ball's lower terminator, (29, 32) and (34, 32), where POV-Ray equals the oracle at its 1e-3
-    # shadow tolerance (0.003432) and the native tracer in POV-Ray numerics equals the oracle at
-    # the cache's 1e-4 window (0.003398): native's POV-Ray numerics use the narrower window for
-    # these area-light shadow rays. `phongscene diff` at 81×54 passes.
-    ("example", "first_scene.usda", "exact"): "native POV-Ray numerics: 1e-4 instead of 1e-3 shadow window at "
-    "a sphere's terminator under a SphereLight (2 pixels)",
-}
+KNOWN_DISAGREEMENTS: dict[tuple[str, str, str], str] = {}
 
 
 def _example_cases():
