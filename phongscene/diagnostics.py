@@ -75,16 +75,21 @@ class ImageChecks:
         """The checks of an image of ``scene`` rendered with ``settings`` (default: the scene's);
         ``reader_warnings``: the USD reader's (they name misspelt light inputs)."""
         settings = scene.settings if settings is None else settings
-        spheres = _Spheres.of(scene)
-        boxes = _object_bounds(scene, spheres)
-        causes = (
-            _camera_causes(scene, spheres)
-            + _light_causes(scene, boxes, spheres, reader_warnings)
-            + _material_causes(scene)
-        )
+        # Heuristics over a valid but possibly extreme scene (a degenerate light, a huge
+        # intensity): an overflow or 0/0 there makes a check inconclusive (inf, nan compare
+        # false), never a warning or an error of its own.
+        with np.errstate(all="ignore"):
+            spheres = _Spheres.of(scene)
+            boxes = _object_bounds(scene, spheres)
+            causes = (
+                _camera_causes(scene, spheres)
+                + _light_causes(scene, boxes, spheres, reader_warnings)
+                + _material_causes(scene)
+            )
+            nothing_in_view = _nothing_in_view(scene, settings, boxes)
         return ImageChecks(
             background=tuple(map(float, settings.background)),
-            nothing_in_view=_nothing_in_view(scene, settings, boxes),
+            nothing_in_view=nothing_in_view,
             causes=tuple(causes),
             light_count=len(scene.lights),
         )

@@ -116,6 +116,7 @@ class Preview:
 
     def render_once(self) -> None:
         """Read the scene, render the coarse pass, then (no change seen meanwhile) the full one."""
+        from .diagnostics import explain_image
         from .rendering import check_settings, load_scene, render
         from .usd.stage_reuse import open_stage, used_files
 
@@ -153,15 +154,17 @@ class Preview:
             if stage == "full" and self._file_states() != self._states:
                 return  # edited again: the next loop renders the new version, coarse first
             try:
-                image = render(scene, "native", pass_settings)
+                # The image's own warnings go on the page (below), not through Python's warnings.
+                image = render(scene, "native", pass_settings, explain=False)
             except BackendError as e:  # the tracer refused (out of memory, say): shown, the next edit retries
                 self._publish(stage="error", errors=[str(e)], warnings=list(warnings), start=start)
                 return
+            explained = explain_image(scene, image, pass_settings, warnings) if stage == "full" else []
             self._publish(
                 stage=stage,
                 png=self._png(image),
                 size=(settings.width, settings.height),
-                warnings=list(warnings),
+                warnings=[*warnings, *explained],
                 start=start,
             )
 

@@ -35,7 +35,12 @@ def test_distinct_messages_are_capped_with_a_count():
 def test_render_prints_at_most_the_cap_and_info_lists_every_warning(tmp_path, capsys):
     scene = tmp_path / "typos.usda"
     # 30 distinct typos (different attributes), each on its own light: 30 distinct warnings.
-    body = "".join(f'def SphereLight "L{i}" {{\n    float inputs:typo{i} = 1\n}}\n' for i in range(30))
+    # The lights stand in front of the sphere, so the image is lit (no image warning joins these).
+    body = "".join(
+        f'def SphereLight "L{i}" {{\n    float inputs:typo{i} = 1\n    double3 xformOp:translate = (0, 0, 4)\n'
+        '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n'
+        for i in range(30)
+    )
     scene.write_text('#usda 1.0\ndef Sphere "S" {\n}\n' + body)
     assert main(["render", str(scene), "-o", str(tmp_path / "out.exr"), "--width", "8", "--height", "8"]) == 0
     rendered = [line for line in capsys.readouterr().err.splitlines() if line.startswith("warning:")]
