@@ -154,6 +154,11 @@ class PhongMaterial:
     diffuse_texture: Texture | None = None
     # cs likewise (the seed convention's highlight colour; povray-classic ignores cs).
     specular_texture: Texture | None = None
+    # Le, emitted radiance added to the shaded colour wherever the surface is seen, lit or not
+    # (Suffern's Emissive material, ch. 14; USD: our shader's emissiveColor, UsdPreviewSurface's
+    # emissiveColor; POV-Ray's finish { emission }). Linear RGB, >= 0. An emissive surface lights
+    # nothing else: only lights do (a RectLight or SphereLight is the emitter that casts light).
+    emission: RGB = (0.0, 0.0, 0.0)
 
     @property
     def textures(self) -> tuple[Texture, ...]:
@@ -162,7 +167,8 @@ class PhongMaterial:
 
     def without_textures(self) -> PhongMaterial:
         """The same material with its constant colours only (the textures' fallbacks)."""
-        return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source)
+        return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source,
+                             emission=self.emission)
 
 
 DEFAULT_MATERIAL = PhongMaterial()
@@ -247,6 +253,36 @@ class Cone:
 
 
 @dataclass(frozen=True, slots=True)
+class Linking:
+    """Which geometry a light reaches, as UsdLux says it: ``shadows`` is ShadowAPI's
+    ``inputs:shadow:enable`` (False: the light casts no shadow rays, everything it illuminates is
+    lit as if nothing were in the way); ``illuminates`` the light's ``collection:lightLink`` and
+    ``shadowed_by`` its ``collection:shadowLink``, each as the ``source`` paths of the geometry
+    the collection includes (None: all geometry, USD's default includeRoot). A node is in a set
+    when its ``source`` is; geometry built in Python names itself by its ``source`` too."""
+
+    shadows: bool = True
+    illuminates: frozenset[str] | None = None  # geometry the light illuminates; None: all
+    shadowed_by: frozenset[str] | None = None  # geometry that casts its shadows; None: all
+
+    def lights(self, source: str) -> bool:
+        """Whether the light illuminates the geometry whose prim is ``source``."""
+        return self.illuminates is None or source in self.illuminates
+
+    def shadows_from(self, source: str) -> bool:
+        """Whether the geometry whose prim is ``source`` casts this light's shadows."""
+        return self.shadows and (self.shadowed_by is None or source in self.shadowed_by)
+
+    @property
+    def default(self) -> bool:
+        """True for a light that lights everything and is shadowed by everything."""
+        return self.shadows and self.illuminates is None and self.shadowed_by is None
+
+
+NO_LINKING = Linking()
+
+
+@dataclass(frozen=True, slots=True)
 class PointLight:
     """A point light. No distance falloff unless ``fade_power > 0`` (POV-Ray's fade rule:
     ``color · 2 / (1 + (d / fade_distance)^fade_power)``)."""
@@ -262,6 +298,7 @@ class PointLight:
     # inputs:specular; >= 0, 1 = the seed's light).
     diffuse: float = 1.0
     specular: float = 1.0
+    linking: Linking = NO_LINKING  # shadows on or off, light and shadow linking
 
 
 @dataclass(frozen=True, slots=True)
@@ -273,6 +310,7 @@ class DirectionalLight:
     source: str = ""
     diffuse: float = 1.0  # multipliers of the two terms, as on PointLight
     specular: float = 1.0
+    linking: Linking = NO_LINKING  # as on PointLight
 
 
 @dataclass(frozen=True, slots=True)
@@ -303,6 +341,7 @@ class RectAreaLight:
     # corners' mean; a cell whose corners agree counts as wholly lit or shadowed. None: POV-Ray's
     # estimators. A power of 2 in 2..16.
     cell_samples: int | None = None
+    linking: Linking = NO_LINKING  # as on PointLight
 
 
 @dataclass(frozen=True, slots=True)
@@ -321,6 +360,7 @@ class SphereAreaLight:
     specular: float = 1.0
     adaptive: int | None = None  # as RectAreaLight.adaptive
     cell_samples: int | None = None  # as RectAreaLight.cell_samples
+    linking: Linking = NO_LINKING  # as on PointLight
 
 
 Light = Union[PointLight, DirectionalLight, RectAreaLight, SphereAreaLight]

@@ -19,6 +19,7 @@ from .scene import (
     SAMPLE_PATTERNS,
     Camera,
     DirectionalLight,
+    Linking,
     PhongMaterial,
     PointLight,
     RectAreaLight,
@@ -260,6 +261,7 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
         c.add(m, "exponent", f"must be >= 0, got {_show(m.exponent)}")
     c.colour(m, "diffuse_color")
     c.colour(m, "specular_color")
+    c.colour(m, "emission")
     for t in m.textures:
         _check_texture(c, t)
 
@@ -324,7 +326,21 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
 FALLOFFS = ("none", "inverse-square")
 
 
+def _check_linking(c: _Collector, light) -> None:
+    linking = getattr(light, "linking", None)
+    if not isinstance(linking, Linking):
+        c.add(light, "linking", f"must be a Linking, got {type(linking).__name__}")
+        return
+    if not isinstance(linking.shadows, (bool, np.bool_)):
+        c.add(light, "linking.shadows", f"must be True or False, got {_show(linking.shadows)}")
+    for field in ("illuminates", "shadowed_by"):
+        members = getattr(linking, field)
+        if members is not None and not (isinstance(members, frozenset) and all(isinstance(m, str) for m in members)):
+            c.add(light, f"linking.{field}", f"must be None or a frozenset of prim paths, got {type(members).__name__}")
+
+
 def _check_light(c: _Collector, light) -> None:
+    _check_linking(c, light)
     c.colour(light, "color")
     for term in ("diffuse", "specular"):
         value = getattr(light, term, 1.0)

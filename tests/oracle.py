@@ -65,6 +65,11 @@ n·l ≥ EPSILON, scaled by its shadow fraction (0/1 for point and directional l
 
   r·l equals Suffern's r_j·wo (ref §4); the differences are the missing n·l on the highlight and
   the missing cs.
+
+Emission (Suffern's Emissive, ch. 14): L += Le wherever the surface is seen, lit or not. Linking
+(UsdLux, model ``Linking``): light j contributes to a hit only when the object hit is in its
+light link; with shadows off its fraction is 1 (no shadow ray); otherwise only the objects of its
+shadow link occlude it.
 """
 
 from __future__ import annotations
@@ -258,6 +263,7 @@ class _Mesh:
     corner_uv: np.ndarray | None = None  # (T, 3, 2) when the material is textured
     texture: object = None  # the material's diffuse Texture
     specular_texture: object = None  # ... and specular Texture
+    source: str = ""  # the mesh's prim (light and shadow linking)
 
 
 # numpy's pad mode for each wrap rule: the image extended beyond its edges is exactly what the
@@ -302,6 +308,8 @@ class _Geometry:
     exponent: np.ndarray
     cd: np.ndarray
     cs: np.ndarray
+    emission: np.ndarray  # (materials, 3) Le
+    sphere_source: list[str]  # each sphere's prim (light and shadow linking)
 
 
 def _prepare(scene: Scene) -> _Geometry:
@@ -337,7 +345,7 @@ def _prepare(scene: Scene) -> _Geometry:
         meshes.append(
             _Mesh(
                 p0, e1, e2, cross_len, flat, corner_normals, material_index(mesh.material), lo - pad, hi + pad,
-                corner_uv, texture, specular,
+                corner_uv, texture, specular, mesh.source,
             )
         )
     return _Geometry(
@@ -351,6 +359,8 @@ def _prepare(scene: Scene) -> _Geometry:
         exponent=np.array([m.exponent for m in materials], dtype=np.float64),
         cd=np.array([m.diffuse_color for m in materials], dtype=np.float64).reshape(-1, 3),
         cs=np.array([m.specular_color for m in materials], dtype=np.float64).reshape(-1, 3),
+        emission=np.array([m.emission for m in materials], dtype=np.float64).reshape(-1, 3),
+        sphere_source=[sphere.source for sphere in scene.spheres],
     )
 
 
@@ -425,8 +435,10 @@ def _mesh_hits(mesh: _Mesh, o: np.ndarray, d: np.ndarray, accept) -> tuple[np.nd
 
 def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
     """Nearest hit with MIN_ISECT_DEPTH <= t < MAX_DISTANCE: (t, material, unflipped normal, cd
-    and cs at the hit: the material's, or its textures' at the hit's uv); t = inf on a miss."""
+    and cs at the hit: the material's, or its textures' at the hit's uv, and the prim of the
+    object hit); t = inf on a miss."""
     n = len(o)
+    source = np.full(n, "", dtype=object)
     best_t = np.full(n, np.inf)
     material = np.full(n, -1, dtype=np.int64)
     normal = np.zeros((n, 3))
@@ -436,7 +448,9 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
     def accept(t, _rows):
         return (t >= MIN_ISECT_DEPTH) & (t < MAX_DISTANCE)
 
-    for inverse, normal_matrix, mat in zip(geo.sphere_object_from_world, geo.sphere_normal_matrix, geo.sphere_material):
+    for inverse, normal_matrix, mat, sphere_source in zip(
+        geo.sphere_object_from_world, geo.sphere_normal_matrix, geo.sphere_material, geo.sphere_source
+    ):
         near, far, hit = _sphere_roots(inverse, o, d)
         t = np.where(hit & accept(near, None), near, np.where(hit & accept(far, None), far, np.inf))
         closer = t < best_t
@@ -444,6 +458,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
             continue
         best_t[closer] = t[closer]
         material[closer] = mat
+        source[closer] = sphere_source
         colour[closer] = geo.cd[mat]
         specular[closer] = geo.cs[mat]
         p_object = (o[closer] + t[closer, None] * d[closer]) @ inverse[:3, :3].T + inverse[:3, 3]
@@ -456,6 +471,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
             continue
         best_t[closer] = t[closer]
         material[closer] = mesh.material
+        source[closer] = mesh.source
         tri, u, v = tri[closer], u[closer], v[closer]
         colour[closer] = geo.cd[mesh.material]
         specular[closer] = geo.cs[mesh.material]
@@ -473,11 +489,12 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
             nw = (1.0 - u - v)[:, None] * c[:, 0] + u[:, None] * c[:, 1] + v[:, None] * c[:, 2]
             nw = nw / np.linalg.norm(nw, axis=1, keepdims=True)
         normal[closer] = nw
-    return best_t, material, normal, colour, specular
+    return best_t, material, normal, colour, specular, source
 
 
-def _occluded(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray) -> np.ndarray:
-    """Shadow test from exactly P along unit l: any hit with SHADOW_TOLERANCE < t < dist − SHADOW_TOLERANCE (ref §6)."""
+def _occluded(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray, casts=None) -> np.ndarray:
+    """Shadow test from exactly P along unit l: any hit with SHADOW_TOLERANCE < t < dist − SHADOW_TOLERANCE (ref §6),
+    by the objects whose prim ``casts(source)`` accepts (a light's shadow link; None: all)."""
     upper = np.minimum(dist - SHADOW_TOLERANCE, MAX_DISTANCE)
     blocked = np.zeros(len(p), dtype=bool)
 
@@ -485,10 +502,14 @@ def _occluded(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray) ->
         hi = upper if rows is None else upper[rows]
         return (t > SHADOW_TOLERANCE) & (t < hi)
 
-    for inverse in geo.sphere_object_from_world:
+    for inverse, source in zip(geo.sphere_object_from_world, geo.sphere_source):
+        if casts is not None and not casts(source):
+            continue
         near, far, hit = _sphere_roots(inverse, p, l)
         blocked |= hit & (accept(near, None) | accept(far, None))
     for mesh in geo.meshes:
+        if casts is not None and not casts(mesh.source):
+            continue
         todo = np.nonzero(~blocked)[0]
         if len(todo) == 0:
             break
@@ -550,9 +571,15 @@ def _light_at_centre(light, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
 
 
 def _visible_fraction(geo: _Geometry, light, p: np.ndarray, l: np.ndarray, dist: np.ndarray) -> np.ndarray:
-    """Shadow factor in [0, 1]: 0/1 for point and directional lights, the weighted grid for area lights."""
+    """Shadow factor in [0, 1]: 0/1 for point and directional lights, the weighted grid for area lights;
+    1 where the light casts no shadows (UsdLux shadow:enable off), and only the objects of its
+    shadow link occlude."""
+    linking = light.linking
+    if not linking.shadows:
+        return np.ones(len(p))
+    casts = None if linking.shadowed_by is None else linking.shadowed_by.__contains__
     if isinstance(light, (PointLight, DirectionalLight)):
-        return (~_occluded(geo, p, l, dist)).astype(np.float64)
+        return (~_occluded(geo, p, l, dist, casts)).astype(np.float64)
     offsets, weights = area_light_offsets(light, l)
     centre = np.asarray(light.center, dtype=np.float64)
     targets = centre + offsets  # (N, K, 3)
@@ -561,19 +588,21 @@ def _visible_fraction(geo: _Geometry, light, p: np.ndarray, l: np.ndarray, dist:
     directions = to_sample / sample_dist[..., None]
     n, k = sample_dist.shape
     points = np.broadcast_to(p[:, None, :], (n, k, 3)).reshape(-1, 3)
-    blocked = _occluded(geo, points, directions.reshape(-1, 3), sample_dist.reshape(-1)).reshape(n, k)
+    blocked = _occluded(geo, points, directions.reshape(-1, 3), sample_dist.reshape(-1), casts).reshape(n, k)
     return (~blocked).astype(np.float64) @ weights
 
 
-def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material, cd, cs) -> np.ndarray:
+def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material, cd, cs, source) -> np.ndarray:
     n = np.where((np.einsum("ij,ij->i", normal, d) > 0.0)[:, None], -normal, normal)  # face the viewer
     wo = -d
     ka, kd, ks, e = geo.ka[material], geo.kd[material], geo.ks[material], geo.exponent[material]
-    radiance = ka[:, None] * cd * np.asarray(scene.ambient.color, dtype=np.float64)
+    radiance = ka[:, None] * cd * np.asarray(scene.ambient.color, dtype=np.float64) + geo.emission[material]
     for light in scene.lights:
         l, dist, lc = _light_at_centre(light, p)
         n_dot_l = np.einsum("ij,ij->i", n, l)
-        lit = np.nonzero(n_dot_l >= EPSILON)[0]  # below the gate: no shadow ray, no contribution
+        # Light linking: a light reaches only the objects of its collection:lightLink.
+        linked = np.array([light.linking.lights(s) for s in source], dtype=bool).reshape(len(p))
+        lit = np.nonzero((n_dot_l >= EPSILON) & linked)[0]  # below the gate: no shadow ray, no contribution
         if len(lit) == 0:
             continue
         fraction = _visible_fraction(geo, light, p[lit], l[lit], dist[lit])
@@ -605,13 +634,15 @@ def _trace(geo: _Geometry, scene: Scene, settings: RenderSettings, origins, dire
     o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
-    t, material, normal, colour, specular = _closest_hit(geo, o, d)
+    t, material, normal, colour, specular, source = _closest_hit(geo, o, d)
     radiance = np.empty((len(o), 3))
     radiance[:] = np.asarray(settings.background, dtype=np.float64)
     hit = np.isfinite(t)
     if hit.any():
         p = o[hit] + t[hit, None] * d[hit]
-        radiance[hit] = _shade(geo, scene, settings, p, d[hit], normal[hit], material[hit], colour[hit], specular[hit])
+        radiance[hit] = _shade(
+            geo, scene, settings, p, d[hit], normal[hit], material[hit], colour[hit], specular[hit], source[hit]
+        )
     return radiance
 
 

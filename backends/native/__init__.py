@@ -52,9 +52,12 @@ _SPECULAR_CONVENTIONS = {
 
 
 def _material(m: PhongMaterial) -> _native.Material:
-    return _native.Material(
+    native = _native.Material(
         ka=m.ka, kd=m.kd, ks=m.ks, exponent=m.exponent, diffuse_color=m.diffuse_color, specular_color=m.specular_color
     )
+    if any(m.emission):
+        native.emission = m.emission
+    return native
 
 
 def _materials(models) -> list[_native.Material]:
@@ -203,13 +206,42 @@ def scene_arrays(scene: Scene) -> dict:
     }
 
 
-def build(scene: Scene) -> _native.Scene:
-    """The C++ scene (geometry, materials, lights and BVH) of a validated ``scene``."""
-    native = _native.Scene(**scene_arrays(scene))
-    textures = texture_arrays(scene)
+def light_link_arrays(scene: Scene) -> dict | None:
+    """The arguments of ``_native.Scene.set_light_links``, or None when every light lights and is
+    shadowed by everything: per light its shadow switch and, over the objects (spheres, then
+    meshes, each named by its ``source``), which it illuminates and which cast its shadows
+    (empty arrays: all of them)."""
+    if all(light.linking.default for light in scene.lights):
+        return None
+    sources = [obj.source for obj in (*scene.spheres, *scene.meshes)]
+    everything = np.zeros(0, np.uint8)
+
+    def flags(members):
+        if members is None:
+            return everything
+        return np.array([source in members for source in sources], dtype=np.uint8)
+
+    return {
+        "shadows": np.array([light.linking.shadows for light in scene.lights], dtype=np.uint8),
+        "lit": [flags(light.linking.illuminates) for light in scene.lights],
+        "casts": [flags(light.linking.shadowed_by) for light in scene.lights],
+    }
+
+
+def _finish(native: _native.Scene, scene: Scene, *, half_texels: bool = False) -> _native.Scene:
+    """Textures and light links onto a built C++ scene."""
+    textures = texture_arrays(scene, half_texels=half_texels)
     if textures is not None:
         native.set_textures(**textures)
+    links = light_link_arrays(scene)
+    if links is not None:
+        native.set_light_links(**links)
     return native
+
+
+def build(scene: Scene) -> _native.Scene:
+    """The C++ scene (geometry, materials, lights and BVH) of a validated ``scene``."""
+    return _finish(_native.Scene(**scene_arrays(scene)), scene)
 
 
 def render(
@@ -268,10 +300,7 @@ def prepare(
     arrays = scene_arrays(scene)
     if s.numerics != "scale-invariant":
         arrays = _as_povray_stores(arrays, scene)
-    native = _native.Scene(**arrays)
-    textures = texture_arrays(scene, half_texels=s.numerics != "scale-invariant")
-    if textures is not None:
-        native.set_textures(**textures)
+    native = _finish(_native.Scene(**arrays), scene, half_texels=s.numerics != "scale-invariant")
     return PreparedRender(native, _camera(scene.camera), _settings(s), progress)
 
 

@@ -234,12 +234,21 @@ def pass_scenes(scene: Scene, mapping: str) -> tuple[Scene, ...]:
     if pass_count(scene, mapping) == 1:
         return (scene,)
     dark = AmbientLight((0.0, 0.0, 0.0), scene.ambient.source)
+    # Emission, like the ambient term, is drawn once, in pass 0.
+    unlit = {}
+    for obj in (*scene.spheres, *scene.meshes):
+        if any(obj.material.emission):
+            unlit.setdefault(obj.material, replace(obj.material, emission=(0.0, 0.0, 0.0)))
+    dark_spheres = tuple(replace(s, material=unlit.get(s.material, s.material)) for s in scene.spheres)
+    dark_meshes = tuple(replace(m, material=unlit.get(m.material, m.material)) for m in scene.meshes)
     return tuple(
         replace(
             scene,
             lights=(light,),
             ambient=scene.ambient if i == 0 else dark,
             settings=scene.settings if i == 0 else replace(scene.settings, background=(0.0, 0.0, 0.0)),
+            spheres=scene.spheres if i == 0 or not unlit else dark_spheres,
+            meshes=scene.meshes if i == 0 or not unlit else dark_meshes,
         )
         for i, light in enumerate(scene.lights)
     )
@@ -306,6 +315,15 @@ class _Compiler:
         with np.errstate(over="ignore", invalid="ignore"):
             self.bounds = scene.bounds()
         self.uv_frame, self.images = pov_images(scene)
+        # Emissive materials: the exact mapping declares Emission per pass (1 in pass 0, else 0),
+        # as the emitted light, like the ambient term, is counted once.
+        self.emission = any(any(o.material.emission) for o in (*scene.spheres, *scene.meshes))
+        # Materials some object wears where a light does not illuminate it (light linking): an
+        # ambient-and-emission-only texture, Material_k_Unlit, is declared beside them.
+        self.unlit_materials = {
+            o.material for o in (*scene.spheres, *scene.meshes)
+            if any(not light.linking.lights(o.source) for light in scene.lights)
+        }
 
     # -- numbers, with the prim named when one is not finite ---------------------------------
 
@@ -505,6 +523,8 @@ class _Compiler:
             first = i == 0
             self.lines.append(f"  global_settings {{ ambient_light rgb {ambient if first else '<0, 0, 0>'} }}")
             self.lines.append(f"  background {{ color rgb {background if first else '<0, 0, 0>'} }}")
+            if self.emission:
+                self.lines.append(f"  #declare Emission = {1 if first else 0};")
             if light is None:
                 self.lines.append("  // no lights: the ambient term only")
                 self.lines.append("  #declare NdotL = pigment { rgbf <0, 0, 0, 1> }")
@@ -536,6 +556,8 @@ class _Compiler:
             self.lines.append(self.comment_text(m, "material", len(self.materials) - 1))
             texture = self.texture(m, name)
             self.lines.append(f"#declare {name} = {texture}")
+            if m in self.unlit_materials:
+                self.lines.append(f"#declare {name}_Unlit = {self.unlit_texture(m)}")
 
     def diffuse_pigment(self, m: PhongMaterial) -> str:
         """cd as a pigment: a colour, or the texture as an ``image_map`` on the mesh's uvs. The
@@ -557,21 +579,51 @@ class _Compiler:
     def diffuse_term(self) -> str:
         return " * Light_Diffuse" if self.light_terms else ""
 
+    def emissive_entry(self, m: PhongMaterial, weight: int) -> str:
+        """The texture_map entry, of ``weight``, that adds Le to an ``average`` of total weight
+        2·``weight`` (it holds half of it): POV-Ray's emission is pigment·emission (ref §4), so the
+        pigment is 2·Le (a power of 2: exact in float, as are the other entries' doubled
+        coefficients). ``Emission`` is the exact mapping's per-pass switch."""
+        colour = self.rgb(tuple(2.0 * c for c in m.emission), m, "emission")
+        emission = "Emission" if self.exact else "1"
+        return f"[{weight} pigment {{ rgb {colour} }} finish {{ ambient 0 diffuse 0 emission {emission} }}]"
+
+    def with_emission(self, m: PhongMaterial, body: str, weight: int = 1) -> str:
+        """A one-texture body (without 'texture') with Le added: the average of it, doubled, and
+        the emissive entry; without emission the plain texture."""
+        if not any(m.emission):
+            return f"texture {{ {body} }}"
+        return f"texture {{ average texture_map {{\n  [{weight} {body}]\n  {self.emissive_entry(m, weight)}\n}} }}"
+
+    def unlit_texture(self, m: PhongMaterial) -> str:
+        """What an object shows where a light does not illuminate it (light linking): its
+        ambient term and emission only (the exact mapping's ambient, ka·cd·La, is the same float
+        as its doubled-and-averaged one: scaling by 2 is exact)."""
+        pigment = self.diffuse_pigment(m)
+        ka = self.coef(2 * m.ka if any(m.emission) else m.ka, m, "ka")
+        return self.with_emission(m, f"{pigment} finish {{ ambient {ka} diffuse 0 }}")
+
     def texture(self, m: PhongMaterial, name: str) -> str:
         self.rgb(m.diffuse_color, m, "diffuse_color")  # checked also when a texture replaces it
+        self.rgb(m.emission, m, "emission")
         pigment = self.diffuse_pigment(m)
         e = self.coef(m.exponent, m, "exponent")
         ks = self.coef(m.ks, m, "ks")  # checked even where no highlight is written
+        emissive = any(m.emission)
+        # With emission, every entry of the average carries twice its share (see emissive_entry).
+        k = 2 if emissive else 1
         if not self.exact or m.ks <= 0:
             # Classic: one idiomatic finish. Exact without a highlight: one plain texture is exact.
-            phong = f" phong {ks} phong_size {e}" if m.ks > 0 else ""
-            return (
-                f"texture {{ {pigment} finish {{ ambient {self.coef(m.ka, m, 'ka')}"
-                f" diffuse {self.coef(m.kd / math.pi, m, 'kd')}{self.diffuse_term}{phong} }} }}"
+            phong = f" phong {self.coef(k * m.ks, m, 'ks')} phong_size {e}" if m.ks > 0 else ""
+            return self.with_emission(
+                m,
+                f"{pigment} finish {{ ambient {self.coef(k * m.ka, m, 'ka')}"
+                f" diffuse {self.coef(k * m.kd / math.pi, m, 'kd')}{self.diffuse_term}{phong} }}",
             )
         # (A) the average of a diffuse texture and a layered specular texture, each doubled.
         # (A texture_map entry cannot hold a layered texture inline: it is declared first.)
-        phong = self.coef(2 * m.ks, m, "ks") + (" * Light_Specular" if self.light_terms else "")
+        # With emission, a third entry of weight 2 (Le): every share doubles again.
+        phong = self.coef(2 * k * m.ks, m, "ks") + (" * Light_Specular" if self.light_terms else "")
         layers = [f"texture {{ pigment {{ rgb 0 }} finish {{ ambient 0 diffuse 0 phong {phong} phong_size {e} }} }}"]
         cs = self.rgb(m.specular_color, m, "specular_color")
         if m.specular_texture is not None:
@@ -584,25 +636,72 @@ class _Compiler:
         self.lines.append(f"#declare {name}_Specular =\n  " + "\n  ".join(layers))
         # (A texture_map entry holds a texture body without the 'texture' keyword.)
         diffuse = (
-            f"{pigment} finish {{ ambient {self.coef(2 * m.ka, m, 'ka')}"
-            f" diffuse {self.coef(2 * m.kd / math.pi, m, 'kd')}{self.diffuse_term} }}"
+            f"{pigment} finish {{ ambient {self.coef(2 * k * m.ka, m, 'ka')}"
+            f" diffuse {self.coef(2 * k * m.kd / math.pi, m, 'kd')}{self.diffuse_term} }}"
         )
-        return f"texture {{ average texture_map {{\n  [1 {diffuse}]\n  [1 {name}_Specular]\n}} }}"
+        emitted = f"\n  {self.emissive_entry(m, 2)}" if emissive else ""
+        return f"texture {{ average texture_map {{\n  [1 {diffuse}]\n  [1 {name}_Specular]{emitted}\n}} }}"
+
+    # -- light and shadow linking ---------------------------------------------------------------
+
+    def linked(self, obj) -> tuple[str, str]:
+        """(the texture an object wears, the modifiers after it) under its lights' linking.
+
+        The exact mapping renders one light per pass, so linking is exact there: in a pass whose
+        light does not illuminate the object it wears its ambient-and-emission-only texture
+        (``_Unlit``), and in a pass whose light it does not shadow (inputs:shadow:enable off, or
+        not in the light's collection:shadowLink) it is ``no_shadow`` (ref §6: no_shadow keeps
+        the highlight; a ``shadowless`` light would drop it, ref §5). The classic mapping has all
+        lights in one pass: an object can only be ``no_shadow`` for all of them, and every light
+        must illuminate it; otherwise an error names the light and the collection."""
+        name = self.materials[obj.material]
+        lights = self.scene.lights
+        unlit = [i for i, light in enumerate(lights) if not light.linking.lights(obj.source)]
+        unshadowing = [i for i, light in enumerate(lights) if not light.linking.shadows_from(obj.source)]
+        if not self.exact:
+            if unlit:
+                raise self._error(
+                    lights[unlit[0]], "collection:lightLink",
+                    f"does not include {sanitize_comment(obj.source) or 'an object'}, which the other lights illuminate: "
+                    "the classic mapping (one POV-Ray pass, all lights) cannot express light linking; use the exact mapping",
+                )
+            if unshadowing and len(unshadowing) != len(lights):
+                light = lights[unshadowing[0]]
+                attribute = "inputs:shadow:enable" if not light.linking.shadows else "collection:shadowLink"
+                raise self._error(
+                    light, attribute,
+                    f"leaves {sanitize_comment(obj.source) or 'an object'} without this light's shadow but other lights "
+                    "keep it: the classic mapping (one POV-Ray pass, all lights) has only no_shadow for all lights; "
+                    "use the exact mapping",
+                )
+            return name, " no_shadow" if unshadowing else ""
+
+        def when(passes: list[int]) -> str:
+            return " | ".join(f"Pass = {i}" for i in passes)
+
+        texture = f"#if ({when(unlit)}) {name}_Unlit #else {name} #end" if unlit else name
+        if not unshadowing:
+            modifiers = ""
+        elif len(unshadowing) == len(lights):
+            modifiers = " no_shadow"
+        else:
+            modifiers = f" #if ({when(unshadowing)}) no_shadow #end"
+        return texture, modifiers
 
     # -- geometry ------------------------------------------------------------------------------
 
     def sphere(self, s: Sphere) -> str:
         m = s.world_from_object
-        texture = self.materials[s.material]
+        texture, modifiers = self.linked(s)
         a, t = m[:3, :3], m[:3, 3]
         r = float(a[0, 0])
         if r > 0 and np.array_equal(a, np.diag([r, r, r])):
-            return f"sphere {{ {self.vec(t, s, 'world_from_object')}, {self.num(r, s, 'world_from_object')} texture {{ {texture} }} }}"
+            return f"sphere {{ {self.vec(t, s, 'world_from_object')}, {self.num(r, s, 'world_from_object')} texture {{ {texture} }}{modifiers} }}"
         # POV's matrix is row-vector: p' = p·M with M's first three rows the images of x, y, z
         # (the columns of our column-vector 3×3) and the translation as the fourth row.
         numbers = ", ".join(self.num(x, s, "world_from_object") for x in (*a.T.reshape(-1), *t))
         # The texture comes after the matrix, so it is not transformed (world-space slope).
-        return f"sphere {{ <0, 0, 0>, 1 matrix <{numbers}> texture {{ {texture} }} }}"
+        return f"sphere {{ <0, 0, 0>, 1 matrix <{numbers}> texture {{ {texture} }}{modifiers} }}"
 
     def float32_block(self, mesh: TriangleMesh, attribute: str, values: np.ndarray) -> str:
         try:
@@ -641,5 +740,6 @@ class _Compiler:
             # Local coordinates keep float32 precision far from the origin; the translate comes
             # before the texture, so the texture (the exact mapping's slope) stays in world space.
             out.append(f"  translate {self.vec(origin, mesh, 'points')}")
-        out.append(f"  texture {{ {self.materials[mesh.material]} }}")
+        texture, modifiers = self.linked(mesh)
+        out.append(f"  texture {{ {texture} }}{modifiers}")
         out.append("}")

@@ -150,6 +150,26 @@ void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, 
     scene.corner_uv.assign(corner_uv.data(), corner_uv.data() + corner_uv.size());
 }
 
+using Flags = In<uint8_t, nb::shape<-1>>;
+
+// The lights' shadow switches and links (LightLinking), checked against the scene's counts.
+void set_light_links(phong::Scene& scene, const Flags& shadows, const std::vector<Flags>& lit,
+                     const std::vector<Flags>& casts) {
+    const size_t n = scene.lights.size();
+    if (shadows.shape(0) != n || lit.size() != n || casts.size() != n)
+        throw std::invalid_argument("one shadow switch, lit and casts array per light");
+    std::vector<phong::LightLinking> links(n);
+    for (size_t j = 0; j < n; ++j) {
+        links[j].shadows = shadows(j) != 0;
+        links[j].lit.assign(lit[j].data(), lit[j].data() + lit[j].size());
+        links[j].casts.assign(casts[j].data(), casts[j].data() + casts[j].size());
+        for (const std::vector<unsigned char>* flags : {&links[j].lit, &links[j].casts})
+            if (!flags->empty() && flags->size() != scene.object_count())
+                throw std::invalid_argument("a light link needs one flag per object (spheres, then meshes)");
+    }
+    scene.light_links = std::move(links);
+}
+
 Image render(const phong::Scene& scene, const phong::CameraDescription& camera_description,
              const phong::RenderSettings& settings, nb::object progress) {
     if (settings.width < 1 || settings.height < 1 || settings.samples < 1)
@@ -274,7 +294,8 @@ NB_MODULE(_native, m) {
         .def_rw("diffuse_color", &Material::diffuse_color)
         .def_rw("specular_color", &Material::specular_color)
         .def_rw("diffuse_texture", &Material::diffuse_texture)
-        .def_rw("specular_texture", &Material::specular_texture);
+        .def_rw("specular_texture", &Material::specular_texture)
+        .def_rw("emission", &Material::emission);
 
     nb::enum_<phong::Wrap>(m, "Wrap", "How a texture continues outside [0, 1] (textures.hpp).")
         .value("repeat", phong::Wrap::kRepeat)
@@ -390,6 +411,9 @@ NB_MODULE(_native, m) {
         .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
              "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and specular_texture, and the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order.")
+        .def("set_light_links", &set_light_links, "shadows"_a, "lit"_a, "casts"_a,
+             "Per light (one entry each): whether it casts shadow rays, and the objects (spheres 0..S-1, then meshes "
+             "S + m) it illuminates and that cast its shadows, as uint8 arrays of one flag per object (empty: all).")
         .def_prop_ro("magnitude", [](const phong::Scene& s) { return s.magnitude; })
         .def_prop_ro("single_precision_triangles", [](const phong::Scene& s) { return s.triangles.single_precision(); },
                      "Whether the triangles' corners are held as floats (every vertex a float: the same doubles).")

@@ -26,6 +26,7 @@ struct Material {
     RGB specular_color;  // cs
     int32_t diffuse_texture = -1;   // index into Scene::textures replacing cd, or -1
     int32_t specular_texture = -1;  // ... replacing cs, or -1
+    RGB emission{};                 // Le, added where the surface is seen (0: none; x + 0 is exact)
 };
 
 enum class SpecularConvention { kSeed, kPovrayClassic };

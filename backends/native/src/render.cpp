@@ -59,9 +59,15 @@ struct ShadowQuery {
     double window;
     std::vector<BundleCandidate>& candidates;  // of the current bundle (one per worker thread)
     bool povray_walk;                          // POV-Ray numerics: its mesh walk (povray_walk.cpp)
+    // The light's shadow link (LightLinking::casts), or nullptr: every object casts its shadows.
+    // A linked light's rays go one by one through occluded_linked() (no bundles, no mesh walk:
+    // the walk's quirk is POV-Ray's on a mesh that casts the shadow, and a shadow link's
+    // objects are written per pass with no_shadow, ref §6).
+    const unsigned char* casts = nullptr;
     bool bundle = false;
 
     bool begin_grid(const Vec3 (&corners)[4]) {
+        if (casts != nullptr) return true;
         const Vec3 hull[5] = {p, corners[0], corners[1], corners[2], corners[3]};
         bundle = scene.shadow_candidates(hull, 5, window, candidates);
         return !bundle || !candidates.empty();
@@ -71,6 +77,7 @@ struct ShadowQuery {
     // also called it, it cost 3% of S1's instructions).
     [[gnu::always_inline]] bool operator()(const Vec3& dir, double distance) const {
         const Ray ray{p, dir};
+        if (casts != nullptr) return scene.occluded_linked(ray, p_rounded, window, distance - window, casts);
         const bool blocked = bundle ? scene.occluded_by(candidates, ray, window, distance - window)
                                     : scene.occluded(ray, p_rounded, window, distance - window);
         return blocked && (!povray_walk || scene.occluded_povray_walk(ray, window, distance - window));
@@ -78,6 +85,10 @@ struct ShadowQuery {
 
     // Every ray of a full grid at once (lights.hpp): blocked[k] is operator()(dirs[k], distances[k]).
     void each(const Vec3* dirs, const double* distances, size_t count, unsigned char* blocked) const {
+        if (casts != nullptr) {
+            for (size_t k = 0; k < count; ++k) blocked[k] = (*this)(dirs[k], distances[k]);
+            return;
+        }
         if (bundle) {
             scene.occluded_by_each(candidates, p, dirs, distances, count, window, blocked);
         } else {
@@ -95,6 +106,8 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     const RenderSettings& settings = context.settings;
     const double window = context.tolerances.shadow_window;
     const Vec3 p = ray.at(hit.t);
+    // The object hit, for light linking (only looked up when a light links).
+    const int32_t object = scene.light_links.empty() ? -1 : scene.object_of(hit.ref);
     Vec3 n;
     const Material* material;
     Material textured;  // a textured material with this point's colours
@@ -131,9 +144,12 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     const Vec3 wo = -ray.dir;
 
     RGB color = ambient_term(*material, scene.ambient);
+    color += material->emission;  // Le: + 0 is exact, so unlit materials shade as before
     const bool povray_walk = settings.numerics != Numerics::kScaleInvariant;
     const FloatSlabOrigin p_rounded(p);
     for (size_t j = 0; j < scene.lights.size(); ++j) {
+        const LightLinking* link = object >= 0 ? &scene.light_links[j] : nullptr;
+        if (link != nullptr && !link->lit.empty() && !link->lit[size_t(object)]) continue;  // not in its light link
         // The light's alternative decides its centre and shadow; the shading is the same for all
         // (one inlined copy of it, not one per alternative).
         LightSample centre;
@@ -146,8 +162,13 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                 // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at
                 // the point (d = 0: the model's answer there is the ambient term only).
                 if (!(n_dot_l >= kMinCosineToLight)) return;
-                fraction = visible_fraction(light, context.grids[j], p, centre,
-                                            ShadowQuery{scene, p, p_rounded, window, candidates, povray_walk});
+                if (link != nullptr && !link->shadows) {
+                    fraction = 1.0;  // shadow:enable off: no shadow ray, the light arrives whole
+                } else {
+                    ShadowQuery query{scene, p, p_rounded, window, candidates, povray_walk};
+                    if (link != nullptr && !link->casts.empty()) query.casts = link->casts.data();
+                    fraction = visible_fraction(light, context.grids[j], p, centre, query);
+                }
                 terms = &light.terms;
             },
             scene.lights[j]);

@@ -61,6 +61,14 @@ struct BundleCandidate {
     SphereOrigin sphere_origin;
 };
 
+// A light's UsdLux shadow switch and linking (model: phongscene.scene.Linking), by object:
+// spheres 0..S-1, then meshes S + m. Empty vectors: every object.
+struct LightLinking {
+    bool shadows = true;               // inputs:shadow:enable: false traces no shadow ray
+    std::vector<unsigned char> lit;    // collection:lightLink: 1 = the light illuminates the object
+    std::vector<unsigned char> casts;  // collection:shadowLink: 1 = the object casts its shadows
+};
+
 class Scene {
   public:
     // Copies the arrays and builds the BVH. Throws std::invalid_argument on indices out of
@@ -105,6 +113,17 @@ class Scene {
     // of the same mesh behind it can be missed. Call only where occluded() said true.
     bool occluded_povray_walk(const Ray& ray, double t_min, double t_max) const;
 
+    // occluded() counting only the objects whose casts[object] is 1 (a light's shadow link;
+    // light_linking.cpp). The BVH holds every object, so an excluded one is skipped, not culled.
+    bool occluded_linked(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max,
+                         const unsigned char* casts) const;
+    // Objects in LightLinking's numbering: the spheres, then the meshes.
+    size_t object_count() const { return spheres.size() + (first_triangle_.empty() ? 0 : first_triangle_.size() - 1); }
+    // The object (LightLinking's numbering) of a primitive ref (as Hit::ref).
+    int32_t object_of(int32_t ref) const {
+        return ref < 0 ? ~ref : int32_t(spheres.size()) + triangle_mesh(size_t(ref));
+    }
+
     // Every primitive the ray hits in (t_min, t_max), by brute force (tests only).
     int count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const;
 
@@ -123,6 +142,7 @@ class Scene {
     Vec3Store normals;  // float when that is exact
     std::vector<Material> materials;
     std::vector<Light> lights;
+    std::vector<LightLinking> light_links;  // empty (every light default), or one per light
     RGB ambient;
     // Textures (Material::diffuse_texture) and the (u, v) of each triangle corner, by input
     // triangle row (triangle_source): 6 numbers per triangle; empty without textures.
