@@ -464,6 +464,78 @@ class TriangleMesh:
     __hash__ = None  # type: ignore[assignment]
 
 
+IntrinsicKind = Literal["cube", "cylinder", "capsule", "plane"]
+INTRINSIC_KINDS: tuple[str, ...] = ("cube", "cylinder", "capsule", "plane")
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Intrinsic:
+    """A UsdGeom intrinsic prim traced as its exact surface (not tessellated): a canonical shape
+    along the object's +Z axis, mapped to the world by an affine ``world_from_object`` (the prim's
+    transform, its axis and its size; the reader puts USD's X or Y axis onto Z):
+
+    * ``cube``: the cube [−1, 1]³ (POV-Ray ``box``).
+    * ``cylinder``: the side x² + y² = r(z)², |z| <= 1, r linear from ``radius_bottom`` at z = −1
+      to ``radius_top`` at z = +1, closed by discs of those radii (USD Cylinder, Cylinder_1;
+      a Cone is ``radius_top`` 0; POV-Ray ``cylinder`` or ``cone``).
+    * ``capsule``: a cylinder of ``radius`` over |z| <= ``half_height`` closed by spheres of that
+      radius centred at z = ±``half_height`` (USD Capsule; POV-Ray the union of the three).
+    * ``plane``: the square |x|, |y| <= 1 at z = 0, both sides (USD Plane; POV-Ray ``polygon``),
+      or with ``infinite`` the whole plane z = 0 (POV-Ray ``plane``), which no bounds include, so
+      the scale-aware tolerances stay those of the finite geometry.
+    """
+
+    kind: IntrinsicKind
+    world_from_object: np.ndarray  # (4, 4) float64, column vectors, invertible affine
+    material: PhongMaterial = DEFAULT_MATERIAL
+    source: str = ""
+    radius_bottom: float = 1.0  # cylinder: >= 0, not both radii 0
+    radius_top: float = 1.0
+    radius: float = 1.0  # capsule: > 0
+    half_height: float = 1.0  # capsule: >= 0
+    infinite: bool = False  # plane only
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "world_from_object", _matrix(self.world_from_object))
+
+    def object_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The object-space box that holds the shape (the unbounded plane: its unit square)."""
+        if self.kind == "cylinder":
+            r = max(self.radius_bottom, self.radius_top)
+            return np.array([-r, -r, -1.0]), np.array([r, r, 1.0])
+        if self.kind == "capsule":
+            r, h = self.radius, self.half_height + self.radius
+            return np.array([-r, -r, -h]), np.array([r, r, h])
+        if self.kind == "plane":
+            return np.array([-1.0, -1.0, 0.0]), np.array([1.0, 1.0, 0.0])
+        return -np.ones(3), np.ones(3)
+
+    def world_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """World AABB of the object box under the affine map (exact for a cube); None for an
+        infinite plane."""
+        if self.infinite:
+            return None
+        lo, hi = self.object_box()
+        m = self.world_from_object
+        centre = m[:3, :3] @ ((lo + hi) / 2) + m[:3, 3]
+        half = np.abs(m[:3, :3]) @ ((hi - lo) / 2)
+        return centre - half, centre + half
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Intrinsic):
+            return NotImplemented
+        return (
+            self.kind == other.kind
+            and _arrays_equal(self.world_from_object, other.world_from_object)
+            and (self.radius_bottom, self.radius_top, self.radius, self.half_height, self.infinite)
+            == (other.radius_bottom, other.radius_top, other.radius, other.half_height, other.infinite)
+            and self.material == other.material
+            and self.source == other.source
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
 # --------------------------------------------------------------------------------------------
 # Render settings and the scene
 
@@ -506,15 +578,27 @@ class Scene:
     spheres: tuple[Sphere, ...] = ()
     meshes: tuple[TriangleMesh, ...] = ()
     settings: RenderSettings = field(default_factory=RenderSettings)
+    intrinsics: tuple[Intrinsic, ...] = ()  # Cube, Cylinder, Cone, Capsule, Plane: exact surfaces
     source_file: str = ""  # the file the scene was read from ("" when built in Python)
 
     @property
     def triangle_count(self) -> int:
         return sum(len(m.triangles) for m in self.meshes)
 
+    @property
+    def objects(self) -> tuple:
+        """Every geometry node, in the order the backends number them: spheres, meshes, intrinsics."""
+        return (*self.spheres, *self.meshes, *self.intrinsics)
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """World-space axis-aligned bounds of all geometry, or None for an empty scene."""
+        """World-space axis-aligned bounds of all geometry but infinite planes, or None for an
+        empty scene."""
         lows, highs = [], []
+        for i in self.intrinsics:
+            b = i.world_bounds()
+            if b is not None:
+                lows.append(b[0])
+                highs.append(b[1])
         for m in self.meshes:
             if len(m.points):
                 lows.append(m.points.min(axis=0))

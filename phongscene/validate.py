@@ -19,6 +19,8 @@ from .scene import (
     SAMPLE_PATTERNS,
     Camera,
     DirectionalLight,
+    INTRINSIC_KINDS,
+    Intrinsic,
     Linking,
     PhongMaterial,
     PointLight,
@@ -148,6 +150,7 @@ _ITEM_TYPES = {
     "lights": (PointLight, DirectionalLight, RectAreaLight, SphereAreaLight),
     "spheres": (Sphere,),
     "meshes": (TriangleMesh,),
+    "intrinsics": (Intrinsic,),
 }
 
 
@@ -221,6 +224,11 @@ def validate(scene: Scene) -> list[Problem]:
         materials.append(mesh.material)
         if mesh.material.textures and mesh.uvs is None:
             c.add(mesh, "uvs", "a mesh with a textured material needs texture coordinates (uvs)")
+    for intrinsic in scene.intrinsics:
+        _check_intrinsic(c, intrinsic)
+        materials.append(intrinsic.material)
+        if intrinsic.material.textures:
+            c.add(intrinsic, "material", "a textured material needs texture coordinates, which only meshes carry")
     for material in _unique(materials):
         _check_material(c, material)
     return c.problems
@@ -405,6 +413,34 @@ def _check_sphere(c: _Collector, s: Sphere) -> None:
         if not reach <= MAX_COORDINATE:
             c.add(s, "world_from_object", f"the sphere must lie within ±{MAX_COORDINATE:g} (so that distances and "
                   f"their squares stay finite), it reaches {reach:.3g}")
+
+
+def _check_intrinsic(c: _Collector, i: Intrinsic) -> None:
+    if i.kind not in INTRINSIC_KINDS:
+        c.add(i, "kind", f"must be one of {', '.join(INTRINSIC_KINDS)}, got {_show(i.kind)}")
+        return
+    m = i.world_from_object
+    if c.finite(i, "world_from_object", m):
+        if not np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0]):
+            c.add(i, "world_from_object", f"must be affine (last row 0 0 0 1), got {_show(tuple(m[3]))}")
+        elif is_singular(m[:3, :3]):
+            c.add(i, "world_from_object", "is singular (a zero size or a zero/degenerate scale)")
+        elif not i.infinite:
+            with np.errstate(over="ignore", invalid="ignore"):
+                lo, hi = i.world_bounds()
+                reach = float(np.max(np.abs(np.concatenate([lo, hi]))))
+            if not reach <= MAX_COORDINATE:
+                c.add(i, "world_from_object", f"the {i.kind} must lie within ±{MAX_COORDINATE:g}, it reaches {reach:.3g}")
+    for field in ("radius_bottom", "radius_top", "radius", "half_height"):
+        value = getattr(i, field)
+        if c.finite(i, field, value) and value < 0:
+            c.add(i, field, f"must be >= 0, got {_show(value)}")
+    if i.kind == "cylinder" and i.radius_bottom == 0 and i.radius_top == 0:
+        c.add(i, "radius_bottom", "a cylinder needs a radius > 0 at one end at least")
+    if i.kind == "capsule" and i.radius == 0:
+        c.add(i, "radius", "must be > 0")
+    if i.infinite and i.kind != "plane":
+        c.add(i, "infinite", f"only a plane can be infinite, not a {i.kind}")
 
 
 def _check_mesh(c: _Collector, mesh: TriangleMesh) -> None:

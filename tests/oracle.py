@@ -310,6 +310,8 @@ class _Geometry:
     cs: np.ndarray
     emission: np.ndarray  # (materials, 3) Le
     sphere_source: list[str]  # each sphere's prim (light and shadow linking)
+    intrinsics: list  # the model's Intrinsic nodes
+    intrinsic_material: list[int]
 
 
 def _prepare(scene: Scene) -> _Geometry:
@@ -348,6 +350,7 @@ def _prepare(scene: Scene) -> _Geometry:
                 corner_uv, texture, specular, mesh.source,
             )
         )
+    intrinsic_materials = [material_index(i.material) for i in scene.intrinsics]
     return _Geometry(
         inverses,
         normal_matrices,
@@ -361,6 +364,8 @@ def _prepare(scene: Scene) -> _Geometry:
         cs=np.array([m.specular_color for m in materials], dtype=np.float64).reshape(-1, 3),
         emission=np.array([m.emission for m in materials], dtype=np.float64).reshape(-1, 3),
         sphere_source=[sphere.source for sphere in scene.spheres],
+        intrinsics=list(scene.intrinsics),
+        intrinsic_material=intrinsic_materials,
     )
 
 
@@ -433,6 +438,97 @@ def _mesh_hits(mesh: _Mesh, o: np.ndarray, d: np.ndarray, accept) -> tuple[np.nd
     return best_t, best_tri, best_u, best_v
 
 
+def _first_accepted(candidates, accept) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest accepted (t, object-space normal) over a list of candidate (t, normal) pairs."""
+    n = len(candidates[0][0]) if candidates else 0
+    best = np.full(n, np.inf)
+    normal = np.zeros((n, 3))
+    for t, nrm in candidates:
+        t = np.where(np.isfinite(t), t, np.inf)
+        ok = accept(t, None) & (t < best)
+        best[ok] = t[ok]
+        normal[ok] = nrm[ok]
+    return best, normal
+
+
+def _intrinsic_candidates(intrinsic, o: np.ndarray, d: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Every root of the intrinsic prim's surfaces along object-space rays (o, d), d not unit so
+    that t is the world distance: (t or nan, the object-space normal there). Written from the
+    model's definitions (``Intrinsic``), with the textbook formulas."""
+    kind = intrinsic.kind
+    out = []
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if kind == "cube":
+            for axis in range(3):
+                for side in (-1.0, 1.0):
+                    t = (side - o[:, axis]) / d[:, axis]
+                    p = o + t[:, None] * d
+                    others = [k for k in range(3) if k != axis]
+                    inside = np.all(np.abs(p[:, others]) <= 1.0, axis=1)
+                    normal = np.zeros_like(o)
+                    normal[:, axis] = side
+                    out.append((np.where(inside, t, np.nan), normal))
+            return out
+        if kind == "plane":
+            t = -o[:, 2] / d[:, 2]
+            p = o + t[:, None] * d
+            inside = np.ones(len(o), bool) if intrinsic.infinite else (np.abs(p[:, 0]) <= 1) & (np.abs(p[:, 1]) <= 1)
+            return [(np.where(inside, t, np.nan), np.tile([0.0, 0.0, 1.0], (len(o), 1)))]
+
+        def side(r0, r1, z_lo, z_hi):
+            # x² + y² = (a + b z)², the radius r0 at z_lo and r1 at z_hi.
+            b = (r1 - r0) / (z_hi - z_lo)
+            a = r0 - b * z_lo
+            qa = d[:, 0] ** 2 + d[:, 1] ** 2 - (b * d[:, 2]) ** 2
+            qb = 2 * (o[:, 0] * d[:, 0] + o[:, 1] * d[:, 1] - b * d[:, 2] * (a + b * o[:, 2]))
+            qc = o[:, 0] ** 2 + o[:, 1] ** 2 - (a + b * o[:, 2]) ** 2
+            root = np.sqrt(qb * qb - 4 * qa * qc)
+            for t in ((-qb - root) / (2 * qa), (-qb + root) / (2 * qa)):
+                p = o + t[:, None] * d
+                ok = (p[:, 2] >= z_lo) & (p[:, 2] <= z_hi) & (a + b * p[:, 2] >= 0)
+                normal = np.stack([p[:, 0], p[:, 1], -b * (a + b * p[:, 2])], axis=1)
+                out.append((np.where(ok, t, np.nan), normal))
+
+        def disc(r, z):
+            t = (z - o[:, 2]) / d[:, 2]
+            p = o + t[:, None] * d
+            ok = p[:, 0] ** 2 + p[:, 1] ** 2 <= r * r
+            out.append((np.where(ok, t, np.nan), np.tile([0.0, 0.0, 1.0], (len(o), 1))))
+
+        def ball(centre_z, r):
+            c = o - np.array([0.0, 0.0, centre_z])
+            qa = np.einsum("ij,ij->i", d, d)
+            qb = 2 * np.einsum("ij,ij->i", c, d)
+            qc = np.einsum("ij,ij->i", c, c) - r * r
+            root = np.sqrt(qb * qb - 4 * qa * qc)
+            for t in ((-qb - root) / (2 * qa), (-qb + root) / (2 * qa)):
+                out.append((t, c + t[:, None] * d))
+
+        if kind == "cylinder":
+            side(intrinsic.radius_bottom, intrinsic.radius_top, -1.0, 1.0)
+            disc(intrinsic.radius_bottom, -1.0)
+            disc(intrinsic.radius_top, 1.0)
+        else:  # capsule
+            r, h = intrinsic.radius, intrinsic.half_height
+            if h > 0:
+                side(r, r, -h, h)
+            ball(-h, r)
+            ball(h, r)
+    return out
+
+
+def _intrinsic_hits(intrinsic, o: np.ndarray, d: np.ndarray, accept) -> tuple[np.ndarray, np.ndarray]:
+    """(nearest accepted world t, unit world normal) of world rays (o, unit d) against an intrinsic."""
+    inverse = np.linalg.inv(intrinsic.world_from_object)
+    oo = o @ inverse[:3, :3].T + inverse[:3, 3]
+    do = d @ inverse[:3, :3].T
+    t, normal = _first_accepted(_intrinsic_candidates(intrinsic, oo, do), accept)
+    nw = normal @ inverse[:3, :3]  # (M⁻¹)ᵀ n, row-wise
+    with np.errstate(invalid="ignore", divide="ignore"):
+        nw = nw / np.linalg.norm(nw, axis=1, keepdims=True)
+    return t, nw
+
+
 def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
     """Nearest hit with MIN_ISECT_DEPTH <= t < MAX_DISTANCE: (t, material, unflipped normal, cd
     and cs at the hit: the material's, or its textures' at the hit's uv, and the prim of the
@@ -489,6 +585,15 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
             nw = (1.0 - u - v)[:, None] * c[:, 0] + u[:, None] * c[:, 1] + v[:, None] * c[:, 2]
             nw = nw / np.linalg.norm(nw, axis=1, keepdims=True)
         normal[closer] = nw
+    for intrinsic, mat in zip(geo.intrinsics, geo.intrinsic_material):
+        t, nw = _intrinsic_hits(intrinsic, o, d, accept)
+        closer = t < best_t
+        best_t[closer] = t[closer]
+        material[closer] = mat
+        colour[closer] = geo.cd[mat]
+        specular[closer] = geo.cs[mat]
+        source[closer] = intrinsic.source
+        normal[closer] = nw[closer]
     return best_t, material, normal, colour, specular, source
 
 
@@ -507,6 +612,11 @@ def _occluded(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray, ca
             continue
         near, far, hit = _sphere_roots(inverse, p, l)
         blocked |= hit & (accept(near, None) | accept(far, None))
+    for intrinsic in geo.intrinsics:
+        if casts is not None and not casts(intrinsic.source):
+            continue
+        t, _ = _intrinsic_hits(intrinsic, p, l, accept)
+        blocked |= np.isfinite(t)
     for mesh in geo.meshes:
         if casts is not None and not casts(mesh.source):
             continue

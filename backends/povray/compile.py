@@ -50,6 +50,7 @@ from phongscene.errors import Problem, SceneError
 from phongscene.scene import (
     AmbientLight,
     DirectionalLight,
+    Intrinsic,
     PhongMaterial,
     PointLight,
     RectAreaLight,
@@ -236,11 +237,12 @@ def pass_scenes(scene: Scene, mapping: str) -> tuple[Scene, ...]:
     dark = AmbientLight((0.0, 0.0, 0.0), scene.ambient.source)
     # Emission, like the ambient term, is drawn once, in pass 0.
     unlit = {}
-    for obj in (*scene.spheres, *scene.meshes):
+    for obj in scene.objects:
         if any(obj.material.emission):
             unlit.setdefault(obj.material, replace(obj.material, emission=(0.0, 0.0, 0.0)))
     dark_spheres = tuple(replace(s, material=unlit.get(s.material, s.material)) for s in scene.spheres)
     dark_meshes = tuple(replace(m, material=unlit.get(m.material, m.material)) for m in scene.meshes)
+    dark_intrinsics = tuple(replace(m, material=unlit.get(m.material, m.material)) for m in scene.intrinsics)
     return tuple(
         replace(
             scene,
@@ -249,6 +251,7 @@ def pass_scenes(scene: Scene, mapping: str) -> tuple[Scene, ...]:
             settings=scene.settings if i == 0 else replace(scene.settings, background=(0.0, 0.0, 0.0)),
             spheres=scene.spheres if i == 0 or not unlit else dark_spheres,
             meshes=scene.meshes if i == 0 or not unlit else dark_meshes,
+            intrinsics=scene.intrinsics if i == 0 or not unlit else dark_intrinsics,
         )
         for i, light in enumerate(scene.lights)
     )
@@ -317,11 +320,11 @@ class _Compiler:
         self.uv_frame, self.images = pov_images(scene)
         # Emissive materials: the exact mapping declares Emission per pass (1 in pass 0, else 0),
         # as the emitted light, like the ambient term, is counted once.
-        self.emission = any(any(o.material.emission) for o in (*scene.spheres, *scene.meshes))
+        self.emission = any(any(o.material.emission) for o in scene.objects)
         # Materials some object wears where a light does not illuminate it (light linking): an
         # ambient-and-emission-only texture, Material_k_Unlit, is declared beside them.
         self.unlit_materials = {
-            o.material for o in (*scene.spheres, *scene.meshes)
+            o.material for o in scene.objects
             if any(not light.linking.lights(o.source) for light in scene.lights)
         }
 
@@ -382,6 +385,9 @@ class _Compiler:
         for i, mesh in enumerate(self.scene.meshes):
             self.comment(mesh, "mesh", i)
             self.mesh(mesh)
+        for i, intrinsic in enumerate(self.scene.intrinsics):
+            self.comment(intrinsic, intrinsic.kind, i)
+            self.lines.append(self.intrinsic(intrinsic))
         return "\n".join(self.lines) + "\n"
 
     def camera(self) -> None:
@@ -547,7 +553,7 @@ class _Compiler:
     # -- materials -----------------------------------------------------------------------------
 
     def declare_materials(self) -> None:
-        for obj in (*self.scene.spheres, *self.scene.meshes):
+        for obj in self.scene.objects:
             m = obj.material
             if m in self.materials:
                 continue
@@ -702,6 +708,34 @@ class _Compiler:
         numbers = ", ".join(self.num(x, s, "world_from_object") for x in (*a.T.reshape(-1), *t))
         # The texture comes after the matrix, so it is not transformed (world-space slope).
         return f"sphere {{ <0, 0, 0>, 1 matrix <{numbers}> texture {{ {texture} }}{modifiers} }}"
+
+    def matrix(self, node, m: np.ndarray) -> str:
+        """POV's row-vector ``matrix`` of a column-vector affine map (the 3×3 part transposed,
+        then the translation)."""
+        a, t = m[:3, :3], m[:3, 3]
+        return "matrix <" + ", ".join(self.num(x, node, "world_from_object") for x in (*a.T.reshape(-1), *t)) + ">"
+
+    def intrinsic(self, i: Intrinsic) -> str:
+        """An intrinsic prim as POV-Ray's own shape in the canonical frame (model ``Intrinsic``)
+        under its ``matrix``; the texture after the matrix stays in world space (the exact
+        mapping's slope), as for spheres."""
+        texture, modifiers = self.linked(i)
+        tail = f" {self.matrix(i, i.world_from_object)} texture {{ {texture} }}{modifiers} }}"
+        if i.kind == "cube":
+            return "box { <-1, -1, -1>, <1, 1, 1>" + tail
+        if i.kind == "plane":
+            if i.infinite:
+                return "plane { z, 0" + tail
+            return "polygon { 4, <-1, -1, 0>, <1, -1, 0>, <1, 1, 0>, <-1, 1, 0>" + tail
+        if i.kind == "cylinder":
+            r0, r1 = (self.num(r, i, f"radius_{end}") for r, end in ((i.radius_bottom, "bottom"), (i.radius_top, "top")))
+            if i.radius_bottom == i.radius_top:
+                return f"cylinder {{ <0, 0, -1>, <0, 0, 1>, {r0}" + tail
+            return f"cone {{ <0, 0, -1>, {r0}, <0, 0, 1>, {r1}" + tail
+        # A capsule: the open side and the two end spheres, one object (union) for the texture.
+        r, h = self.num(i.radius, i, "radius"), self.num(i.half_height, i, "half_height")
+        side = f" cylinder {{ <0, 0, -{h}>, <0, 0, {h}>, {r} open }}" if i.half_height > 0 else ""
+        return f"union {{ sphere {{ <0, 0, -{h}>, {r} }} sphere {{ <0, 0, {h}>, {r} }}{side}" + tail
 
     def float32_block(self, mesh: TriangleMesh, attribute: str, values: np.ndarray) -> str:
         try:

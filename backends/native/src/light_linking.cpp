@@ -23,7 +23,7 @@ bool Scene::occluded_linked(const Ray& ray, const FloatSlabOrigin& origin, doubl
                 Barycentric bary;
                 hit = hit_triangle(ref, ray, wr, t_min, t_best, t, bary);
             } else {
-                hit = intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_best, t);
+                hit = hit_solid(ref, ray, t_min, t_best, t);
             }
             if (hit) {
                 blocked = true;
@@ -32,6 +32,10 @@ bool Scene::occluded_linked(const Ray& ray, const FloatSlabOrigin& origin, doubl
         }
         return false;
     });
+    for (size_t k = 0; k < planes.size() && !blocked; ++k) {
+        double t;
+        blocked = casts[size_t(planes[k].object)] && intersect_intrinsic(planes[k], ray, t_min, t_max, t);
+    }
     return blocked;
 }
 

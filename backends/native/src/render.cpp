@@ -67,7 +67,8 @@ struct ShadowQuery {
     bool bundle = false;
 
     bool begin_grid(const Vec3 (&corners)[4]) {
-        if (casts != nullptr) return true;
+        // Linked lights and unbounded planes (outside the BVH the bundle walks): ray by ray.
+        if (casts != nullptr || !scene.planes.empty()) return true;
         const Vec3 hull[5] = {p, corners[0], corners[1], corners[2], corners[3]};
         bundle = scene.shadow_candidates(hull, 5, window, candidates);
         return !bundle || !candidates.empty();
@@ -111,10 +112,14 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     Vec3 n;
     const Material* material;
     Material textured;  // a textured material with this point's colours
-    if (hit.ref < 0) {
+    if (scene.is_sphere(hit.ref)) {
         const SphereShape& s = scene.spheres[size_t(~hit.ref)];
         n = sphere_normal(s, p);
         material = &scene.materials[size_t(s.material)];
+    } else if (hit.ref < 0) {
+        const IntrinsicShape& part = scene.intrinsic(hit.ref);
+        n = intrinsic_normal(part, p);
+        material = &scene.materials[size_t(part.material)];
     } else {
         const TriangleShape& tri = scene.triangles[size_t(hit.ref)];
         const TriangleShading& sh = scene.triangle_shading[size_t(hit.ref)];

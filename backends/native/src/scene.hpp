@@ -4,6 +4,7 @@
 // and any-hit queries.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -11,6 +12,7 @@
 
 #include "bvh.hpp"
 #include "bvh4.hpp"
+#include "intrinsics.hpp"
 #include "lights.hpp"
 #include "materials.hpp"
 #include "math.hpp"
@@ -43,9 +45,14 @@ struct GeometryArrays {
     size_t sphere_count = 0;
     std::vector<MeshArrays> meshes;  // each one POV-Ray object; triangles are numbered in this order
     bool povray_triangles = false;   // test triangles as POV-Ray does (povray_triangle.hpp)
+    // The intrinsic prims' parts (intrinsics.hpp), bounds filled in by the Scene; unbounded
+    // planes among them go to Scene::planes.
+    std::vector<IntrinsicShape> intrinsics;
 };
 
-// A ray's closest hit. ref >= 0: triangle index (leaf order); ref < 0: sphere ~ref.
+// A ray's closest hit. ref >= 0: triangle index (leaf order); ref < 0: sphere ~ref when
+// ~ref < S, else intrinsic part ~ref − S (Scene::intrinsics), or an unbounded plane
+// (Scene::plane_ref).
 struct Hit {
     double t;
     int32_t ref;
@@ -118,10 +125,25 @@ class Scene {
     bool occluded_linked(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max,
                          const unsigned char* casts) const;
     // Objects in LightLinking's numbering: the spheres, then the meshes.
-    size_t object_count() const { return spheres.size() + (first_triangle_.empty() ? 0 : first_triangle_.size() - 1); }
+    // Objects: the spheres, the meshes, then the intrinsic prims (numbered by their parts).
+    size_t object_count() const {
+        size_t count = spheres.size() + (first_triangle_.empty() ? 0 : first_triangle_.size() - 1);
+        for (const std::vector<IntrinsicShape>* parts : {&intrinsics, &planes})
+            for (const IntrinsicShape& part : *parts) count = std::max(count, size_t(part.object) + 1);
+        return count;
+    }
     // The object (LightLinking's numbering) of a primitive ref (as Hit::ref).
     int32_t object_of(int32_t ref) const {
-        return ref < 0 ? ~ref : int32_t(spheres.size()) + triangle_mesh(size_t(ref));
+        if (ref >= 0) return int32_t(spheres.size()) + triangle_mesh(size_t(ref));
+        return is_sphere(ref) ? ~ref : intrinsic(ref).object;
+    }
+    // Refs of the non-triangle primitives: spheres, intrinsic parts in the BVH, then unbounded
+    // planes (ref = plane_ref(k), after every part).
+    bool is_sphere(int32_t ref) const { return ref < 0 && size_t(~ref) < spheres.size(); }
+    int32_t plane_ref(size_t k) const { return ~int32_t(spheres.size() + intrinsics.size() + k); }
+    const IntrinsicShape& intrinsic(int32_t ref) const {
+        const size_t k = size_t(~ref) - spheres.size();
+        return k < intrinsics.size() ? intrinsics[k] : planes[k - intrinsics.size()];
     }
 
     // Every primitive the ray hits in (t_min, t_max), by brute force (tests only).
@@ -135,6 +157,8 @@ class Scene {
     int32_t triangle_mesh(size_t slot) const;
 
     std::vector<SphereShape> spheres;
+    std::vector<IntrinsicShape> intrinsics;  // parts in the BVH
+    std::vector<IntrinsicShape> planes;      // unbounded planes: outside the BVH and `bounds`
     TriangleStore triangles;                      // leaf order; float when that is exact
     std::vector<TriangleShading> triangle_shading;  // leaf order
     std::vector<uint32_t> triangle_source;        // leaf order -> input row
@@ -148,10 +172,29 @@ class Scene {
     // triangle row (triangle_source): 6 numbers per triangle; empty without textures.
     std::vector<Texture> textures;
     std::vector<double> corner_uv;
-    Bounds bounds;           // of the geometry (empty without primitives)
+    Bounds bounds;           // of the geometry but unbounded planes (empty without primitives)
     double magnitude = 0.0;  // largest absolute coordinate of the geometry bounds
 
   private:
+    // The nearest unbounded plane hit in (t_min, t_max) (closest_hit, occluded).
+    bool hit_planes(const Ray& ray, double t_min, double t_max, double& t, int32_t& ref) const {
+        bool found = false;
+        for (size_t k = 0; k < planes.size(); ++k) {
+            double tk;
+            if (intersect_intrinsic(planes[k], ray, t_min, t_max, tk)) {
+                t_max = tk;
+                t = tk;
+                ref = plane_ref(k);
+                found = true;
+            }
+        }
+        return found;
+    }
+    // A sphere's or intrinsic part's hit test (ref < 0).
+    bool hit_solid(int32_t ref, const Ray& ray, double t_min, double t_max, double& t) const {
+        if (is_sphere(ref)) return intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_max, t);
+        return intersect_intrinsic(intrinsic(ref), ray, t_min, t_max, t);
+    }
     // A triangle's hit test: POV-Ray's where the scene was built for it, else the watertight one.
     bool hit_triangle(int32_t ref, const Ray& ray, std::optional<WatertightRay>& wr, double t_min, double t_max,
                       double& t, Barycentric& bary) const {
