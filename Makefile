@@ -7,7 +7,7 @@ PY       := $(VENV)/bin/python
 PIP      := $(PY) -m pip --disable-pip-version-check -q
 BUILDDEPS := $(VENV)/.builddeps
 
-.PHONY: test demo install povray chromium venv clean
+.PHONY: test test-fast demo install povray chromium venv clean
 
 venv: $(PY)
 $(PY):
@@ -47,6 +47,12 @@ chromium:
 
 test: install povray chromium
 	$(PY) -m pytest
+
+# The quick loop while editing: every test but the heavy ones (markers in pyproject.toml: slow,
+# dask, subprocess), in under a minute on 2 cores. No Chromium: its screenshot tests are slow.
+FAST := not slow and not dask and not subprocess
+test-fast: install povray
+	$(PY) -m pytest -m "$(FAST)"
 
 demo: install povray
 	$(PY) examples/demo.py

@@ -41,10 +41,12 @@ S1 = HERE / "scenes" / "s1_spheres.usda"
 
 
 def diff_frames(workers: int, frames: tuple[int, ...], width: int, height: int) -> float:
-    from phongscene.animation import FRAME_FOLDER, diff_frame, frame_name, run_frames
+    from phongscene.animation import FRAME_FOLDER, diff_frame, frame_name
+    from phongscene.dask_runtime import run_frames
+    from phongscene.overrides import RenderOverrides
     from phongscene.comparison import HALF_FLOAT
 
-    options = {"mapping": "exact", "width": width, "height": height, "samples": None, "threads": 1}
+    options = RenderOverrides(mapping="exact", width=width, height=height, threads=1)
     with tempfile.TemporaryDirectory() as tmp:
         run = run_frames(diff_frame, frames,
                          lambda f: (str(ANIMATED), f, os.path.join(tmp, frame_name(FRAME_FOLDER, f)), options, HALF_FLOAT),
@@ -60,9 +62,10 @@ def diff_anatomy(frames: int) -> dict:
     import resource
 
     from phongscene.animation import diff_frame
+    from phongscene.overrides import RenderOverrides
     from phongscene.comparison import HALF_FLOAT
 
-    options = {"mapping": "exact", "width": 320, "height": 240, "samples": None, "threads": 1}
+    options = RenderOverrides(mapping="exact", width=320, height=240, threads=1)
     children = lambda: (lambda r: r.ru_utime + r.ru_stime)(resource.getrusage(resource.RUSAGE_CHILDREN))  # noqa: E731
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -112,9 +115,11 @@ def overhead(frames: int, scene: Path) -> dict:
     overhead: the stage load (reported by the task) plus scheduling and the metrics' way back.
     The CPU seconds of this process (the client and, on a LocalCluster, the scheduler) per task
     are reported too."""
-    from phongscene.animation import render_frame, run_frames
+    from phongscene.animation import render_frame
+    from phongscene.dask_runtime import run_frames
+    from phongscene.overrides import RenderOverrides
 
-    options = {"mapping": None, "width": 640, "height": 360, "samples": None, "threads": 1}
+    options = RenderOverrides(width=640, height=360, threads=1)
     finished = []
 
     def on_frame(frame, metrics, error):
@@ -139,10 +144,11 @@ def stage_load(frames: int, scene: Path) -> dict:
     """The stage load inside a frame task, the worker's kept stage against the file opened anew,
     interleaved frame by frame in this process (each after a render and a write, as in a
     worker): median CPU and wall seconds of each."""
-    from phongscene import workers
     from phongscene.animation import render_frame
+    from phongscene.overrides import RenderOverrides
+    from phongscene.usd import stage_reuse as workers
 
-    options = {"mapping": None, "width": 640, "height": 360, "samples": None, "threads": 1}
+    options = RenderOverrides(width=640, height=360, threads=1)
     loads: dict[str, list[tuple[float, float]]] = {"kept": [], "anew": []}
     with tempfile.TemporaryDirectory() as tmp:
         for frame in range(frames + 1):

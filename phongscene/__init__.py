@@ -22,6 +22,8 @@ _LAZY_EXPORTS = {
     "PointLight": (".scene", "PointLight"),
     "RectAreaLight": (".scene", "RectAreaLight"),
     "RenderSettings": (".scene", "RenderSettings"),
+    # The render knobs over a scene's own (render(overrides=...), diff(overrides=...)).
+    "RenderOverrides": (".overrides", "RenderOverrides"),
     "Scene": (".scene", "Scene"),
     "Sphere": (".scene", "Sphere"),
     "SphereAreaLight": (".scene", "SphereAreaLight"),
@@ -62,6 +64,7 @@ if TYPE_CHECKING:  # the lazy names, for type checkers and IDEs
     from .comparison import Thresholds, compare
     from .crossvalidation import diff
     from .images import Image, read_image, write_image
+    from .overrides import RenderOverrides
     from .rendering import compile_pov, render
     from .usd import load_usd, open_stage, read_usd, write_usd
 
@@ -89,6 +92,7 @@ __all__ = [
     "PointLight",
     "Problem",
     "RectAreaLight",
+    "RenderOverrides",
     "RenderSettings",
     "Scene",
     "SceneError",

@@ -8,7 +8,7 @@ Timings stay honest: a timing task never shares its cores with another task. Eac
 with the settings' threads (0: all cores), so at most ``cores // threads`` tasks run at once on
 a host (one with threads = 0), each worker runs one task at a time, and the result says how many
 ran at once (``concurrency``). A task ships the scene's path, the settings and the estimator,
-never a pickled scene; the worker opens the stage itself (``phongscene.workers``) and returns
+never a pickled scene; the worker opens the stage itself (``phongscene.usd.stage_reuse``) and returns
 only the row's metrics. A reference image is computed by a task and sent once to every worker
 (``Client.scatter``), where the setting tasks compare against it.
 """
@@ -27,7 +27,7 @@ from .scene import RenderSettings
 def reference_task(scene: str, settings: RenderSettings, family: str) -> dict:
     """``bench.reference`` of ``family`` for the USD file ``scene`` (read at its default time)."""
     from .rendering import load_scene
-    from .workers import open_stage
+    from .usd.stage_reuse import open_stage
 
     loaded, _ = load_scene(open_stage(scene))
     return bench.reference(family, loaded, settings, bench.render_native)
@@ -37,7 +37,7 @@ def setting_task(scene: str, settings: RenderSettings, estimator: bench.Estimato
                  repeat: int) -> dict:
     """``bench.measure``: one row (times, errors against ``ref``); the stage is read before the clock starts."""
     from .rendering import load_scene
-    from .workers import open_stage
+    from .usd.stage_reuse import open_stage
 
     loaded, _ = load_scene(open_stage(scene))
     return bench.measure(loaded, settings, estimator, backend, ref, repeat) | {"pid": os.getpid()}
@@ -66,7 +66,7 @@ def run(
     its order, plus ``concurrency`` (tasks at once), ``workers`` and ``cluster``."""
     from distributed import as_completed
 
-    from .animation import dask_client
+    from .dask_runtime import dask_client
 
     chosen = bench.estimators(scene, quick)
     wanted = bench.families_of(chosen, families)

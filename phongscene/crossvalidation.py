@@ -35,7 +35,8 @@ from .comparison import (
 )
 from .errors import BackendError
 from .progress import ProgressBar
-from .rendering import load_scene, render, settings_with, with_shadow_adaptive
+from .overrides import RenderOverrides
+from .rendering import load_scene, render
 from .scene import RenderSettings, Scene
 
 LABELS = ("povray", "native")
@@ -105,6 +106,7 @@ def diff(
     sample_pattern: str | None = None,
     aa_threshold: float | None = None,
     shadow_adaptive: int | None = None,
+    overrides: RenderOverrides | None = None,
     sandbox: bool = False,
 ) -> DiffResult:
     """Render a scene with both backends, compare, and write the report if ``outdir`` is given.
@@ -123,6 +125,8 @@ def diff(
         time: the USD time code to read a USD file at (None: the reader's choice).
         sample_pattern, aa_threshold: anti-aliasing overrides (``RenderSettings``).
         shadow_adaptive: POV-Ray's ``adaptive n`` for every area light (None: each light's own).
+        overrides: all the knobs as one ``RenderOverrides`` (instead of width ... shadow_adaptive
+            and time; its ``mapping``, when set, is the mapping).
         sandbox: read a USD file in a child process with a memory limit (``phongscene.sandbox``).
 
     Returns:
@@ -135,21 +139,26 @@ def diff(
     """
     from .backends.povray import check_mapping
 
+    named = {"width": width, "height": height, "samples": samples, "threads": threads, "time": time,
+             "sample_pattern": sample_pattern, "aa_threshold": aa_threshold, "shadow_adaptive": shadow_adaptive}
+    if overrides is None:
+        overrides = RenderOverrides(mapping=mapping, **named)
+    elif any(v is not None for v in named.values()):
+        raise TypeError("diff: give overrides= or the separate width ... shadow_adaptive and time, not both")
+    mapping = overrides.mapping if overrides.mapping is not None else mapping
     check_mapping(mapping)  # before the scene is read
     reading = None
     if progress is not None and not isinstance(scene_or_path, Scene):
         reading = ProgressBar("scene", progress)
         reading.phase(f"reading {Path(scene_or_path).name}")  # a big USD file takes seconds
     start = perf_counter()
-    scene, warnings = load_scene(scene_or_path, time, sandbox=sandbox)
+    scene, warnings = load_scene(scene_or_path, overrides.time, sandbox=sandbox)
     if reading is not None:
         reading.done(perf_counter() - start, "read")
     if progress is not None:
         for w in warnings:
             progress.write(f"warning: {w}\n")
-    scene = with_shadow_adaptive(scene, shadow_adaptive)
-    settings = settings_with(scene, mapping, width=width, height=height, samples=samples, threads=threads,
-                             sample_pattern=sample_pattern, aa_threshold=aa_threshold)
+    scene, settings = replace(overrides, mapping=mapping).apply(scene)
 
     settings = replace(settings, numerics="povray")
     if thresholds is HALF_FLOAT and mapping == "exact":
@@ -197,7 +206,7 @@ def diff(
                 ok=result.ok,
                 meta={
                     "scene": source,
-                    "time": time,
+                    "time": overrides.time,
                     "mapping": mapping,
                     "native_specular": settings.specular,
                     "settings": _settings_dict(settings),

@@ -2,7 +2,7 @@
 """One entry point for both backends: ``render(scene_or_path, backend=..., width=, height=, spp=)``
 returns the common image (linear float32 (H, W, 3), row 0 at the top, as an ``Image``); with it, what every command does before it
 renders: load the scene (``load_scene``) and apply the size, sample, thread and mapping
-overrides (``settings_with``). Backends are imported on first use, so that ``import phongscene``
+overrides (``phongscene.overrides.RenderOverrides``). Backends are imported on first use, so that ``import phongscene``
 stays light and a missing backend fails only when asked for."""
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Callable, Literal
 import numpy as np
 
 from .errors import BackendError, SceneError
+from .overrides import RenderOverrides
 from .scene import RenderSettings, Scene
 from .validate import check
 
@@ -48,37 +49,10 @@ def settings_with(
     aa_threshold: float | None = None,
 ) -> RenderSettings:
     """The scene's settings with the overrides that are not None applied, and the specular
-    convention that the POV-Ray ``mapping`` reproduces (None: the scene's). Giving only one of
-    width/height keeps the aspect ratio."""
-    s = settings_for(scene, mapping=mapping)
-    if width is not None and height is None:
-        height = max(1, round(width * s.height / s.width))
-    elif height is not None and width is None:
-        width = max(1, round(height * s.width / s.height))
-    changes = {"width": width, "height": height, "samples": samples, "threads": threads,
-               "sample_pattern": sample_pattern, "aa_threshold": aa_threshold}
-    return replace(s, **{k: v for k, v in changes.items() if v is not None})
-
-
-def with_shadow_adaptive(scene, level: int | None):
-    """``scene`` with POV-Ray's ``adaptive level`` on every area light (None: unchanged)."""
-    return _with_area_estimator(scene, level, {"adaptive": level})
-
-
-def with_shadow_cells(scene, cell_samples: int | None):
-    """``scene`` with the native cells estimator (``cell_samples``² points per partial cell) on
-    every area light (None: unchanged)."""
-    return _with_area_estimator(scene, cell_samples, {"cell_samples": cell_samples})
-
-
-def _with_area_estimator(scene, value, changes: dict):
-    from .scene import RectAreaLight, SphereAreaLight
-
-    if value is None:
-        return scene
-    lights = tuple(replace(light, **changes) if isinstance(light, (RectAreaLight, SphereAreaLight)) else light
-                   for light in scene.lights)
-    return replace(scene, lights=lights)
+    convention that the POV-Ray ``mapping`` reproduces (None: the scene's): ``RenderOverrides(...)
+    .settings(scene)``. Giving only one of width/height keeps the aspect ratio."""
+    return RenderOverrides(mapping=mapping, width=width, height=height, samples=samples, threads=threads,
+                           sample_pattern=sample_pattern, aa_threshold=aa_threshold).settings(scene)
 
 
 def load_scene(
@@ -143,6 +117,7 @@ def render(
     spp: int | None = None,
     threads: int | None = None,
     mapping: str | None = None,
+    overrides: RenderOverrides | None = None,
     progress: Callable | None = None,
     timeout: float | None = None,
 ) -> Image:
@@ -164,6 +139,8 @@ def render(
         threads: worker threads override (0 = all cores).
         mapping: "exact" or "classic": the specular convention the POV-Ray mapping reproduces
             (the CLI's ``--mapping``); default: the settings'.
+        overrides: all the knobs as one ``RenderOverrides`` (instead of width ... mapping; its
+            ``time`` reads a USD file at that time code, its shadow fields change the area lights).
         progress: called with the backend's progress reports.
         timeout: POV-Ray only: seconds before the render is abandoned.
 
@@ -178,18 +155,22 @@ def render(
     """
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; expected one of {', '.join(BACKENDS)}")
+    named = {"width": width, "height": height, "samples": spp, "threads": threads, "mapping": mapping}
+    if overrides is None:
+        overrides = RenderOverrides(**named)
+    elif any(v is not None for v in named.values()):
+        raise TypeError("render: give overrides= or the separate width, height, spp, threads, mapping, not both")
     if not isinstance(scene, Scene):
         import warnings
 
         from .errors import SceneWarning
 
-        scene, reader_warnings = load_scene(scene)
+        scene, reader_warnings = load_scene(scene, overrides.time)
         for text in reader_warnings:
             warnings.warn(f"{scene.source_file}: {text}", SceneWarning, stacklevel=2)
-    overrides = {"width": width, "height": height, "samples": spp, "threads": threads}
-    if mapping is not None or any(v is not None for v in overrides.values()):
-        base = scene if settings is None else replace(scene, settings=settings)
-        settings = settings_with(base, mapping, width=width, height=height, samples=spp, threads=threads)
+    scene = overrides.scene(scene)
+    if overrides.given():
+        settings = overrides.settings(scene, settings)
     return prepare_render(scene, backend, settings, progress=progress, timeout=timeout)()
 
 

@@ -3,7 +3,8 @@
 absolute difference (EXR), a heat map of each pixel's error relative to the error the
 thresholds allow there with the failing pixels drawn over it (PNG), ``metrics.json`` and a
 static ``index.html`` (no external resources) that shows everything side by side; the legend,
-the numbers and every failing pixel's values on both sides are HTML text.
+the numbers and every failing pixel's values on both sides are HTML text. ``diff --frames``
+adds an index of the frames' reports (``write_frames_report``).
 
 Every file is written atomically (temporary file in the folder, then a rename), so an
 interrupted run never leaves a half-written report file behind.
@@ -18,6 +19,7 @@ import os
 import re
 from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from OpenImageIO import ImageBuf, ImageBufAlgo
@@ -26,6 +28,9 @@ from .comparison import CHANNEL_NAMES, Report, Thresholds, failing_mask, in_spac
 from .errors import PhongSceneError
 from .files import write_text_atomic
 from .images import as_image, write_imagebuf, write_image
+
+if TYPE_CHECKING:
+    from .dask_runtime import FramesRun
 
 HEAT_MAP = "inferno"  # perceptually uniform, dark at zero
 # The heat map shows each pixel's error as a share of the error allowed there (the thresholds'
@@ -42,6 +47,8 @@ MIN_DISPLAY_WIDTH = 384
 # How many failing pixels the page lists with both values (all of them are in metrics.json up to
 # this count as well); more would make a page no one reads.
 FAILING_PIXELS_LISTED = 100
+# Thumbnails in the frames report (CSS pixels wide; the images are the frames' own PNGs).
+THUMBNAIL_WIDTH = 160
 
 FILE_NAMES = {
     "heat": "diff_heat.png",
@@ -451,3 +458,48 @@ max(fail, fail_relative × mean(|a|, |b|)) = max({_fmt(t.fail)}, {_fmt(t.fail_re
 
 
 __all__ = ["display_scale", "error_ratio", "write_heat_map", "write_report"]
+
+
+# The report of `diff --frames`: a row per frame, linking to each frame's own report
+
+
+def write_frames_report(outdir: str | os.PathLike, scene: str, run: FramesRun, meta: dict) -> Path:
+    """``index.html`` and ``metrics.json`` in ``outdir``: one row per frame (verdict, worst error,
+    failing pixels, thumbnails of both renders and the heat map, a link to the frame's report)."""
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    frames = sorted(set(run.results) | set(run.failures))
+    rows, records = [], []
+    for frame in frames:
+        m = run.results.get(frame)
+        if m is None:
+            error = run.failures[frame]
+            records.append({"frame": frame, "ok": False, "error": error})
+            rows.append(f"<tr class='fail'><td>{frame}</td><td>FAILED</td><td colspan='5'>{html.escape(error)}</td></tr>")
+            continue
+        folder = os.path.relpath(m["outdir"], out)
+        records.append({k: v for k, v in m.items() if k != "warnings"} | {"report": folder})
+        thumbs = "".join(
+            f"<td><a href='{html.escape(folder)}/{FILE_NAMES['html']}'><img src='{html.escape(folder)}/{name}' "
+            f"width='{THUMBNAIL_WIDTH}' alt='{label}, frame {frame}'></a></td>"
+            for label, name in (("povray", "povray.png"), ("native", "native.png"), ("heat map", FILE_NAMES["heat"]))
+        )
+        rows.append(
+            f"<tr class='{'ok' if m['ok'] else 'fail'}'><td>{frame}</td><td>{'PASS' if m['ok'] else 'FAIL'}</td>"
+            f"<td>{m['max_error']:.6g}{' at ({}, {})'.format(*m['worst_pixel']) if m.get('worst_pixel') else ''}</td>"
+            f"<td>{m['failing_pixels']} ({m['failing_percent']:.4g}%)</td>{thumbs}</tr>"
+        )
+    failed = [r["frame"] for r in records if not r["ok"]]
+    summary = f"{len(frames)} frames, {len(frames) - len(failed)} pass" + (f", fail: {', '.join(map(str, failed))}" if failed else "")
+    page = (
+        "<!doctype html><html><head><meta charset='utf-8'>"
+        f"<title>phongscene diff --frames: {html.escape(Path(scene).name)}</title>"
+        "<style>body{font-family:sans-serif}td,th{padding:4px 8px;border-bottom:1px solid #ccc}"
+        "tr.fail td:nth-child(2){color:#b00;font-weight:bold}img{image-rendering:pixelated}</style></head><body>"
+        f"<h1>phongscene diff --frames: {html.escape(Path(scene).name)}</h1><p>{html.escape(summary)}</p>"
+        "<table><tr><th>frame</th><th>verdict</th><th>max error</th><th>failing pixels</th>"
+        "<th>POV-Ray</th><th>native</th><th>heat map</th></tr>" + "".join(rows) + "</table></body></html>\n"
+    )
+    write_text_atomic(out / "metrics.json", json.dumps({"scene": scene, **meta, "summary": summary, "frames": records},
+                                                       indent=2, default=str) + "\n")
+    return write_text_atomic(out / FILE_NAMES["html"], page)

@@ -13,7 +13,7 @@ slow to read (that is what ``--timeout`` on the CLI is for), nor against the ren
 one interpreter start-up with pxr (~0.5 s on this machine) plus pickling the scene; measured by
 ``benchmarks/sandbox.py``.
 
-This module does not import pxr: the parent of a sandboxed read never loads USD."""
+The parent of a sandboxed read never loads USD: nothing here touches pxr."""
 
 from __future__ import annotations
 

@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import os
 import shutil
-from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-SHARED_ASSETS = REPO.parent / "shared" / "assets" / "usd"
-EXAMPLES = REPO / "examples"
+# Re-exported for tests that still write ``from conftest import REPO``; new tests import
+# ``support.paths`` (see tests/README.md).
+from support.paths import EXAMPLES, REPO, SHARED_ASSETS, chromium  # noqa: F401
 
 
 def _required(variable: str) -> bool:
@@ -30,11 +29,6 @@ def pytest_configure(config):
     config.addinivalue_line(
         "markers", "chromium: needs a headless Chromium (skipped without it, unless PHONGSCENE_REQUIRE_CHROMIUM=1)"
     )
-
-
-def chromium() -> str | None:
-    """The Chromium binary (Debian's package is ``chromium``), or None."""
-    return shutil.which("chromium") or shutil.which("chromium-browser")
 
 
 def pytest_runtest_setup(item):

@@ -19,6 +19,7 @@ _LAZY_EXPORTS = {
     "sanitize_comment": "compile",
     "INSTALL_HINT": "run",
     "PovJob": "run",
+    "pov_quoted": "run",
     "prepare": "run",
     "render": "run",
     "render_many": "run",
@@ -27,7 +28,7 @@ _LAZY_EXPORTS = {
 
 if TYPE_CHECKING:
     from .compile import compile_pov, pass_count, pass_scenes, sanitize_comment
-    from .run import INSTALL_HINT, PovJob, prepare, render, render_many, render_switches
+    from .run import INSTALL_HINT, PovJob, pov_quoted, prepare, render, render_many, render_switches
 
 
 def __getattr__(name: str):
@@ -50,6 +51,7 @@ __all__ = [
     "compile_pov",
     "pass_count",
     "pass_scenes",
+    "pov_quoted",
     "prepare",
     "render",
     "render_many",

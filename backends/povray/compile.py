@@ -87,7 +87,7 @@ INVERSE_SQUARE_FADE_RADII = 1e-6
 # A rect light's one-sided Lambertian emission, cos θ from its emitting side, is POV-Ray's
 # spotlight with radius = falloff = 90° (no smooth edge inside the hemisphere) and tightness 1,
 # whose attenuation is cos θ¹ measured from the light's centre (checked against the native tracer
-# in tests/test_cross_backend.py).
+# in tests/cross/test_cross_backend.py).
 LAMBERT_SPOTLIGHT = "spotlight radius 90 falloff 90 tightness 1"
 
 

@@ -19,7 +19,7 @@ Why that holds. A read takes from the stage only
 - the time itself, in the warning about which time is read (``reader._time_to_read``): each read
   makes that anew, outside this cache.
 The layers the stage was composed from are not watched here: a changed layer makes a new stage
-(``phongscene.workers.open_stage``), and with it a new cache.
+(``phongscene.usd.stage_reuse.open_stage``), and with it a new cache.
 
 When something varies, and it is only lights' and gprims' own inputs (their attributes, their
 ancestors' and descendants'), the others are read once and replayed (``read_parts``); when a

@@ -69,7 +69,7 @@ constexpr double ulps(int n) { return n * std::numeric_limits<double>::epsilon()
 // Shadow rays start exactly at the hit point (as in POV-Ray) and an occluder counts only for
 // window < t < distance - window, window = max(kShadowWindow·E, kSelfHitWindow·M). 1.9e-5 is
 // POV-Ray's SHADOW_TOLERANCE (1e-3) relative to E = 52.8, the extent of the calibration scenes
-// (unit-sized objects on a ground quad of about ±40…60 units, tests/calibration.py; the
+// (unit-sized objects on a ground quad of about ±40…60 units, tests/support/calibration.py; the
 // benchmark scenes, E = 50, get 0.95e-3): there the window is 1.003e-3, so the images match POV-Ray even
 // where its tolerance decides a pixel (an area-light sample just below a sphere's horizon, whose
 // chord through the sphere is < 1e-3; a smooth mesh's terminator). Features thinner than

@@ -1,0 +1,114 @@
+# SPDX-License-Identifier: Apache-2.0
+"""``phongscene info`` (what phongscene reads from a USD scene) and ``phongscene validate``
+(every problem of one)."""
+
+from __future__ import annotations
+
+import sys
+
+from .options import SCENE_HELP, UsageError, add_sandbox_option, add_scene_argument, print_warnings
+from .process import EXIT_OK, EXIT_SCENE
+
+
+def add_info_command(sub) -> None:
+    p = sub.add_parser(
+        "info",
+        help="show what phongscene reads from a USD scene",
+        description="Read SCENE and print which prims became which model nodes, the counts of meshes, "
+        "triangles, spheres, lights and materials, the textures each material samples, the camera, the render settings and every warning "
+        "(unsupported prims, defaults used).",
+        epilog="Exit codes: 0 ok, 2 the scene is invalid (one problem per line on stderr).",
+    )
+    p.add_argument("scene", metavar="SCENE", nargs="?", help=SCENE_HELP)
+    p.add_argument("--usd-plugin-path", action="store_true",
+                   help="print the folder of the Phong shader's Sdr definition and exit: other USD tools know the "
+                   "shader with PXR_SDR_FS_PLUGIN_SEARCH_PATHS=<it> PXR_SDR_FS_PLUGIN_ALLOWED_EXTS=usda")
+    p.set_defaults(func=run_info)
+
+
+def run_info(args) -> int:
+    if args.usd_plugin_path:
+        from ..schemas import folder
+
+        print(folder())
+        return EXIT_OK
+    if args.scene is None:
+        raise UsageError("info needs SCENE (or --usd-plugin-path)")
+    from ..usd import read_usd
+
+    result = read_usd(args.scene)
+    scene = result.scene
+    print(f"file: {scene.source_file}")
+    print("prims -> model nodes:")
+    for prim, node in result.nodes:
+        print(f"  {prim} -> {node}")
+    materials = {m.material for m in (*scene.spheres, *scene.meshes)}  # equal materials count once
+    kinds: dict[str, int] = {}
+    for light in scene.lights:
+        kinds[type(light).__name__] = kinds.get(type(light).__name__, 0) + 1
+    print(
+        f"counts: {len(scene.meshes)} meshes, {scene.triangle_count} triangles, {len(scene.spheres)} spheres, "
+        f"{len(scene.lights)} lights ({', '.join(f'{n} {k}' for k, n in sorted(kinds.items())) or 'none'}), "
+        f"{len(materials)} materials"
+    )
+    textured = [m for m in materials if m.textures]
+    if textured:
+        print("textures:")
+        for m in sorted(textured, key=lambda m: m.source):
+            for role, t in (("diffuseColor", m.diffuse_texture), ("specularColor", m.specular_texture)):
+                if t is not None:
+                    # The file, not t.source: equal textures are shared, and source is the first prim read.
+                    print(f"  {m.source or '(material)'} {role} <- {t.file or '(no file)'}, "
+                          f"{t.width}x{t.height}, wrap {t.wrap_s}/{t.wrap_t}")
+    print(f"ambient: {_vector(scene.ambient.color)}")
+    cam = scene.camera
+    extent = f"hfov {cam.horizontal_fov_deg:.6g} deg" if cam.projection == "perspective" else f"width {cam.ortho_width:.6g}"
+    print(
+        f"camera: {cam.source or '(model default)'}: {cam.projection}, {extent}, position {_vector(cam.position)}, "
+        f"forward {_vector(cam.forward)}, up {_vector(cam.up)}"
+    )
+    s = scene.settings
+    print(
+        f"settings: {s.source or '(defaults)'}: {s.width}x{s.height}, samples {s.samples} ({s.sample_pattern}"
+        f"{f', threshold {s.aa_threshold:g}' if s.aa_threshold else ''}), "
+        f"specular {s.specular}, background {_vector(s.background)}"
+    )
+    print_warnings(result.warnings, sys.stdout)
+    return EXIT_OK
+
+
+def _vector(v) -> str:
+    return "(" + ", ".join(f"{float(c):.6g}" for c in v) + ")"
+
+
+def add_validate_command(sub) -> None:
+    p = sub.add_parser(
+        "validate",
+        help="check a USD scene; list every problem",
+        description="Read and validate SCENE. Prints 'ok' and exits 0 when it is valid; otherwise prints "
+        "one problem per line on stderr (file: prim.attribute: what is wrong) and exits 2.",
+        epilog="Exit codes: 0 valid, 2 invalid (with --strict: also when there is a warning).",
+    )
+    add_scene_argument(p)
+    p.add_argument("-q", "--quiet", action="store_true", help="do not print warnings")
+    p.add_argument("--strict", action="store_true",
+                   help="treat every warning (a typo'd name, an ignored feature, a default camera or light) as an error")
+    add_sandbox_option(p)
+    p.set_defaults(func=run_validate)
+
+
+def run_validate(args) -> int:
+    if args.sandbox:
+        from ..sandbox import read_usd_sandboxed as read_usd
+    else:
+        from ..usd import read_usd
+
+    result = read_usd(args.scene)
+    if args.strict and result.warnings:
+        for warning in result.warnings:
+            print(f"error: {args.scene}: {warning}", file=sys.stderr)
+        return EXIT_SCENE
+    if not args.quiet:
+        print_warnings(result.warnings)
+    print(f"ok: {args.scene}")
+    return EXIT_OK

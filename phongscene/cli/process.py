@@ -1,0 +1,81 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The command-line process around a command: its exit statuses, SIGTERM and SIGHUP raised as
+``Terminated`` (so every ``finally`` runs before exit), and the imports a command needs made with
+Ctrl-C held back (``preimport``)."""
+
+from __future__ import annotations
+
+# 0 success, 1 images differ (diff/compare), 2 bad scene or usage, 3 backend failure, 130 interrupted.
+EXIT_OK, EXIT_DIFFERENT, EXIT_SCENE, EXIT_BACKEND, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+
+
+class Terminated(BaseException):
+    """SIGTERM or SIGHUP arrived: raised in the main thread, like KeyboardInterrupt for SIGINT, so
+    that every ``finally`` runs (POV-Ray is killed, its temporary folder removed) before exit.
+    A BaseException, so that no ``except Exception`` swallows it."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+# Signals that end phongscene with cleanup and exit status 128 + the signal number (the shell's
+# convention for "killed by signal N", as 130 is for Ctrl-C); SIGINT stays KeyboardInterrupt.
+TERMINATING_SIGNALS = ("SIGTERM", "SIGHUP")
+# Modules whose import a command needs, imported before the command runs with Ctrl-C deferred:
+# USD's Python bindings catch a KeyboardInterrupt raised while they import (Tf prints "Error
+# occurred postprocessing module" and the import goes on half-done), so an early Ctrl-C was lost.
+PREIMPORTS = {
+    "compare": ("OpenImageIO",),
+    **{command: ("pxr.Usd", "OpenImageIO") for command in ("diff", "info", "validate", "import", "compile")},
+    # OpenImageIO's libraries (~32 MiB resident) only once the C++ scene is freed, for the write
+    # (cli/render.py): imported first, they sat under the BVH build's peak (benchmarks/README.md).
+    "render": ("pxr.Usd",),
+}
+
+
+def _on_terminating_signal(signum, frame) -> None:
+    import signal
+
+    # Cleanup is under way: a second SIGTERM must not interrupt it half-done.
+    for name in TERMINATING_SIGNALS:
+        signal.signal(getattr(signal, name), signal.SIG_IGN)
+    raise Terminated(signum)
+
+
+def install_signal_handlers() -> dict:
+    """Handle TERMINATING_SIGNALS; returns the previous handlers (``main`` restores them, so
+    calling it in-process, as the tests do, leaves the caller's handlers as they were)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return {}  # main() called from a worker thread: Python allows handlers only in the main one
+    return {
+        signum: signal.signal(signum, _on_terminating_signal)
+        for signum in (getattr(signal, name) for name in TERMINATING_SIGNALS)
+    }
+
+
+def preimport(modules) -> None:
+    """Import ``modules`` with SIGINT held back, then raise KeyboardInterrupt if one came."""
+    import importlib
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        for module in modules:
+            importlib.import_module(module)
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        for module in modules:
+            try:
+                importlib.import_module(module)
+            except ImportError:
+                pass  # a missing module is the command's to report, in its own words
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt

@@ -1,0 +1,94 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The C++ scene holds triangle corners (and normals) as floats when every mesh vertex (normal)
+is a float (backends/native/src/triangle_store.hpp), else as doubles. Both must give the same
+hits and the same images, bit for bit, and the choice must follow the numbers."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from support import calibration
+import numpy as np
+from support import oracle
+import pytest
+from test_native_intersect import jittered_grid, unit
+from test_native_render import assert_matches_oracle
+
+from phongscene.backends import native
+from phongscene.scene import Scene, TriangleMesh
+from phongscene.usd import load_usd
+from support.paths import EXAMPLES
+
+
+
+def as_float(a):
+    return None if a is None else a.astype(np.float32).astype(np.float64)
+
+
+def float_exact(scene):
+    """``scene`` with every mesh vertex rounded to float32 (kept as float64), and every normal
+    rounded to float32 and renormalised until it stays a float."""
+
+    def normals(n):
+        for _ in range(4):  # renormalising a rounded unit vector moves it by an ulp at most
+            n = as_float(n / np.linalg.norm(n, axis=1, keepdims=True))
+        return n
+
+    meshes = tuple(
+        dataclasses.replace(m, points=as_float(m.points), normals=None if m.normals is None else normals(m.normals))
+        for m in scene.meshes
+    )
+    return dataclasses.replace(scene, meshes=meshes)
+
+
+def with_double_numbers(scene):
+    """``scene`` with one more mesh, far behind the camera and every light (no ray of the image
+    reaches it), whose vertex 1000.1 and normal (0.6, 0.8, 0) are not floats: the whole scene
+    falls back to double storage."""
+    far = np.array([[-1e3, -1e3, 1e3 + 0.1], [-1e3 + 1.0, -1e3, 1e3], [-1e3, -1e3 + 1.0, 1e3]])
+    extra = TriangleMesh(points=far, triangles=[(0, 1, 2)], material=scene.meshes[0].material,
+                         normals=np.array([[0.6, 0.8, 0.0]]), normal_indices=np.zeros((1, 3), np.int64))
+    return dataclasses.replace(scene, meshes=(*scene.meshes, extra))
+
+
+def test_float_numbers_are_stored_as_floats_and_any_double_keeps_doubles():
+    scene = float_exact(calibration.smooth_mesh())
+    assert scene.meshes[0].normals is not None
+    built = native.build(scene)
+    assert built.single_precision_triangles and built.single_precision_normals
+    built = native.build(with_double_numbers(scene))
+    assert not built.single_precision_triangles and not built.single_precision_normals
+    grid = jittered_grid(4)  # jittered by float64 random numbers
+    assert not native.build(dataclasses.replace(scene, meshes=(grid,))).single_precision_triangles
+
+
+def test_a_usd_mesh_is_stored_as_floats():
+    # USD points are float32: a mesh read under an identity transform keeps them exactly.
+    scene = load_usd(EXAMPLES / "seed_exponents.usda")
+    assert scene.meshes and native.build(scene).single_precision_triangles
+
+
+def test_float_and_double_storage_give_the_same_hits():
+    rng = np.random.default_rng(7)
+    grid = jittered_grid(24, seed=3)
+    mesh = dataclasses.replace(grid, points=grid.points.astype(np.float32).astype(np.float64))
+    single = native.build(Scene(meshes=(mesh,)))
+    double = native.build(with_double_numbers(Scene(meshes=(mesh,))))
+    assert single.single_precision_triangles and not double.single_precision_triangles
+    origins = np.column_stack([rng.uniform(-1, 25, (5000, 2)), rng.uniform(0.5, 3.0, 5000)])
+    d = unit(np.column_stack([rng.normal(scale=0.3, size=(5000, 2)), -np.ones(5000)]))
+    t1, prim1 = single.intersect(origins, d)
+    t2, prim2 = double.intersect(origins, d)
+    assert (prim1 >= 0).sum() > 4000  # most rays hit the grid
+    assert np.array_equal(t1, t2) and np.array_equal(prim1, prim2)
+    assert np.array_equal(single.count_hits(origins, d)[0], double.count_hits(origins, d)[0])
+
+
+@pytest.mark.parametrize("numerics", ["scale-invariant", "povray"])
+def test_float_and_double_storage_render_the_same_image(numerics):
+    scene = float_exact(calibration.smooth_mesh())
+    scene = dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, numerics=numerics))
+    single = native.render(scene)
+    assert np.array_equal(single, native.render(with_double_numbers(scene)))
+    if numerics == "scale-invariant":
+        assert_matches_oracle(single, oracle.render(scene))
