@@ -13,8 +13,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-import oracle
-from calibration import GOLD, _sphere_on_ground, classic_variant
+from support import oracle
+from support.calibration import GOLD, _sphere_on_ground, classic_variant
 from phongscene import compile_pov, render
 from phongscene.comparison import compare
 from phongscene.errors import SceneError

@@ -14,8 +14,8 @@ import math
 import numpy as np
 import pytest
 
-import oracle
-from calibration import GOLD, _sphere_on_ground
+from support import oracle
+from support.calibration import GOLD, _sphere_on_ground
 from phongscene import compile_pov, render
 from phongscene.backends import native
 from phongscene.comparison import compare
