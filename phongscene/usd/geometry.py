@@ -410,7 +410,7 @@ def intrinsic(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: Pho
         ctx.problem(prim, "xformOpOrder", "the transform is not finite (a NaN or infinite xformOp value)")
         return None
     if is_singular(world[:3, :3]):
-        ctx.problem(prim, "xformOpOrder", "the transform is singular (a zero or degenerate scale)")
+        ctx.problem(prim, "xformOpOrder", "the world transform is singular (a zero or degenerate scale)")
         return None
     placed = np.eye(4)
     placed[:3, :3] = AXIS_FROM_Z[axis]

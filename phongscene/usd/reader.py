@@ -29,6 +29,7 @@ from ..scene import (
     Camera,
     Cone,
     DirectionalLight,
+    Intrinsic,
     PointLight,
     RectAreaLight,
     RenderSettings,
@@ -51,7 +52,7 @@ from .names import FLOAT_TYPES, INT_TYPES, PHONG_ATTRIBUTES, STRING_TYPES, in_us
 DEFAULT_SHADOW_SAMPLES = 9  # phong:shadowSamples on area lights: a 9×9 grid (2^3 + 1)
 # Composition errors name their arc in the text; report it as the "attribute" (a metadata field).
 _ARC_ATTRIBUTE = {"for reference": "references", "for payload": "payload", "sublayer": "subLayers"}
-_GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cone", "Capsule"}
+_GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cylinder_1", "Cone", "Capsule"}
 
 
 @dataclass
@@ -214,7 +215,8 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
         ambient=AmbientLight(ambient_color, ambient[0].source if len(ambient) == 1 else ""),
         lights=tuple(lights),
         spheres=tuple(spheres),
-        meshes=tuple(meshes),
+        meshes=tuple(m for m in meshes if not isinstance(m, Intrinsic)),
+        intrinsics=tuple(m for m in meshes if isinstance(m, Intrinsic)),
         settings=settings,
         source_file=file,
     )
@@ -845,6 +847,14 @@ def _gprim(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, materials: Mater
         if len({materials.st_of.get(m) for m in textured}) > 1:
             ctx.warn(f"{path}: its materials read different st primvars; all use {st.primvar!r}")
         built = geometry.mesh(ctx, prim, world, material, subsets, st)
+    elif type_name == "Cylinder_1" or not geometry.tessellated(ctx, prim):
+        # The exact surface (Intrinsic): it joins the meshes' list, in traversal order, and the
+        # scene takes it out of there (in _read).
+        shape = geometry.intrinsic(ctx, prim, world, material)
+        if shape is not None:
+            meshes.append(shape)
+            ctx.nodes.append((path, f"Intrinsic ({shape.kind}{', infinite' if shape.infinite else ''})"))
+        return
     else:
         built = geometry.primitive(ctx, prim, world, material)
         built = () if built is None else (built,)
