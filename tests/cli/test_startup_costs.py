@@ -104,7 +104,7 @@ def test_the_usd_writer_and_the_povray_compiler_are_still_reachable_from_their_p
 
 
 def test_the_lights_median_is_numpys_median():
-    from phongscene.usd.reader import _median
+    from phongscene.usd.scene_checks import _median
 
     rng = np.random.default_rng(15)
     for n in (1, 2, 3, 4, 1023, 1024):  # odd and even counts: the middle one, the middle two's mean

@@ -1,31 +1,20 @@
 # SPDX-License-Identifier: Apache-2.0
-"""The USD reader: geometry, normals, materials, lights, camera, settings, up axis, instancing.
+"""The USD reader: geometry, normals, materials, defaults, up axis, instancing, problems collected together.
 Each expected value is derived from the USD text in the test, not from the reader."""
 
 from __future__ import annotations
 
 import math
-import textwrap
 
 import numpy as np
 import pytest
 
-from conftest import REPO
+from support.paths import REPO
 from phongscene.errors import SceneError
 from phongscene.scene import DEFAULT_MATERIAL, PointLight
 from phongscene.usd import preview_to_phong, read_usd
 from phongscene.usd.materials import PREVIEW_MAX_EXPONENT
-
-EXACT = 1e-12  # double-precision arithmetic on small integers and unit vectors
-FLOAT32 = 1e-6  # values stored as float in USD
-
-
-def read(tmp_path, body: str, up: str = "Y"):
-    path = tmp_path / "scene.usda"
-    # One-line prim bodies ("{ double size = 3 }") are written out on lines, as usda requires.
-    body = textwrap.dedent(body).replace("{ ", "{\n").replace(" }", "\n}")
-    path.write_text(f'#usda 1.0\n(\n    upAxis = "{up}"\n)\n\n' + body)
-    return read_usd(path)
+from usda import EXACT, read
 
 
 QUAD_AND_PENTAGON = """
@@ -162,126 +151,6 @@ def test_curved_primitives_have_smooth_unit_normals(tmp_path):
     spine = np.column_stack([np.zeros((len(corners), 2)), np.clip(corners[:, 2], -1, 1)])
     expected = (corners - spine) / np.linalg.norm(corners - spine, axis=1)[:, None]
     assert np.allclose(mesh.normals[mesh.normal_indices].reshape(-1, 3), expected, atol=1e-9)
-
-
-LIGHTS = """
-def DomeLight "Dome" { float inputs:intensity = 0.5 }
-def DomeLight "Dome2" { color3f inputs:color = (0.1, 0.2, 0.3) }
-def SphereLight "Point" {
-    uniform token phong:lightModel = "seed"
-    float inputs:intensity = 2
-    float inputs:exposure = 1
-    color3f inputs:color = (1, 0.5, 0.25)
-    bool treatAsPoint = 1
-    double phong:fadeDistance = 4
-    double phong:fadePower = 2
-    double3 xformOp:translate = (1, 2, 3)
-    uniform token[] xformOpOrder = ["xformOp:translate"]
-}
-def SphereLight "Ball" {
-    uniform token phong:lightModel = "seed"
-    float inputs:radius = 0.5
-    int phong:shadowSamples = 5
-    double3 xformOp:translate = (0, 5, 0)
-    double3 xformOp:scale = (2, 2, 2)
-    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
-}
-def DistantLight "Sun" {
-    uniform token phong:lightModel = "seed"
-    float inputs:intensity = 3
-    float3 xformOp:rotateXYZ = (-90, 0, 0)
-    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
-}
-def RectLight "Panel" {
-    uniform token phong:lightModel = "seed"
-    float inputs:width = 2
-    float inputs:height = 4
-    double3 xformOp:translate = (0, 6, 0)
-    float3 xformOp:rotateXYZ = (90, 0, 0)
-    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
-}
-def DiskLight "Disk" {}
-def CylinderLight "Tube" { uniform token phong:lightModel = "seed"
-    float inputs:intensity = 1.5
-    double3 xformOp:translate = (4, 0, 0)
-    uniform token[] xformOpOrder = ["xformOp:translate"] }
-def CylinderLight "Tube2" { float inputs:radius = 0.25
-    float inputs:length = 2
-    double3 xformOp:scale = (3, 2, 2)
-    uniform token[] xformOpOrder = ["xformOp:scale"] }
-def PortalLight "Portal" {}
-def Sphere "Target" {}
-"""
-
-
-def test_lights(tmp_path):
-    # The seed's constant lights (phong:lightModel = "seed"): strength = intensity · 2^exposure · color.
-    result = read(tmp_path, LIGHTS)
-    scene = result.scene
-    assert scene.ambient.color == pytest.approx((0.6, 0.7, 0.8), abs=FLOAT32)  # DomeLights add up
-    point, ball, sun, panel, disk, tube, tube2 = scene.lights
-    assert point.position == (1, 2, 3) and point.color == (4.0, 2.0, 1.0)  # 2·2^1·color
-    assert (point.fade_distance, point.fade_power) == (4.0, 2.0)
-    assert ball.center == (0, 5, 0) and ball.radius == 1.0 and ball.samples == 5  # radius × scale
-    assert ball.color == (1.0, 1.0, 1.0)
-    assert np.allclose(sun.direction, (0, -1, 0), atol=1e-7)  # −Z rotated −90° about X points down
-    assert sun.color == (3.0, 3.0, 3.0)
-    assert np.allclose(panel.axis_u, (2, 0, 0), atol=1e-7) and np.allclose(panel.axis_v, (0, 0, 4), atol=1e-6)
-    assert panel.samples == 9
-    # A DiskLight of radius r is lit as the square of its area (side r·√π), UsdLux units.
-    side = 0.5 * math.sqrt(math.pi)
-    assert np.linalg.norm(disk.axis_u) == pytest.approx(side) and np.linalg.norm(disk.axis_v) == pytest.approx(side)
-    assert disk.falloff == "inverse-square" and any("DiskLights" in w and "/Disk" in w for w in result.warnings)
-    # A CylinderLight is a point light of the same power at its centre (UsdLux: I = L·π·r·l/2).
-    assert tube.position == (4, 0, 0) and tube.color == (1.5, 1.5, 1.5) and tube.falloff == "none"
-    assert tube2.falloff == "inverse-square"
-    assert tube2.color == pytest.approx((math.pi / 2 * (0.25 * 2) * (2 * 3),) * 3)
-    assert any("CylinderLights" in w and "/Tube2" in w for w in result.warnings)
-    unsupported = [w for w in result.warnings if "unsupported lights" in w]
-    assert len(unsupported) == 1 and "/Tube" not in unsupported[0] and "/Portal" in unsupported[0]
-
-
-def test_z_up_light_and_camera(tmp_path):
-    body = """
-    def SphereLight "L" { float inputs:radius = 0
-        double3 xformOp:translate = (0, 0, 10)
-        uniform token[] xformOpOrder = ["xformOp:translate"] }
-    def Camera "C" {
-        double3 xformOp:translate = (0, -10, 0)
-        float3 xformOp:rotateXYZ = (90, 0, 0)
-        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"] }
-    """
-    scene = read(tmp_path, body, up="Z").scene
-    assert np.allclose(scene.lights[0].position, (0, 10, 0), atol=EXACT)  # Z-up "above" → +Y
-    assert np.allclose(scene.camera.position, (0, 0, 10), atol=EXACT)
-    assert np.allclose(scene.camera.forward, (0, 0, -1), atol=1e-7)
-    assert np.allclose(scene.camera.up, (0, 1, 0), atol=1e-7)
-
-
-def test_camera_and_render_settings(tmp_path):
-    body = """
-    def Camera "First" { float focalLength = 10
-        float horizontalAperture = 20 }
-    def Camera "Ortho" { token projection = "orthographic"
-        float horizontalAperture = 40 }
-    def Scope "Render" { def RenderSettings "S" {
-        int2 resolution = (64, 48)
-        rel camera = </Ortho>
-        int phong:samples = 3
-        token phong:samplePattern = "povray-am1"
-        token phong:specularConvention = "povray-classic"
-        color3f phong:background = (0.5, 0.25, 0)
-    } }
-    def Sphere "B" {}
-    """
-    scene = read(tmp_path, body).scene
-    assert scene.camera.projection == "orthographic" and scene.camera.ortho_width == pytest.approx(4.0)
-    s = scene.settings
-    assert (s.width, s.height, s.samples, s.sample_pattern, s.specular) == (64, 48, 3, "povray-am1", "povray-classic")
-    assert s.background == (0.5, 0.25, 0.0)
-    first = read(tmp_path, body.replace("rel camera = </Ortho>", "")).scene.camera
-    assert first.source == "/First"
-    assert first.horizontal_fov_deg == pytest.approx(2 * math.degrees(math.atan(0.5 * 20 / 10)))
 
 
 def test_defaults_without_camera_or_lights_warn(tmp_path):
@@ -431,98 +300,6 @@ def test_a_prim_with_a_type_problem_still_reports_its_range_problems(tmp_path):
     assert "must be in [0, 1], got -0.5" in str(info.value)
 
 
-# Each light alone, in UsdLux's units (the default): L = intensity · 2^exposure · color.
-USDLUX_LIGHTS = """
-def SphereLight "Bulb" { float inputs:intensity = 8
-    bool inputs:normalize = 1
-    bool treatAsPoint = 1 }
-def SphereLight "Globe" { float inputs:intensity = 2
-    float inputs:radius = 0.5
-    double3 xformOp:scale = (2, 2, 2)
-    uniform token[] xformOpOrder = ["xformOp:scale"] }
-def SphereLight "Unlit" { float inputs:intensity = 5
-    float inputs:radius = 0 }
-def RectLight "Panel" { float inputs:intensity = 3
-    float inputs:width = 2
-    float inputs:height = 4 }
-def RectLight "Normalized" { float inputs:intensity = 3
-    bool inputs:normalize = 1
-    float inputs:width = 2 }
-def DistantLight "Sun" { float inputs:intensity = 50000 }
-def DistantLight "Lux" { float inputs:intensity = 7
-    bool inputs:normalize = 1 }
-"""
-
-
-def test_usdlux_lights_in_usdlux_units(tmp_path):
-    bulb, globe, unlit, panel, normalized, sun, lux = read(tmp_path, USDLUX_LIGHTS).scene.lights
-    # A sphere light of world radius r radiates I = L·πr² (L/4 when normalized, whatever r).
-    assert bulb.falloff == "inverse-square" and bulb.color == (2.0, 2.0, 2.0)
-    assert globe.falloff == "inverse-square" and globe.radius == 1.0
-    assert globe.color == pytest.approx((2 * math.pi,) * 3)
-    assert unlit.color == (0.0, 0.0, 0.0)  # radius 0, not normalized: no power by the letter of UsdLux
-    # A rect light of area A radiates I = L·A along its normal (L when normalized).
-    assert panel.falloff == "inverse-square" and panel.color == (24.0, 24.0, 24.0)
-    assert normalized.color == (3.0, 3.0, 3.0)
-    # A distant light's irradiance is L·π·sin²(angle/2) (angle 0.53° by default), L when normalized.
-    assert sun.color == pytest.approx((50000 * math.pi * math.sin(math.radians(0.53) / 2) ** 2,) * 3)
-    assert lux.color == (7.0, 7.0, 7.0)
-
-
-def test_light_diffuse_and_specular_multipliers(tmp_path):
-    body = """
-    def DistantLight "Plain" { float inputs:intensity = 2
-        bool inputs:normalize = 1 }
-    def DistantLight "Split" { float inputs:intensity = 2
-        bool inputs:normalize = 1
-        float inputs:diffuse = 0.7
-        float inputs:specular = 0.25 }
-    def DomeLight "Sky" { float inputs:intensity = 0.5
-        float inputs:diffuse = 0.5 }
-    """
-    result = read(tmp_path, body)
-    plain, split = result.scene.lights
-    assert (plain.diffuse, plain.specular) == (1.0, 1.0)
-    # The multipliers are the light's own fields; its strength stays as authored.
-    assert split.color == (2.0, 2.0, 2.0)
-    assert split.diffuse == pytest.approx(0.7) and split.specular == 0.25
-    assert not [w for w in result.warnings if "inputs:diffuse" in w or "inputs:specular" in w]
-    # The ambient term is diffuse light: a dome's diffuse multiplier scales it.
-    assert result.scene.ambient.color == (0.25, 0.25, 0.25)
-
-
-def test_negative_light_multiplier_is_an_error(tmp_path):
-    with pytest.raises(SceneError, match=r"/L\.inputs:diffuse: must be >= 0, got -1"):
-        read(tmp_path, 'def SphereLight "L" { float inputs:diffuse = -1 }')
-
-
-def test_unknown_light_model_is_an_error(tmp_path):
-    with pytest.raises(SceneError, match=r"/L\.phong:lightModel: must be one of usdlux, seed"):
-        read(tmp_path, 'def SphereLight "L" { token phong:lightModel = "suffern" }')
-
-
-def test_image_aspect_follows_the_camera_apertures_without_a_resolution(tmp_path):
-    body = """
-    def Camera "Wide" { float horizontalAperture = 36
-        float verticalAperture = 20.25 }
-    """
-    settings = read(tmp_path, body).scene.settings
-    assert (settings.width, settings.height) == (320, 180)  # 16:9 at the default width
-
-
-def test_a_resolution_that_disagrees_with_the_apertures_fits_horizontally_with_a_warning(tmp_path):
-    body = """
-    def Camera "Wide" { float horizontalAperture = 36
-        float verticalAperture = 20.25 }
-    def RenderSettings "S" { int2 resolution = (400, 300)
-        rel camera = </Wide> }
-    """
-    result = read(tmp_path, body)
-    assert (result.scene.settings.width, result.scene.settings.height) == (400, 300)
-    assert result.scene.camera.horizontal_fov_deg == pytest.approx(2 * math.degrees(math.atan(18 / 50)))
-    assert any("fitting horizontally" in w and "/Wide" in w for w in result.warnings)
-
-
 def test_blender_specular_level_scales_the_preview_surface_f0(tmp_path):
     body = """
     def Material "M" { token outputs:surface.connect = </M/S.outputs:surface>
@@ -540,91 +317,6 @@ def test_blender_specular_level_scales_the_preview_surface_f0(tmp_path):
     neutral = preview_to_phong((0.8, 0.8, 0.8), 0.5).ks  # ior 1.5, level 0.5: F0 = 0.04
     assert neutral == pytest.approx(0.04 * 8 / (2 * math.pi))
     assert preview_to_phong((0.8, 0.8, 0.8), 0.5, specular_level=1.0).ks == pytest.approx(2 * neutral)
-
-
-def test_shaping_cone_on_a_point_light(tmp_path):
-    body = """
-    def SphereLight "Spot" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
-        bool inputs:normalize = 1
-        float inputs:shaping:cone:angle = 30
-        float inputs:shaping:cone:softness = 0.5 }
-    def SphereLight "Wide" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
-        bool inputs:normalize = 1
-        float inputs:shaping:cone:angle = 180 }
-    """
-    result = read(tmp_path, body)
-    spot, wide = result.scene.lights
-    assert spot.cone.axis == (0.0, 0.0, -1.0)
-    assert spot.cone.cos_outer == pytest.approx(math.cos(math.radians(30)))
-    assert spot.cone.cos_inner == pytest.approx(math.cos(math.radians(15)))  # smooth start θc·(1 − softness)
-    assert wide.cone is None  # a hard 180° cone restricts nothing, and is not warned about
-    assert not [w for w in result.warnings if "cone" in w]
-
-
-
-def test_shaping_focus_is_a_cosine_power_inside_the_cone(tmp_path):
-    body = """
-    def SphereLight "Focused" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
-        bool inputs:normalize = 1
-        float inputs:shaping:cone:angle = 40
-        float inputs:shaping:focus = 6 }
-    def SphereLight "Tinted" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
-        bool inputs:normalize = 1
-        float inputs:shaping:cone:angle = 40
-        float inputs:shaping:focus = 2
-        color3f inputs:shaping:focusTint = (0.2, 0.1, 0) }
-    def SphereLight "Everywhere" (prepend apiSchemas = ["ShapingAPI"]) { float inputs:radius = 0
-        bool inputs:normalize = 1
-        float inputs:shaping:cone:angle = 180
-        float inputs:shaping:focus = 3 }
-    """
-    result = read(tmp_path, body)
-    focused, tinted, everywhere = result.scene.lights
-    assert focused.cone.focus == 6.0 and tinted.cone.focus == 2.0
-    assert everywhere.cone is None
-    assert any("focusTint" in w and "/Tinted" in w and "/Focused" not in w for w in result.warnings)
-    assert any("focus but no cone" in w and "/Everywhere" in w for w in result.warnings)
-
-TYPOS = """
-def SphereLight "L" {
-    float inputs:intensty = 3
-}
-def Sphre "Ball" {
-}
-def Sphere "S" (prepend apiSchemas = ["MaterialBindingAPI"]) {
-    rel material:binding = </Looks/Missing>
-}
-def Material "M" {
-    token outputs:surface.connect = </M/P.outputs:surface>
-    def Shader "P" {
-        uniform token info:id = "UsdPreviewSurfce"
-        token outputs:surface
-    }
-}
-"""
-
-
-def test_typos_are_warnings_naming_prim_and_attribute_with_the_close_name(tmp_path):
-    warnings = read(tmp_path, TYPOS).warnings
-    expected = [
-        "/L.inputs:intensty: not an input of SphereLight (ignored) (did you mean inputs:intensity?)",
-        "/Ball: prim type 'Sphre' is defined by no schema (ignored) (did you mean Sphere?)",
-        "/S.material:binding: targets /Looks/Missing, which does not exist",
-        "/M/P.info:id: no shader 'UsdPreviewSurfce' is registered (did you mean UsdPreviewSurface?)",
-    ]
-    for text in expected:
-        assert any(w.startswith(text) for w in warnings), (text, warnings)
-
-
-def test_validate_strict_turns_warnings_into_errors(tmp_path, capsys):
-    from phongscene.cli import main
-
-    path = tmp_path / "typos.usda"
-    path.write_text("#usda 1.0\n" + TYPOS)
-    assert main(["validate", str(path)]) == 0
-    assert main(["validate", "--strict", str(path)]) == 2
-    err = capsys.readouterr().err
-    assert f"error: {path}: /L.inputs:intensty: not an input of SphereLight" in err
 
 
 def test_geom_subset_material_bindings_split_the_mesh(tmp_path):
@@ -701,54 +393,3 @@ def test_a_concave_quad_is_split_along_its_inner_diagonal(tmp_path):
     p = mesh.points[mesh.triangles]
     areas = 0.5 * np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])[:, 2]
     assert np.all(areas > 0) and areas.sum() == pytest.approx(1.5)  # the dart's area, not the hull's 2
-
-
-SHEET = """
-def Camera "C" {
-    double3 xformOp:translate = (0, 0, 5)
-    uniform token[] xformOpOrder = ["xformOp:translate"]
-}
-def Mesh "Sheet" {
-    point3f[] points = [(0, 0, 0), (0, 1, 0), (1, 1, 0), (1, 0, 0)]
-    int[] faceVertexCounts = [4]
-    int[] faceVertexIndices = [0, 1, 2, 3]
-    uniform token subdivisionScheme = "none"
-    SIDED
-}
-"""
-
-
-@pytest.mark.parametrize(("sided", "warned"), [("", True), ("uniform bool doubleSided = 1", False)])
-def test_a_single_sided_mesh_whose_back_the_camera_sees_is_said(tmp_path, sided, warned):
-    # The quad is wound clockwise seen from the camera (+Z): the camera sees its back.
-    warnings = read(tmp_path, SHEET.replace("SIDED", sided)).warnings
-    assert any("single-sided meshes" in w and "/Sheet" in w for w in warnings) == warned
-
-
-def test_a_closed_single_sided_mesh_is_not_said(tmp_path):
-    # A tetrahedron (every edge shared by two faces): its back faces are hidden by its front.
-    body = SHEET.replace(
-        """    point3f[] points = [(0, 0, 0), (0, 1, 0), (1, 1, 0), (1, 0, 0)]
-    int[] faceVertexCounts = [4]
-    int[] faceVertexIndices = [0, 1, 2, 3]""",
-        """    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
-    int[] faceVertexCounts = [3, 3, 3, 3]
-    int[] faceVertexIndices = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]""",
-    ).replace("SIDED", "")
-    assert "(0, 0, 1)" in body
-    assert not any("single-sided" in w for w in read(tmp_path, body).warnings)
-
-
-def test_a_light_that_clips_most_of_the_scene_to_white_is_said_with_the_exposure_that_fits(tmp_path):
-    body = """
-    def DistantLight "Sun" { float inputs:intensity = 50
-        bool inputs:normalize = 1 }
-    def Sphere "Ball" {
-    }
-    """
-    warnings = read(tmp_path, body).warnings
-    radiance = 50 / math.pi  # a white Lambert surface under irradiance 50
-    (said,) = [w for w in warnings if w.startswith("/Sun: lights a white surface")]
-    assert f"radiance {radiance:.3g}" in said and f"inputs:exposure {-math.log2(radiance):+.2f}" in said
-    dim = read(tmp_path, body.replace("= 50", "= 3")).warnings  # radiance 0.95: nothing to say
-    assert not [w for w in dim if "lights a white surface" in w]
