@@ -31,6 +31,7 @@ from .diagnostics import as_warnings, usd_output
 from .layers import preflight
 from .context import ReadContext, gf_to_numpy, tf_error_text
 from .lights import read_light
+from .linking import link_lights
 from .materials import MaterialReader
 from .read_cache import KeptRead, ReadCache
 from .read_parts import EveryPart, RecordParts, Redo
@@ -197,6 +198,7 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
     if not lights:
         scene = replace(scene, lights=(head_light(scene.camera),))
         ctx.warn("no point, distant or area light: using a head light at the camera (phongscene.scene.head_light)")
+    scene = link_lights(ctx, stage, scene)
     warn_single_sided(ctx, stage, scene)
     warn_clipping_lights(ctx, scene)
     ctx.flush_unsupported()

@@ -1,0 +1,87 @@
+# SPDX-License-Identifier: Apache-2.0
+"""UsdLux shadows and linking → the model's ``Linking`` of each light: ShadowAPI's
+``inputs:shadow:enable``, and the light's ``collection:lightLink`` (which geometry it
+illuminates) and ``collection:shadowLink`` (which geometry casts its shadows), resolved by
+usd-core's own UsdCollectionAPI membership (includeRoot, includes, excludes, expansion rule:
+``ComputeMembershipQuery``) against the ``source`` prim of every geometry node.
+
+Applied once the whole stage is read (a collection can name geometry read after the light), to
+every light whose ``source`` is a light prim. The ShadowAPI and ShapingAPI inputs the model has
+no term for (``shadow:color``, ``shadow:distance``, ``shadow:falloff``, ``shadow:falloffGamma``,
+``shaping:ies:*``), when authored with a non-default value, are one warning naming the prims
+and attributes (``info --strict`` then fails)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from pxr import Sdf, Usd, UsdLux
+
+from ..scene import Linking, Scene
+from .context import ReadContext
+
+SHADOW_ENABLE = "inputs:shadow:enable"
+# What the model does not render, with the value that changes nothing (UsdLux's fallbacks).
+UNSUPPORTED_INPUTS = {
+    "inputs:shadow:color": (0.0, 0.0, 0.0),
+    "inputs:shadow:distance": -1.0,
+    "inputs:shadow:falloff": -1.0,
+    "inputs:shadow:falloffGamma": 1.0,
+    "inputs:shaping:ies:file": None,
+    "inputs:shaping:ies:angleScale": 0.0,
+    "inputs:shaping:ies:normalize": False,
+}
+
+
+def link_lights(ctx: ReadContext, stage: Usd.Stage, scene: Scene) -> Scene:
+    """``scene`` with each light's ``Linking`` from its prim on ``stage``."""
+    sources = [obj.source for obj in scene.objects]
+    paths = [Sdf.Path(s) if Sdf.Path.IsValidPathString(s) else None for s in sources]
+    lights = []
+    for light in scene.lights:
+        prim = stage.GetPrimAtPath(light.source) if Sdf.Path.IsValidPathString(light.source) else None
+        if not prim or not prim.HasAPI(UsdLux.LightAPI):
+            lights.append(light)  # a default light of the reader's own
+            continue
+        _warn_unsupported(ctx, prim)
+        linking = Linking(
+            shadows=_shadows(ctx, prim),
+            illuminates=_members(UsdLux.LightAPI(prim).GetLightLinkCollectionAPI(), sources, paths),
+            shadowed_by=_members(UsdLux.LightAPI(prim).GetShadowLinkCollectionAPI(), sources, paths),
+        )
+        lights.append(light if linking.default else replace(light, linking=linking))
+    return replace(scene, lights=tuple(lights))
+
+
+def _shadows(ctx: ReadContext, prim: Usd.Prim) -> bool:
+    """ShadowAPI's switch (True by default). Without the API applied the attribute is not the
+    schema's, and the reader's check of unknown inputs says it is ignored: it is."""
+    if not prim.HasAPI(UsdLux.ShadowAPI):
+        return True
+    return bool(ctx.get(prim, SHADOW_ENABLE, ("bool",), True))
+
+
+def _members(collection: Usd.CollectionAPI, sources: list[str], paths: list) -> frozenset[str] | None:
+    """The sources the collection includes; None when it includes all of them (the default
+    collection, includeRoot, includes everything)."""
+    query = collection.ComputeMembershipQuery()
+    included = [s for s, p in zip(sources, paths) if p is not None and query.IsPathIncluded(p)]
+    if len(included) == len(sources):
+        return None
+    return frozenset(included)
+
+
+def _warn_unsupported(ctx: ReadContext, prim: Usd.Prim) -> None:
+    for name, neutral in UNSUPPORTED_INPUTS.items():
+        attr = prim.GetAttribute(name)
+        if not attr or not attr.HasAuthoredValue():
+            continue
+        value = attr.Get(ctx.time)
+        if neutral is None:
+            changed = bool(value and getattr(value, "path", value))
+        elif isinstance(neutral, tuple):
+            changed = tuple(float(c) for c in value) != neutral
+        else:
+            changed = value != neutral
+        if changed:
+            ctx.unsupported[f"light {name} (not rendered: the model has no such term)"].append(str(prim.GetPath()))
