@@ -128,12 +128,8 @@ def run_compile(args) -> int:
     out = Path(args.output)
     if out.suffix.lower() != ".pov":
         raise UsageError(f"{out}: the output must end in .pov")
-    if args.display != "srgb" and not args.output.lower().endswith(".png"):
-        raise UsageError(f"--display {args.display} applies to a .png output (an EXR stays linear)")
     check_cluster_needs_frames(args)
     if args.frames:
-        if args.display != "srgb":
-            raise UsageError("--display applies to single images, not --frames")
         return _compile_frames(args)
     out = Path(output_at_time(args, args.output))
     ini, image = out.with_suffix(".ini"), out.with_suffix(".exr")

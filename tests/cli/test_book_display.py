@@ -49,3 +49,28 @@ def test_the_default_png_is_srgb(tmp_path):
 def test_an_unknown_display_is_an_error(tmp_path):
     with pytest.raises(ValueError, match="unknown display"):
         write_image(tmp_path / "x.png", PIXELS, display="gamma")
+
+
+def test_render_writes_the_books_codes_with_display_book(tmp_path):
+    from OpenImageIO import ImageBuf
+
+    from phongscene import load_usd, render
+    from phongscene.cli import main
+    from support.paths import EXAMPLES
+
+    scene = EXAMPLES / "seed_lobe.usda"
+    out = tmp_path / "book.png"
+    assert main(["render", str(scene), "-o", str(out), "--width", "16", "--display", "book"]) == 0
+    back = np.round(np.asarray(ImageBuf(str(out)).get_pixels()).reshape(-1, 16, 3) * 255)
+    import dataclasses
+
+    s = load_usd(scene)
+    s = dataclasses.replace(s, settings=dataclasses.replace(s.settings, width=16, height=back.shape[0]))
+    np.testing.assert_array_equal(back, book_codes(render(s, "native")))
+
+
+def test_display_needs_a_png(tmp_path):
+    from phongscene.cli import main
+    from support.paths import EXAMPLES
+
+    assert main(["render", str(EXAMPLES / "seed_lobe.usda"), "-o", str(tmp_path / "x.exr"), "--display", "book"]) == 2
