@@ -104,3 +104,39 @@ def test_their_fallback_values_are_no_warning(tmp_path):
     _, warnings = linking_of(tmp_path, "    color3f inputs:shadow:color = (0, 0, 0)\n    float inputs:shadow:distance = -1",
                              '"ShadowAPI"')
     assert not [w for w in warnings if "shadow" in w]
+
+
+def test_write_usd_round_trips_linking_intrinsics_and_emission(tmp_path):
+    import dataclasses
+
+    import numpy as np
+
+    from phongscene.scene import Intrinsic, Linking, PhongMaterial, PointLight, Scene, Sphere
+    from phongscene.usd import write_usd
+
+    glow = PhongMaterial(emission=(0.5, 0.25, 0.0), source="/World/Looks/Glow/Phong")
+    shapes = (
+        Intrinsic("cube", np.diag([1.0, 2.0, 0.5, 1.0]), source="/World/Geometry/Box"),
+        Intrinsic("cylinder", np.eye(4), radius_bottom=0.5, radius_top=0.25, source="/World/Geometry/Frustum"),
+        Intrinsic("cylinder", np.eye(4), radius_top=0.0, source="/World/Geometry/Cone"),
+        Intrinsic("capsule", np.eye(4), radius=0.5, half_height=0.75, source="/World/Geometry/Pill"),
+        Intrinsic("plane", np.eye(4), glow, infinite=True, source="/World/Geometry/Ground"),
+    )
+    linking = Linking(shadows=False, illuminates=frozenset({"/World/Geometry/Ball", "/World/Geometry/Box"}),
+                      shadowed_by=frozenset({"/World/Geometry/Cone"}))
+    scene = Scene(
+        lights=(PointLight((0, 5, 0), (1, 1, 1), source="/World/Lights/Key", linking=linking),),
+        spheres=(Sphere.at((0, 0, 0), 1.0, glow, "/World/Geometry/Ball"),),
+        intrinsics=shapes,
+    )
+    back = read_usd_scene(write_usd(scene, tmp_path / "out.usda"))
+    assert back.lights[0].linking == linking
+    assert [dataclasses.replace(i, material=scene.intrinsics[0].material) == dataclasses.replace(j, material=scene.intrinsics[0].material)
+            for i, j in zip(back.intrinsics, shapes)] == [True] * len(shapes)
+    assert back.spheres[0].material.emission == (0.5, 0.25, 0.0)
+
+
+def read_usd_scene(path):
+    from phongscene.usd import read_usd
+
+    return read_usd(path).scene
