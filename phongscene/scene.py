@@ -15,8 +15,11 @@ Conventions:
   (flipped to face the viewer), viewer direction wo, and each light j with n·l_j > 0 and
   not in shadow::
 
-      L = ka·cd·La + Σ_j [ kd·cd/π + ks·cs·max(0, r_j·wo)^e ] · Lj · (n·l_j)
+      L = Le + ka·cd·La + Σ_j [ kd·cd/π + ks·cs·max(0, r_j·wo)^e ] · Lj · (n·l_j)
       r_j = −l_j + 2(n·l_j) n
+
+  Le is the material's emission (0 unless a scene asks); the sum runs over the lights whose
+  ``Linking`` illuminates the object, each unshadowed unless its linking says otherwise.
 
   The ``povray-classic`` convention is what a plain POV-Ray ``finish { phong ks phong_size e }``
   computes: the specular term has no n·l factor and is coloured by the light, not by cs::
