@@ -28,3 +28,6 @@ MAX_ADAPTIVE = 100
 # The cells estimator's points per partial cell per axis (256 per cell at most, as stratified's budget).
 MAX_CELL_SAMPLES = 16
 
+# The deepest secondary ray (RenderSettings.max_depth): POV-Ray caps max_trace_level (= max_depth + 1)
+# at 256; the native tracer's recursion is as deep (a few hundred stack frames).
+MAX_DEPTH = 255

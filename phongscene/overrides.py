@@ -55,6 +55,8 @@ class RenderOverrides:
     threads: int | None = _setting()  # 0 = all cores (--threads)
     sample_pattern: str | None = _setting()  # --sample-pattern
     aa_threshold: float | None = _setting()  # --aa-threshold
+    # The deepest secondary ray, RenderSettings.max_depth (--max-depth).
+    max_depth: int | None = _setting()
     # POV-Ray's 'adaptive N' on every area light (--shadow-adaptive).
     shadow_adaptive: int | None = _area_light("adaptive")
     # The native cells estimator, K x K points per partial cell, on every area light (--shadow-cells).

@@ -33,7 +33,8 @@ def settings_for(scene: Scene, settings: RenderSettings | None = None, *, mappin
     if mapping is not None:
         from .backends.povray import specular_of  # the mapping is the POV-Ray backend's vocabulary
 
-        settings = replace(settings, specular=specular_of(mapping))
+        # POV-Ray's refracted rays carry kt, without the book's 1/η² (ref §18): like with like.
+        settings = replace(settings, specular=specular_of(mapping), transmission="povray")
     return settings
 
 

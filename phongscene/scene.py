@@ -26,6 +26,23 @@ Conventions:
 
       L = ka·cd·La + Σ_j [ kd·cd/π·(n·l_j) + ks·(r_j·wo)^e ] · Lj      (r_j·wo > 0)
 
+* Mirror reflection (Suffern ch. 24, PerfectSpecular on top of Phong; POV-Ray's ``reflection``
+  adds it the same way, ref §18): a material with kr > 0 adds ``kr·cr·L(p, r)``, the radiance
+  traced along the mirror direction r = −wo + 2(n·wo)n (a miss: the background). The camera ray
+  has depth 0, a reflected ray one more than its parent; a ray deeper than
+  ``RenderSettings.max_depth`` returns black (the book's Whitted tracer and POV-Ray's
+  ``max_trace_level max_depth + 1`` agree). kr = 0 traces no secondary ray.
+* Transparency (Suffern ch. 27, PerfectTransmitter): a material with kt > 0 is the surface of an
+  interior of index ``ior`` (relative to the outside; the unflipped normal points out). A ray
+  crossing it is refracted by Snell's law into direction t with η = ior entering, 1/ior leaving,
+  and adds ``kt/η²·L(p, t)`` (``transmission`` "book") or ``kt·L(p, t)`` ("povray": POV-Ray has
+  no η² factor, ref §18); under total internal reflection it adds instead the mirror ray's
+  ``L(p, r)`` at full weight and no kr term (the book and POV-Ray agree). Shadow rays of point and
+  distant lights go straight through transmissive objects, × kt per surface crossed (POV-Ray's
+  shadows, ref §18). Inside an interior every ray (also a shadow ray) keeps interior_filter^d of
+  its radiance over a distance d (Beer-Lambert); interiors are not nested: a refracted ray
+  enters or leaves the one of the surface it crosses.
+
 POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 """
 
@@ -41,6 +58,10 @@ Vec3 = tuple[float, float, float]
 RGB = tuple[float, float, float]
 
 SpecularConvention = Literal["seed", "povray-classic"]
+# The radiance a refracted ray carries: "book" kt/η² (Suffern ch. 27), "povray" kt (POV-Ray
+# applies no η² factor, ref §18; ``diff`` renders the native image in this convention).
+TransmissionConvention = Literal["book", "povray"]
+TRANSMISSION_CONVENTIONS: tuple[str, ...] = ("book", "povray")
 SamplePattern = Literal["grid", "povray-am1", "povray-am2", "stratified", "adaptive"]
 SAMPLE_PATTERNS: tuple[str, ...] = ("grid", "povray-am1", "povray-am2", "stratified", "adaptive")
 # The patterns POV-Ray has ("stratified" is the native tracer's own).
@@ -162,6 +183,32 @@ class PhongMaterial:
     # emissiveColor; POV-Ray's finish { emission }). Linear RGB, >= 0. An emissive surface lights
     # nothing else: only lights do (a RectLight or SphereLight is the emitter that casts light).
     emission: RGB = (0.0, 0.0, 0.0)
+    # Mirror reflection (Suffern ch. 24): kr·cr times the radiance along the mirror direction,
+    # added to the Phong terms. kr in [0, 1]; 0 (the default) traces no reflected ray.
+    kr: float = 0.0
+    reflective_color: RGB = (1.0, 1.0, 1.0)  # cr, linear RGB, >= 0
+    # Transparency (Suffern ch. 27): kt times the radiance along the refracted direction, into an
+    # interior of index ior relative to the outside. kt in [0, 1]; 0 traces no refracted ray.
+    kt: float = 0.0
+    ior: float = 1.0  # > 0
+    # The dielectric (Suffern ch. 28; POV-Ray ``reflection { 0, cr fresnel on } conserve_energy``):
+    # the mirror weight kr·cr becomes F·kr·cr and kt becomes (1 − F)·kt, F the unpolarised Fresnel
+    # reflectance of the crossing (((ior − 1)/(ior + 1))² at normal incidence). kr = kt = 1 is the
+    # book's Dielectric; an opaque fresnel material reflects as the surface of an ior interior.
+    fresnel: bool = False
+    # Beer-Lambert (Suffern ch. 28's cf_in; POV-Ray's exponential interior fade): the fraction of
+    # each channel a ray keeps per unit distance inside the interior, (0, 1] (white: none absorbed).
+    interior_filter: RGB = (1.0, 1.0, 1.0)
+
+    @property
+    def transmits(self) -> bool:
+        """Whether the material traces a refracted ray (kt > 0)."""
+        return self.kt > 0
+
+    @property
+    def reflects(self) -> bool:
+        """Whether the material traces a reflected ray (kr > 0 and cr not black)."""
+        return self.kr > 0 and any(c > 0 for c in self.reflective_color)
 
     @property
     def textures(self) -> tuple[Texture, ...]:
@@ -171,7 +218,8 @@ class PhongMaterial:
     def without_textures(self) -> PhongMaterial:
         """The same material with its constant colours only (the textures' fallbacks)."""
         return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source,
-                             emission=self.emission)
+                             emission=self.emission, kr=self.kr, reflective_color=self.reflective_color, kt=self.kt,
+                             ior=self.ior, fresnel=self.fresnel, interior_filter=self.interior_filter)
 
 
 DEFAULT_MATERIAL = PhongMaterial()
@@ -569,6 +617,11 @@ class RenderSettings:
     specular: SpecularConvention = "seed"
     source: str = ""  # the UsdRender.Settings prim, if any
     numerics: Numerics = "scale-invariant"  # native only (POV-Ray always has its own)
+    # The deepest secondary ray traced (the book's max_depth): the camera ray has depth 0, each
+    # reflection adds 1, and a ray deeper than this returns black (POV-Ray: max_trace_level
+    # max_depth + 1, ref §18). Only scenes with reflective materials trace secondary rays.
+    max_depth: int = 5
+    transmission: TransmissionConvention = "book"  # the radiance of refracted rays (above)
 
 
 @dataclass(frozen=True, slots=True)

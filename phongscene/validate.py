@@ -29,6 +29,7 @@ from .scene import (
     Scene,
     Sphere,
     SphereAreaLight,
+    TRANSMISSION_CONVENTIONS,
     WRAPS,
     TriangleMesh,
 )
@@ -40,6 +41,7 @@ from .limits import (  # noqa: E402  (re-exported: validation's bounds)
     MAX_ADAPTIVE,
     MAX_CELL_SAMPLES,
     MAX_COORDINATE,
+    MAX_DEPTH,
     MAX_IMAGE_SIDE,
     MAX_PIXELS,
     MAX_SAMPLES,
@@ -231,6 +233,12 @@ def validate(scene: Scene) -> list[Problem]:
             c.add(intrinsic, "material", "a textured material needs texture coordinates, which only meshes carry")
     for material in _unique(materials):
         _check_material(c, material)
+    if any(m.kt > 0 for m in materials):
+        # Filtered shadows (through transmissive objects) are traced for single shadow rays only.
+        for light in scene.lights:
+            if isinstance(light, (RectAreaLight, SphereAreaLight)):
+                c.add(light, "samples", "area lights in a scene with transmissive materials (kt > 0) are not supported "
+                      "yet: their shadows through transmissive objects are not traced (use point or distant lights)")
     return c.problems
 
 
@@ -270,6 +278,16 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
     c.colour(m, "diffuse_color")
     c.colour(m, "specular_color")
     c.colour(m, "emission")
+    c.unit_interval(m, "kr")
+    c.colour(m, "reflective_color")
+    c.unit_interval(m, "kt")
+    if c.finite(m, "ior", m.ior) and not m.ior > 0:
+        c.add(m, "ior", f"must be > 0, got {_show(m.ior)}")
+    c.colour(m, "interior_filter")
+    if all(np.isfinite(m.interior_filter)) and not all(0 < f <= 1 for f in m.interior_filter):
+        c.add(m, "interior_filter", f"must be in (0, 1] per channel, got {_show(m.interior_filter)}")
+    if not isinstance(m.fresnel, (bool, np.bool_)):
+        c.add(m, "fresnel", f"must be True or False, got {_show(m.fresnel)}")
     for t in m.textures:
         _check_texture(c, t)
 
@@ -329,6 +347,10 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
     if not isinstance(s.threads, (int, np.integer)) or not 0 <= s.threads <= MAX_THREADS:
         c.add(s, "threads", f"must be an integer in 0..{MAX_THREADS}, got {_show(s.threads)}")
     c.colour(s, "background")
+    if not isinstance(s.max_depth, (int, np.integer)) or isinstance(s.max_depth, bool) or not 0 <= s.max_depth <= MAX_DEPTH:
+        c.add(s, "max_depth", f"must be an integer in 0..{MAX_DEPTH}, got {_show(s.max_depth)}")
+    if s.transmission not in TRANSMISSION_CONVENTIONS:
+        c.add(s, "transmission", f"must be one of {', '.join(TRANSMISSION_CONVENTIONS)}, got {_show(s.transmission)}")
 
 
 FALLOFFS = ("none", "inverse-square")
@@ -439,6 +461,10 @@ def _check_intrinsic(c: _Collector, i: Intrinsic) -> None:
         c.add(i, "radius_bottom", "a cylinder needs a radius > 0 at one end at least")
     if i.kind == "capsule" and i.radius == 0:
         c.add(i, "radius", "must be > 0")
+    if i.kind == "capsule" and isinstance(i.material, PhongMaterial) and i.material.transmits:
+        # The native tracer's capsule is the union of a tube and two spheres, whose inner parts
+        # would refract a ray that crosses them.
+        c.add(i, "material", "a transmissive capsule is not supported (tessellate it: phong:tessellate)")
     if i.infinite and i.kind != "plane":
         c.add(i, "infinite", f"only a plane can be infinite, not a {i.kind}")
 

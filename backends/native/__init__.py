@@ -58,6 +58,12 @@ def _material(m: PhongMaterial) -> _native.Material:
     )
     if any(m.emission):
         native.emission = m.emission
+    native.kr = m.kr
+    native.reflective_color = m.reflective_color
+    native.kt = m.kt
+    native.ior = m.ior
+    native.fresnel = bool(m.fresnel)
+    native.interior_filter = m.interior_filter
     return native
 
 
@@ -167,6 +173,8 @@ def _settings(s: RenderSettings) -> _native.RenderSettings:
         numerics=_NUMERICS[s.numerics],
     )
     native.aa_threshold = float(s.aa_threshold)
+    native.max_depth = int(s.max_depth)
+    native.transmission_convention = _native.TransmissionConvention.book if s.transmission == "book" else _native.TransmissionConvention.povray
     return native
 
 

@@ -327,6 +327,61 @@ class _Compiler:
             o.material for o in scene.objects
             if any(not light.linking.lights(o.source) for light in scene.lights)
         }
+        # Secondary rays (ref §18): only a scene with a reflective material gets the depth limit
+        # (max_trace_level = max_depth + 1) and adc_bailout 0 (no weight cut-off), so the SDL of
+        # every other scene is unchanged.
+        self.reflective = any(o.material.reflects or o.material.transmits for o in scene.objects)
+
+    def trace_settings(self) -> str:
+        """The global_settings items of secondary rays ("" for a scene that traces none)."""
+        if not self.reflective:
+            return ""
+        depth = self.settings.max_depth
+        if not isinstance(depth, (int, np.integer)) or isinstance(depth, bool) or depth < 0:
+            raise self._error(self.settings, "max_depth", f"must be a non-negative integer, got {depth!r}")
+        return f" max_trace_level {int(depth) + 1}"
+
+    def transparency(self, m: PhongMaterial) -> float:
+        """att = 1 − kt, the factor POV-Ray puts on the ambient and diffuse terms of a pigment
+        that transmits kt (ref §4, §18), which the finish divides back out (1 when opaque)."""
+        self.coef(m.kt, m, "kt")
+        if not m.transmits:
+            return 1.0
+        att = 1.0 - m.kt
+        if att <= 0.0 and (m.ka > 0 or m.kd > 0):
+            raise self._error(m, "kt", "kt = 1 with ambient or diffuse terms: POV-Ray scales those by 1 − kt, so it "
+                              "cannot show them (lower kt, or set ka = kd = 0 as for glass)")
+        return att if att > 0.0 else 1.0
+
+    def interior(self, m: PhongMaterial) -> str:
+        """The object's ``interior { ior }`` of a transmissive material ("" otherwise)."""
+        if not (m.transmits or (m.fresnel and m.reflects)):
+            return ""
+        fade = ""
+        if m.transmits and tuple(m.interior_filter) != (1.0, 1.0, 1.0):
+            # Beer-Lambert cf^d is POV-Ray's exponential fade (fade_power >= 1000, ref §18)
+            # exp(−(d/fd)(1 − C)) with fd = 1 and C = 1 + ln cf (POV-Ray takes C < 0 as it is).
+            colour = 1.0 + np.log(np.asarray(m.interior_filter, dtype=np.float64))
+            fade = f" fade_distance 1 fade_power 1001 fade_color {self.rgb(colour, m, 'interior_filter')}"
+        return f" interior {{ ior {self.coef(m.ior, m, 'ior')}{fade} }}"
+
+    def reflection(self, m: PhongMaterial, scale: float = 1.0) -> str:
+        """The finish item of the mirror term kr·cr (ref §18: POV-Ray adds ``reflection`` to the
+        pigment's terms, unweighted, as the book's PerfectSpecular), times ``scale``; "" without one."""
+        self.coef(m.kr, m, "kr")
+        self.rgb(m.reflective_color, m, "reflective_color")
+        if not m.reflects:
+            return ""
+        colour = np.asarray(m.reflective_color, dtype=np.float64) * (m.kr * scale)
+        if not m.fresnel:
+            return f" reflection rgb {self.rgb(colour, m, 'reflective_color')}"
+        # The dielectric (ref §18): POV-Ray reflects min + (max − min)·F and, with
+        # conserve_energy, transmits (1 − F) of kt: the model's split when the mirror weight is 1.
+        if m.transmits and (m.kr != 1.0 or tuple(m.reflective_color) != (1.0, 1.0, 1.0)):
+            raise self._error(m, "kr", "a transmissive fresnel material needs kr = 1 and a white cr in POV-Ray "
+                              "(its conserve_energy takes 1 − F of the transmitted light only then)")
+        conserve = " conserve_energy" if m.transmits else ""
+        return f" reflection {{ 0, rgb {self.rgb(colour, m, 'reflective_color')} fresnel on }}{conserve}"
 
     # -- numbers, with the prim named when one is not finite ---------------------------------
 
@@ -372,7 +427,8 @@ class _Compiler:
             self.exact_passes()
         else:
             self.lines.append(
-                f"global_settings {{ assumed_gamma 1.0 ambient_light rgb {self.rgb(self.scene.ambient.color, self.scene.ambient, 'color')} }}"
+                f"global_settings {{ assumed_gamma 1.0 ambient_light rgb {self.rgb(self.scene.ambient.color, self.scene.ambient, 'color')}"
+                + (f" adc_bailout 0{self.trace_settings()}" if self.reflective else "") + " }"
             )
             self.lines.append(f"background {{ color rgb {self.rgb(self.settings.background, self.settings, 'background')} }}")
             for i, light in enumerate(self.scene.lights):
@@ -509,7 +565,7 @@ class _Compiler:
         return f"#declare NdotL = pigment {{ {pattern} color_map {{ NdotL_Map }} }}"
 
     def exact_passes(self) -> None:
-        self.lines.append("global_settings { assumed_gamma 1.0 adc_bailout 0 }")
+        self.lines.append(f"global_settings {{ assumed_gamma 1.0 adc_bailout 0{self.trace_settings()} }}")
         self.lines.append(f"// n.l = sin(pi (v - 1/2)) of the slope value v, as a filter colour ({NDOTL_SEGMENTS} linear segments).")
         entries = ["[0 rgbf <0, 0, 0, 1>]"]
         for k in range(NDOTL_SEGMENTS + 1):
@@ -571,6 +627,11 @@ class _Compiler:
         as half floats anyway), looked up bilinearly between texel centres (interpolate 2),
         extended and wrapped as ``UvFrame`` says (ref §16)."""
         t = m.diffuse_texture
+        if m.transmits:  # POV-Ray's transmit: the refracted ray's weight (ref §18)
+            kt = self.coef(m.kt, m, "kt")
+            if t is None:
+                return f"pigment {{ rgbt <{self.rgb(m.diffuse_color, m, 'diffuse_color')[1:-1]}, {kt}> }}"
+            return f"pigment {{ {self.image_map(t, f' transmit all {kt}')} }}"
         if t is None:
             return f"pigment {{ rgb {self.rgb(m.diffuse_color, m, 'diffuse_color')} }}"
         return f"pigment {{ {self.image_map(t)} }}"
@@ -606,8 +667,10 @@ class _Compiler:
         ambient term and emission only (the exact mapping's ambient, ka·cd·La, is the same float
         as its doubled-and-averaged one: scaling by 2 is exact)."""
         pigment = self.diffuse_pigment(m)
-        ka = self.coef(2 * m.ka if any(m.emission) else m.ka, m, "ka")
-        return self.with_emission(m, f"{pigment} finish {{ ambient {ka} diffuse 0 }}")
+        k = 2 if any(m.emission) else 1
+        ka = self.coef(k * m.ka / self.transparency(m), m, "ka")
+        # The mirror term stays: a light link removes the light's direct terms only.
+        return self.with_emission(m, f"{pigment} finish {{ ambient {ka} diffuse 0{self.reflection(m, k)} }}")
 
     def texture(self, m: PhongMaterial, name: str) -> str:
         self.rgb(m.diffuse_color, m, "diffuse_color")  # checked also when a texture replaces it
@@ -618,13 +681,20 @@ class _Compiler:
         emissive = any(m.emission)
         # With emission, every entry of the average carries twice its share (see emissive_entry).
         k = 2 if emissive else 1
+        if emissive and m.transmits:
+            raise self._error(m, "emission", "an emissive transmissive material: POV-Ray's average texture would "
+                              "halve its transmission (set emission or kt to 0)")
+        if self.exact and m.ks > 0 and m.transmits:
+            raise self._error(m, "kt", "a transmissive material with a highlight: the exact mapping's average texture "
+                              "would split POV-Ray's total internal reflection among its entries; use the classic mapping")
         if not self.exact or m.ks <= 0:
             # Classic: one idiomatic finish. Exact without a highlight: one plain texture is exact.
             phong = f" phong {self.coef(k * m.ks, m, 'ks')} phong_size {e}" if m.ks > 0 else ""
+            att = self.transparency(m)
             return self.with_emission(
                 m,
-                f"{pigment} finish {{ ambient {self.coef(k * m.ka, m, 'ka')}"
-                f" diffuse {self.coef(k * m.kd / math.pi, m, 'kd')}{self.diffuse_term}{phong} }}",
+                f"{pigment} finish {{ ambient {self.coef(k * m.ka / att, m, 'ka')}"
+                f" diffuse {self.coef(k * m.kd / math.pi / att, m, 'kd')}{self.diffuse_term}{phong}{self.reflection(m, k)} }}",
             )
         # (A) the average of a diffuse texture and a layered specular texture, each doubled.
         # (A texture_map entry cannot hold a layered texture inline: it is declared first.)
@@ -641,9 +711,10 @@ class _Compiler:
         layers.append("texture { pigment { NdotL } finish { ambient 0 diffuse 0 } }")
         self.lines.append(f"#declare {name}_Specular =\n  " + "\n  ".join(layers))
         # (A texture_map entry holds a texture body without the 'texture' keyword.)
+        # The mirror term rides on the diffuse half, doubled like its other terms.
         diffuse = (
             f"{pigment} finish {{ ambient {self.coef(2 * k * m.ka, m, 'ka')}"
-            f" diffuse {self.coef(2 * k * m.kd / math.pi, m, 'kd')}{self.diffuse_term} }}"
+            f" diffuse {self.coef(2 * k * m.kd / math.pi, m, 'kd')}{self.diffuse_term}{self.reflection(m, 2.0 * k)} }}"
         )
         emitted = f"\n  {self.emissive_entry(m, 2)}" if emissive else ""
         return f"texture {{ average texture_map {{\n  [1 {diffuse}]\n  [1 {name}_Specular]{emitted}\n}} }}"
@@ -702,12 +773,13 @@ class _Compiler:
         a, t = m[:3, :3], m[:3, 3]
         r = float(a[0, 0])
         if r > 0 and np.array_equal(a, np.diag([r, r, r])):
-            return f"sphere {{ {self.vec(t, s, 'world_from_object')}, {self.num(r, s, 'world_from_object')} texture {{ {texture} }}{modifiers} }}"
+            return (f"sphere {{ {self.vec(t, s, 'world_from_object')}, {self.num(r, s, 'world_from_object')}"
+                    f" texture {{ {texture} }}{self.interior(s.material)}{modifiers} }}")
         # POV's matrix is row-vector: p' = p·M with M's first three rows the images of x, y, z
         # (the columns of our column-vector 3×3) and the translation as the fourth row.
         numbers = ", ".join(self.num(x, s, "world_from_object") for x in (*a.T.reshape(-1), *t))
         # The texture comes after the matrix, so it is not transformed (world-space slope).
-        return f"sphere {{ <0, 0, 0>, 1 matrix <{numbers}> texture {{ {texture} }}{modifiers} }}"
+        return f"sphere {{ <0, 0, 0>, 1 matrix <{numbers}> texture {{ {texture} }}{self.interior(s.material)}{modifiers} }}"
 
     def matrix(self, node, m: np.ndarray) -> str:
         """POV's row-vector ``matrix`` of a column-vector affine map (the 3×3 part transposed,
@@ -720,7 +792,7 @@ class _Compiler:
         under its ``matrix``; the texture after the matrix stays in world space (the exact
         mapping's slope), as for spheres."""
         texture, modifiers = self.linked(i)
-        tail = f" {self.matrix(i, i.world_from_object)} texture {{ {texture} }}{modifiers} }}"
+        tail = f" {self.matrix(i, i.world_from_object)} texture {{ {texture} }}{self.interior(i.material)}{modifiers} }}"
         if i.kind == "cube":
             return "box { <-1, -1, -1>, <1, 1, 1>" + tail
         if i.kind == "plane":
@@ -774,6 +846,10 @@ class _Compiler:
             # Local coordinates keep float32 precision far from the origin; the translate comes
             # before the texture, so the texture (the exact mapping's slope) stays in world space.
             out.append(f"  translate {self.vec(origin, mesh, 'points')}")
+        if mesh.material.transmits:
+            # A mesh has an inside (for its interior's refraction) only with an inside_vector;
+            # any direction does for a closed mesh (POV-Ray counts crossings along it).
+            out.append("  inside_vector <0.2718281828, 0.5772156649, 0.7853981634>")
         texture, modifiers = self.linked(mesh)
-        out.append(f"  texture {{ {texture} }}{modifiers}")
+        out.append(f"  texture {{ {texture} }}{self.interior(mesh.material)}{modifiers}")
         out.append("}")

@@ -60,6 +60,18 @@ def run_info(args) -> int:
                     # The file, not t.source: equal textures are shared, and source is the first prim read.
                     print(f"  {m.source or '(material)'} {role} <- {t.file or '(no file)'}, "
                           f"{t.width}x{t.height}, wrap {t.wrap_s}/{t.wrap_t}")
+    secondary = [m for m in materials if m.reflects or m.transmits]
+    if secondary:
+        print("reflect or refract (secondary rays, up to max_depth):")
+        for m in sorted(secondary, key=lambda m: m.source):
+            terms = []
+            if m.reflects:
+                terms.append(f"reflects kr {m.kr:g} cr {_vector(m.reflective_color)}")
+            if m.transmits:
+                terms.append(f"refracts kt {m.kt:g} ior {m.ior:g}")
+            if m.fresnel:
+                terms.append("fresnel")
+            print(f"  {m.source or '(material)'}: {', '.join(terms)}")
     print(f"ambient: {_vector(scene.ambient.color)}")
     cam = scene.camera
     extent = f"hfov {cam.horizontal_fov_deg:.6g} deg" if cam.projection == "perspective" else f"width {cam.ortho_width:.6g}"
@@ -72,6 +84,7 @@ def run_info(args) -> int:
         f"settings: {s.source or '(defaults)'}: {s.width}x{s.height}, samples {s.samples} ({s.sample_pattern}"
         f"{f', threshold {s.aa_threshold:g}' if s.aa_threshold else ''}), "
         f"specular {s.specular}, background {_vector(s.background)}"
+        + (f", max_depth {s.max_depth}, transmission {s.transmission}" if secondary else "")
     )
     print_warnings(result.warnings, sys.stdout)
     return EXIT_OK

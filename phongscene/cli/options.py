@@ -142,7 +142,7 @@ def add_override_options(p: argparse.ArgumentParser, *, mapping_help: str, mappi
     """The render overrides (``RenderOverrides``) but --time, which ``add_time_options`` adds:
     --mapping, the size, the anti-aliasing and the area-light estimators; --shadow-cells (native
     only) and --threads for the commands that render natively."""
-    from ..limits import MAX_ADAPTIVE
+    from ..limits import MAX_ADAPTIVE, MAX_DEPTH
     from ..scene import SAMPLE_PATTERNS
 
     add_mapping_option(p, mapping_help, mapping_default)
@@ -155,6 +155,9 @@ def add_override_options(p: argparse.ArgumentParser, *, mapping_help: str, mappi
                    help="POV-Ray's +A threshold of povray-am1/am2: supersample where colours differ by >= T "
                    "(0: everywhere); stratified: its stopping tolerance; adaptive: split a cell of side s while "
                    "its corners' spread x s^1.5 >= T")
+    p.add_argument("--max-depth", type=int_in(0, MAX_DEPTH), metavar="D",
+                   help="the deepest reflected or refracted ray (RenderSettings.max_depth, phong:maxDepth; the camera "
+                   "ray has depth 0, deeper rays return black; POV-Ray: max_trace_level D + 1; default: the scene's)")
     p.add_argument("--shadow-adaptive", type=int_in(0, MAX_ADAPTIVE), metavar="N",
                    help="POV-Ray's 'adaptive N' on every area light (default: each light's own)")
     if shadow_cells:

@@ -45,6 +45,12 @@ def read_render_settings(ctx: ReadContext) -> tuple[RenderSettings, Usd.Prim | N
         values["specular"] = str(convention)
     if prim.GetAttribute(names.BACKGROUND):
         values["background"] = ctx.color(prim, names.BACKGROUND, defaults.background)
+    depth = ctx.get(prim, names.MAX_DEPTH, INT_TYPES)
+    if depth is not None:
+        values["max_depth"] = int(depth)
+    transmission = ctx.get(prim, names.TRANSMISSION_CONVENTION, STRING_TYPES)
+    if transmission is not None:
+        values["transmission"] = str(transmission)
     camera = None
     targets = UsdRender.Settings(prim).GetCameraRel().GetForwardedTargets()
     if targets:

@@ -25,6 +25,10 @@ PREVIEW_MIN_ROUGHNESS = 1e-3
 # Not in the UsdPreviewSurface spec: Blender writes its Principled BSDF's "Specular IOR Level" here.
 BLENDER_SPECULAR_LEVEL = "specular"
 PREVIEW_INPUTS = ("diffuseColor", "roughness", "metallic", "specularColor", "useSpecularWorkflow", "ior")
+# A metal (metallic > 0, the metallic workflow) at most this rough mirrors its surroundings: kr = 1,
+# cr = its F0's metallic part m·cd (docs/reflection.md). Rougher metals only have the highlight
+# (their reflection is a blur, Suffern ch. 25, that a single mirror ray does not approximate well).
+PREVIEW_MIRROR_MAX_ROUGHNESS = 0.35
 
 
 def preview_to_phong(
@@ -71,6 +75,13 @@ def preview_to_phong(
     strength = f0 * (exponent + 2.0) / (2.0 * np.pi) if alpha < 0.5 else f0 / (2.0 * np.pi * alpha)
     ks = float(min(1.0, strength.max()))
     cs = strength / ks if ks > 0 else np.ones(3)
+    # The mirror of a smooth metal (Suffern ch. 24): its F0 at normal incidence, m·cd; Schlick's rise
+    # of F toward white at grazing angles is not modelled (kr·cr is constant), nor the blur of
+    # roughness > 0 (docs/reflection.md measures both against Cycles).
+    mirror = {}
+    if not use_specular_workflow and metallic > 0 and float(roughness) <= PREVIEW_MIRROR_MAX_ROUGHNESS:
+        m = float(np.clip(metallic, 0.0, 1.0))
+        mirror = {"kr": 1.0, "reflective_color": tuple(float(c) for c in m * cd)}
     return PhongMaterial(
         ka=1.0,
         kd=1.0,
@@ -79,6 +90,7 @@ def preview_to_phong(
         diffuse_color=tuple(float(c) for c in kd_colour),
         specular_color=tuple(float(c) for c in cs),
         source=source,
+        **mirror,
     )
 
 
@@ -191,7 +203,8 @@ class MaterialReader:
                 values[field] = default
                 continue
             value = self._input_value(shader, name, default)
-            values[field] = tuple(float(c) for c in value) if isinstance(default, tuple) else float(value)
+            values[field] = (tuple(float(c) for c in value) if isinstance(default, tuple)
+                             else bool(value) if isinstance(default, bool) else float(value))
         for inp in shader.GetInputs():
             if inp.GetBaseName() not in PHONG_INPUTS:
                 self.ctx.problem(

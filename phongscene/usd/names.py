@@ -27,7 +27,17 @@ PHONG_INPUTS: dict[str, tuple[str, str]] = {
     "diffuseColor": ("diffuse_color", "color3f"),
     "specularColor": ("specular_color", "color3f"),
     "emissiveColor": ("emission", "color3f"),
+    # Beyond the Phong chapter (Suffern ch. 24, 27, 28): written only where they differ from their
+    # defaults, which trace no secondary ray.
+    "kr": ("kr", "float"),
+    "reflectiveColor": ("reflective_color", "color3f"),
+    "kt": ("kt", "float"),
+    "ior": ("ior", "float"),
+    "fresnel": ("fresnel", "bool"),
+    "interiorFilter": ("interior_filter", "color3f"),
 }
+# The inputs every authored Phong shader carries (the seed's); the others only when not default.
+PHONG_SEED_INPUTS = ("ka", "kd", "ks", "exponent", "diffuseColor", "specularColor")
 
 # -- our own attributes (the `phong:` namespace) -------------------------------------------------
 
@@ -46,6 +56,10 @@ SAMPLE_PATTERN = "phong:samplePattern"
 AA_THRESHOLD = "phong:aaThreshold"
 SPECULAR_CONVENTION = "phong:specularConvention"
 BACKGROUND = "phong:background"
+# The deepest secondary ray (RenderSettings.max_depth) and the radiance of refracted rays
+# (RenderSettings.transmission: "book" or "povray").
+MAX_DEPTH = "phong:maxDepth"
+TRANSMISSION_CONVENTION = "phong:transmissionConvention"
 # A light's model: "usdlux" (the default: UsdLux's units, normalize and falloff) or "seed" (the
 # seed's constant light ls·cl = intensity · 2^exposure · color, no falloff; our examples use it).
 LIGHT_MODEL = "phong:lightModel"
@@ -90,6 +104,8 @@ PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
         AA_THRESHOLD: FLOAT_TYPES,
         SPECULAR_CONVENTION: STRING_TYPES,
         BACKGROUND: COLOR_TYPES,
+        MAX_DEPTH: INT_TYPES,
+        TRANSMISSION_CONVENTION: STRING_TYPES,
     },
 }
 
@@ -171,6 +187,8 @@ USD_ATTRIBUTES: dict[str, dict[str, str]] = {
         "aa_threshold": AA_THRESHOLD,
         "specular": SPECULAR_CONVENTION,
         "background": BACKGROUND,
+        "max_depth": MAX_DEPTH,
+        "transmission": TRANSMISSION_CONVENTION,
     },
 }
 

@@ -23,7 +23,7 @@ import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux
 
 from ..errors import Problem, SceneError, SceneFileNotFoundError
-from ..scene import AmbientLight, Camera, Intrinsic, Scene, framing_camera, head_light
+from ..scene import AmbientLight, Camera, Intrinsic, RenderSettings, Scene, framing_camera, head_light
 from ..validate import validate
 from . import geometry
 from .camera import conform_to_aperture, read_camera, read_render_settings
@@ -182,6 +182,13 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
         if camera is not None:
             settings = conform_to_aperture(ctx, camera_prim, settings)
     ambient_color = tuple(float(sum(a.color[i] for a in ambient)) for i in range(3)) if ambient else (0.0, 0.0, 0.0)
+    if ambient and settings.background == RenderSettings().background and any(
+        o.material.reflects or o.material.transmits for o in (*spheres, *meshes)
+    ):
+        # A DomeLight is the environment at infinity: what a mirror or a glass (and a camera ray
+        # that misses) sees there, as every USD renderer shows it. Only scenes with secondary rays
+        # (and no phong:background of their own) get it, so that no other image changes.
+        settings = replace(settings, background=ambient_color)
     scene = Scene(
         camera=camera or Camera(),
         ambient=AmbientLight(ambient_color, ambient[0].source if len(ambient) == 1 else ""),

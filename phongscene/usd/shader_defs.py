@@ -41,5 +41,7 @@ def phong_input_defaults() -> dict[str, object]:
     out = {}
     for name in PHONG_INPUTS:
         value = node.GetShaderInput(name).GetDefaultValue()
-        out[name] = tuple(float(c) for c in value) if hasattr(value, "__len__") else float(value)
+        # Sdr has no bool type (it holds a bool input's default as an int): ours says which are.
+        out[name] = (tuple(float(c) for c in value) if hasattr(value, "__len__")
+                     else bool(value) if PHONG_INPUTS[name][1] == "bool" else float(value))
     return out

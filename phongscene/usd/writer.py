@@ -42,7 +42,7 @@ from ..scene import (
 from ..tolerances import UNIT_TOLERANCE
 from ..validate import check
 from . import names
-from .names import PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
+from .names import PHONG_RENDER_CONTEXT, PHONG_SEED_INPUTS, PHONG_SHADER_ID
 from .shader_defs import phong_inputs
 
 # The focal length written for perspective cameras (tenths of a scene unit, as in USD); the
@@ -111,9 +111,15 @@ def define_phong_material(
     mat = UsdShade.Material.Define(stage, path)
     phong = UsdShade.Shader.Define(stage, f"{path}/Phong")
     phong.SetShaderId(PHONG_SHADER_ID)
+    defaults = PhongMaterial()
     for name, (field, sdf_type) in phong_inputs().items():
         value = getattr(material, field)
-        phong.CreateInput(name, sdf_type).Set(Gf.Vec3f(*map(float, value)) if isinstance(value, tuple) else float(value))
+        if name not in PHONG_SEED_INPUTS and value == getattr(defaults, field):
+            continue  # the secondary-ray inputs only where a material uses them
+        if isinstance(value, tuple):
+            phong.CreateInput(name, sdf_type).Set(Gf.Vec3f(*map(float, value)))
+        else:
+            phong.CreateInput(name, sdf_type).Set(bool(value) if isinstance(value, (bool, np.bool_)) else float(value))
     if material.diffuse_texture is not None:
         t = material.diffuse_texture
         texture = _texture_shader(stage, f"{path}/DiffuseTexture", t, texture_file(t), material.diffuse_color)
@@ -390,6 +396,11 @@ def define_render_settings(stage: Usd.Stage, path: str, settings: RenderSettings
         p.CreateAttribute(names.AA_THRESHOLD, Sdf.ValueTypeNames.Double).Set(float(settings.aa_threshold))
     p.CreateAttribute(names.SPECULAR_CONVENTION, Sdf.ValueTypeNames.Token).Set(settings.specular)
     p.CreateAttribute(names.BACKGROUND, Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*map(float, settings.background)))
+    # Secondary rays' settings only where they differ from the defaults.
+    if settings.max_depth != RenderSettings().max_depth:
+        p.CreateAttribute(names.MAX_DEPTH, Sdf.ValueTypeNames.Int).Set(int(settings.max_depth))
+    if settings.transmission != RenderSettings().transmission:
+        p.CreateAttribute(names.TRANSMISSION_CONVENTION, Sdf.ValueTypeNames.Token).Set(settings.transmission)
     stage.SetMetadata("renderSettingsPrimPath", path)
     return prim
 

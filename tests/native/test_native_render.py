@@ -98,7 +98,7 @@ def scaled(scene: Scene, k: float) -> Scene:
 
 
 @pytest.mark.parametrize("name", ["shadows_two_lights", "rect_area_light", "sphere_area_light", "smooth_mesh",
-                                  "orthographic", "fade"])
+                                  "orthographic", "fade", "mirror_floor", "facing_mirrors"])
 def test_native_image_is_the_same_from_1e_minus_6_to_1e6_units(name):
     scene = calibration.SCENES[name]()
     reference = native.render(scene).astype(np.float64)

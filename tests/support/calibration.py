@@ -492,6 +492,105 @@ def texture_specular() -> Scene:
     return dataclasses.replace(scene, meshes=(dataclasses.replace(quad, material=material),))
 
 
+# ---------------------------------------------------------------------------------------------
+# Mirror reflection (Suffern ch. 24; ref §18)
+
+MIRROR_FLOOR = dataclasses.replace(GROUND, kr=0.6, reflective_color=(0.9, 0.8, 1.0))
+CHROME = PhongMaterial(ka=0.05, kd=0.1, ks=0.4, exponent=40.0, diffuse_color=(0.9, 0.9, 0.9), kr=0.8,
+                       reflective_color=(1.0, 0.9, 0.7))
+
+
+def mirror_floor() -> Scene:
+    """A reflective floor under the red sphere and a chrome sphere, two lights: the floor shows
+    both spheres, the chrome sphere the floor and the red sphere (and itself in the floor),
+    with their shadows; max_depth 3 cuts the chains between the floor and the chrome sphere."""
+    scene = shadows_two_lights()
+    return dataclasses.replace(
+        scene,
+        spheres=(Sphere.at((0.07, 1.08, -0.13), 1.03, RED), Sphere.at((-1.6, 0.7, 0.9), 0.7, CHROME)),
+        meshes=(ground_quad(0.0, MIRROR_FLOOR),),
+        settings=dataclasses.replace(scene.settings, max_depth=3),
+    )
+
+
+def facing_mirrors() -> Scene:
+    """Two parallel mirror walls (x = ±2.1) with a gold sphere between, seen at an angle, so
+    that rays bounce between the walls until max_depth (4) ends them in black."""
+    scene = shadows_two_lights()
+    wall = PhongMaterial(ka=0.1, kd=0.3, ks=0.0, exponent=1.0, diffuse_color=(0.3, 0.35, 0.4), kr=0.85)
+
+    def wall_at(x: float) -> TriangleMesh:
+        corners = [(x, -0.1, -40.3), (x, -0.1, 39.7), (x, 9.7, 40.1), (x, 9.9, -39.9)]
+        return TriangleMesh(points=corners, triangles=[(0, 1, 2), (0, 2, 3)], material=wall)
+
+    return dataclasses.replace(
+        scene,
+        lights=(PointLight((0.61, 5.07, 2.93), (3.2, 3.0, 2.8)),),  # between the walls
+        spheres=(Sphere.at((0.31, 0.9, -0.6), 0.8, GOLD),),
+        meshes=(ground_quad(0.0, GROUND), wall_at(-2.1), wall_at(2.3)),
+        settings=dataclasses.replace(scene.settings, max_depth=4),
+    )
+
+
+# Transparency (Suffern ch. 27; ref §18). No highlight on the glass: the exact mapping cannot
+# express a transmissive material with one (backends/povray/compile.py), and these scenes run
+# under both mappings.
+
+GLASS = PhongMaterial(ka=0.0, kd=0.0, ks=0.0, exponent=1.0, diffuse_color=(1.0, 1.0, 1.0), kr=0.08, kt=0.9, ior=1.5)
+
+
+def box_mesh(lo, hi, material: PhongMaterial) -> TriangleMesh:
+    """A closed box, outward normals (counter-clockwise seen from outside)."""
+    import trimesh  # test-only dependency, imported where needed
+
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    box = trimesh.creation.box(extents=hi - lo)
+    box.apply_translation((lo + hi) / 2)
+    return TriangleMesh(points=np.asarray(box.vertices), triangles=np.asarray(box.faces, dtype=np.int32), material=material)
+
+
+def glass_sphere() -> Scene:
+    """A glass sphere (kt 0.9, ior 1.5, a little kr) in front of the red sphere: the red sphere
+    seen through it upside down, total internal reflection near its rim, its shadow on the
+    ground filtered by kt twice (two crossings)."""
+    scene = point_light()
+    return dataclasses.replace(
+        scene,
+        spheres=(*scene.spheres, Sphere.at((-0.9, 0.75, 1.6), 0.7, GLASS)),
+        settings=dataclasses.replace(scene.settings, max_depth=6),
+    )
+
+
+def glass_slab() -> Scene:
+    """A closed glass box (a mesh: its winding says where its inside is) before the red sphere:
+    the sphere shifted by refraction through the slab, a filtered shadow."""
+    scene = point_light()
+    slab = box_mesh((-1.9, 0.05, 1.2), (1.3, 1.6, 1.65), dataclasses.replace(GLASS, kr=0.0, kt=0.85))
+    return dataclasses.replace(scene, meshes=(*scene.meshes, slab), settings=dataclasses.replace(scene.settings, max_depth=6))
+
+
+def dielectric_sphere() -> Scene:
+    """The book's dielectric (ch. 28; kr = kt = 1, fresnel): a glass sphere that reflects F and
+    transmits 1 − F at every crossing, and a fresnel (opaque, ior 1.5) red sphere beside it."""
+    scene = glass_sphere()
+    dielectric = dataclasses.replace(GLASS, kr=1.0, kt=1.0, fresnel=True)
+    coated = dataclasses.replace(RED, kr=1.0, fresnel=True, ior=1.5)
+    return dataclasses.replace(
+        scene, spheres=(dataclasses.replace(scene.spheres[0], material=coated), dataclasses.replace(scene.spheres[1], material=dielectric))
+    )
+
+
+def tinted_glass() -> Scene:
+    """Beer-Lambert (ch. 28's cf_in): the glass sphere and slab absorb towards blue-green inside,
+    more where their rays travel farther (the sphere's centre, the slab's ends), and so do the
+    shadows through them."""
+    scene = glass_slab()
+    tint = (0.45, 0.8, 0.9)
+    slab = dataclasses.replace(scene.meshes[1], material=dataclasses.replace(scene.meshes[1].material, interior_filter=tint))
+    sphere = Sphere.at((1.2, 0.55, 2.4), 0.5, dataclasses.replace(GLASS, interior_filter=(0.9, 0.5, 0.3), fresnel=True, kr=1.0, kt=1.0))
+    return dataclasses.replace(scene, meshes=(scene.meshes[0], slab), spheres=(*scene.spheres, sphere))
+
+
 def classic_variant(scene: Scene) -> Scene:
     """The same scene under the ``povray-classic`` specular convention."""
     return dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, specular="povray-classic"))
@@ -524,6 +623,12 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "texture_repeat": texture_repeat,
     "texture_clamp": texture_clamp,
     "texture_specular": texture_specular,
+    "mirror_floor": mirror_floor,
+    "facing_mirrors": facing_mirrors,
+    "glass_sphere": glass_sphere,
+    "glass_slab": glass_slab,
+    "dielectric_sphere": dielectric_sphere,
+    "tinted_glass": tinted_glass,
 }
 
 

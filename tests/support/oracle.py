@@ -70,6 +70,31 @@ Emission (Suffern's Emissive, ch. 14): L += Le wherever the surface is seen, lit
 (UsdLux, model ``Linking``): light j contributes to a hit only when the object hit is in its
 light link; with shadows off its fraction is 1 (no shadow ray); otherwise only the objects of its
 shadow link occlude it.
+Mirror reflection (Suffern ch. 24, PerfectSpecular; ref §18, where POV-Ray's ``reflection`` was
+measured to add the same way): at a hit of depth k (camera rays: 0) on a material with kr > 0 and
+k < max_depth, L += kr·cr·L(P, r) with r = d − 2(d·n)n, traced from exactly P with the primary
+ray's tolerances (MIN_ISECT_DEPTH ≤ t < MAX_DISTANCE; a miss gives the background). Deeper rays
+are not traced: they return black (ref §18: ``max_trace_level`` = max_depth + 1).
+
+Transparency (Suffern ch. 27, Transparent::shade; ref §18), at a hit of depth k < max_depth on a
+material with kt > 0: the unflipped normal points out of the interior, so the ray is leaving when
+it meets the normal from behind; η = ior entering, 1/ior leaving; with n facing the ray and
+cos_i = −d·n, Snell gives cos²θt = 1 − (1 − cos_i²)/η². cos²θt < 0 (total internal reflection):
+L += L(P, r) at full weight (no kr term). Otherwise L += kr·cr·L(P, r) + w·L(P, t) with
+t = d/η − (cos θt − cos_i/η)·n and w = kt/η² (settings.transmission "book") or kt ("povray").
+A ``fresnel`` material (the dielectric, Suffern ch. 28) replaces kr by F·kr and kt by (1 − F)·kt
+with F = ½(r_s² + r_p²), r_s = (cos_i − η cos θt)/(cos_i + η cos θt), r_p = (η cos_i − cos θt)/(η
+cos_i + cos θt) (cos θt = 0 where Snell has no solution, so F = 1 there).
+Beer-Lambert: each ray travels in a medium, the interior of a transmissive material or none (the
+camera's); in the "book" convention its radiance is multiplied by interior_filter^t over the
+distance t to its hit (a miss: t = ∞); in the "povray" one only the refracted or internally
+reflected term of a transparent surface, by the incoming ray's interior_filter^t (ref §18). A refracted ray enters the interior of the surface it crosses, or leaves it for none (not
+nested); a reflected ray keeps its side (the interior when the hit is from inside, else the
+incoming ray's medium). A shadow ray starts in the shaded ray's medium and toggles the interior
+of every transmissive surface it crosses, filtered likewise over each segment.
+Shadow rays of point and distant lights in a scene with a transmissive material are traced
+segment by segment (each with the shadow window, from the last crossing): an opaque hit blocks
+the light, a transmissive one multiplies it by kt (no refraction).
 """
 
 from __future__ import annotations
@@ -312,6 +337,25 @@ class _Geometry:
     sphere_source: list[str]  # each sphere's prim (light and shadow linking)
     intrinsics: list  # the model's Intrinsic nodes
     intrinsic_material: list[int]
+    kr: np.ndarray  # mirror reflection, per material
+    cr: np.ndarray
+    kt: np.ndarray  # transparency, per material
+    ior: np.ndarray
+    fresnel: np.ndarray  # bool
+    interior_filter: np.ndarray  # (M, 3)
+
+    def medium_transmittance(self, medium: np.ndarray, distance: np.ndarray) -> np.ndarray:
+        """interior_filter[medium]^distance per ray, 1 where medium < 0 (none). (N, 3)."""
+        out = np.ones((len(medium), 3))
+        inside = medium >= 0
+        if inside.any():
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                out[inside] = np.power(self.interior_filter[medium[inside]], distance[inside, None])
+        return out
+
+    @property
+    def transmissive(self) -> bool:
+        return bool(np.any(self.kt > 0.0))
 
 
 def _prepare(scene: Scene) -> _Geometry:
@@ -366,6 +410,12 @@ def _prepare(scene: Scene) -> _Geometry:
         sphere_source=[sphere.source for sphere in scene.spheres],
         intrinsics=list(scene.intrinsics),
         intrinsic_material=intrinsic_materials,
+        kr=np.array([m.kr for m in materials], dtype=np.float64),
+        cr=np.array([m.reflective_color for m in materials], dtype=np.float64).reshape(-1, 3),
+        kt=np.array([m.kt for m in materials], dtype=np.float64),
+        ior=np.array([m.ior for m in materials], dtype=np.float64),
+        fresnel=np.array([bool(m.fresnel) for m in materials], dtype=bool),
+        interior_filter=np.array([m.interior_filter for m in materials], dtype=np.float64).reshape(-1, 3),
     )
 
 
@@ -529,10 +579,10 @@ def _intrinsic_hits(intrinsic, o: np.ndarray, d: np.ndarray, accept) -> tuple[np
     return t, nw
 
 
-def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
-    """Nearest hit with MIN_ISECT_DEPTH <= t < MAX_DISTANCE: (t, material, unflipped normal, cd
-    and cs at the hit: the material's, or its textures' at the hit's uv, and the prim of the
-    object hit); t = inf on a miss."""
+def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
+    """Nearest hit with MIN_ISECT_DEPTH <= t < MAX_DISTANCE (or as ``accept(t, rows)`` says):
+    (t, material, unflipped normal, cd and cs at the hit: the material's, or its textures' at the
+    hit's uv, and the prim of the object hit); t = inf on a miss."""
     n = len(o)
     source = np.full(n, "", dtype=object)
     best_t = np.full(n, np.inf)
@@ -541,8 +591,9 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray):
     colour = np.zeros((n, 3))
     specular = np.zeros((n, 3))
 
-    def accept(t, _rows):
-        return (t >= MIN_ISECT_DEPTH) & (t < MAX_DISTANCE)
+    if accept is None:
+        def accept(t, _rows):
+            return (t >= MIN_ISECT_DEPTH) & (t < MAX_DISTANCE)
 
     for inverse, normal_matrix, mat, sphere_source in zip(
         geo.sphere_object_from_world, geo.sphere_normal_matrix, geo.sphere_material, geo.sphere_source
@@ -702,7 +753,8 @@ def _visible_fraction(geo: _Geometry, light, p: np.ndarray, l: np.ndarray, dist:
     return (~blocked).astype(np.float64) @ weights
 
 
-def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material, cd, cs, source) -> np.ndarray:
+def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material, cd, cs, source,
+           medium: np.ndarray | None = None) -> np.ndarray:
     n = np.where((np.einsum("ij,ij->i", normal, d) > 0.0)[:, None], -normal, normal)  # face the viewer
     wo = -d
     ka, kd, ks, e = geo.ka[material], geo.kd[material], geo.ks[material], geo.exponent[material]
@@ -715,9 +767,13 @@ def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal,
         lit = np.nonzero((n_dot_l >= EPSILON) & linked)[0]  # below the gate: no shadow ray, no contribution
         if len(lit) == 0:
             continue
-        fraction = _visible_fraction(geo, light, p[lit], l[lit], dist[lit])
         nl = n_dot_l[lit]
-        light_colour = lc[lit] * fraction[:, None]
+        if geo.transmissive and isinstance(light, (PointLight, DirectionalLight)):
+            start = np.full(len(lit), -1, dtype=np.int64) if medium is None else medium[lit]
+            light_colour = lc[lit] * _shadow_filter(geo, p[lit], l[lit], dist[lit], start)
+        else:
+            fraction = _visible_fraction(geo, light, p[lit], l[lit], dist[lit])
+            light_colour = lc[lit] * fraction[:, None]
         dm, sm = light.diffuse, light.specular  # the light's multipliers of the two terms
         if settings.specular == "seed":
             mirror = -l[lit] + 2.0 * nl[:, None] * n[lit]
@@ -740,20 +796,95 @@ def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal,
 # Public API
 
 
-def _trace(geo: _Geometry, scene: Scene, settings: RenderSettings, origins, directions) -> np.ndarray:
+def _trace(geo: _Geometry, scene: Scene, settings: RenderSettings, origins, directions, depth: int = 0,
+           medium: np.ndarray | None = None) -> np.ndarray:
     o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    medium = np.full(len(o), -1, dtype=np.int64) if medium is None else medium
     t, material, normal, colour, specular, source = _closest_hit(geo, o, d)
     radiance = np.empty((len(o), 3))
     radiance[:] = np.asarray(settings.background, dtype=np.float64)
     hit = np.isfinite(t)
     if hit.any():
         p = o[hit] + t[hit, None] * d[hit]
-        radiance[hit] = _shade(
-            geo, scene, settings, p, d[hit], normal[hit], material[hit], colour[hit], specular[hit], source[hit]
-        )
-    return radiance
+        radiance[hit] = _shade(geo, scene, settings, p, d[hit], normal[hit], material[hit], colour[hit], specular[hit],
+                               source[hit], medium[hit])
+        if depth < settings.max_depth:
+            radiance[hit] += _reflected(geo, scene, settings, p, d[hit], normal[hit], material[hit], depth, medium[hit],
+                                        t[hit])
+    return radiance * geo.medium_transmittance(medium, t) if settings.transmission == "book" else radiance
+
+
+def _reflected(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material, depth: int,
+               medium: np.ndarray, t_hit: np.ndarray) -> np.ndarray:
+    """The secondary rays' radiance at each hit (zero where none is traced): kr·cr·L(P, r) with r
+    the mirror of d, plus the refracted ray's, or L(P, r) alone under total internal reflection."""
+    out = np.zeros((len(p), 3))
+    kr, cr, kt, ior = geo.kr[material], geo.cr[material], geo.kt[material], geo.ior[material]
+    along = np.einsum("ij,ij->i", normal, d)
+    leaving = along > 0.0
+    n = np.where(leaving[:, None], -normal, normal)  # facing the ray
+    eta = np.where(leaving, 1.0 / ior, ior)
+    cos_i = np.abs(along)
+    cos_t2 = 1.0 - (1.0 - cos_i**2) / eta**2
+    transmits = kt > 0.0
+    tir = transmits & (cos_t2 < 0.0)
+    cos_t = np.sqrt(np.maximum(cos_t2, 0.0))
+    rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+    rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    reflectance = np.where(geo.fresnel[material], 0.5 * (rs**2 + rp**2), 1.0)
+    kt = np.where(geo.fresnel[material], kt * (1.0 - reflectance), kt)
+    # "povray": Beer-Lambert only on what a transparent surface transmits (refracted or internally
+    # reflected), over the incoming ray's path inside; "book": every ray's path (in _trace).
+    carried = np.ones((len(p), 3)) if settings.transmission == "book" else geo.medium_transmittance(medium, t_hit)
+    weight = np.where(tir[:, None], carried, (kr * reflectance)[:, None] * cr)
+    reflected_medium = np.where(leaving & transmits, material, medium)
+    refracted_medium = np.where(leaving, -1, material)
+    mirror_rows = np.nonzero(tir | ((kr > 0.0) & np.any(cr > 0.0, axis=1)))[0]
+    if len(mirror_rows):
+        dr, nr = d[mirror_rows], n[mirror_rows]
+        r = dr - 2.0 * np.einsum("ij,ij->i", dr, nr)[:, None] * nr
+        out[mirror_rows] += weight[mirror_rows] * _trace(geo, scene, settings, p[mirror_rows], r, depth + 1,
+                                                         reflected_medium[mirror_rows])
+    rows = np.nonzero(transmits & ~tir)[0]
+    if len(rows):
+        e, c = eta[rows, None], cos_i[rows, None]
+        t = d[rows] / e - (np.sqrt(cos_t2[rows, None]) - c / e) * n[rows]
+        w = kt[rows] / eta[rows] ** 2 if settings.transmission == "book" else kt[rows]
+        out[rows] += w[:, None] * carried[rows] * _trace(geo, scene, settings, p[rows], t, depth + 1, refracted_medium[rows])
+    return out
+
+
+def _shadow_filter(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray, medium: np.ndarray) -> np.ndarray:
+    """The light reaching each P along unit l from distance dist through transmissive objects:
+    segment by segment, each hit in the shadow window (ref §6) from the last crossing; an opaque
+    one blocks, a transmissive one multiplies by kt (ref §18). (N, 3)."""
+    filt = np.ones((len(p), 3))
+    origin, remaining = p.copy(), dist.astype(np.float64).copy()
+    medium = medium.copy()
+    active = np.arange(len(p))
+    while len(active):
+        upper = np.minimum(remaining[active] - SHADOW_TOLERANCE, MAX_DISTANCE)
+
+        def accept(t, rows, upper=upper):
+            hi = upper if rows is None else upper[rows]
+            return (t > SHADOW_TOLERANCE) & (t < hi)
+
+        t, material, _, _, _, _ = _closest_hit(geo, origin[active], l[active], accept)
+        hit = np.isfinite(t)
+        # the segment to the hit (or, where none, to the light) inside the current medium
+        filt[active] *= geo.medium_transmittance(medium[active], np.where(hit, t, remaining[active]))
+        opaque = hit & ~(geo.kt[material] > 0.0)
+        filt[active[opaque]] = 0.0
+        through = hit & ~opaque
+        filt[active[through]] *= geo.kt[material[through], None]
+        crossed = material[through]
+        medium[active[through]] = np.where(medium[active[through]] == crossed, -1, crossed)
+        origin[active[through]] += t[through, None] * l[active[through]]
+        remaining[active[through]] -= t[through]
+        active = active[through]
+    return filt
 
 
 def trace_rays(scene: Scene, origins, directions, settings: RenderSettings | None = None) -> np.ndarray:

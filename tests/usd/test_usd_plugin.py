@@ -75,7 +75,8 @@ def test_usd_validators_report_nothing_with_the_plugin_folder(usd_files):
     result = _validate(usd_files, _plugin_folder())
     assert not result["loaded_phongscene"]
     assert result["known"]
-    assert result["inputs"] == ["diffuseColor", "emissiveColor", "exponent", "ka", "kd", "ks", "specularColor"]
+    assert result["inputs"] == ["diffuseColor", "emissiveColor", "exponent", "fresnel", "interiorFilter", "ior", "ka", "kd",
+                                "kr", "ks", "kt", "reflectiveColor", "specularColor"]
     assert result["errors"] == {str(p): [] for p in usd_files}
 
 

@@ -179,6 +179,8 @@ Image render(const phong::Scene& scene, const phong::CameraDescription& camera_d
              const phong::RenderSettings& settings, nb::object progress) {
     if (settings.width < 1 || settings.height < 1 || settings.samples < 1)
         throw std::invalid_argument("width, height and samples must be >= 1");
+    if (settings.max_depth < 0 || settings.max_depth > phong::kMaxDepth)
+        throw std::invalid_argument("max_depth must be in 0.." + std::to_string(phong::kMaxDepth));
     // The Python model validates these (phongscene.validate); a direct caller gets an error, not
     // a 2^(n-1)-sized +AM2 buffer or a NaN threshold.
     const bool native_pattern = settings.sample_pattern == phong::SamplePattern::kStratified ||
@@ -283,6 +285,10 @@ NB_MODULE(_native, m) {
     nb::enum_<phong::SpecularConvention>(m, "SpecularConvention", "Which Phong specular term (materials.hpp).")
         .value("seed", phong::SpecularConvention::kSeed)
         .value("povray_classic", phong::SpecularConvention::kPovrayClassic);
+    nb::enum_<phong::TransmissionConvention>(m, "TransmissionConvention",
+                                             "The radiance of a refracted ray: kt/eta^2 (book) or kt (povray).")
+        .value("book", phong::TransmissionConvention::kBook)
+        .value("povray", phong::TransmissionConvention::kPovray);
     nb::enum_<phong::Numerics>(m, "Numerics", "Which ray tolerances (math.hpp).")
         .value("scale_invariant", phong::Numerics::kScaleInvariant)
         .value("povray", phong::Numerics::kPovray)
@@ -300,7 +306,13 @@ NB_MODULE(_native, m) {
         .def_rw("specular_color", &Material::specular_color)
         .def_rw("diffuse_texture", &Material::diffuse_texture)
         .def_rw("specular_texture", &Material::specular_texture)
-        .def_rw("emission", &Material::emission);
+        .def_rw("emission", &Material::emission)
+        .def_rw("kr", &Material::kr)
+        .def_rw("reflective_color", &Material::reflective_color)
+        .def_rw("kt", &Material::kt)
+        .def_rw("ior", &Material::ior)
+        .def_rw("fresnel", &Material::fresnel)
+        .def_rw("interior_filter", &Material::interior_filter);
 
     nb::enum_<phong::Wrap>(m, "Wrap", "How a texture continues outside [0, 1] (textures.hpp).")
         .value("repeat", phong::Wrap::kRepeat)
@@ -409,6 +421,8 @@ NB_MODULE(_native, m) {
         .def_rw("samples", &RenderSettings::samples)
         .def_rw("sample_pattern", &RenderSettings::sample_pattern)
         .def_rw("aa_threshold", &RenderSettings::aa_threshold)
+        .def_rw("max_depth", &RenderSettings::max_depth)
+        .def_rw("transmission_convention", &RenderSettings::transmission_convention)
         .def_rw("threads", &RenderSettings::threads)
         .def_rw("background", &RenderSettings::background)
         .def_rw("specular_convention", &RenderSettings::specular_convention);

@@ -27,7 +27,31 @@ struct Material {
     int32_t diffuse_texture = -1;   // index into Scene::textures replacing cd, or -1
     int32_t specular_texture = -1;  // ... replacing cs, or -1
     RGB emission{};                 // Le, added where the surface is seen (0: none; x + 0 is exact)
+    // Mirror reflection (Suffern ch. 24, PerfectSpecular): kr·cr times the radiance traced along
+    // the mirror direction is added to the Phong terms (render.cpp); kr = 0 traces no ray.
+    double kr = 0.0;
+    RGB reflective_color{1.0, 1.0, 1.0};  // cr
+    // Transparency (Suffern ch. 27, transmission.hpp): kt times the radiance along the refracted
+    // direction, into an interior of index `ior` (relative to the outside); kt = 0 traces no ray.
+    double kt = 0.0;
+    double ior = 1.0;
+    // The dielectric (Suffern ch. 28): the mirror weight kr·cr becomes F·kr·cr and kt becomes
+    // (1 − F)·kt, F the Fresnel reflectance of the crossing (transmission.hpp).
+    bool fresnel = false;
+    // Beer-Lambert (Suffern ch. 28's cf_in): the fraction of each channel a ray keeps per unit
+    // distance inside the interior, (0, 1]; white filters nothing.
+    RGB interior_filter{1.0, 1.0, 1.0};
+
+    bool filters() const { return interior_filter.x != 1.0 || interior_filter.y != 1.0 || interior_filter.z != 1.0; }
 };
+
+// What a ray keeps of its radiance over `distance` inside `medium` (nullptr: outside every
+// interior): interior_filter^distance per channel.
+inline RGB medium_transmittance(const Material* medium, double distance) {
+    if (medium == nullptr || !medium->filters()) return RGB{1.0, 1.0, 1.0};
+    const RGB& f = medium->interior_filter;
+    return {std::pow(f.x, distance), std::pow(f.y, distance), std::pow(f.z, distance)};
+}
 
 enum class SpecularConvention { kSeed, kPovrayClassic };
 
@@ -61,5 +85,9 @@ inline RGB shade_phong(const Material& m, SpecularConvention convention, const V
     }
     return out;
 }
+
+// The mirror direction of a ray of unit direction d at a surface of unit normal n (either side):
+// d − 2(d·n)n, unit by construction (up to rounding), as POV-Ray reflects it.
+inline Vec3 mirror_direction(const Vec3& d, const Vec3& n) { return d - n * (2.0 * dot(d, n)); }
 
 }  // namespace phong

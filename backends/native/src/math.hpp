@@ -108,6 +108,10 @@ constexpr double kSelfHitWindow = kSelfHitError / kAcneFreeCosine;
 struct RayTolerances {
     double primary_near;   // primary hits need t >= primary_near
     double shadow_window;  // occluders count for shadow_window < t < distance - shadow_window
+    // Secondary (reflected) rays start at a hit point and need t >= secondary_near: POV-Ray's
+    // MIN_ISECT_DEPTH relative to the extent like primary_near, but never below the
+    // floating-point self-hit term (kSelfHitWindow·M, as for shadow rays), since they leave a surface.
+    double secondary_near = 0.0;
 };
 
 // The tolerances of a render whose geometry and camera lie in `box_lo`…`box_hi`.
@@ -119,7 +123,8 @@ inline RayTolerances ray_tolerances(const Vec3& box_lo, const Vec3& box_hi) {
     // positive scale will do.
     if (!(magnitude > 0.0)) magnitude = 1.0;
     if (!(extent > 0.0)) extent = magnitude;
-    return {kPrimaryNear * extent, std::fmax(kShadowWindow * extent, kSelfHitWindow * magnitude)};
+    return {kPrimaryNear * extent, std::fmax(kShadowWindow * extent, kSelfHitWindow * magnitude),
+            std::fmax(kPrimaryNear * extent, kSelfHitWindow * magnitude)};
 }
 
 // POV-Ray's own absolute tolerances (its MIN_ISECT_DEPTH and SHADOW_TOLERANCE), for renders that
@@ -130,6 +135,10 @@ constexpr double kPovrayShadowWindow = 1e-3;
 // POV-Ray's per-thread shadow cache retests a light's last occluder with t >= 1e-4 instead: a
 // render with this window shows what a pixel becomes when the cache decides it.
 constexpr double kPovrayShadowCacheWindow = 1e-4;
+
+// A filtered shadow ray (render.cpp: shadow_filter) crosses at most this many transmissive
+// surfaces before it counts as blocked: a guard against a loop, far beyond any real scene.
+constexpr int kMaxShadowCrossings = 1024;
 
 enum class Numerics {
     kScaleInvariant,     // ray_tolerances() below

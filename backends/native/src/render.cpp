@@ -14,6 +14,7 @@
 #include <mutex>
 #include <optional>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 namespace phong {
@@ -102,7 +103,47 @@ struct ShadowQuery {
     }
 };
 
-RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::vector<BundleCandidate>& candidates) {
+// `medium`: the interior the ray travels in (a material of the scene), or nullptr outside.
+RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std::vector<BundleCandidate>& candidates,
+                    const Material* medium);
+
+const Material& material_of(const Scene& scene, const Hit& hit) {
+    const int32_t m = scene.is_sphere(hit.ref) ? scene.spheres[size_t(~hit.ref)].material
+                      : hit.ref < 0              ? scene.intrinsic(hit.ref).material
+                                                 : scene.triangle_shading[size_t(hit.ref)].material;
+    return scene.materials[size_t(m)];
+}
+
+// How much of a light at `distance` along unit l reaches p through transmissive objects, as
+// POV-Ray computes it (ref §18): the shadow ray goes straight (no refraction), an opaque object
+// blocks it, and each crossing of a transmissive surface multiplies it by kt. Each segment
+// counts hits in the shadow window, as an opaque shadow ray does, from the last crossing on.
+// Inside an interior the light is filtered by Beer-Lambert (POV-Ray's fade, ref §18); the ray
+// starts in `medium` and enters or leaves a transmissive object at each of its surfaces (closed,
+// not nested: the straight line alternates).
+RGB shadow_filter(const TraceContext& context, const Vec3& p, const Vec3& l, double distance, const Material* medium) {
+    const double window = context.tolerances.shadow_window;
+    RGB filter{1.0, 1.0, 1.0};
+    Vec3 from = p;
+    double remaining = distance;
+    for (int crossings = 0; crossings <= kMaxShadowCrossings; ++crossings) {
+        Hit hit;
+        const Ray ray{from, l};
+        if (!context.scene.closest_hit(ray, window, remaining - window, hit))
+            return medium == nullptr ? filter : hadamard(filter, medium_transmittance(medium, remaining));
+        const Material& m = material_of(context.scene, hit);
+        if (!(m.kt > 0.0)) return RGB{};
+        filter = hadamard(filter, medium_transmittance(medium, hit.t)) * m.kt;
+        medium = medium == &m ? nullptr : &m;
+        from = ray.at(hit.t);
+        remaining -= hit.t;
+    }
+    return RGB{};  // more crossings than any scene needs: treated as blocked
+}
+
+// The colour of `hit` on `ray`, a ray of depth `depth` (the camera's: 0).
+RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::vector<BundleCandidate>& candidates,
+              int depth, const Material* medium) {
     const Scene& scene = context.scene;
     const RenderSettings& settings = context.settings;
     const double window = context.tolerances.shadow_window;
@@ -144,8 +185,10 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
             material = &textured;
         }
     }
-    // Two-sided: the shading normal faces the viewer (as POV-Ray).
-    if (dot(n, ray.dir) > 0.0) n = -n;
+    // Two-sided: the shading normal faces the viewer (as POV-Ray). The unflipped normal points
+    // out of a closed object, so a ray meeting it from behind is leaving the interior.
+    const bool leaving = dot(n, ray.dir) > 0.0;
+    if (leaving) n = -n;
     const Vec3 wo = -ray.dir;
 
     RGB color = ambient_term(*material, scene.ambient);
@@ -167,21 +210,82 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                 // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at
                 // the point (d = 0: the model's answer there is the ambient term only).
                 if (!(n_dot_l >= kMinCosineToLight)) return;
+                terms = &light.terms;
                 if (link != nullptr && !link->shadows) {
                     fraction = 1.0;  // shadow:enable off: no shadow ray, the light arrives whole
-                } else {
-                    ShadowQuery query{scene, p, p_rounded, window, candidates, povray_walk};
-                    if (link != nullptr && !link->casts.empty()) query.casts = link->casts.data();
-                    fraction = visible_fraction(light, context.grids[j], p, centre, query);
+                    return;
                 }
-                terms = &light.terms;
+                using T = std::decay_t<decltype(light)>;
+                if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
+                    if (context.transmissive) {  // filtered by transmissive occluders
+                        centre.color = hadamard(centre.color, shadow_filter(context, p, centre.l, centre.distance, medium));
+                        fraction = 1.0;
+                        return;
+                    }
+                }
+                ShadowQuery query{scene, p, p_rounded, window, candidates, povray_walk};
+                if (link != nullptr && !link->casts.empty()) query.casts = link->casts.data();
+                fraction = visible_fraction(light, context.grids[j], p, centre, query);
             },
             scene.lights[j]);
         if (fraction == 0.0) continue;  // unlit, or wholly in shadow
         color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l, centre.color * fraction,
                              terms->diffuse, terms->specular);
     }
+    // Secondary rays; one that would be deeper than max_depth returns black, so it is not traced.
+    // (A seed material, kr = kt = 0, stops here.)
+    if (depth >= settings.max_depth || !(material->kr > 0.0 || material->kt > 0.0)) return color;
+    // Transparency (transmission.hpp): under total internal reflection the mirror ray at full
+    // weight replaces both the kr and the kt terms.
+    Vec3 refracted;
+    double cos_t = 1.0;
+    const double eta = leaving ? 1.0 / material->ior : material->ior;
+    const bool refracts = material->kt > 0.0 && refract_direction(ray.dir, n, eta, refracted, cos_t);
+    // The interiors the secondary rays travel in (not nested): a reflected ray stays on the side it
+    // came from, a refracted one crosses into this material's interior or out of it.
+    const Material* interior = material->kt > 0.0 ? &material_of(scene, hit) : nullptr;
+    const Material* reflected_medium = leaving && interior ? interior : medium;
+    const Material* refracted_medium = leaving ? nullptr : interior;
+    // Beer-Lambert: the book filters every ray over its path inside an interior (trace_secondary);
+    // POV-Ray only what a transparent surface transmits (refracted, or internally reflected),
+    // over the incoming ray's path inside (ref §18: its reflections and opaque hits inside are
+    // not faded).
+    const bool book = settings.transmission_convention == TransmissionConvention::kBook;
+    const RGB carried = book ? RGB{1.0, 1.0, 1.0} : medium_transmittance(medium, hit.t);
+    if (material->kt > 0.0 && !refracts)
+        return color + hadamard(trace_secondary(context, Ray{p, mirror_direction(ray.dir, n)}, depth + 1, candidates,
+                                                reflected_medium), carried);
+    // The dielectric's Fresnel split. An opaque fresnel material reflects as the surface of an ior
+    // interior (as POV-Ray); where Snell has no solution cos θt = 0, so F = 1.
+    double reflectance = 1.0;
+    if (material->fresnel) {
+        const double cos_i = dot(n, wo);
+        if (!refracts) cos_t = std::sqrt(std::fmax(0.0, 1.0 - (1.0 - cos_i * cos_i) / (eta * eta)));
+        reflectance = fresnel_reflectance(cos_i, cos_t, eta);
+    }
+    // Mirror reflection on top of the Phong terms (ref §18: POV-Ray adds it the same way).
+    if (material->kr > 0.0) {
+        const Ray reflected{p, mirror_direction(ray.dir, n)};
+        const RGB seen = trace_secondary(context, reflected, depth + 1, candidates, reflected_medium);
+        color += hadamard(material->reflective_color, seen) * (material->kr * reflectance);
+    }
+    if (refracts) {
+        const double kt = material->fresnel ? material->kt * (1.0 - reflectance) : material->kt;
+        const double weight = book ? kt / (eta * eta) : kt;
+        color += hadamard(trace_secondary(context, Ray{p, refracted}, depth + 1, candidates, refracted_medium), carried) * weight;
+    }
     return color;
+}
+
+// The colour seen along a secondary ray leaving a surface (a miss: the background).
+RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std::vector<BundleCandidate>& candidates,
+                    const Material* medium) {
+    Hit hit;
+    const bool book = context.settings.transmission_convention == TransmissionConvention::kBook;
+    if (!context.scene.closest_hit(ray, context.tolerances.secondary_near, HUGE_VAL, hit))
+        return book ? hadamard(context.settings.background, medium_transmittance(medium, HUGE_VAL)) : context.settings.background;
+    const RGB seen = shade_hit(context, ray, hit, candidates, depth, medium);
+    return medium == nullptr || !book ? seen : hadamard(seen, medium_transmittance(medium, hit.t));
 }
 
 }  // namespace
@@ -189,6 +293,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
 TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_, const RayTolerances& tolerances_)
     : scene(scene_), settings(settings_), tolerances(tolerances_) {
     for (const Light& light : scene.lights) grids.push_back(area_light_grid(light));
+    for (const Material& m : scene.materials) transmissive = transmissive || m.kt > 0.0;
 }
 
 RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch,
@@ -198,7 +303,7 @@ RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<Bundl
     if (!(origin ? context.scene.closest_hit(ray, *origin, near, HUGE_VAL, hit)
                  : context.scene.closest_hit(ray, near, HUGE_VAL, hit)))
         return context.settings.background;
-    return shade_hit(context, ray, hit, scratch);
+    return shade_hit(context, ray, hit, scratch, 0, nullptr);  // the camera is outside every interior
 }
 
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,
@@ -208,8 +313,9 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     Bounds box = scene.bounds;
     box.grow(camera.position);
     const RayTolerances tolerances =
-        settings.numerics == Numerics::kPovray              ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowWindow}
-        : settings.numerics == Numerics::kPovrayShadowCache ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowCacheWindow}
+        settings.numerics == Numerics::kPovray ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowWindow, kPovrayPrimaryNear}
+        : settings.numerics == Numerics::kPovrayShadowCache
+            ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowCacheWindow, kPovrayPrimaryNear}
                                                             : ray_tolerances(box.lo, box.hi);
     const TraceContext context(scene, settings, tolerances);
 

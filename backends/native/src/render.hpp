@@ -9,6 +9,7 @@
 #include "camera.hpp"
 #include "materials.hpp"
 #include "scene.hpp"
+#include "transmission.hpp"
 
 namespace phong {
 
@@ -33,7 +34,15 @@ struct RenderSettings {
     // POV-Ray's +A threshold of the adaptive patterns (0: every pixel is supersampled, AM1; the
     // full grid, AM2): compared with the colour distance of Antialias_Gamma-encoded colours.
     double aa_threshold = 0.0;
+    // The deepest secondary ray (the book's max_depth): the camera ray has depth 0; a ray deeper
+    // than this returns black (POV-Ray's max_trace_level max_depth + 1).
+    int max_depth = 5;
+    TransmissionConvention transmission_convention = TransmissionConvention::kBook;
 };
+
+// The deepest max_depth a render accepts (phongscene/limits.py MAX_DEPTH: POV-Ray's limit); the
+// recursion is one shade_hit frame per level.
+constexpr int kMaxDepth = 255;
 
 // Called on the rendering (calling) thread about every kPollInterval with (tiles done, tiles
 // total); returning false cancels the render (workers stop at their next tile).
@@ -52,6 +61,9 @@ struct TraceContext {
     const RenderSettings& settings;
     RayTolerances tolerances;
     std::vector<AreaLightGrid> grids;  // by light
+    // Some material transmits (kt > 0): shadow rays of point and distant lights are then filtered
+    // by the transmissive objects they cross (render.cpp: shadow_filter).
+    bool transmissive = false;
 
     TraceContext(const Scene& scene, const RenderSettings& settings, const RayTolerances& tolerances);
 };
