@@ -174,7 +174,6 @@ def test_phong_shader_inputs(stage):
         "exponent": 16.0,
         "diffuseColor": Gf.Vec3f(1.0, 0.5, 0.25),
         "specularColor": Gf.Vec3f(0.75, 0.75, 1.0),
-        "emissiveColor": Gf.Vec3f(0.0, 0.0, 0.0),  # every input is written: no emission
     }
 
 
