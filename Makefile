@@ -7,7 +7,7 @@ PY       := $(VENV)/bin/python
 PIP      := $(PY) -m pip --disable-pip-version-check -q
 BUILDDEPS := $(VENV)/.builddeps
 
-.PHONY: test test-fast demo install povray chromium venv clean
+.PHONY: test test-fast demo docs install povray chromium venv clean
 
 venv: $(PY)
 $(PY):
@@ -21,9 +21,10 @@ $(BUILDDEPS): pyproject.toml | $(PY)
 
 # Always re-run: scikit-build-core's incremental CMake build makes this a few seconds when
 # nothing changed, and it is what picks up C++ edits.
-# The bench extra (matplotlib) too, so the benchmark scripts README.md names run in this venv.
+# The bench extra (matplotlib) too, so the benchmark scripts the docs name run in this venv, and
+# the docs extra (MkDocs) for `make docs`.
 install: $(BUILDDEPS)
-	$(PIP) install --no-build-isolation -e '.[test,bench]'
+	$(PIP) install --no-build-isolation -e '.[test,bench,docs]'
 
 povray:
 	@if command -v povray >/dev/null 2>&1; then :; \
@@ -45,7 +46,11 @@ chromium:
 	  echo "Chromium missing and not root: run 'sudo apt-get install chromium' (the report screenshot test will skip)"; \
 	fi
 
-test: install povray chromium
+# The documentation site, warnings as errors (a broken link fails), into out/site (seconds).
+docs: install
+	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict --quiet
+
+test: install povray chromium docs
 	$(PY) -m pytest
 
 # The quick loop while editing: every test but the heavy ones (markers in pyproject.toml: slow,

@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
         f" {r.failing_pixels} of {r.pixels} pixels outside half-float precision"
     )
     print(f"  report      {result.outdir / 'index.html'}")
-    # The CLI is in the virtual environment make created, not on PATH (README, first screen).
+    # The CLI is in the virtual environment make created, not on PATH (README.md, "A short example").
     bin_dir = os.path.relpath(Path(sys.prefix) / "bin")
     print(f"\nNext: {bin_dir}/phongscene --help   (or: source {bin_dir}/activate, then phongscene --help)")
     return EXIT_OK if r.ok else EXIT_DIFFERENT

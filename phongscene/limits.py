@@ -18,6 +18,10 @@ MAX_THREADS = 1024  # worker threads (C++ int; far more than any machine here ha
 # A texture's side: as an image side (OpenImageIO reads bigger ones, but one 16K texture is
 # already 3.2 GB of float32 RGB here).
 MAX_TEXTURE_SIDE = 16384
+# The texels all textures of a scene may hold: as many as a render's pixels (MAX_PIXELS; one 16K
+# texture, or sixteen 4K ones: 3.2 GB as the model's float32 RGB). Checked from the files' headers,
+# before decoding (phongscene.usd.texture_files.TexelBudget).
+MAX_SCENE_TEXELS = 2**28
 # The largest texel POV-Ray can hold: it stores an EXR image map as half floats (ref §16).
 MAX_TEXEL = 65504.0
 # An area light's shadow grid per axis: 257 = 2^8 + 1 (66 049 shadow rays per light and point).
@@ -27,6 +31,11 @@ MAX_SHADOW_SAMPLES = 257
 MAX_ADAPTIVE = 100
 # The cells estimator's points per partial cell per axis (256 per cell at most, as stratified's budget).
 MAX_CELL_SAMPLES = 16
+
+# A light's radiance (each channel of its model colour): the renderers shade in float32 (largest
+# 3.4e38 = 2^128); 2^96 (7.9e28) leaves 2^32 for the shading's sums and products (billions of lights,
+# colours, specular peaks) below it, and is far beyond any real light (the sun's luminance: 1.6e9).
+MAX_RADIANCE = 2.0**96
 
 # The deepest secondary ray (RenderSettings.max_depth): POV-Ray caps max_trace_level (= max_depth + 1)
 # at 256; the native tracer's recursion is as deep (a few hundred stack frames).

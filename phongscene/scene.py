@@ -147,7 +147,14 @@ class Texture:
     file: str = ""  # the image file it was read from (resolved path)
 
     def __post_init__(self) -> None:
-        image = np.array(self.image, dtype=np.float32, order="C", copy=True)
+        image = self.image
+        # A read-only float32 array that owns its data is taken as it is (the USD reader builds
+        # one: a copy of a 16K texture would be 3.2 GB more, if only for a moment); anything else
+        # is copied, so that the caller's array cannot change the model.
+        owned = isinstance(image, np.ndarray) and image.dtype == np.float32 and image.flags.c_contiguous \
+            and image.flags.owndata and not image.flags.writeable
+        if not owned:
+            image = np.array(image, dtype=np.float32, order="C", copy=True)
         if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] < 1 or image.shape[1] < 1:
             raise ValueError(f"expected a texture image of shape (H, W, 3), got {image.shape}")
         image.setflags(write=False)

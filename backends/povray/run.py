@@ -2,12 +2,18 @@
 """Run POV-Ray 3.7 on compiled scenes and read the images back (ref §1, §8, §11).
 
 Every render runs in a fresh temporary directory (the working directory of the process) with
-``HOME`` pointed at a ``.povray/3.7/povray.conf`` there that restricts file I/O and forbids shell
-commands; ``POVINI`` is unset so no user ini file adds options. Switches: ``+FE`` (half-float
+``HOME`` pointed at a ``.povray/3.7/povray.conf`` there that forbids shell commands and asks for
+file I/O restricted to that directory (which this POV-Ray build does not enforce for ``#fopen``:
+docs/security.md); ``POVINI`` is unset so no user ini file adds options; POV-Ray is started
+without a shell, with generated file names only. Switches: ``+FE`` (half-float
 EXR, linear), ``-D -V -GD -GR -GS +Q9 -J``, and ``-A`` or ``+AM1 +A0.0 +R n`` for anti-aliasing.
 "grid" anti-aliasing renders at n× the resolution with ``-A`` and box-averages n×n blocks
 (exact, ref §8). POV-Ray's start-up costs ~0.7 s per process, so all render passes, and in
-``render_many`` several scenes, are animation frames of ONE process.
+``render_many`` several scenes, are animation frames of ONE process. The passes are added up as
+POV-Ray writes them (``PassSums``), and each frame file is removed once added: memory is one
+float64 image per scene plus the frame being added, and disk two frames, whatever the light count
+(512², 32 lights: 557 -> 80 MiB peak, ``benchmarks/povray_passes.py``). So no bound on lights or
+passes is needed for memory; the time is linear in them (each pass is a frame, parsed again).
 
 POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 """
@@ -76,8 +82,8 @@ class PovJob:
         """An ``.ini`` file with the same options (``povray NAME.ini`` in its directory)."""
         lines = [
             "; phongscene: POV-Ray 3.7 options for this scene (run: povray <this file>)",
-            f"Input_File_Name={pov}",
-            f"Output_File_Name={output}",
+            f"Input_File_Name={pov_quoted(pov)}",  # checked: a name cannot add a line
+            f"Output_File_Name={pov_quoted(output)}",
             *self.switches,
             *self.frame_switches(),
         ]
@@ -88,12 +94,29 @@ class PovJob:
         return "\n".join(lines) + "\n"
 
 
+# POV-Ray 3.7.0.10 reads a file name with these characters only inside double quotes: on the
+# command line (``+Ix;y.pov`` fails) or in an .ini (``Input_File_Name=x,y.pov`` fails; ``;`` starts
+# a comment there), measured one character at a time. Quoted, every printable ASCII character but
+# the quote and the backslash works in both; nothing outside printable ASCII does.
+NEEDS_QUOTES = frozenset("#',;= ")
+CANNOT_QUOTE = frozenset('"\\')
+
+
 def pov_quoted(name: str) -> str:
-    """A file name as POV-Ray's command line reads it: in its own double quotes when it has
-    white space (``+Imy scene.pov`` is "Failed to parse command-line option"; ``+I"my scene.pov"``
-    works, measured with POV-Ray 3.7.0.10). The .ini keeps names unquoted (it reads the whole
-    line)."""
-    return f'"{name}"' if any(c.isspace() for c in name) else name
+    """A file name as POV-Ray's command line and .ini read it: itself, or in double quotes when
+    it has a character POV-Ray reads only quoted (white space, ``# ' , ; =``).
+
+    Raises:
+        PhongSceneError: a name POV-Ray cannot read, or that would inject options: a control
+            character (a newline would start a new ``.ini`` line, e.g. ``Pre_Scene_Command=``),
+            a double quote or backslash, or a character outside printable ASCII.
+    """
+    bad = next((c for c in name if not " " <= c <= "~" or c in CANNOT_QUOTE), None)
+    if bad is not None:
+        raise PhongSceneError(
+            f"{name!r}: POV-Ray cannot read a file name with {bad!r} (printable ASCII only, no double quote or "
+            "backslash): choose another name")
+    return f'"{name}"' if any(c in NEEDS_QUOTES for c in name) else name
 
 
 def aa_threshold(value: float) -> str:
@@ -212,13 +235,10 @@ def render_many(
             if progress:
                 progress(base + frames, total)
 
-        frames = _run(job, f"group{g}-" if len(groups) > 1 else "scene", timeout, keep_dir, frame_done, phase)
+        sums = _run(job, f"group{g}-" if len(groups) > 1 else "scene", timeout, keep_dir, frame_done, phase,
+                    PassSums(passes))
         done += job.frames
-        start = 0
-        for i, n in zip(members, passes):
-            # Direct light is linear in the lights: the passes add up (float64, then float32).
-            image = np.sum([f.astype(np.float64) for f in frames[start : start + n]], axis=0)
-            start += n
+        for i, image in zip(members, sums):
             if k > 1:
                 h, w = image.shape[0] // k, image.shape[1] // k
                 image = image.reshape(h, k, w, k, 3).mean(axis=(1, 3))
@@ -242,14 +262,42 @@ def _batch_sdl(items: list[tuple[Scene, RenderSettings, str]]) -> str:
     return "\n".join(out) + "\n"
 
 
-def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, frame_done, phase=None) -> list[np.ndarray]:
-    """Run one POV-Ray process for ``job``; return its frames as float32 images. The temporary
-    directory is removed afterwards, except after a ``BackendError`` (it holds the kept .pov).
-    ``frame_done(frames)`` gets the frames done (fractional: pixels of the current one);
-    ``phase(text)``, when given, is told while POV-Ray parses."""
+class PassSums:
+    """The images of a POV-Ray run's frames added up as they arrive, one sum per consecutive
+    range of frames (a scene's passes; several scenes share one run in ``render_many``): direct
+    light is linear in the lights, so the passes add up (in float64: exact for half-float frames).
+    Memory is one float64 image per scene and the frame being added, whatever the light count;
+    frames are added in order, so the sums are those of adding the whole list at once."""
+
+    def __init__(self, counts: Sequence[int]):
+        self.owner = [i for i, n in enumerate(counts) for _ in range(n)]  # frame -> its range
+        self.sums: list[np.ndarray | None] = [None] * len(counts)
+        self.added = 0  # frames added so far (in order)
+
+    def add(self, image: np.ndarray) -> None:
+        i = self.owner[self.added]
+        if self.sums[i] is None:
+            self.sums[i] = image.astype(np.float64)
+        else:
+            self.sums[i] += image
+        self.added += 1
+
+    def __len__(self) -> int:
+        return len(self.owner)
+
+
+def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, frame_done, phase=None,
+         sums: PassSums | None = None) -> list[np.ndarray]:
+    """Run one POV-Ray process for ``job``, adding its frames into ``sums`` as they arrive (each
+    frame file is removed once added, unless ``keep_dir``); return the sums (float64). The
+    temporary directory is removed afterwards, except after a ``BackendError`` (it holds the kept
+    .pov). ``frame_done(frames)`` gets the frames done (fractional: pixels of the current one);
+    ``phase(text)``, when given, is told while POV-Ray parses. Without ``sums``, each frame is its
+    own sum (the frames are returned, as float64)."""
+    sums = PassSums([1] * job.frames) if sums is None else sums
     workdir = Path(keep_dir) if keep_dir else Path(tempfile.mkdtemp(prefix="phongscene-povray-"))
     try:
-        frames = _run_in(job, workdir, stem, timeout, frame_done, phase)
+        images = _run_in(job, workdir, stem, timeout, frame_done, phase, sums, keep=bool(keep_dir))
     except BackendError:
         raise
     except BaseException:  # Ctrl-C, a full disk, ...: nothing worth keeping
@@ -258,10 +306,11 @@ def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, fr
         raise
     if not keep_dir:
         shutil.rmtree(workdir, ignore_errors=True)
-    return frames
+    return images
 
 
-def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_done, phase) -> list[np.ndarray]:
+def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_done, phase, sums: PassSums,
+            keep: bool) -> list[np.ndarray]:
     workdir.mkdir(parents=True, exist_ok=True)
     pov, output, log = workdir / f"{stem}.pov", workdir / f"{stem}.exr", workdir / f"{stem}.log"
     try:
@@ -270,16 +319,30 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
         (workdir / f"{stem}.ini").write_text(job.ini(pov.name, output.name), encoding="ascii")
     except OSError as e:  # a full disk: say where (Python's write error names no file)
         raise BackendError(f"cannot write the POV-Ray scene into {workdir}: {e.strerror or e}") from None
-    home = workdir / "home"
-    (home / ".povray" / "3.7").mkdir(parents=True, exist_ok=True)
-    (home / ".povray" / "3.7" / "povray.conf").write_text(POVRAY_CONF, encoding="ascii")
-    env = dict(os.environ, HOME=str(home), LC_ALL="C")
-    env.pop("POVINI", None)
+    env = povray_environment(workdir)
     for old in _frame_files(workdir, stem):
         old.unlink()
 
     def fail(message: str) -> BackendError:
         return BackendError(message, detail=_tail(log), kept=str(pov))
+
+    def add_finished(running: bool) -> None:
+        """Add the frames POV-Ray has finished: while it runs, those before the last file it
+        has started (frames are rendered in order, each file written whole before the next)."""
+        files = _frame_files(workdir, stem)
+        if keep:  # the frames added so far are still there
+            files = files[sums.added :]
+        if running:
+            files = files[:-1]
+        for f in files[: len(sums) - sums.added]:
+            try:
+                image = read_image(f)
+            except PhongSceneError as e:
+                raise fail(f"cannot read POV-Ray's output: {e}") from None
+            _check_frame(image, f.name, job, fail)
+            sums.add(image)
+            if not keep:
+                f.unlink()
 
     with open(log, "wb") as log_file:
         # Signals whose handlers raise (Ctrl-C; SIGTERM, SIGHUP in the CLI) are held back while
@@ -319,29 +382,44 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
                         proc.kill()
                         proc.wait()
                         raise fail(f"POV-Ray timed out after {timeout:g} s")
+                    if job.frames > 1:
+                        add_finished(running=True)
         finally:
             _stop(proc)
     if rc != 0:
         raise fail(f"POV-Ray failed (exit code {rc})")
-    files = _frame_files(workdir, stem)
-    if len(files) != job.frames:
-        raise fail(f"POV-Ray wrote {len(files)} of {job.frames} frames")
-    try:
-        frames = [read_image(f) for f in files]
-    except PhongSceneError as e:
-        raise fail(f"cannot read POV-Ray's output: {e}") from None
-    for f, image in zip(files, frames):
-        if image.shape != (job.height, job.width, 3):
-            raise fail(f"{f.name}: expected {job.width}x{job.height} pixels, got {image.shape[1]}x{image.shape[0]}")
-        bad = ~np.isfinite(image).all(axis=2)
-        if bad.any():
-            y, x = (int(v) for v in np.argwhere(bad)[0])
-            raise fail(
-                f"{f.name}: POV-Ray wrote {int(bad.sum())} non-finite pixels, e.g. ({x}, {y}): a light exactly on a "
-                f"surface, or a value beyond its half-float EXR's range ({HALF_MAX:g}: lower the light's intensity)"
-            )
+    add_finished(running=False)
+    if sums.added != job.frames:
+        raise fail(f"POV-Ray wrote {sums.added} of {job.frames} frames")
     frame_done(job.frames)
-    return frames
+    return sums.sums
+
+
+def _check_frame(image: np.ndarray, name: str, job: PovJob, fail) -> None:
+    """Raise ``fail(...)`` unless a frame has the job's size and finite pixels."""
+    if image.shape != (job.height, job.width, 3):
+        raise fail(f"{name}: expected {job.width}x{job.height} pixels, got {image.shape[1]}x{image.shape[0]}")
+    bad = ~np.isfinite(image).all(axis=2)
+    if bad.any():
+        y, x = (int(v) for v in np.argwhere(bad)[0])
+        raise fail(
+            f"{name}: POV-Ray wrote {int(bad.sum())} non-finite pixels, e.g. ({x}, {y}): a light exactly on a "
+            f"surface, or a value beyond its half-float EXR's range ({HALF_MAX:g}: lower the light's intensity)"
+        )
+
+
+def povray_environment(workdir: Path) -> dict[str, str]:
+    """The environment POV-Ray runs in, in ``workdir`` (a fresh temporary folder): ``HOME`` at a
+    folder there whose ``.povray/3.7/povray.conf`` (POVRAY_CONF) forbids shell-outs and asks for
+    file I/O only in the working directory, ``POVINI`` unset (no user .ini adds options), the C
+    locale. POV-Ray 3.7.0.10 enforces the shell-out ban but NOT the file I/O restriction for
+    ``#fopen`` (docs/security.md): the protection is that no scene text reaches the SDL."""
+    home = workdir / "home"
+    (home / ".povray" / "3.7").mkdir(parents=True, exist_ok=True)
+    (home / ".povray" / "3.7" / "povray.conf").write_text(POVRAY_CONF, encoding="ascii")
+    env = dict(os.environ, HOME=str(home), LC_ALL="C")
+    env.pop("POVINI", None)
+    return env
 
 
 def _hold_signals() -> tuple[dict, list[int]]:

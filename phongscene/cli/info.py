@@ -86,7 +86,7 @@ def run_info(args) -> int:
         f"specular {s.specular}, background {_vector(s.background)}"
         + (f", max_depth {s.max_depth}, transmission {s.transmission}" if secondary else "")
     )
-    print_warnings(result.warnings, sys.stdout)
+    print_warnings(result.warnings, sys.stdout, every=True)
     return EXIT_OK
 
 

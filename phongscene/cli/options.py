@@ -252,9 +252,14 @@ def thresholds(args, base=None):
         raise UsageError(str(e)) from None
 
 
-def print_warnings(warnings, stream=None) -> None:
-    for warning in warnings:
-        print(f"warning: {warning}", file=sys.stderr if stream is None else stream)
+def print_warnings(warnings, stream=None, *, every: bool = False) -> None:
+    """Each warning as a ``warning:`` line; the same message about many prims as one line, and
+    at most warning_groups.MAX_WARNING_LINES lines unless ``every`` (`info` lists them all)."""
+    from ..warning_groups import capped, grouped
+
+    lines = grouped(warnings)
+    for line in lines if every else capped(lines):
+        print(f"warning: {line}", file=sys.stderr if stream is None else stream)
 
 
 def scene_and_settings(args):

@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from ..errors import PhongSceneError
 from .frames import check_cluster_needs_frames, check_frame_pattern, frame_overrides, output_at_time, run_frames
 from .options import (
     BACKEND_CHOICES,
@@ -133,8 +134,10 @@ def run_compile(args) -> int:
         return _compile_frames(args)
     out = Path(output_at_time(args, args.output))
     ini, image = out.with_suffix(".ini"), out.with_suffix(".exr")
-    if '"' in out.name:
-        raise UsageError(f"{out}: POV-Ray cannot read a file name with a double quote")
+    try:  # before anything is read: a name POV-Ray cannot read, or one that would inject .ini lines
+        pov_quoted(out.name)
+    except PhongSceneError as e:
+        raise UsageError(str(e)) from None  # the name's repr: one line, whatever it holds
     check_output(out)
     scene, settings = scene_and_settings(args)
     job = prepare(scene, check_settings(scene, settings), args.mapping)

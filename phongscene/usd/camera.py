@@ -10,6 +10,7 @@ from dataclasses import replace
 
 from pxr import Usd, UsdGeom, UsdRender
 
+from ..limits import MAX_IMAGE_SIDE, MAX_PIXELS
 from ..scene import Camera, RenderSettings
 from ..tolerances import CAMERA_ORTHOGONAL_TOLERANCE
 from . import names
@@ -30,7 +31,14 @@ def read_render_settings(ctx: ReadContext) -> tuple[RenderSettings, Usd.Prim | N
     if attr and attr.HasAuthoredValue():
         res = ctx.get(prim, "resolution", ("int2",))
         if res is not None:
-            values["width"], values["height"] = int(res[0]), int(res[1])
+            width, height = int(res[0]), int(res[1])
+            # Checked here, before anything divides by them (the aperture conform does).
+            if not (1 <= width <= MAX_IMAGE_SIDE and 1 <= height <= MAX_IMAGE_SIDE):
+                ctx.problem(prim, "resolution", f"must be two integers in 1..{MAX_IMAGE_SIDE}, got ({width}, {height})")
+            elif width * height > MAX_PIXELS:
+                ctx.problem(prim, "resolution", f"width × height must be at most {MAX_PIXELS} pixels, got {width} × {height}")
+            else:
+                values["width"], values["height"] = width, height
     samples = ctx.get(prim, names.SAMPLES, INT_TYPES)
     if samples is not None:
         values["samples"] = int(samples)

@@ -5,8 +5,10 @@
 * ``Mesh`` is fan-triangulated with numpy (no per-face Python loop; exact for convex faces),
   honours ``holeIndices`` and ``orientation`` and keeps authored normals of every
   interpolation, ``primvars:normals`` (indexed or not) taking precedence over ``normals``.
-  Normals of the wrong type are ignored with a warning (as USD renderers draw such a mesh); of the
-  wrong count, non-finite or zero-length they are *problems* (errors), not silently replaced.
+  Normals of the wrong type are ignored with a warning (as USD renderers draw such a mesh), and
+  zero-length ones are replaced by their triangles' geometric normals with a warning (one bad
+  normal does not refuse a scene); of the wrong count or non-finite they are *problems* (errors).
+  A mesh whose ``points`` have the wrong type is skipped with a warning, the rest is drawn.
 * ``Cube``, ``Cylinder`` (and ``Cylinder_1``), ``Cone``, ``Capsule`` and ``Plane`` are exact
   surfaces (``intrinsic``: the model's ``Intrinsic``), a Plane with ``phong:infinite = true``
   the whole plane. Where a prim says ``phong:tessellate = true`` it becomes triangles instead
@@ -40,6 +42,7 @@ CAP_NORMAL_TOLERANCE = 1e-9
 ON_AXIS_DISTANCE = 1e-12
 
 SEGMENTS = 64  # around the axis of Cylinder, Cone, Capsule: chord error r·(1 − cos(π/64)) ≈ 1.2e-3·r
+POINT_TYPES = ("point3f[]", "point3d[]", "float3[]", "double3[]")
 NORMAL_TYPES = tuple(t + "[]" for t in ("normal3f", "normal3d", "normal3h", "vector3f", "vector3d", "float3", "double3", "half3"))
 # Cyclic permutations taking the object's Z axis to the USD `axis` (proper rotations, det +1).
 AXIS_FROM_Z = {
@@ -213,7 +216,15 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     """(TriangleMesh, face index of each triangle, face count), or None (after recording problems)."""
     n_problems = len(ctx.problems)
     path = str(prim.GetPath())
-    points = ctx.get(prim, "points", ("point3f[]", "point3d[]", "float3[]", "double3[]"))
+    points_attr = prim.GetAttribute("points")
+    if points_attr and ctx.authored_type(points_attr) not in POINT_TYPES:
+        # As USD renderers do (usdrecord draws the other meshes): this mesh is skipped, the
+        # scene is drawn; `validate --strict` still refuses it.
+        ctx.unsupported[f"meshes whose points are not {' or '.join(POINT_TYPES)} (skipped)"].append(
+            f"{path}.points ({ctx.authored_type(points_attr)})"
+        )
+        return None
+    points = ctx.get(prim, "points", POINT_TYPES)
     counts = ctx.get(prim, "faceVertexCounts", ("int[]",))
     indices = ctx.get(prim, "faceVertexIndices", ("int[]",))
     if len(ctx.problems) > n_problems:
@@ -281,7 +292,7 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     if scheme != UsdGeom.Tokens.none:
         ctx.unsupported["subdivision surfaces (the control cage is rendered)"].append(path)
 
-    normals = _mesh_normals(ctx, prim, len(p), len(idx), len(counts), fv, triangles, face_of_tri)
+    normals = _mesh_normals(ctx, prim, len(p), len(idx), len(counts), fv, triangles, face_of_tri, p)
     if len(ctx.problems) > n_problems:
         return None
     uvs = None if st is None else textures.mesh_uvs(ctx, prim, st, (len(p), len(idx), len(counts)), fv, triangles, face_of_tri)
@@ -300,7 +311,7 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     return TriangleMesh(world_points, triangles, world_normals, normal_indices, material, path, uv_values, uv_indices), face_of_tri, len(counts)
 
 
-def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_of_tri):
+def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_of_tri, points):
     """(normals (K,3), normal_indices (M,3)) from primvars:normals or normals; None if absent."""
     primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("normals")
     if primvar and primvar.HasAuthoredValue():
@@ -342,10 +353,13 @@ def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_o
     if not np.all(np.isfinite(values)):
         ctx.problem(prim, name, "values must be finite")
         return None
-    zero = np.flatnonzero(np.linalg.norm(values, axis=1) == 0)
-    if zero.size:
-        ctx.problem(prim, name, f"{zero.size} zero-length normals, e.g. element {int(zero[0])}")
-        return None
+    zero = np.linalg.norm(values, axis=1) == 0
+    if zero.any():
+        # One bad normal must not refuse a 269k-triangle robot: the corners that use a zero
+        # normal take their triangle's geometric normal (what a renderer does with no normal).
+        ctx.unsupported["zero-length normals (their triangles' geometric normals are used)"].append(
+            f"{prim.GetPath()}.{name} ({int(zero.sum())}, e.g. element {int(np.flatnonzero(zero)[0])})"
+        )
     # Element (vertex / corner / face / 0) of each triangle corner.
     if interpolation in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
         element = triangles
@@ -355,7 +369,30 @@ def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_o
         element = np.repeat(face_of_tri[:, None], 3, axis=1)
     else:
         element = np.zeros_like(fv)
-    return values, (element_indices[element] if element_indices is not None else element)
+    corner = element_indices[element] if element_indices is not None else element
+    if zero.any():
+        values, corner = _geometric_normals_for_zero(values, corner, zero, points, triangles)
+    return values, corner
+
+
+def _geometric_normals_for_zero(values, corner, zero, points, triangles):
+    """``values``/``corner`` with every corner that indexes a zero normal pointed at its
+    triangle's geometric normal (appended to ``values``; unit length, or +y for a degenerate
+    triangle, which no ray hits)."""
+    bad = zero[corner]
+    rows = np.flatnonzero(bad.any(axis=1))
+    a, b, c = (points[triangles[rows, k]] for k in range(3))
+    n = np.cross(b - a, c - a)
+    length = np.linalg.norm(n, axis=1)
+    n = np.where(length[:, None] > 0, n / np.where(length > 0, length, 1.0)[:, None], [0.0, 1.0, 0.0])
+    corner = np.array(corner, dtype=np.int64, copy=True)
+    first = len(values)
+    for i, row in enumerate(rows):
+        corner[row][bad[row]] = first + i
+    # The zero rows are referenced by no corner now; a unit placeholder keeps the model's
+    # "every normal has length" invariant.
+    values = np.where(zero[:, None], [0.0, 1.0, 0.0], values)
+    return np.concatenate([values, n]), corner
 
 
 # -- tessellated primitives -----------------------------------------------------------------

@@ -3,7 +3,8 @@
 payload that names a FIFO (or a device) blocks USD's reader forever, so each one must be a
 regular file (or a file inside a package that is one) before ``Usd.Stage.Open`` reads it.
 
-``preflight`` opens the layers itself (``Sdf.Layer.FindOrOpen``), and the caller keeps them
+Each layer file's size is announced to the memory model before it is read (the sandbox's limit
+grows by what the file may take). ``preflight`` opens the layers itself (``Sdf.Layer.FindOrOpen``), and the caller keeps them
 alive while it opens the stage, so USD finds them in its layer registry and reads nothing twice.
 A dependency that is missing or does not parse is left to USD's own composition errors (the
 reader warns about them and draws the rest)."""
@@ -17,6 +18,7 @@ from collections.abc import Iterator
 from pxr import Ar, Sdf, Tf
 
 from ..errors import Problem, SceneError
+from ..memory_model import announce, layer_bytes
 
 
 def not_regular(path: str) -> str | None:
@@ -50,8 +52,11 @@ def preflight(path: str) -> list[Sdf.Layer]:
     opened: list[Sdf.Layer] = []
     seen: set[str] = set()
     pending = [path]
+    announced: set[str] = set()
     while pending:
-        layer = _open_layer(pending.pop())
+        next_path = pending.pop()
+        _announce_file(next_path, announced)
+        layer = _open_layer(next_path)
         if layer is None or layer.identifier in seen:
             continue
         seen.add(layer.identifier)
@@ -65,6 +70,20 @@ def preflight(path: str) -> list[Sdf.Layer]:
                                          attribute=arc, file=layer.realPath or layer.identifier))
             pending.append(resolved)
     return opened
+
+
+def _announce_file(path: str, announced: set[str]) -> None:
+    """Tell the memory model (``phongscene.memory_model``) the file a layer is about to be read
+    from, once per file (a package's layers are read from one file)."""
+    if Ar.IsPackageRelativePath(path):
+        path = Ar.SplitPackageRelativePathOuter(path)[0]
+    try:
+        key, size = os.path.realpath(path), os.path.getsize(path)
+    except OSError:
+        return  # missing: USD's composition errors say so
+    if key not in announced:
+        announced.add(key)
+        announce(layer_bytes(size), path)
 
 
 def _open_layer(path: str) -> Sdf.Layer | None:

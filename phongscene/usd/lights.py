@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from pxr import Usd, UsdLux
 
+from ..limits import MAX_RADIANCE
 from ..scene import AmbientLight, Cone, DirectionalLight, PointLight, RectAreaLight, SphereAreaLight
 from . import names
 from .context import ReadContext, unit
@@ -184,7 +185,17 @@ def read_light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) ->
     luminance = _luminance(ctx, prim)
     terms = _terms(ctx, prim)
     common = _Common(path, world, centre, seed, luminance, terms, "none" if seed else "inverse-square")
+    first_light, first_ambient = len(lights), len(ambient)
     read(ctx, prim, common, lights, ambient)
+    for made in (*lights[first_light:], *ambient[first_ambient:]):
+        if max(made.color) > MAX_RADIANCE:
+            exposure = prim.GetAttribute("inputs:exposure")
+            attribute = "inputs:exposure" if exposure and exposure.HasAuthoredValue() else "inputs:intensity"
+            ctx.problem(prim, attribute, (
+                f"the light's radiance intensity · 2^exposure · color (× its area) is {max(made.color):.4g}, beyond the "
+                f"{MAX_RADIANCE:.4g} the renderers' float32 radiance can shade without overflowing to inf"))
+            del lights[first_light:], ambient[first_ambient:]
+            break
 
 
 def _dome_light(ctx: ReadContext, prim: Usd.Prim, light: _Common, lights: list, ambient: list) -> None:
@@ -329,21 +340,32 @@ _READERS_BY_NAME = {"DomeLight_1": _dome_light}
 
 def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
     """The mean radiance of a DomeLight's texture (OpenImageIO), over texels weighted by the
-    solid angle they cover in a lat-long map (cos of the latitude), with a warning; None (and a
-    problem) when it cannot be read."""
+    solid angle they cover in a lat-long map (cos of the latitude), with a warning; 1 (an
+    untextured dome) with a warning when it cannot be read; None (and a problem) when it is
+    not a regular file."""
     from ..errors import PhongSceneError
     from ..images import read_image  # OpenImageIO: only for a scene with a textured dome
+    from ..memory_model import announce, texture_model_bytes
+    from .texture_files import TextureRefused, TextureTooBig, read_header
 
     path = asset.resolvedPath or asset.path
     why = not_regular(path)
-    if why is not None:
+    if why is not None:  # could block: refused, as layers are
         ctx.problem(prim, "inputs:texture:file", f"{path} {why}")
         return None
+    # A texture that cannot be read is a warning, and the dome lights as an untextured one (its
+    # intensity and colour), as a missing UsdUVTexture image falls back: the rest is drawn.
     try:
+        # Its header first, as for a UsdUVTexture: a decompression bomb is refused undecoded.
+        header = read_header(path, path)
+        announce(texture_model_bytes(header.texels), path)
         image = read_image(path)
-    except PhongSceneError as e:
-        ctx.problem(prim, "inputs:texture:file", f"cannot read the texture: {e}")
+    except TextureTooBig as e:
+        ctx.problem(prim, "inputs:texture:file", str(e))
         return None
+    except (PhongSceneError, TextureRefused) as e:
+        ctx.warn(f"{prim.GetPath()}.inputs:texture:file: cannot read the texture: {e} (the dome lights untextured)")
+        return np.ones(3)
     rows = image.shape[0]
     latitude = (np.arange(rows) + 0.5) / rows * math.pi - math.pi / 2
     weights = np.cos(latitude)[:, None] * np.ones(image.shape[1])

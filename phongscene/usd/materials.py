@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
-"""USD materials → ``PhongMaterial``: our Phong shader exactly, a
-``UsdPreviewSurface`` approximately, else displayColor or grey."""
+"""USD materials → ``PhongMaterial``: our Phong shader exactly, a ``UsdPreviewSurface``, a
+MaterialX Standard Surface / OpenPBR or an OmniPBR approximately (pbr_networks), else
+displayColor or grey."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from pxr import Sdf, Sdr, Usd, UsdGeom, UsdShade
 from ..scene import DEFAULT_MATERIAL, PhongMaterial, Texture
 from .context import ReadContext
 from .names import COLOR_TYPES, PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
+from .pbr_networks import MDL_NETWORKS, MTLX_NETWORKS, Network, inputs, reduce
 from .shader_defs import phong_input_defaults, phong_inputs
 from .textures import Connected, StSource, TextureReader
 
@@ -94,6 +96,25 @@ def preview_to_phong(
     )
 
 
+# The render contexts whose surface outputs are read, most specific first: ours, then the
+# MaterialX and MDL networks files ship (the universal output, usually a UsdPreviewSurface
+# stand-in written for viewers, is read only where none of these is connected).
+SURFACE_CONTEXTS = (PHONG_RENDER_CONTEXT, "mtlx", "mdl")
+MDL_SOURCE_TYPE = "mdl"
+
+
+def surface_source(material: UsdShade.Material) -> UsdShade.Shader | None:
+    """The surface shader the reader maps for ``material`` (see SURFACE_CONTEXTS)."""
+    for context in SURFACE_CONTEXTS:
+        output = material.GetSurfaceOutput(context)
+        if output and output.HasConnectedSource():
+            shader, _, _ = material.ComputeSurfaceSource(context)
+            if shader:
+                return shader
+    shader, _, _ = material.ComputeSurfaceSource()
+    return shader if shader else None
+
+
 class MaterialReader:
     """Resolves the material of each gprim, caching by material prim."""
 
@@ -131,15 +152,22 @@ class MaterialReader:
         return parts
 
     def _material(self, material: UsdShade.Material) -> PhongMaterial:
-        shader, _, _ = material.ComputeSurfaceSource(PHONG_RENDER_CONTEXT)
+        shader = surface_source(material)
         if not shader:
             self.ctx.unsupported["materials without a surface shader (rendered grey)"].append(str(material.GetPath()))
             return DEFAULT_MATERIAL
         shader_id = shader.GetShaderId()
         if shader_id == PHONG_SHADER_ID:
             return self._phong(shader)
+        if shader_id in MTLX_NETWORKS:
+            return self._network(shader, MTLX_NETWORKS[shader_id])
         if shader_id == PREVIEW_SHADER_ID:
             return self._preview(shader)
+        if not shader_id and shader.GetImplementationSource() == UsdShade.Tokens.sourceAsset:
+            network = MDL_NETWORKS.get(shader.GetSourceAssetSubIdentifier(MDL_SOURCE_TYPE))
+            if network is not None:
+                return self._network(shader, network)
+            shader_id = f"{shader.GetSourceAsset(MDL_SOURCE_TYPE)} {shader.GetSourceAssetSubIdentifier(MDL_SOURCE_TYPE)}"
         self.ctx.unsupported["unknown surface shaders (rendered grey)"].append(f"{shader.GetPath()} ({shader_id})")
         return DEFAULT_MATERIAL
 
@@ -340,6 +368,36 @@ class MaterialReader:
             else:
                 specular_texture = None  # the metallic workflow does not read specularColor
         return self._textured(material, diffuse_texture, specular_texture)
+
+    def _network(self, shader: UsdShade.Shader, network: Network) -> PhongMaterial:
+        """A MaterialX Standard Surface / OpenPBR or an OmniPBR shader, through the
+        UsdPreviewSurface mapping's specular workflow (pbr_networks.reduce gives its F0)."""
+        prim = shader.GetPrim()
+        source = str(prim.GetPath())
+        values = {}
+        for name, default in inputs(network).items():
+            value = self._input_value(shader, name, default)
+            try:
+                arr = np.asarray(value, dtype=np.float64)
+            except (TypeError, ValueError):
+                arr = None
+            shape = np.shape(default)
+            if arr is None or arr.shape != shape or not np.all(np.isfinite(arr)):
+                kind = "3 finite numbers (a color3f)" if shape else "a finite number"
+                self.ctx.problem(prim, f"inputs:{name}", f"must be {kind}, got {value!r}")
+                value = default
+            values[name] = value
+        if network.ior is not None and not float(values[network.ior[0]]) > 0:
+            self.ctx.problem(prim, f"inputs:{network.ior[0]}", f"must be > 0, got {values[network.ior[0]]!r}")
+            values[network.ior[0]] = network.ior[1]
+        for name, neutral in network.unmodelled.items():
+            inp = shader.GetInput(name)
+            if inp and (inp.HasConnectedSource() or np.any(np.asarray(inp.Get(self.ctx.time)) != neutral)):
+                self.ctx.unsupported[f"{network.label} inputs:{name} (not in the Phong model; ignored)"].append(source)
+        diffuse, roughness, f0 = reduce(network, values)
+        return preview_to_phong(
+            tuple(diffuse), roughness, specular_color=tuple(f0), use_specular_workflow=1, source=source
+        )
 
     def _metallic_textured(self, material: PhongMaterial, connected, values: dict, specular_level: float) -> PhongMaterial:
         """A UsdPreviewSurface with a textured metallic m (and a constant diffuseColor): the

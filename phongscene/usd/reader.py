@@ -235,7 +235,9 @@ def _time_to_read(stage: Usd.Stage, time: float | None) -> tuple[Usd.TimeCode, s
         outside = ranged and not (start <= time <= end)
         said = f"time {time:g} is outside the stage's time codes {start:g} to {end:g}: USD holds the nearest sample" if outside else ""
         return Usd.TimeCode(float(time)), said
-    if ranged and end > start:
+    # A range alone animates nothing (49 public files author start/end codes and no sample):
+    # such a stage reads the same at every time, so it is read at its start without a word.
+    if ranged and end > start and _earliest_time_sample(stage) is not None:
         return Usd.TimeCode(start), (
             f"the stage is animated (time codes {start:g} to {end:g}): rendering its start time {start:g} "
             "(choose one with --time T, or all with --frames START:END)"

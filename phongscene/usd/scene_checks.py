@@ -47,7 +47,8 @@ def warn_clipping_lights(ctx: ReadContext, scene: Scene) -> None:
         else:
             centre = np.asarray(getattr(light, "position", getattr(light, "center", None)), dtype=np.float64)
             d2 = np.maximum(((p - centre) ** 2).sum(axis=1), 1e-300)
-            irradiance = colour / d2
+            with np.errstate(over="ignore"):  # a light at a point of the geometry: inf, said as such
+                irradiance = colour / d2
         radiance = _median(irradiance) / math.pi
         if radiance > CLIP_RADIANCE:
             ctx.warn(

@@ -14,7 +14,7 @@ from pxr import Sdf, Sdr, Usd, UsdShade
 from ..schemas import DEFINITIONS_FILE, folder
 from .names import PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
 __all__ = ["DEFINITIONS_FILE", "PHONG_RENDER_CONTEXT", "PHONG_SHADER_ID", "phong_inputs", "phong_input_defaults",
-           "register_phong_shader"]
+           "phong_input_help", "register_phong_shader"]
 
 
 def phong_inputs() -> dict[str, tuple[str, Sdf.ValueTypeName]]:
@@ -45,3 +45,9 @@ def phong_input_defaults() -> dict[str, object]:
         out[name] = (tuple(float(c) for c in value) if hasattr(value, "__len__")
                      else bool(value) if PHONG_INPUTS[name][1] == "bool" else float(value))
     return out
+
+
+def phong_input_help() -> dict[str, str]:
+    """The Sdr help text of every Phong input, by USD input name (the documentation's table)."""
+    node = Sdr.Registry().GetShaderNodeByIdentifier(PHONG_SHADER_ID)
+    return {name: node.GetShaderInput(name).GetHelp() for name in PHONG_INPUTS}

@@ -5,7 +5,8 @@ and material interface inputs) to a surface input, its ``st`` from a
 as per-corner uvs.
 
 The image is read with OpenImageIO once per file (a ``.usdz``-packaged image through USD's
-asset resolver), then the texture's colour space, channel, ``scale`` and ``bias`` are applied
+asset resolver), checked first as ``texture_files`` says (a regular file, its header within the
+bounds and the scene's texel budget), then the texture's colour space, channel, ``scale`` and ``bias`` are applied
 to the texels: they commute with the bilinear lookup (the colour space is decoded before
 filtering, as GPU samplers do with sRGB textures), so the model holds only a linear image and
 its wrap rules.
@@ -14,22 +15,19 @@ its wrap rules.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
-from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
+from pxr import Sdf, Usd, UsdGeom, UsdShade
 
 from ..scene import Texture
 from .context import ReadContext
+from .texture_files import ImageHeader, TexelBudget, TextureRefused, TextureTooBig, decode, local_file, read_header, texels
 
 TEXTURE_SHADER_ID = "UsdUVTexture"
 PRIMVAR_READER_ID = "UsdPrimvarReader_float2"
 TRANSFORM_2D_ID = "UsdTransform2d"
 WRAP_TOKENS = ("repeat", "clamp", "mirror", "black")
-# The wrap modes an image file may carry (OpenImageIO's "wrapmodes" attribute, "s,t") → ours.
-FILE_WRAPS = {"periodic": "repeat", "clamp": "clamp", "mirror": "mirror", "black": "black"}
 CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3}
 UV_TYPES = tuple(t + "[]" for t in ("texCoord2f", "texCoord2d", "texCoord2h", "float2", "double2", "half2"))
 
@@ -93,8 +91,10 @@ class TextureReader:
 
     def __init__(self, ctx: ReadContext):
         self.ctx = ctx
-        self.images: dict[str, tuple[np.ndarray, bool, str] | None] = {}
+        self.headers: dict[str, ImageHeader | None] = {}  # by resolved path
+        self.pixels: dict[str, np.ndarray | None] = {}  # decoded, by resolved path
         self.textures: dict[tuple, Texture] = {}
+        self.budget = TexelBudget()
 
     def connected(self, shader: UsdShade.Shader, name: str, factor: float = 1.0) -> Connected | None:
         """The texture feeding colour input ``name`` of ``shader`` (times ``factor``), or None
@@ -118,22 +118,20 @@ class TextureReader:
         asset = _value(tex_shader.GetInput("file"), time, None)
         resolved = asset.resolvedPath if isinstance(asset, Sdf.AssetPath) else ""
         if not resolved:
-            shown = asset.path if isinstance(asset, Sdf.AssetPath) else asset
-            self.ctx.warn(f"{path}.inputs:file: cannot find the image {shown!r} (the fallback {value} is used)")
+            if asset is None or (isinstance(asset, Sdf.AssetPath) and not asset.path):
+                self.ctx.warn(f"{path}.inputs:file: not authored, so there is no image (the fallback {value} is used)")
+            else:
+                shown = asset.path if isinstance(asset, Sdf.AssetPath) else asset
+                self.ctx.warn(f"{path}.inputs:file: cannot find the image {shown!r} (the fallback {value} is used)")
             return Connected(None, value, st)
-        decoded = self._image(resolved, path)
-        if decoded is None:
-            return Connected(None, value, st)
-        pixels, eight_bit, file_wraps = decoded
-        if not np.all(np.isfinite(pixels)):
-            bad = int(np.count_nonzero(~np.isfinite(pixels)))
-            self.ctx.problem(prim, "inputs:file", f"{resolved}: {bad} texel values are not finite")
+        header = self._header(resolved, prim)
+        if header is None:
             return Connected(None, value, st)
         space = str(_value(tex_shader.GetInput("sourceColorSpace"), time, "auto"))
         if space not in ("auto", "raw", "sRGB"):
             self.ctx.problem(prim, "inputs:sourceColorSpace", f"must be auto, raw or sRGB, got {space!r}")
             space = "auto"
-        srgb = space == "sRGB" or (space == "auto" and eight_bit)
+        srgb = space == "sRGB" or (space == "auto" and header.eight_bit)
         scale = np.resize(np.asarray(_value(tex_shader.GetInput("scale"), time, (1.0,) * 4), dtype=np.float64), 4)
         bias = np.resize(np.asarray(_value(tex_shader.GetInput("bias"), time, (0.0,) * 4), dtype=np.float64), 4)
         wraps = []
@@ -141,20 +139,28 @@ class TextureReader:
             wrap = str(_value(tex_shader.GetInput(attr), time, "useMetadata"))
             if wrap == "useMetadata":
                 # The file's own wrap mode, else black (the UsdUVTexture spec).
-                wrap = file_wraps[axis] if file_wraps else "black"
+                wrap = header.wraps[axis] if header.wraps else "black"
             elif wrap not in WRAP_TOKENS:
                 self.ctx.problem(prim, f"inputs:{attr}", f"must be one of {', '.join(WRAP_TOKENS)}, useMetadata; got {wrap!r}")
                 wrap = "black"
             wraps.append(wrap)
         key = (resolved, srgb, output, tuple(scale), tuple(bias), factor, *wraps)
         if key not in self.textures:
-            image = _texels(pixels, srgb, channel)
-            sel = slice(0, 3) if channel is None else slice(channel, channel + 1)
-            image = (image * scale[sel] + bias[sel]) * factor
-            if image.min() < 0:
+            try:
+                self.budget.charge(header.texels, f"{resolved} ({header.width} x {header.height})")
+            except TextureTooBig as e:
+                self.ctx.problem(prim, "inputs:file", str(e))
+                return Connected(None, value, st)
+            pixels = self._pixels(resolved, header, path)
+            if pixels is None:
+                return Connected(None, value, st)
+            image, negative, nonfinite = texels(pixels, srgb, channel, scale, bias, factor, resolved)
+            if nonfinite:
+                self.ctx.problem(prim, "inputs:file", f"{resolved}: {nonfinite} texel values are not finite")
+                return Connected(None, value, st)
+            if negative:
                 self.ctx.warn(f"{path}: scale and bias give negative colours (clipped to 0)")
-                image = np.clip(image, 0.0, None)
-            self.textures[key] = Texture(image.astype(np.float32), wraps[0], wraps[1], source=path, file=resolved)
+            self.textures[key] = Texture(image, wraps[0], wraps[1], source=path, file=resolved)
         return Connected(self.textures[key], value, st)
 
     def _st(self, tex_shader: UsdShade.Shader) -> StSource:
@@ -180,69 +186,39 @@ class TextureReader:
         varname = _value(shader.GetInput("varname"), time, "")
         return StSource(str(varname) or None, **transform)
 
-    def _image(self, resolved: str, prim_path: str) -> tuple[np.ndarray, bool, str] | None:
-        """(pixels (H, W, C) float32 as stored, 8-bit?, the file's wrap modes) of an image,
-        decoded once; None (after a warning) when OpenImageIO cannot read it."""
-        if resolved in self.images:
-            return self.images[resolved]
-        result = None
-        try:
-            if "[" in resolved and resolved.endswith("]"):
-                # Packaged in a .usdz: read through USD's resolver into a temporary file.
-                asset = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved))
-                if asset is None:
-                    raise OSError("USD cannot open it")
-                suffix = os.path.splitext(resolved[resolved.rindex("[") + 1 : -1])[1]
-                with tempfile.TemporaryDirectory(prefix="phongscene-texture-") as tmp:
-                    local = os.path.join(tmp, "image" + suffix)
-                    with open(local, "wb") as f:
-                        f.write(bytes(asset.GetBuffer()))
-                    result = _read(local)
-            else:
-                result = _read(resolved)
-        except OSError as e:
-            self.ctx.warn(f"{prim_path}.inputs:file: cannot read {resolved}: {e} (the fallback is used)")
-        self.images[resolved] = result
-        return result
+    def _header(self, resolved: str, prim: Usd.Prim) -> ImageHeader | None:
+        """The checked header of an image file, read once per file (texture_files); None when it
+        cannot be a texture (after a warning: the fallback is used) or is too big (a problem)."""
+        if resolved not in self.headers:
+            path = str(prim.GetPath())
+            header = None
+            try:
+                with local_file(resolved) as local:
+                    header = read_header(local, resolved)
+                    if local != resolved and self.budget.fits(header.texels):
+                        # A .usdz-packaged image: decoded now, its copy is temporary (one over the
+                        # budget is not: the charge names it).
+                        self._pixels(resolved, header, path)
+                        header = replace(header, path=resolved)
+            except TextureRefused as e:
+                self.ctx.warn(f"{path}.inputs:file: {e} (the fallback is used)")
+            except TextureTooBig as e:
+                self.ctx.problem(prim, "inputs:file", str(e))
+            except OSError as e:
+                self.ctx.warn(f"{path}.inputs:file: cannot read {resolved}: {e.strerror or e} (the fallback is used)")
+            self.headers[resolved] = header
+        return self.headers[resolved]
 
-
-def _read(path: str) -> tuple[np.ndarray, bool, str]:
-    import OpenImageIO as oiio  # only for a scene with a texture (start-up cost, issue 15)
-
-    buf = oiio.ImageBuf(path)
-    if not buf.read(force=True) or buf.has_error:
-        error = buf.geterror().strip()  # (retrieving it clears it)
-        raise OSError(error.splitlines()[0] if error else "OpenImageIO cannot read it")
-    spec = buf.spec()
-    pixels = buf.get_pixels(oiio.TypeFloat)
-    if pixels is None:
-        raise OSError(buf.geterror() or "cannot decode its pixels")
-    pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
-    wraps = spec.get_string_attribute("wrapmodes", "")
-    parts = [FILE_WRAPS.get(w) for w in wraps.split(",")] if wraps else []
-    file_wraps = tuple(parts) if len(parts) == 2 and None not in parts else ()
-    return pixels, spec.format.basetype == oiio.UINT8, file_wraps
-
-
-def _texels(pixels: np.ndarray, srgb: bool, channel: int | None) -> np.ndarray:
-    """(H, W, 3) linear texels of the selected output: RGB (grey repeated), or one channel
-    repeated (a missing alpha is 1, a missing colour channel of a grey image is the grey)."""
-    n = pixels.shape[2]
-    colour_channels = 1 if n in (1, 2) else 3
-    rgb = np.repeat(pixels[:, :, :1], 3, axis=2) if colour_channels == 1 else pixels[:, :, :3]
-    if srgb:
-        import OpenImageIO as oiio
-
-        # OpenImageIO's colour conversion (sRGB transfer function → linear), on colour only.
-        converted = oiio.ImageBufAlgo.colorconvert(oiio.ImageBuf(np.ascontiguousarray(rgb)), "sRGB", "linear")
-        rgb = converted.get_pixels(oiio.TypeFloat)
-        rgb = np.asarray(rgb, dtype=np.float32).reshape(pixels.shape[0], pixels.shape[1], 3)
-    if channel is None:
-        return rgb.astype(np.float64)
-    if channel == 3:
-        alpha = pixels[:, :, n - 1 : n] if n in (2, 4) else np.ones_like(pixels[:, :, :1])
-        return np.repeat(alpha, 3, axis=2).astype(np.float64)
-    return np.repeat(rgb[:, :, channel : channel + 1], 3, axis=2).astype(np.float64)
+    def _pixels(self, resolved: str, header: ImageHeader, prim_path: str) -> np.ndarray | None:
+        """The decoded pixels of a file, decoded once (in their stored precision); None after a
+        warning when they cannot be decoded."""
+        if resolved not in self.pixels:
+            try:
+                self.pixels[resolved] = decode(header, resolved)
+            except TextureRefused as e:
+                self.ctx.warn(f"{prim_path}.inputs:file: {e} (the fallback is used)")
+                self.pixels[resolved] = None
+        return self.pixels[resolved]
 
 
 def corner_elements(interpolation: str, triangles: np.ndarray, fv: np.ndarray, face_of_tri: np.ndarray) -> np.ndarray | None:

@@ -8,14 +8,18 @@ turns warnings into errors)."""
 from __future__ import annotations
 
 import difflib
+from collections import defaultdict
 
 from pxr import Sdr, Tf, Usd, UsdLux, UsdShade
 
 from .context import ReadContext
+from .pbr_networks import MTLX_NETWORKS
 
 # difflib's similarity ratio from which a known name is offered as the one meant: 0.8 catches
 # one or two dropped, doubled or swapped letters in names of 6+ characters, not unrelated names.
 CLOSE_NAME_RATIO = 0.8
+# Shaders named in one grouped "no shader is registered" warning (the count says the rest).
+UNREGISTERED_SHOWN = 3
 
 
 def did_you_mean(name: str, known) -> str:
@@ -32,6 +36,7 @@ def _schema_type_names() -> list[str]:
 def check_names(ctx: ReadContext) -> None:
     """Warn about every unread name on the stage (see the module's doc)."""
     type_names = None
+    unregistered: dict[str, list[str]] = defaultdict(list)
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
     for prim in Usd.PrimRange(ctx.stage.GetPseudoRoot(), predicate):
         if prim.IsPseudoRoot():
@@ -55,6 +60,18 @@ def check_names(ctx: ReadContext) -> None:
                     ctx.warn(f"{path}.material:binding: targets {target}, which does not exist (the prim renders without it)")
         if prim.IsA(UsdShade.Shader):
             shader_id = UsdShade.Shader(prim).GetShaderId()
-            if shader_id and Sdr.Registry().GetShaderNodeByIdentifier(shader_id) is None:
-                known = Sdr.Registry().GetShaderNodeIdentifiers()
-                ctx.warn(f"{path}.info:id: no shader {shader_id!r} is registered{did_you_mean(shader_id, known)}")
+            # The MaterialX surfaces the reader maps (pbr_networks) need no registered node.
+            if shader_id and shader_id not in MTLX_NETWORKS and Sdr.Registry().GetShaderNodeByIdentifier(shader_id) is None:
+                unregistered[shader_id].append(str(path))
+    # One warning per unknown id, however many shaders use it (a set of 524 instanced teapots
+    # is one line, not 524).
+    for shader_id, paths in unregistered.items():
+        known = Sdr.Registry().GetShaderNodeIdentifiers()
+        hint = did_you_mean(shader_id, known)
+        if len(paths) == 1:
+            ctx.warn(f"{paths[0]}.info:id: no shader {shader_id!r} is registered{hint}")
+        else:
+            shown = ", ".join(paths[:UNREGISTERED_SHOWN]) + (
+                f" and {len(paths) - UNREGISTERED_SHOWN} more" if len(paths) > UNREGISTERED_SHOWN else ""
+            )
+            ctx.warn(f"info:id {shader_id!r} of {len(paths)} shaders: no shader is registered{hint} ({shown})")

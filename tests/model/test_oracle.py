@@ -2,7 +2,7 @@
 """Checks of the oracle (tests/support/oracle.py) against closed forms, and of the calibration catalogue.
 
 Each test states its closed form in a comment (pbrt's habit). The closed forms come from
-the shading model in README.md and the POV-Ray reference (ref §n: docs/povray-3.7-semantics.md), never from the oracle's own output.
+the shading model in docs/concepts/phong-model.md and the POV-Ray reference (ref §n: docs/povray-3.7-semantics.md), never from the oracle's own output.
 """
 
 from __future__ import annotations
@@ -169,7 +169,7 @@ def _head_on_scene(specular: str) -> Scene:
 
 def test_head_on_directional_light_centre_pixel_seed():
     # Centre pixel of an odd image looks along −Z at the sphere's pole: n = l = wo = +Z, so
-    # n·l = 1 and r·wo = 1: L = ka·cd·La + (kd·cd/π + ks·cs)·L (README: the shading model).
+    # n·l = 1 and r·wo = 1: L = ka·cd·La + (kd·cd/π + ks·cs)·L (docs/concepts/phong-model.md).
     m = HEAD_ON
     expected = m.ka * np.array(m.diffuse_color) * HEAD_ON_LA + (
         m.kd * np.array(m.diffuse_color) / math.pi + m.ks * np.array(m.specular_color)

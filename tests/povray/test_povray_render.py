@@ -196,3 +196,45 @@ def test_native_light_exactly_on_a_surface_point_gives_the_ambient_term():
 def test_povray_non_finite_pixels_are_an_error_not_an_image():
     with pytest.raises(BackendError, match=r"non-finite pixels, e.g. \(4, 4\)"):
         povray.render(_light_on_the_surface())
+
+
+# A render's passes (one per light) are added as POV-Ray writes them (issue 29, item 4): its memory
+# is the float64 sum, the frame being added and the float32 result, a few frames' worth whatever
+# the light count (all passes kept, then copied to float64 and stacked, took ~80 frames' worth at
+# 16 lights). The bound leaves room for OpenImageIO's read buffer and the reshape in between.
+MANY_LIGHTS = 16
+FRAMES_OF_MEMORY = 8
+
+
+def _many_light_scene(lights: int, size: int) -> Scene:
+    ring = [(4 * np.cos(a), 3.0, 4 * np.sin(a) + 2) for a in np.linspace(0, 2 * np.pi, lights, endpoint=False)]
+    return Scene(
+        camera=calibration.look_at((0.0, 1.0, 6.0), (0.0, 0.0, 0.0)),
+        lights=tuple(PointLight(tuple(float(c) for c in p), (0.8 / lights,) * 3) for p in ring),
+        spheres=(Sphere.at((0.0, 0.0, 0.0), 1.0, PhongMaterial(kd=0.6, ks=0.3, exponent=20.0)),),
+        settings=RenderSettings(width=size, height=size),
+    )
+
+
+@pytest.mark.povray
+@pytest.mark.slow
+def test_passes_are_summed_as_they_arrive_in_memory_independent_of_the_light_count(tmp_path):
+    import tracemalloc
+
+    size = 96
+    scene = _many_light_scene(MANY_LIGHTS, size)
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    reference = povray.render(scene, keep_dir=str(kept))  # every frame file stays
+    frames = [run.read_image(kept / f"scene{i:02d}.exr") for i in range(MANY_LIGHTS)]
+    # The sum in pass order, as adding the whole list at once gave (float64, then float32).
+    expected = np.sum([f.astype(np.float64) for f in frames], axis=0).astype(np.float32)
+    np.testing.assert_array_equal(reference, expected)
+    tracemalloc.start()
+    try:
+        image = povray.render(scene)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    np.testing.assert_array_equal(image, reference)
+    assert peak <= FRAMES_OF_MEMORY * size * size * 3 * 4, peak / (size * size * 12)

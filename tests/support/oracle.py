@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """Independent per-pixel reference renderer (test-only): numpy, float64, vectorised over rays.
 
-Written from the shading model in README.md and ``docs/povray-3.7-semantics.md`` (cited as "ref §n"), never
+Written from the shading model in docs/concepts/phong-model.md and ``docs/povray-3.7-semantics.md`` (cited as "ref §n"), never
 from either backend. Both backends are tested against it. The derivation, formula by formula:
 
 Camera (ref §3). A continuous image position (sx, sy), pixel (i, j) covering [i, i+1)×[j, j+1),
@@ -49,7 +49,7 @@ per shaded point, with l the unit direction to the centre and t = (0,0,1), or (0
 ||l_z| − 1| < ORIENT_VERTICAL_TOLERANCE: A1 := normalise(l × t)·|A1|, A2 := normalise(l × A1)·|A1|.
 The ambient light is never occluded. A miss returns the background colour (ref §9).
 
-Shading (README: the shading model; ref §4 and §12), wo = −d, n the viewer-facing normal, for each light with
+Shading (docs/concepts/phong-model.md; ref §4 and §12), wo = −d, n the viewer-facing normal, for each light with
 n·l ≥ EPSILON, scaled by its shadow fraction (0/1 for point and directional lights):
 
 * ``seed`` (Suffern)::

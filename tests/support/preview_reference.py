@@ -14,7 +14,7 @@ camera) and at the highlight's centre (the peak), with n·l and n·v weights, sp
 and total. The specular lobe is integrated on a polar grid of normals around the half vector,
 dense near it, so that roughness 0.05 (α = 0.0025) is resolved.
 
-``python tests/support/preview_reference.py`` prints the table the README quotes.
+``python tests/support/preview_reference.py`` prints the table docs/validation/accuracy.md quotes.
 """
 
 from __future__ import annotations

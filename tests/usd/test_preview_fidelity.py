@@ -12,7 +12,7 @@ import pytest
 from support import preview_reference as ref
 
 # The conversion's fidelity (Phong / reference), as measured by ``python tests/support/preview_reference.py``
-# and quoted in README.md; a change of the mapping that leaves these bands fails here.
+# and quoted in docs/validation/accuracy.md; a change of the mapping that leaves these bands fails here.
 SPECULAR_ENERGY_BAND = (0.9, 1.3)  # every roughness 0.05…1, metallic 0 and 1
 PEAK_BAND = (0.9, 1.1)  # roughness <= 0.6 (α < ½, where the peak is matched)
 # The polar grid integrates a lobe to this accuracy (checked on GGX's own normalisation).

@@ -238,7 +238,7 @@ def test_display_color_unknown_shader_and_grey(tmp_path):
     def Sphere "Red" { color3f[] primvars:displayColor = [(1, 0, 0)] }
     def Sphere "Plain" {}
     def Material "M" { token outputs:surface.connect = </M/S.outputs:surface>
-        def Shader "S" { uniform token info:id = "ND_standard_surface_surfaceshader"
+        def Shader "S" { uniform token info:id = "ND_made_up_surfaceshader"
             token outputs:surface } }
     def Sphere "Odd" (prepend apiSchemas = ["MaterialBindingAPI"]) { rel material:binding = </M> }
     """
