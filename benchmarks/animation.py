@@ -42,15 +42,18 @@ S1 = HERE / "scenes" / "s1_spheres.usda"
 
 def diff_frames(workers: int, frames: tuple[int, ...], width: int, height: int) -> float:
     from phongscene.animation import FRAME_FOLDER, diff_frame, frame_name
+    from phongscene.comparison import HALF_FLOAT
     from phongscene.dask_runtime import run_frames
     from phongscene.overrides import RenderOverrides
-    from phongscene.comparison import HALF_FLOAT
 
     options = RenderOverrides(mapping="exact", width=width, height=height, threads=1)
     with tempfile.TemporaryDirectory() as tmp:
-        run = run_frames(diff_frame, frames,
-                         lambda f: (str(ANIMATED), f, os.path.join(tmp, frame_name(FRAME_FOLDER, f)), options, HALF_FLOAT),
-                         workers=workers)
+        run = run_frames(
+            diff_frame,
+            frames,
+            lambda f: (str(ANIMATED), f, os.path.join(tmp, frame_name(FRAME_FOLDER, f)), options, HALF_FLOAT),
+            workers=workers,
+        )
     if run.failures or run.workers != workers:
         raise SystemExit(f"frames failed or wrong worker count: {run.failures}, {run.workers} workers")
     return run.seconds, run.startup_seconds
@@ -62,8 +65,8 @@ def diff_anatomy(frames: int) -> dict:
     import resource
 
     from phongscene.animation import diff_frame
-    from phongscene.overrides import RenderOverrides
     from phongscene.comparison import HALF_FLOAT
+    from phongscene.overrides import RenderOverrides
 
     options = RenderOverrides(mapping="exact", width=320, height=240, threads=1)
     children = lambda: (lambda r: r.ru_utime + r.ru_stime)(resource.getrusage(resource.RUSAGE_CHILDREN))  # noqa: E731
@@ -74,7 +77,9 @@ def diff_anatomy(frames: int) -> dict:
             m = diff_frame(str(ANIMATED), frame, os.path.join(tmp, f"frame.{frame}"), options, HALF_FLOAT)
             pov = children() - pov
             rows.append((time.perf_counter() - wall, time.process_time() - cpu + pov, m["timings"]["povray"], pov))
-    return dict(zip(("wall", "cpu", "povray_wall", "povray_cpu"), (statistics.median(r[i] for r in rows[1:]) for i in range(4))))
+    return dict(
+        zip(("wall", "cpu", "povray_wall", "povray_cpu"), (statistics.median(r[i] for r in rows[1:]) for i in range(4)))
+    )
 
 
 def animated_s1(folder: str, frames: int) -> Path:
@@ -126,18 +131,33 @@ def overhead(frames: int, scene: Path) -> dict:
         finished.append((time.perf_counter(), _process_cpu(metrics["pid"]), time.process_time()))
 
     with tempfile.TemporaryDirectory() as tmp:
-        run = run_frames(render_frame, tuple(range(1, frames + 1)),
-                         lambda f: (str(scene), f, os.path.join(tmp, f"s1.{f:04d}.exr"), "native", options), workers=1,
-                         on_frame=on_frame)
+        run = run_frames(
+            render_frame,
+            tuple(range(1, frames + 1)),
+            lambda f: (str(scene), f, os.path.join(tmp, f"s1.{f:04d}.exr"), "native", options),
+            workers=1,
+            on_frame=on_frame,
+        )
     steady = [run.results[f] for f in range(2, frames + 1)]  # the frames the intervals cover
     per = lambda i: (finished[-1][i] - finished[0][i]) / (frames - 1)  # noqa: E731
     mean = lambda key, part=None: statistics.fmean(r[key] if part is None else r[key][part] for r in steady)  # noqa: E731
     render_s, write_s, load_s = mean("render_seconds"), mean("write_seconds"), mean("load_seconds")
     render_c, write_c, load_c = (mean("cpu_seconds", part) for part in ("render", "write", "load"))
-    return {"per_task": per(0), "render": render_s, "write": write_s, "load": load_s, "startup": run.startup_seconds,
-            "scheduling": per(0) - render_s - write_s - load_s, "overhead": per(0) - render_s - write_s,
-            "cpu_per_task": per(1), "render_cpu": render_c, "write_cpu": write_c, "load_cpu": load_c,
-            "overhead_cpu": per(1) - render_c - write_c, "client_cpu": per(2)}
+    return {
+        "per_task": per(0),
+        "render": render_s,
+        "write": write_s,
+        "load": load_s,
+        "startup": run.startup_seconds,
+        "scheduling": per(0) - render_s - write_s - load_s,
+        "overhead": per(0) - render_s - write_s,
+        "cpu_per_task": per(1),
+        "render_cpu": render_c,
+        "write_cpu": write_c,
+        "load_cpu": load_c,
+        "overhead_cpu": per(1) - render_c - write_c,
+        "client_cpu": per(2),
+    }
 
 
 def stage_load(frames: int, scene: Path) -> dict:
@@ -202,8 +222,13 @@ def exr_write(repeat: int) -> dict:
             output.write_image(image)
             output.close()
 
-        return {"write_image": median_ms(lambda: write_image(out, image)), "imagebuf": median_ms(lambda: oiio.ImageBuf(image)),
-                "buf_write": median_ms(buf_write), "read_back": median_ms(read_back), "image_output": median_ms(image_output)}
+        return {
+            "write_image": median_ms(lambda: write_image(out, image)),
+            "imagebuf": median_ms(lambda: oiio.ImageBuf(image)),
+            "buf_write": median_ms(buf_write),
+            "read_back": median_ms(read_back),
+            "image_output": median_ms(image_output),
+        }
 
 
 def profiler_pairs(pairs: int, frames: int) -> list[tuple[float, float]]:
@@ -224,8 +249,12 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--pairs", type=int, default=2, help="(1 worker, 2 workers) runs, interleaved (0: none)")
     parser.add_argument("--overhead-frames", type=int, default=12)
-    parser.add_argument("--profiler-pairs", type=int, default=0,
-                        help="(profiler on, off) runs of the S1 overhead, interleaved (0: none)")
+    parser.add_argument(
+        "--profiler-pairs",
+        type=int,
+        default=0,
+        help="(profiler on, off) runs of the S1 overhead, interleaved (0: none)",
+    )
     args = parser.parse_args()
     if not S1.exists():
         import subprocess
@@ -236,44 +265,62 @@ def main() -> int:
     ratios = []
     if args.pairs:
         d = diff_anatomy(4)
-        print(f"one diff frame at 320x240 in process, median of 4: {d['wall']:.3f} s wall, {d['cpu']:.3f} s CPU; "
-              f"of it POV-Ray {d['povray_wall']:.3f} s wall, {d['povray_cpu']:.3f} s CPU")
+        print(
+            f"one diff frame at 320x240 in process, median of 4: {d['wall']:.3f} s wall, {d['cpu']:.3f} s CPU; "
+            f"of it POV-Ray {d['povray_wall']:.3f} s wall, {d['povray_cpu']:.3f} s CPU"
+        )
     for pair in range(args.pairs):
         one, one_startup = diff_frames(1, frames, 320, 240)
         two, two_startup = diff_frames(2, frames, 320, 240)
         ratios.append(one / two)
-        print(f"pair {pair + 1}: 24-frame diff at 320x240: 1 worker {one:.2f} s, 2 workers {two:.2f} s, "
-              f"speed-up {one / two:.2f}x (cluster start-up {one_startup:.2f} s, {two_startup:.2f} s; "
-              f"load average {os.getloadavg()[0]:.2f})")
+        print(
+            f"pair {pair + 1}: 24-frame diff at 320x240: 1 worker {one:.2f} s, 2 workers {two:.2f} s, "
+            f"speed-up {one / two:.2f}x (cluster start-up {one_startup:.2f} s, {two_startup:.2f} s; "
+            f"load average {os.getloadavg()[0]:.2f})"
+        )
     if ratios:
         print(f"speed-up of 2 workers over 1: median {statistics.median(ratios):.2f}x (min {min(ratios):.2f}x)")
     with tempfile.TemporaryDirectory() as tmp:
-        for name, scene in (("S1", S1), ("S1 animated (one sphere moving, one light's intensity)",
-                                         animated_s1(tmp, args.overhead_frames))):
+        for name, scene in (
+            ("S1", S1),
+            ("S1 animated (one sphere moving, one light's intensity)", animated_s1(tmp, args.overhead_frames)),
+        ):
             o = overhead(args.overhead_frames, scene)
-            print(f"{name} 640x360 native, 1 thread, {args.overhead_frames} frames on 1 worker, per task from the second frame on:")
-            print(f"  wall: {o['per_task']:.4f} s = render {o['render']:.4f} + EXR write {o['write']:.4f} + overhead "
-                  f"{o['overhead']:.4f} (stage load {o['load']:.4f} + scheduling and the rest {o['scheduling']:.4f}) = "
-                  f"{100 * o['overhead'] / o['render']:.1f} % of the render, "
-                  f"{100 * o['overhead'] / (o['render'] + o['write']):.1f} % of render + write")
-            print(f"  worker CPU: {o['cpu_per_task']:.4f} s = render {o['render_cpu']:.4f} + EXR write {o['write_cpu']:.4f} + "
-                  f"overhead {o['overhead_cpu']:.4f} (stage load {o['load_cpu']:.4f} + Dask in the worker "
-                  f"{o['overhead_cpu'] - o['load_cpu']:.4f}) = {100 * o['overhead_cpu'] / o['render_cpu']:.1f} % of the render, "
-                  f"{100 * o['overhead_cpu'] / (o['render_cpu'] + o['write_cpu']):.1f} % of render + write; "
-                  f"client and scheduler CPU {o['client_cpu']:.4f} s per task")
+            print(
+                f"{name} 640x360 native, 1 thread, {args.overhead_frames} frames on 1 worker, per task from the second frame on:"
+            )
+            print(
+                f"  wall: {o['per_task']:.4f} s = render {o['render']:.4f} + EXR write {o['write']:.4f} + overhead "
+                f"{o['overhead']:.4f} (stage load {o['load']:.4f} + scheduling and the rest {o['scheduling']:.4f}) = "
+                f"{100 * o['overhead'] / o['render']:.1f} % of the render, "
+                f"{100 * o['overhead'] / (o['render'] + o['write']):.1f} % of render + write"
+            )
+            print(
+                f"  worker CPU: {o['cpu_per_task']:.4f} s = render {o['render_cpu']:.4f} + EXR write {o['write_cpu']:.4f} + "
+                f"overhead {o['overhead_cpu']:.4f} (stage load {o['load_cpu']:.4f} + Dask in the worker "
+                f"{o['overhead_cpu'] - o['load_cpu']:.4f}) = {100 * o['overhead_cpu'] / o['render_cpu']:.1f} % of the render, "
+                f"{100 * o['overhead_cpu'] / (o['render_cpu'] + o['write_cpu']):.1f} % of render + write; "
+                f"client and scheduler CPU {o['client_cpu']:.4f} s per task"
+            )
             print(f"  cluster start-up (workers importing phongscene included) {o['startup']:.2f} s once")
             loads = stage_load(args.overhead_frames, scene)
-            print(f"  stage load per frame, interleaved, median of {args.overhead_frames}: kept stage "
-                  f"{loads['kept'][0] * 1e3:.2f} ms CPU ({loads['kept'][1] * 1e3:.2f} ms wall), opened anew "
-                  f"{loads['anew'][0] * 1e3:.2f} ms CPU ({loads['anew'][1] * 1e3:.2f} ms wall): "
-                  f"{loads['anew'][0] / loads['kept'][0]:.2f}x")
+            print(
+                f"  stage load per frame, interleaved, median of {args.overhead_frames}: kept stage "
+                f"{loads['kept'][0] * 1e3:.2f} ms CPU ({loads['kept'][1] * 1e3:.2f} ms wall), opened anew "
+                f"{loads['anew'][0] * 1e3:.2f} ms CPU ({loads['anew'][1] * 1e3:.2f} ms wall): "
+                f"{loads['anew'][0] / loads['kept'][0]:.2f}x"
+            )
     w = exr_write(30)
-    print(f"EXR write of a 640x360 frame, median CPU of 30: write_image {w['write_image']:.2f} ms = ImageBuf from the "
-          f"array {w['imagebuf']:.2f} + its write {w['buf_write'] - w['imagebuf']:.2f} + read back {w['read_back']:.2f} "
-          f"(+ rename); ImageOutput.write_image of the array {w['image_output']:.2f} ms")
+    print(
+        f"EXR write of a 640x360 frame, median CPU of 30: write_image {w['write_image']:.2f} ms = ImageBuf from the "
+        f"array {w['imagebuf']:.2f} + its write {w['buf_write'] - w['imagebuf']:.2f} + read back {w['read_back']:.2f} "
+        f"(+ rename); ImageOutput.write_image of the array {w['image_output']:.2f} ms"
+    )
     for on, off in profiler_pairs(args.profiler_pairs, args.overhead_frames):
-        print(f"S1 per-task overhead, Dask's worker profiler on {on * 1e3:.2f} ms, off {off * 1e3:.2f} ms "
-              f"(load average {os.getloadavg()[0]:.2f})")
+        print(
+            f"S1 per-task overhead, Dask's worker profiler on {on * 1e3:.2f} ms, off {off * 1e3:.2f} ms "
+            f"(load average {os.getloadavg()[0]:.2f})"
+        )
     print(f"load average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
 

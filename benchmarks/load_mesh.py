@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """Time `load_usd` on a ~1M-triangle mesh (a displaced torus grid, written once to a temp dir).
 
-    .venv/bin/python benchmarks/load_mesh.py [--triangles N] [--repeat R]
+.venv/bin/python benchmarks/load_mesh.py [--triangles N] [--repeat R]
 """
 
 from __future__ import annotations
@@ -19,9 +19,13 @@ from phongscene.usd import load_usd
 
 def torus_grid(n_u: int, n_v: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Points, quad faces (counts, indices) of a torus with a bumpy (displaced) tube."""
-    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, n_u, endpoint=False), np.linspace(0, 2 * np.pi, n_v, endpoint=False), indexing="ij")
+    u, v = np.meshgrid(
+        np.linspace(0, 2 * np.pi, n_u, endpoint=False), np.linspace(0, 2 * np.pi, n_v, endpoint=False), indexing="ij"
+    )
     r = 0.3 + 0.02 * np.sin(12 * u) * np.cos(9 * v)
-    points = np.stack([(1 + r * np.cos(v)) * np.cos(u), r * np.sin(v), (1 + r * np.cos(v)) * np.sin(u)], axis=-1).reshape(-1, 3)
+    points = np.stack(
+        [(1 + r * np.cos(v)) * np.cos(u), r * np.sin(v), (1 + r * np.cos(v)) * np.sin(u)], axis=-1
+    ).reshape(-1, 3)
     i, j = np.meshgrid(np.arange(n_u), np.arange(n_v), indexing="ij")
     ids = lambda a, b: (a % n_u) * n_v + (b % n_v)  # noqa: E731
     quads = np.stack([ids(i, j), ids(i, j + 1), ids(i + 1, j + 1), ids(i + 1, j)], axis=-1).reshape(-1, 4)

@@ -49,8 +49,12 @@ def s1_spheres() -> Scene:
     colours = [(0.85, 0.25, 0.2), (0.25, 0.7, 0.3), (0.25, 0.35, 0.85), (0.9, 0.75, 0.3)]
     radii, exponents, xs = [0.6, 0.7, 0.8, 0.9], [5.0, 20.0, 100.0, 1000.0], [-3.0, -1.2, 0.8, 3.0]
     spheres = tuple(
-        Sphere.at((x, r, 0.3 * i - 0.5), r,
-                  PhongMaterial(ka=0.15, kd=0.75, ks=0.5, exponent=e, diffuse_color=c), source=f"/World/Sphere{i}")
+        Sphere.at(
+            (x, r, 0.3 * i - 0.5),
+            r,
+            PhongMaterial(ka=0.15, kd=0.75, ks=0.5, exponent=e, diffuse_color=c),
+            source=f"/World/Sphere{i}",
+        )
         for i, (x, r, e, c) in enumerate(zip(xs, radii, exponents, colours))
     )
     return Scene(
@@ -65,23 +69,32 @@ def s1_spheres() -> Scene:
 
 def s3_area() -> Scene:
     s1 = s1_spheres()
-    area = RectAreaLight(center=(5.0, 8.0, 6.0), axis_u=(2.0, 0.0, 0.0), axis_v=(0.0, 0.0, 2.0),
-                         color=(2.4, 2.3, 2.2), samples=9)
-    return Scene(camera=s1.camera, ambient=s1.ambient, lights=(area, s1.lights[1]), spheres=s1.spheres,
-                 meshes=s1.meshes, settings=SETTINGS)
+    area = RectAreaLight(
+        center=(5.0, 8.0, 6.0), axis_u=(2.0, 0.0, 0.0), axis_v=(0.0, 0.0, 2.0), color=(2.4, 2.3, 2.2), samples=9
+    )
+    return Scene(
+        camera=s1.camera,
+        ambient=s1.ambient,
+        lights=(area, s1.lights[1]),
+        spheres=s1.spheres,
+        meshes=s1.meshes,
+        settings=SETTINGS,
+    )
 
 
 def displaced_torus(triangles: int) -> TriangleMesh:
     """A torus whose tube radius ripples, with smooth normals from the parametric surface."""
     n_v = int(math.sqrt(triangles / 4))  # n_u = 2·n_v quads around the ring
     n_u = 2 * n_v
-    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, n_u, endpoint=False),
-                       np.linspace(0, 2 * np.pi, n_v, endpoint=False), indexing="ij")
+    u, v = np.meshgrid(
+        np.linspace(0, 2 * np.pi, n_u, endpoint=False), np.linspace(0, 2 * np.pi, n_v, endpoint=False), indexing="ij"
+    )
 
     def surface(u, v):
         r = 0.45 + 0.04 * np.sin(14 * u) * np.cos(9 * v)
-        return np.stack([(1.5 + r * np.cos(v)) * np.cos(u), 1.0 + r * np.sin(v), (1.5 + r * np.cos(v)) * np.sin(u)],
-                        axis=-1)
+        return np.stack(
+            [(1.5 + r * np.cos(v)) * np.cos(u), 1.0 + r * np.sin(v), (1.5 + r * np.cos(v)) * np.sin(u)], axis=-1
+        )
 
     points = surface(u, v)
     h = 1e-6  # central differences of the smooth parametric surface give the smooth normals
@@ -97,7 +110,10 @@ def displaced_torus(triangles: int) -> TriangleMesh:
     a, b, c, d = ids(i, j), ids(i, j + 1), ids(i + 1, j + 1), ids(i + 1, j)
     tris = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
     return TriangleMesh(
-        points=points.reshape(-1, 3), triangles=tris, normals=normals.reshape(-1, 3), normal_indices=tris,
+        points=points.reshape(-1, 3),
+        triangles=tris,
+        normals=normals.reshape(-1, 3),
+        normal_indices=tris,
         material=PhongMaterial(ka=0.15, kd=0.7, ks=0.6, exponent=60.0, diffuse_color=(0.8, 0.55, 0.3)),
         source="/World/Torus",
     )
@@ -113,14 +129,24 @@ def s2_torus(triangles: int = 1_000_000) -> Scene:
     )
 
 
-FILES = {"S1": "s1_spheres.usda", "S2": "s2_torus.usdc", "S3": "s3_area.usda",
-         # S2 with fewer triangles, for run.py's scaling table (not made by default)
-         "S2-10k": "s2_torus_10k.usdc", "S2-100k": "s2_torus_100k.usdc"}
+FILES = {
+    "S1": "s1_spheres.usda",
+    "S2": "s2_torus.usdc",
+    "S3": "s3_area.usda",
+    # S2 with fewer triangles, for run.py's scaling table (not made by default)
+    "S2-10k": "s2_torus_10k.usdc",
+    "S2-100k": "s2_torus_100k.usdc",
+}
 
 
 def make(outdir: Path = HERE / "scenes", triangles: int = 1_000_000, which=("S1", "S2", "S3")) -> dict[str, Path]:
-    builders = {"S1": s1_spheres, "S2": lambda: s2_torus(triangles), "S3": s3_area,
-                "S2-10k": lambda: s2_torus(10_000), "S2-100k": lambda: s2_torus(100_000)}
+    builders = {
+        "S1": s1_spheres,
+        "S2": lambda: s2_torus(triangles),
+        "S3": s3_area,
+        "S2-10k": lambda: s2_torus(10_000),
+        "S2-100k": lambda: s2_torus(100_000),
+    }
     outdir.mkdir(parents=True, exist_ok=True)
     return {name: write_usd(builders[name](), outdir / FILES[name]) for name in which}
 

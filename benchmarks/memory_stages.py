@@ -78,5 +78,6 @@ def main() -> None:
         write_image(Path(tmp) / "image.exr", image)
     stage("EXR write (OpenImageIO)")
 
+
 if __name__ == "__main__":
     main()

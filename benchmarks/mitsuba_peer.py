@@ -25,7 +25,6 @@ import subprocess
 import sys
 
 import numpy as np
-
 from peer_rays import primary_rays, shadow_targets
 from timing import best_time
 
@@ -64,8 +63,11 @@ def unavailable() -> str | None:
         return "mitsuba not installed"
     done = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True)
     if done.returncode != 0:
-        hint = "" if os.environ.get("DRJIT_LIBLLVM_PATH") else \
-            "; DRJIT_LIBLLVM_PATH not set (point it at libLLVM.so.19.1: benchmarks/README.md)"
+        hint = (
+            ""
+            if os.environ.get("DRJIT_LIBLLVM_PATH")
+            else "; DRJIT_LIBLLVM_PATH not set (point it at libLLVM.so.19.1: benchmarks/README.md)"
+        )
         last = (done.stderr.strip().splitlines() or [f"exit status {done.returncode}"])[-1]
         return f"mitsuba {VARIANT} does not start: {last[-200:]}{hint}"
     return None
@@ -140,8 +142,9 @@ def times(scene, settings, native_scene, repeat: int, threads: int) -> dict:
                 to_light = target - points
                 dist = dr.norm(to_light)
                 to_light /= dist
-                occluded = mi_scene.ray_test(mi.Ray3f(points + to_light * SHADOW_OFFSET, to_light,
-                                                      dist - 2 * SHADOW_OFFSET))
+                occluded = mi_scene.ray_test(
+                    mi.Ray3f(points + to_light * SHADOW_OFFSET, to_light, dist - 2 * SHADOW_OFFSET)
+                )
                 dr.eval(occluded)
                 count += dr.width(points)
             first_occluded.append(occluded if len(light) == 1 else None)
@@ -149,8 +152,16 @@ def times(scene, settings, native_scene, repeat: int, threads: int) -> dict:
         return count, hit.t, valid, points, first_occluded
 
     t_render, (count, t_hit, valid, points, occluded) = best_time(render, repeat)
-    agreement = _agreement(native_scene, origins, dirs, np.asarray(valid), np.asarray(t_hit),
-                           np.asarray(points).T.astype(np.float64), targets, occluded)
+    agreement = _agreement(
+        native_scene,
+        origins,
+        dirs,
+        np.asarray(valid),
+        np.asarray(t_hit),
+        np.asarray(points).T.astype(np.float64),
+        targets,
+        occluded,
+    )
     return {"build": t_build, "render": t_render, "rays": count, "agreement": agreement}
 
 
@@ -174,6 +185,8 @@ def _agreement(native_scene, origins, dirs, valid, t_hit, points, targets, occlu
         fractions.append(float(np.mean((t < dist - 2 * SHADOW_OFFSET) == np.asarray(mi_occluded))))
     worst = min(fractions)
     if worst < MIN_AGREEMENT:
-        raise SystemExit(f"Mitsuba and the native tracer agree on only {worst:.4f} of the rays "
-                         f"(fractions {fractions}; at least {MIN_AGREEMENT} expected): not the same scene")
+        raise SystemExit(
+            f"Mitsuba and the native tracer agree on only {worst:.4f} of the rays "
+            f"(fractions {fractions}; at least {MIN_AGREEMENT} expected): not the same scene"
+        )
     return worst

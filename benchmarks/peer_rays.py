@@ -37,7 +37,10 @@ def shadow_targets(light) -> np.ndarray | None:
     if isinstance(light, RectAreaLight):
         s = np.linspace(-0.5, 0.5, light.samples)
         a, b = np.meshgrid(s, s, indexing="ij")
-        grid = (np.asarray(light.center) + a.reshape(-1, 1) * np.asarray(light.axis_u)
-                + b.reshape(-1, 1) * np.asarray(light.axis_v))
+        grid = (
+            np.asarray(light.center)
+            + a.reshape(-1, 1) * np.asarray(light.axis_u)
+            + b.reshape(-1, 1) * np.asarray(light.axis_v)
+        )
         return grid.astype(np.float32)
     return None

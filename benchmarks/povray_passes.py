@@ -37,8 +37,12 @@ print(float(image.sum()))
 
 def peak_rss_mib(size: int, lights: int) -> tuple[float, float]:
     """(peak resident MiB, wall seconds) of one render in a child process."""
-    proc = subprocess.run(["/usr/bin/time", "-v", sys.executable, "-c", CHILD, str(size), str(lights)],
-                          capture_output=True, text=True, check=True)
+    proc = subprocess.run(
+        ["/usr/bin/time", "-v", sys.executable, "-c", CHILD, str(size), str(lights)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     rss = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", proc.stderr).group(1)) / 1024
     wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (\S+)", proc.stderr).group(1)
     minutes, seconds = wall.rsplit(":", 1)

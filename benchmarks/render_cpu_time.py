@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from run import scene_path, use_extension  # noqa: E402  (benchmarks/ is not a package)
+from run import scene_path, use_extension
 
 
 def main() -> None:
@@ -46,8 +46,13 @@ def main() -> None:
     from phongscene.usd import load_usd
 
     scene = load_usd(scene_path(args.scene))
-    settings = dataclasses.replace(scene.settings, threads=args.threads, specular=SPECULAR_OF_MAPPING["classic"],
-                                   width=args.width or scene.settings.width, height=args.height or scene.settings.height)
+    settings = dataclasses.replace(
+        scene.settings,
+        threads=args.threads,
+        specular=SPECULAR_OF_MAPPING["classic"],
+        width=args.width or scene.settings.width,
+        height=args.height or scene.settings.height,
+    )
     camera, native_settings = native._camera(scene.camera), native._settings(settings)
     build, render = [], []
     for _ in range(args.repeat):

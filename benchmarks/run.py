@@ -106,11 +106,25 @@ def time_baseline(args: argparse.Namespace, name: str, threads: int) -> tuple[fl
     with tempfile.TemporaryDirectory() as tmp:
         image_path = Path(tmp) / "image.npy"
         out = subprocess.run(
-            [sys.executable, __file__, name, "--extension", str(args.baseline_extension),
-             *(["--wrapper", str(args.baseline_wrapper)] if args.baseline_wrapper else []),
-             "--threads", str(threads), "--repeat", str(args.repeat), "--mapping", args.mapping,
-             "--save-image", str(image_path)],
-            check=True, capture_output=True, text=True,
+            [
+                sys.executable,
+                __file__,
+                name,
+                "--extension",
+                str(args.baseline_extension),
+                *(["--wrapper", str(args.baseline_wrapper)] if args.baseline_wrapper else []),
+                "--threads",
+                str(threads),
+                "--repeat",
+                str(args.repeat),
+                "--mapping",
+                args.mapping,
+                "--save-image",
+                str(image_path),
+            ],
+            check=True,
+            capture_output=True,
+            text=True,
         ).stdout
         return json.loads(out.splitlines()[-1])["native"], np.load(image_path)
 
@@ -121,8 +135,14 @@ def run_process(cmd: list[str], cwd: Path | None = None, env: dict | None = None
     report this process's size, which ru_maxrss keeps across exec."""
     with tempfile.NamedTemporaryFile("r", suffix=".time") as report:
         start = time.perf_counter()
-        done = subprocess.run([GNU_TIME, "-f", "%M", "-o", report.name, *cmd], cwd=cwd, env=env,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        done = subprocess.run(
+            [GNU_TIME, "-f", "%M", "-o", report.name, *cmd],
+            cwd=cwd,
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         wall = time.perf_counter() - start
         if done.returncode != 0:
             raise SystemExit(f"{cmd[0]} failed ({done.returncode}): {done.stderr.strip()[-500:]}")
@@ -180,8 +200,12 @@ def embree_times(scene, settings, repeat: int) -> tuple[float, float, int] | Non
             to_light = np.asarray(light.position, np.float32) - points
             dist = np.linalg.norm(to_light, axis=1)
             to_light /= dist[:, None]
-            embree_scene.run(points + to_light * EMBREE_SHADOW_OFFSET, to_light, dists=dist - 2 * EMBREE_SHADOW_OFFSET,
-                             query="OCCLUDED")
+            embree_scene.run(
+                points + to_light * EMBREE_SHADOW_OFFSET,
+                to_light,
+                dists=dist - 2 * EMBREE_SHADOW_OFFSET,
+                query="OCCLUDED",
+            )
             rays += len(points)
         return rays
 
@@ -193,8 +217,9 @@ def mitsuba_cell(scene, settings, built, repeat: int, threads: int) -> str:
     if reason := mitsuba_peer.why_not(scene):
         return f"- ({reason})"
     peer = mitsuba_peer.times(scene, settings, built, repeat, threads)
-    return (f"{peer['build']:.3f} / {peer['render']:.3f} ({peer['rays'] / 1e6:.1f}M rays, "
-            f"{100 * peer['agreement']:.3f} %)")
+    return (
+        f"{peer['build']:.3f} / {peer['render']:.3f} ({peer['rays'] / 1e6:.1f}M rays, {100 * peer['agreement']:.3f} %)"
+    )
 
 
 def peers_line() -> str:
@@ -262,13 +287,27 @@ def whole_process_table(args, names, threads: int) -> None:
         for name in ["tiny", *names]:
             path = scene_path("S1" if name == "tiny" else name)
             size = ["--width", str(TINY_SIZE[0]), "--height", str(TINY_SIZE[1])] if name == "tiny" else []
-            cmd = [sys.executable, "-m", "phongscene", "render", str(path), "-o", str(work / "native.exr"),
-                   "--threads", str(threads), "--mapping", args.mapping, *size]
+            cmd = [
+                sys.executable,
+                "-m",
+                "phongscene",
+                "render",
+                str(path),
+                "-o",
+                str(work / "native.exr"),
+                "--threads",
+                str(threads),
+                "--mapping",
+                args.mapping,
+                *size,
+            ]
             t_native, rss_native = best_process(cmd, args.repeat, env=cached_bytecode_env(work / "pycache"))
             row = f"{name:<8}{t_native:>11.3f} s {rss_native:>4.0f} M"
             if not args.native_only:
                 scene = load_usd(path)
-                settings = dataclasses.replace(scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping])
+                settings = dataclasses.replace(
+                    scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping]
+                )
                 if name == "tiny":
                     settings = dataclasses.replace(settings, width=TINY_SIZE[0], height=TINY_SIZE[1])
                 job = prepare(scene, settings, args.mapping)
@@ -283,15 +322,27 @@ def main() -> None:
     parser.add_argument("scenes", nargs="*", metavar="SCENE", help="any of S1, S2, S3 (default: all)")
     parser.add_argument("--threads", type=int, nargs="+", help="thread counts (0 = all cores; default: 1 and all)")
     parser.add_argument("--repeat", type=int, default=3, help="runs per renderer; the best counts")
-    parser.add_argument("--mapping", choices=("classic", "exact"), default="classic",
-                        help="POV-Ray mapping (classic = one idiomatic pass; exact = one pass per light)")
+    parser.add_argument(
+        "--mapping",
+        choices=("classic", "exact"),
+        default="classic",
+        help="POV-Ray mapping (classic = one idiomatic pass; exact = one pass per light)",
+    )
     parser.add_argument("--native-only", action="store_true", help="time the native tracer only")
     parser.add_argument("--no-scaling", action="store_true", help="skip the S2 triangle-count table")
-    parser.add_argument("--baseline-extension", type=Path, metavar="SO",
-                        help="only compare the installed extension with this build (in a child process)")
-    parser.add_argument("--baseline-wrapper", type=Path, metavar="PY",
-                        help="the baseline's backends/native/__init__.py, when its extension's arguments differ "
-                        "from today's (git show COMMIT:backends/native/__init__.py > old_native.py)")
+    parser.add_argument(
+        "--baseline-extension",
+        type=Path,
+        metavar="SO",
+        help="only compare the installed extension with this build (in a child process)",
+    )
+    parser.add_argument(
+        "--baseline-wrapper",
+        type=Path,
+        metavar="PY",
+        help="the baseline's backends/native/__init__.py, when its extension's arguments differ "
+        "from today's (git show COMMIT:backends/native/__init__.py > old_native.py)",
+    )
     parser.add_argument("--extension", type=Path, metavar="SO", help=argparse.SUPPRESS)  # the child's
     parser.add_argument("--wrapper", type=Path, metavar="PY", help=argparse.SUPPRESS)  # the child's
     parser.add_argument("--save-image", type=Path, help=argparse.SUPPRESS)  # the child's: one scene, JSON
@@ -314,23 +365,32 @@ def main() -> None:
     if args.save_image:
         (name,) = names
         scene = load_usd(scene_path(name))
-        settings = dataclasses.replace(scene.settings, threads=thread_counts[-1], specular=SPECULAR_OF_MAPPING[args.mapping])
+        settings = dataclasses.replace(
+            scene.settings, threads=thread_counts[-1], specular=SPECULAR_OF_MAPPING[args.mapping]
+        )
         t_native, image = best_time(lambda: native.render(scene, settings), args.repeat)
         np.save(args.save_image, image)
         print(json.dumps({"native": t_native}))
         return
 
     if args.baseline_extension:
-        print(f"threads {thread_counts[-1]}, mapping {args.mapping}, best of {args.repeat}; native = flatten + build + render")
+        print(
+            f"threads {thread_counts[-1]}, mapping {args.mapping}, best of {args.repeat}; native = flatten + build + render"
+        )
         print(f"{'scene':<8}{'triangles':>10}{'baseline s':>12}{'native s':>10}{'gain':>7}{'identical':>11}")
         for name in names:
             scene = load_usd(scene_path(name))
-            settings = dataclasses.replace(scene.settings, threads=thread_counts[-1], specular=SPECULAR_OF_MAPPING[args.mapping])
+            settings = dataclasses.replace(
+                scene.settings, threads=thread_counts[-1], specular=SPECULAR_OF_MAPPING[args.mapping]
+            )
             t_baseline, img_baseline = time_baseline(args, name, thread_counts[-1])
             t_native, img_native = best_time(lambda: native.render(scene, settings), args.repeat)
             identical = "yes" if np.array_equal(img_native, img_baseline) else "NO"
-            print(f"{name:<8}{scene.triangle_count:>10}{t_baseline:>12.3f}{t_native:>10.3f}"
-                  f"{t_baseline / t_native:>6.2f}x{identical:>11}", flush=True)
+            print(
+                f"{name:<8}{scene.triangle_count:>10}{t_baseline:>12.3f}{t_native:>10.3f}"
+                f"{t_baseline / t_native:>6.2f}x{identical:>11}",
+                flush=True,
+            )
         return
 
     print(f"{cores} cores; peers: {peers_line()}")

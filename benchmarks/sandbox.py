@@ -18,10 +18,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from load_mesh import write_mesh  # noqa: E402
+from load_mesh import write_mesh
 
-from phongscene.sandbox import default_memory_limit, memory_limit_for, read_usd_sandboxed  # noqa: E402
-from phongscene.usd import read_usd  # noqa: E402
+from phongscene.sandbox import default_memory_limit, memory_limit_for, read_usd_sandboxed
+from phongscene.usd import read_usd
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -43,8 +43,10 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         mesh = Path(tmp) / "torus.usdc"
         write_mesh(mesh, args.triangles)
-        cases = [("small: examples/seed_exponents.usda", REPO / "examples" / "seed_exponents.usda"),
-                 (f"{args.triangles:,}-triangle mesh (.usdc, {mesh.stat().st_size / 2**20:.1f} MiB)", mesh)]
+        cases = [
+            ("small: examples/seed_exponents.usda", REPO / "examples" / "seed_exponents.usda"),
+            (f"{args.triangles:,}-triangle mesh (.usdc, {mesh.stat().st_size / 2**20:.1f} MiB)", mesh),
+        ]
         print(f"default memory limit of this machine: {default_memory_limit() / 2**30:.1f} GiB")
         print("| scene | in process | sandboxed | overhead | child peak RSS | limit for the file |")
         print("|---|---:|---:|---:|---:|---:|")
@@ -54,8 +56,10 @@ def main() -> None:
             before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
             sandboxed = best(lambda: read_usd_sandboxed(path), args.repeat)
             peak = max(before, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss) / 2**20  # kB -> GiB
-            print(f"| {name} | {inside:.3f} s | {sandboxed:.3f} s | {sandboxed - inside:+.3f} s "
-                  f"({sandboxed / inside:.1f}x) | {peak:.2f} GiB | {memory_limit_for(path) / 2**30:.1f} GiB |")
+            print(
+                f"| {name} | {inside:.3f} s | {sandboxed:.3f} s | {sandboxed - inside:+.3f} s "
+                f"({sandboxed / inside:.1f}x) | {peak:.2f} GiB | {memory_limit_for(path) / 2**30:.1f} GiB |"
+            )
 
 
 if __name__ == "__main__":

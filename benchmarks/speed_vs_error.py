@@ -67,7 +67,9 @@ def git_commit() -> str:
 
     try:
         commit = git("rev-parse", "--short", "HEAD")
-        return commit + (" (native sources modified)" if git("status", "--porcelain", "--", "../backends/native") else "")
+        return commit + (
+            " (native sources modified)" if git("status", "--porcelain", "--", "../backends/native") else ""
+        )
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
 
@@ -75,36 +77,51 @@ def git_commit() -> str:
 def markdown(results: dict, meta: dict) -> str:
     from phongscene import bench
 
-    lines = ["# Speed against error", "",
-             f"{meta['width']}x{meta['height']} px, {meta['threads']} threads on {meta['cores']} cores, mapping "
-             f"{meta['mapping']}, best of {meta['repeat']}, {meta['date']}, commit {meta['commit']}. Command: "
-             f"`{meta['command']}`.", "",
-             "Wall and CPU seconds are end to end (POV-Ray's include its start-up); CPU counts this process and "
-             "POV-Ray's. RMS / max / bias (mean signed error) against the family's reference; `*`: the RMS error is "
-             f"within {bench.REFERENCE_MARGIN:g}x of the reference's own error bound (not resolved)."]
+    lines = [
+        "# Speed against error",
+        "",
+        f"{meta['width']}x{meta['height']} px, {meta['threads']} threads on {meta['cores']} cores, mapping "
+        f"{meta['mapping']}, best of {meta['repeat']}, {meta['date']}, commit {meta['commit']}. Command: "
+        f"`{meta['command']}`.",
+        "",
+        "Wall and CPU seconds are end to end (POV-Ray's include its start-up); CPU counts this process and "
+        "POV-Ray's. RMS / max / bias (mean signed error) against the family's reference; `*`: the RMS error is "
+        f"within {bench.REFERENCE_MARGIN:g}x of the reference's own error bound (not resolved).",
+    ]
     for name, data in results.items():
         lines += ["", f"## {name}: {data['what']}", ""]
         for family, ref in data["result"]["references"].items():
-            lines.append(f"Reference ({family}): {ref['what']}, {ref['seconds']:.1f} s; its RMS error <= "
-                         f"{ref['rms_error_bound']:.1e}.")
-        lines += ["", "| estimator | backend | wall s | CPU s | RMS | max | bias |",
-                  "| --- | --- | ---: | ---: | ---: | ---: | ---: |"]
+            lines.append(
+                f"Reference ({family}): {ref['what']}, {ref['seconds']:.1f} s; its RMS error <= "
+                f"{ref['rms_error_bound']:.1e}."
+            )
+        lines += [
+            "",
+            "| estimator | backend | wall s | CPU s | RMS | max | bias |",
+            "| --- | --- | ---: | ---: | ---: | ---: | ---: |",
+        ]
         for r in data["result"]["rows"]:
-            lines.append(f"| {r['label']} | {r['backend']} | {r['wall']:.3f} | {r['cpu']:.3f} | {r['rms']:.2e}"
-                         f"{'' if r['resolved'] else ' *'} | {r['max']:.3f} | {r['bias']:+.1e} |")
+            lines.append(
+                f"| {r['label']} | {r['backend']} | {r['wall']:.3f} | {r['cpu']:.3f} | {r['rms']:.2e}"
+                f"{'' if r['resolved'] else ' *'} | {r['max']:.3f} | {r['bias']:+.1e} |"
+            )
         lines.append("")
         for family, d in data["result"]["dominance"].items():
             for cost, info in d.items():
                 counted = [x for x in info["levels"] if x["resolved"]]
                 worst = min(counted, key=lambda x: x["ratio"]) if counted else None
                 if worst:
-                    lines.append(f"- {family}, {cost} time: at every RMS level on POV-Ray's Pareto front native is "
-                                 f">= {info['min_ratio']:.1f}x cheaper (least at POV-Ray's {worst['povray']}, "
-                                 f"RMS {worst['rms']:.2e}, against native {worst['native']}).")
+                    lines.append(
+                        f"- {family}, {cost} time: at every RMS level on POV-Ray's Pareto front native is "
+                        f">= {info['min_ratio']:.1f}x cheaper (least at POV-Ray's {worst['povray']}, "
+                        f"RMS {worst['rms']:.2e}, against native {worst['native']})."
+                    )
                 for x in info["levels"]:
                     if not x["resolved"]:
-                        lines.append(f"- {family}, {cost} time: POV-Ray's {x['povray']} (RMS {x['rms']:.2e}) is below "
-                                     f"what the reference resolves and not counted ({x['ratio']:.1f}x).")
+                        lines.append(
+                            f"- {family}, {cost} time: POV-Ray's {x['povray']} (RMS {x['rms']:.2e}) is below "
+                            f"what the reference resolves and not counted ({x['ratio']:.1f}x)."
+                        )
     return "\n".join(lines) + "\n"
 
 
@@ -121,11 +138,14 @@ def plot(results: dict, path: Path, meta: dict) -> None:
     for row, (name, data) in zip(axes, results.items()):
         for ax, cost in zip(row, ("cpu", "wall")):
             bench.draw(ax, data["result"], cost)
-            ax.set_title(f"{name} ({data['what']}): RMS error against {'CPU' if cost == 'cpu' else 'wall'} time",
-                         fontsize=9)
+            ax.set_title(
+                f"{name} ({data['what']}): RMS error against {'CPU' if cost == 'cpu' else 'wall'} time", fontsize=9
+            )
             ax.legend(fontsize=7, loc="upper right")
-    fig.suptitle(f"Speed against error, {meta['width']}x{meta['height']}, {meta['threads']} threads, "
-                 f"best of {meta['repeat']} (lines: Pareto fronts)")
+    fig.suptitle(
+        f"Speed against error, {meta['width']}x{meta['height']}, {meta['threads']} threads, "
+        f"best of {meta['repeat']} (lines: Pareto fronts)"
+    )
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=90)
     plt.close(fig)
@@ -136,8 +156,12 @@ def main() -> None:
     parser.add_argument("--width", type=int, default=320, help="image width (16:9)")
     parser.add_argument("--threads", type=int, default=0, help="threads for both renderers (0 = all cores)")
     parser.add_argument("--repeat", type=int, default=3, help="runs per renderer and setting; the best counts")
-    parser.add_argument("--mapping", choices=("classic", "exact"), default="classic",
-                        help="POV-Ray mapping (classic = one idiomatic pass; exact = one pass per light)")
+    parser.add_argument(
+        "--mapping",
+        choices=("classic", "exact"),
+        default="classic",
+        help="POV-Ray mapping (classic = one idiomatic pass; exact = one pass per light)",
+    )
     parser.add_argument("--outdir", type=Path, default=RESULTS)
     args = parser.parse_args()
     if args.threads < 0 or args.repeat < 1 or args.width < 16:
@@ -149,20 +173,34 @@ def main() -> None:
 
     threads = args.threads or os.cpu_count() or 1
     height = round(args.width * 9 / 16)
-    meta = {"width": args.width, "height": height, "threads": threads, "cores": os.cpu_count(),
-            "mapping": args.mapping, "repeat": args.repeat, "commit": git_commit(),
-            "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
-            "platform": platform.platform(), "command": "python benchmarks/speed_vs_error.py " + " ".join(sys.argv[1:])}
+    meta = {
+        "width": args.width,
+        "height": height,
+        "threads": threads,
+        "cores": os.cpu_count(),
+        "mapping": args.mapping,
+        "repeat": args.repeat,
+        "commit": git_commit(),
+        "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+        "platform": platform.platform(),
+        "command": "python benchmarks/speed_vs_error.py " + " ".join(sys.argv[1:]),
+    }
     results = {}
     for name, what, which, families in STUDIES:
         scene = load(which)
-        settings = dataclasses.replace(scene.settings, width=args.width, height=height, threads=threads,
-                                       specular=SPECULAR_OF_MAPPING[args.mapping])
+        settings = dataclasses.replace(
+            scene.settings, width=args.width, height=height, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping]
+        )
         print(f"{name}: {what}", flush=True)
-        result = bench.run(scene, settings, repeat=args.repeat, families=families,
-                           reference_resolution=REFERENCE_RESOLUTION,
-                           reference_shadow_samples=REFERENCE_SHADOW_SAMPLES,
-                           log=lambda line: print("  " + line, flush=True))
+        result = bench.run(
+            scene,
+            settings,
+            repeat=args.repeat,
+            families=families,
+            reference_resolution=REFERENCE_RESOLUTION,
+            reference_shadow_samples=REFERENCE_SHADOW_SAMPLES,
+            log=lambda line: print("  " + line, flush=True),
+        )
         results[name] = {"what": what, "result": result}
         print(bench.table(result), flush=True)
 
@@ -171,8 +209,20 @@ def main() -> None:
     writer.writerow(["scene", "family", "label", "backend", "wall", "cpu", "rms", "max", "bias", "resolved"])
     for name, data in results.items():
         for r in data["result"]["rows"]:
-            writer.writerow([name, r["family"], r["label"], r["backend"], r["wall"], r["cpu"], r["rms"], r["max"],
-                             r["bias"], r["resolved"]])
+            writer.writerow(
+                [
+                    name,
+                    r["family"],
+                    r["label"],
+                    r["backend"],
+                    r["wall"],
+                    r["cpu"],
+                    r["rms"],
+                    r["max"],
+                    r["bias"],
+                    r["resolved"],
+                ]
+            )
     write_text_atomic(args.outdir / f"{STEM}.csv", out.getvalue())
     write_text_atomic(args.outdir / f"{STEM}.json", json.dumps({"meta": meta, "results": results}, indent=1) + "\n")
     write_text_atomic(args.outdir / f"{STEM}.md", markdown(results, meta))

@@ -47,8 +47,7 @@ from run import TINY_SIZE, cached_bytecode_env, scene_path  # noqa: E402  (bench
 
 SCENE = "S1"
 # The fixed dependencies of a USD -> EXR render in Python, and the opening of the stage.
-FLOOR_CODE = ("import numpy, OpenImageIO\nfrom pxr import Usd, UsdGeom, UsdShade, UsdLux\n"
-              "Usd.Stage.Open({scene!r})\n")
+FLOOR_CODE = "import numpy, OpenImageIO\nfrom pxr import Usd, UsdGeom, UsdShade, UsdLux\nUsd.Stage.Open({scene!r})\n"
 # The same, started and ended as the phongscene process is (phongscene/console.py: one BLAS
 # thread, no interpreter teardown): the floor under ``phongscene render``.
 FLOOR_AS_PHONGSCENE_CODE = FLOOR_CODE + "import os\nos._exit(0)\n"
@@ -140,8 +139,9 @@ def povray_job(work: Path) -> list[str]:
     from phongscene.usd import load_usd
 
     scene = load_usd(scene_path(SCENE))
-    settings = dataclasses.replace(scene.settings, threads=2, width=TINY_SIZE[0], height=TINY_SIZE[1],
-                                   specular=SPECULAR_OF_MAPPING["classic"])
+    settings = dataclasses.replace(
+        scene.settings, threads=2, width=TINY_SIZE[0], height=TINY_SIZE[1], specular=SPECULAR_OF_MAPPING["classic"]
+    )
     job = prepare(scene, settings, "classic")
     (work / "scene.pov").write_text(job.sdl, encoding="ascii")
     return job.command("scene.pov", "scene.exr")
@@ -151,7 +151,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=10, help="runs of each child; the best counts")
     parser.add_argument("--profile", action="store_true", help="also print cProfile's top functions of one render")
-    parser.add_argument("--baseline", type=Path, metavar="PY", help="another installation's python: its console script too")
+    parser.add_argument(
+        "--baseline", type=Path, metavar="PY", help="another installation's python: its console script too"
+    )
     args = parser.parse_args()
 
     py = sys.executable
@@ -160,8 +162,20 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         env = cached_bytecode_env(work / "pycache")
-        render_args = ["render", scene, "-o", str(work / "native.exr"), "--threads", "2", "--mapping", "classic",
-                       "--width", str(TINY_SIZE[0]), "--height", str(TINY_SIZE[1])]
+        render_args = [
+            "render",
+            scene,
+            "-o",
+            str(work / "native.exr"),
+            "--threads",
+            "2",
+            "--mapping",
+            "classic",
+            "--width",
+            str(TINY_SIZE[0]),
+            "--height",
+            str(TINY_SIZE[1]),
+        ]
         one_blas_thread = {**env, "OPENBLAS_NUM_THREADS": "1"}
         processes = {
             "python -S -c pass (no site, no .pth)": ([py, "-S", "-c", "pass"], env, None),
@@ -170,14 +184,20 @@ def main() -> None:
             "  the same, OPENBLAS_NUM_THREADS=1": ([py, "-c", "import numpy"], one_blas_thread, None),
             "floor: numpy, OpenImageIO, pxr, Stage.Open": ([py, "-c", FLOOR_CODE.format(scene=scene)], env, None),
             "  the same, 1 BLAS thread, no teardown": (
-                [py, "-c", FLOOR_AS_PHONGSCENE_CODE.format(scene=scene)], one_blas_thread, None),
+                [py, "-c", FLOOR_AS_PHONGSCENE_CODE.format(scene=scene)],
+                one_blas_thread,
+                None,
+            ),
             "python -m phongscene render (tiny)": ([py, "-m", "phongscene", *render_args], env, None),
             "phongscene render (console script)": ([script, *render_args], env, None),
             "povray (tiny, compiled)": (povray_job(work), os.environ.copy(), work),
         }
         if args.baseline:
             processes["baseline: phongscene render (console script)"] = (
-                [console_script(args.baseline), *render_args], env, None)
+                [console_script(args.baseline), *render_args],
+                env,
+                None,
+            )
         stages_cmd = [py, "-c", STAGES_CODE.format(argv=render_args)]
         best: dict[str, list[float]] = {name: [float("inf"), float("inf")] for name in processes}
         stages: dict[str, list[float]] = {}
@@ -202,13 +222,17 @@ def main() -> None:
         pov = best["povray (tiny, compiled)"][0]
         ours = best["phongscene render (console script)"][0]
         floor = best["  the same, 1 BLAS thread, no teardown"][0]
-        print(f"\nphongscene render / povray {ours / pov:.2f}x (goal <= 0.50x); the fixed dependencies' floor "
-              f"(as phongscene starts and ends) / povray {floor / pov:.2f}x; phongscene's own share "
-              f"{ours - floor:.3f} s wall")
+        print(
+            f"\nphongscene render / povray {ours / pov:.2f}x (goal <= 0.50x); the fixed dependencies' floor "
+            f"(as phongscene starts and ends) / povray {floor / pov:.2f}x; phongscene's own share "
+            f"{ours - floor:.3f} s wall"
+        )
         if args.baseline:
             before = best["baseline: phongscene render (console script)"]
-            print(f"baseline ({args.baseline}) / this installation: {before[0] / ours:.2f}x wall, "
-                  f"{before[1] / best['phongscene render (console script)'][1]:.2f}x CPU")
+            print(
+                f"baseline ({args.baseline}) / this installation: {before[0] / ours:.2f}x wall, "
+                f"{before[1] / best['phongscene render (console script)'][1]:.2f}x CPU"
+            )
 
         print(f"\n2. Stages of one tiny render (each the best of {args.repeat})\n{'':<46}{'wall':>8}{'CPU':>8}")
         for label, (wall, cpu) in stages.items():
@@ -219,8 +243,12 @@ def main() -> None:
             print(f"{module:<46}{own:>8.3f}{total:>8.3f}")
         if args.profile:
             print("\ncProfile of one render (cumulative)")
-            out = subprocess.run([py, "-m", "cProfile", "-s", "cumulative", script, *render_args], env=env,
-                                 capture_output=True, text=True).stdout
+            out = subprocess.run(
+                [py, "-m", "cProfile", "-s", "cumulative", script, *render_args],
+                env=env,
+                capture_output=True,
+                text=True,
+            ).stdout
             print("\n".join(out.splitlines()[:40]))
 
 

@@ -8,13 +8,23 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-
 import phongscene
-from phongscene.scene import AmbientLight, Camera, PhongMaterial, PointLight, RenderSettings, Scene, Sphere, TriangleMesh
+from phongscene.scene import (
+    AmbientLight,
+    Camera,
+    PhongMaterial,
+    PointLight,
+    RenderSettings,
+    Scene,
+    Sphere,
+    TriangleMesh,
+)
 from phongscene.usd import write_usd
 
 HERE = Path(__file__).resolve().parent
-GROUND = PhongMaterial(ka=0.25, kd=0.6, ks=0.0, exponent=1.0, diffuse_color=(0.5, 0.5, 0.5), source="/World/Looks/Ground/Phong")
+GROUND = PhongMaterial(
+    ka=0.25, kd=0.6, ks=0.0, exponent=1.0, diffuse_color=(0.5, 0.5, 0.5), source="/World/Looks/Ground/Phong"
+)
 SETTINGS = RenderSettings(width=320, height=240, source="/Render/Settings")
 
 

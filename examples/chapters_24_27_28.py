@@ -11,12 +11,21 @@ from _seed import GROUND, SETTINGS, seed_scene, write
 
 from phongscene.scene import PhongMaterial, Sphere
 
-CHROME = PhongMaterial(0.05, 0.1, 0.4, 60.0, (0.9, 0.9, 0.9), kr=0.9, reflective_color=(1.0, 0.95, 0.85),
-                       source="/World/Looks/Chrome/Phong")
+CHROME = PhongMaterial(
+    0.05,
+    0.1,
+    0.4,
+    60.0,
+    (0.9, 0.9, 0.9),
+    kr=0.9,
+    reflective_color=(1.0, 0.95, 0.85),
+    source="/World/Looks/Chrome/Phong",
+)
 # No highlight on the transparent ones: POV-Ray's exact mapping cannot give a transmissive material one.
 GLASS = PhongMaterial(0.0, 0.0, 0.0, 1.0, (1.0, 1.0, 1.0), kr=0.1, kt=0.9, ior=1.5, source="/World/Looks/Glass/Phong")
-DIELECTRIC = PhongMaterial(0.0, 0.0, 0.0, 1.0, (1.0, 1.0, 1.0), kr=1.0, kt=1.0, ior=1.5, fresnel=True,
-                           source="/World/Looks/Dielectric/Phong")
+DIELECTRIC = PhongMaterial(
+    0.0, 0.0, 0.0, 1.0, (1.0, 1.0, 1.0), kr=1.0, kt=1.0, ior=1.5, fresnel=True, source="/World/Looks/Dielectric/Phong"
+)
 MIRROR_FLOOR = dataclasses.replace(GROUND, kr=0.35, source="/World/Looks/Ground/Phong")
 
 
@@ -26,8 +35,16 @@ def coloured(name: str, cd) -> PhongMaterial:
 
 def build():
     front = [("Chrome", CHROME), ("Glass", GLASS), ("Dielectric", DIELECTRIC)]
-    back = [("Red", (0.85, 0.15, 0.1)), ("Green", (0.15, 0.7, 0.2)), ("Blue", (0.15, 0.3, 0.85)), ("Yellow", (0.9, 0.75, 0.1))]
-    spheres = tuple(Sphere.at(((i - 1) * 2.3, 1.0, 0.0), 1.0, m, source=f"/World/Geometry/{name}") for i, (name, m) in enumerate(front))
+    back = [
+        ("Red", (0.85, 0.15, 0.1)),
+        ("Green", (0.15, 0.7, 0.2)),
+        ("Blue", (0.15, 0.3, 0.85)),
+        ("Yellow", (0.9, 0.75, 0.1)),
+    ]
+    spheres = tuple(
+        Sphere.at(((i - 1) * 2.3, 1.0, 0.0), 1.0, m, source=f"/World/Geometry/{name}")
+        for i, (name, m) in enumerate(front)
+    )
     spheres += tuple(
         Sphere.at(((i - 1.5) * 2.3, 0.8, -3.6), 0.8, coloured(name, cd), source=f"/World/Geometry/{name}")
         for i, (name, cd) in enumerate(back)

@@ -36,7 +36,9 @@ def describe(path: Path) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("-o", "--outdir", type=Path, default=DEFAULT_OUTDIR, help=f"report folder (default {DEFAULT_OUTDIR})")
+    parser.add_argument(
+        "-o", "--outdir", type=Path, default=DEFAULT_OUTDIR, help=f"report folder (default {DEFAULT_OUTDIR})"
+    )
     args = parser.parse_args(argv)
 
     print("Example scenes:")

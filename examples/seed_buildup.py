@@ -14,7 +14,10 @@ def build():
     materials = [
         ("Ambient", PhongMaterial(0.25, 0.0, 0.0, 20.0, CD, source="/World/Looks/Ambient/Phong")),
         ("AmbientDiffuse", PhongMaterial(0.25, 0.6, 0.0, 20.0, CD, source="/World/Looks/AmbientDiffuse/Phong")),
-        ("AmbientDiffuseSpecular", PhongMaterial(0.25, 0.6, 0.3, 20.0, CD, source="/World/Looks/AmbientDiffuseSpecular/Phong")),
+        (
+            "AmbientDiffuseSpecular",
+            PhongMaterial(0.25, 0.6, 0.3, 20.0, CD, source="/World/Looks/AmbientDiffuseSpecular/Phong"),
+        ),
     ]
     return seed_scene(row_of_spheres(materials), fov_deg=50.0)
 

@@ -11,7 +11,12 @@ EXPONENTS = (5, 20, 100, 1000)
 
 def build():
     materials = [
-        (f"Exponent{e}", PhongMaterial(0.25, 0.6, 0.2, float(e), (0.8, 0.3, 0.1), (1.0, 1.0, 1.0), source=f"/World/Looks/Exponent{e}/Phong"))
+        (
+            f"Exponent{e}",
+            PhongMaterial(
+                0.25, 0.6, 0.2, float(e), (0.8, 0.3, 0.1), (1.0, 1.0, 1.0), source=f"/World/Looks/Exponent{e}/Phong"
+            ),
+        )
         for e in EXPONENTS
     ]
     return seed_scene(row_of_spheres(materials), fov_deg=55.0)

@@ -10,7 +10,12 @@ from phongscene.scene import PhongMaterial
 
 def build():
     materials = [
-        (f"Exponent{e}", PhongMaterial(0.25, 0.6, 0.4, float(e), (0.2, 0.3, 0.8), (1.0, 1.0, 1.0), source=f"/World/Looks/Exponent{e}/Phong"))
+        (
+            f"Exponent{e}",
+            PhongMaterial(
+                0.25, 0.6, 0.4, float(e), (0.2, 0.3, 0.8), (1.0, 1.0, 1.0), source=f"/World/Looks/Exponent{e}/Phong"
+            ),
+        )
         for e in (2, 20)
     ]
     return seed_scene(row_of_spheres(materials, spacing=2.6), key=(-8.0, 2.5, 1.0), fov_deg=40.0)

@@ -11,8 +11,14 @@ RED = (0.8, 0.1, 0.1)
 
 def build():
     materials = [
-        ("WhiteHighlight", PhongMaterial(0.25, 0.6, 0.5, 20.0, RED, (1.0, 1.0, 1.0), source="/World/Looks/WhiteHighlight/Phong")),
-        ("DiffuseColoredHighlight", PhongMaterial(0.25, 0.6, 0.5, 20.0, RED, RED, source="/World/Looks/DiffuseColoredHighlight/Phong")),
+        (
+            "WhiteHighlight",
+            PhongMaterial(0.25, 0.6, 0.5, 20.0, RED, (1.0, 1.0, 1.0), source="/World/Looks/WhiteHighlight/Phong"),
+        ),
+        (
+            "DiffuseColoredHighlight",
+            PhongMaterial(0.25, 0.6, 0.5, 20.0, RED, RED, source="/World/Looks/DiffuseColoredHighlight/Phong"),
+        ),
     ]
     return seed_scene(row_of_spheres(materials, spacing=2.6), fov_deg=40.0)
 

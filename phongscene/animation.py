@@ -63,7 +63,7 @@ def frame_name(template: str | os.PathLike, frame: int) -> str:
     if not matches:
         raise ValueError(f"{template}: the name needs #### where the frame number goes (e.g. out.####.exr)")
     m = matches[-1]
-    return os.path.join(head, f"{tail[: m.start()]}{frame:0{len(m.group())}d}{tail[m.end():]}")
+    return os.path.join(head, f"{tail[: m.start()]}{frame:0{len(m.group())}d}{tail[m.end() :]}")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -99,12 +99,20 @@ def render_frame(scene: str, frame: int, output: str, backend: str, overrides: R
     cpu.append(_time.process_time())
     write_image(output, image)
     cpu.append(_time.process_time())
-    return {"frame": frame, "output": output, "width": settings.width, "height": settings.height,
-            "specular": settings.specular, "load_seconds": load_seconds, "render_seconds": render_seconds,
-            "write_seconds": _time.perf_counter() - start - render_seconds,
-            "seconds": _time.perf_counter() - start + load_seconds,
-            "cpu_seconds": dict(zip(("load", "render", "write"), (b - a for a, b in zip(cpu, cpu[1:])))),
-            "warnings": warnings, "pid": os.getpid()}
+    return {
+        "frame": frame,
+        "output": output,
+        "width": settings.width,
+        "height": settings.height,
+        "specular": settings.specular,
+        "load_seconds": load_seconds,
+        "render_seconds": render_seconds,
+        "write_seconds": _time.perf_counter() - start - render_seconds,
+        "seconds": _time.perf_counter() - start + load_seconds,
+        "cpu_seconds": dict(zip(("load", "render", "write"), (b - a for a, b in zip(cpu, cpu[1:])))),
+        "warnings": warnings,
+        "pid": os.getpid(),
+    }
 
 
 def compile_frame(scene: str, frame: int, output: str, overrides: RenderOverrides) -> dict:
@@ -119,8 +127,15 @@ def compile_frame(scene: str, frame: int, output: str, overrides: RenderOverride
     job = prepare(loaded, check_settings(loaded, settings), overrides.mapping)
     write_text_atomic(out, job.sdl, encoding="ascii")
     write_text_atomic(out.with_suffix(".ini"), job.ini(out.name, out.with_suffix(".exr").name), encoding="ascii")
-    return {"frame": frame, "output": output, "passes": job.frames, "load_seconds": load_seconds,
-            "seconds": _time.perf_counter() - start + load_seconds, "warnings": warnings, "pid": os.getpid()}
+    return {
+        "frame": frame,
+        "output": output,
+        "passes": job.frames,
+        "load_seconds": load_seconds,
+        "seconds": _time.perf_counter() - start + load_seconds,
+        "warnings": warnings,
+        "pid": os.getpid(),
+    }
 
 
 def diff_frame(scene: str, frame: int, outdir: str, overrides: RenderOverrides, thresholds) -> dict:
@@ -131,12 +146,27 @@ def diff_frame(scene: str, frame: int, outdir: str, overrides: RenderOverrides, 
     from .usd.stage_reuse import open_stage
 
     start = _time.perf_counter()
-    result = diff(open_stage(scene), outdir, overrides=replace(overrides, mapping=overrides.mapping or "exact",
-                                                                time=float(frame)), thresholds=thresholds)
+    result = diff(
+        open_stage(scene),
+        outdir,
+        overrides=replace(overrides, mapping=overrides.mapping or "exact", time=float(frame)),
+        thresholds=thresholds,
+    )
     r = result.report
-    return {"frame": frame, "outdir": outdir, "ok": result.ok, "max_error": r.max_error,
-            "worst_pixel": [r.worst.x, r.worst.y] if r.worst else None,
-            "failing_pixels": r.failing_pixels, "failing_percent": r.failing_percent, "pixels": r.pixels,
-            "explained_pixels": len(result.explained), "timings": result.timings,
-            "width": result.settings.width, "height": result.settings.height,
-            "seconds": _time.perf_counter() - start, "warnings": result.warnings, "pid": os.getpid()}
+    return {
+        "frame": frame,
+        "outdir": outdir,
+        "ok": result.ok,
+        "max_error": r.max_error,
+        "worst_pixel": [r.worst.x, r.worst.y] if r.worst else None,
+        "failing_pixels": r.failing_pixels,
+        "failing_percent": r.failing_percent,
+        "pixels": r.pixels,
+        "explained_pixels": len(result.explained),
+        "timings": result.timings,
+        "width": result.settings.width,
+        "height": result.settings.height,
+        "seconds": _time.perf_counter() - start,
+        "warnings": result.warnings,
+        "pid": os.getpid(),
+    }

@@ -87,8 +87,9 @@ class Estimator:
 
     def apply(self, scene: Scene, settings: RenderSettings) -> tuple[Scene, RenderSettings]:
         if self.light:
-            lights = tuple(dataclasses.replace(light, **self.light) if _is_area(light) else light
-                           for light in scene.lights)
+            lights = tuple(
+                dataclasses.replace(light, **self.light) if _is_area(light) else light for light in scene.lights
+            )
             scene = dataclasses.replace(scene, lights=lights)
         return scene, dataclasses.replace(settings, **self.settings)
 
@@ -102,30 +103,82 @@ def estimators(scene: Scene, quick: bool = False) -> list[Estimator]:
     grid = AA_GRID[:3] if quick else AA_GRID
     am1 = AA_AM1[1:3] if quick else AA_AM1
     am2 = AA_AM2[1:3] if quick else AA_AM2
-    out = [Estimator(AA, f"grid {n}", {"samples": n, "sample_pattern": "grid", "aa_threshold": 0.0}, {},
-                     spacing=1 / n) for n in grid]
-    out += [Estimator(AA, f"am1 R{n} A{t:g}", {"samples": n, "sample_pattern": "povray-am1", "aa_threshold": t}, {},
-                      spacing=1 / n) for n, t in am1]
-    out += [Estimator(AA, f"am2 R{n} A{t:g}", {"samples": n, "sample_pattern": "povray-am2", "aa_threshold": t}, {},
-                      spacing=1 / 2 ** (n - 1)) for n, t in am2]
+    out = [
+        Estimator(AA, f"grid {n}", {"samples": n, "sample_pattern": "grid", "aa_threshold": 0.0}, {}, spacing=1 / n)
+        for n in grid
+    ]
+    out += [
+        Estimator(
+            AA, f"am1 R{n} A{t:g}", {"samples": n, "sample_pattern": "povray-am1", "aa_threshold": t}, {}, spacing=1 / n
+        )
+        for n, t in am1
+    ]
+    out += [
+        Estimator(
+            AA,
+            f"am2 R{n} A{t:g}",
+            {"samples": n, "sample_pattern": "povray-am2", "aa_threshold": t},
+            {},
+            spacing=1 / 2 ** (n - 1),
+        )
+        for n, t in am2
+    ]
     stratified = AA_STRATIFIED[2:4] if quick else AA_STRATIFIED
-    out += [Estimator(AA, f"stratified {n} t{t:g}", {"samples": n, "sample_pattern": "stratified", "aa_threshold": t},
-                      {}, backends=("native",), spacing=1 / n) for n, t in stratified]
+    out += [
+        Estimator(
+            AA,
+            f"stratified {n} t{t:g}",
+            {"samples": n, "sample_pattern": "stratified", "aa_threshold": t},
+            {},
+            backends=("native",),
+            spacing=1 / n,
+        )
+        for n, t in stratified
+    ]
     adaptive_aa = AA_ADAPTIVE[1:3] if quick else AA_ADAPTIVE
-    out += [Estimator(AA, f"adaptive {n} t{t:g}", {"samples": n, "sample_pattern": "adaptive", "aa_threshold": t},
-                      {}, backends=("native",), spacing=1 / n) for n, t in adaptive_aa]
+    out += [
+        Estimator(
+            AA,
+            f"adaptive {n} t{t:g}",
+            {"samples": n, "sample_pattern": "adaptive", "aa_threshold": t},
+            {},
+            backends=("native",),
+            spacing=1 / n,
+        )
+        for n, t in adaptive_aa
+    ]
     if any(_is_area(light) for light in scene.lights):
         one = {"samples": 1, "sample_pattern": "grid", "aa_threshold": 0.0}
         shadow = AREA_GRID[:3] if quick else AREA_GRID
         adaptive = AREA_ADAPTIVE[:2] if quick else AREA_ADAPTIVE
-        out += [Estimator(AREA, f"area {s}", one, {"samples": s, "adaptive": None, "cell_samples": None},
-                          spacing=1 / (s - 1)) for s in shadow]
-        out += [Estimator(AREA, f"area {s} adaptive {a}", one, {"samples": s, "adaptive": a, "cell_samples": None},
-                          spacing=1 / (s - 1)) for s, a in adaptive]
+        out += [
+            Estimator(
+                AREA, f"area {s}", one, {"samples": s, "adaptive": None, "cell_samples": None}, spacing=1 / (s - 1)
+            )
+            for s in shadow
+        ]
+        out += [
+            Estimator(
+                AREA,
+                f"area {s} adaptive {a}",
+                one,
+                {"samples": s, "adaptive": a, "cell_samples": None},
+                spacing=1 / (s - 1),
+            )
+            for s, a in adaptive
+        ]
         cells = AREA_CELLS[1:2] if quick else AREA_CELLS
-        out += [Estimator(AREA, f"area {s}{'' if a is None else f' adaptive {a}'} cells {k}", one,
-                          {"samples": s, "adaptive": a, "cell_samples": k}, backends=("native",),
-                          spacing=1 / ((s - 1) * k)) for s, a, k in cells]
+        out += [
+            Estimator(
+                AREA,
+                f"area {s}{'' if a is None else f' adaptive {a}'} cells {k}",
+                one,
+                {"samples": s, "adaptive": a, "cell_samples": k},
+                backends=("native",),
+                spacing=1 / ((s - 1) * k),
+            )
+            for s, a, k in cells
+        ]
     return out
 
 
@@ -165,28 +218,45 @@ def box_down(image: np.ndarray, k: int) -> np.ndarray:
     return image.reshape(h // k, k, w // k, k, c).astype(np.float64).mean(axis=(1, 3))
 
 
-def reference(family: str, scene: Scene, settings: RenderSettings, render: Callable,
-              resolution: int = REFERENCE_RESOLUTION, shadow_samples: int = REFERENCE_SHADOW_SAMPLES) -> dict:
+def reference(
+    family: str,
+    scene: Scene,
+    settings: RenderSettings,
+    render: Callable,
+    resolution: int = REFERENCE_RESOLUTION,
+    shadow_samples: int = REFERENCE_SHADOW_SAMPLES,
+) -> dict:
     """The family's reference image and a bound on its own RMS error (module docstring); the
     anti-aliasing reference at ``resolution``× the size, the shadow one a grid of
     ``shadow_samples`` (2^k + 1) per axis."""
     if family == AA:
         k = resolution
-        big = dataclasses.replace(settings, width=settings.width * k, height=settings.height * k,
-                                  sample_pattern=REFERENCE_PATTERN, aa_threshold=0.0)
+        big = dataclasses.replace(
+            settings,
+            width=settings.width * k,
+            height=settings.height * k,
+            sample_pattern=REFERENCE_PATTERN,
+            aa_threshold=0.0,
+        )
         start = time.perf_counter()
         fine = box_down(render(scene, dataclasses.replace(big, samples=REFERENCE_SAMPLES)), k)
         seconds = time.perf_counter() - start
         coarse = box_down(render(scene, dataclasses.replace(big, samples=REFERENCE_COARSE_SAMPLES)), k)
         ratio = REFERENCE_SAMPLES / REFERENCE_COARSE_SAMPLES
-        what = (f"{REFERENCE_PATTERN} {REFERENCE_SAMPLES}x{REFERENCE_SAMPLES} points at {k}x the resolution "
-                f"({(REFERENCE_SAMPLES * k) ** 2} per pixel)")
+        what = (
+            f"{REFERENCE_PATTERN} {REFERENCE_SAMPLES}x{REFERENCE_SAMPLES} points at {k}x the resolution "
+            f"({(REFERENCE_SAMPLES * k) ** 2} per pixel)"
+        )
     else:
         one = dataclasses.replace(settings, samples=1, sample_pattern="grid", aa_threshold=0.0)
 
         def at(samples: int) -> np.ndarray:
-            lights = tuple(dataclasses.replace(light, samples=samples, adaptive=None, cell_samples=None)
-                           if _is_area(light) else light for light in scene.lights)
+            lights = tuple(
+                dataclasses.replace(light, samples=samples, adaptive=None, cell_samples=None)
+                if _is_area(light)
+                else light
+                for light in scene.lights
+            )
             return render(dataclasses.replace(scene, lights=lights), one).astype(np.float64)
 
         start = time.perf_counter()
@@ -196,8 +266,7 @@ def reference(family: str, scene: Scene, settings: RenderSettings, render: Calla
         coarse = at(coarse_samples)
         ratio = (shadow_samples - 1) / (coarse_samples - 1)
         what = f"shadow grid {shadow_samples}x{shadow_samples}, 1 sample per pixel"
-    return {"image": fine, "what": what, "seconds": seconds,
-            "rms_error_bound": rms(fine, coarse) / (ratio - 1.0)}
+    return {"image": fine, "what": what, "seconds": seconds, "rms_error_bound": rms(fine, coarse) / (ratio - 1.0)}
 
 
 def pareto_front(points: Sequence[tuple[float, float]]) -> list[int]:
@@ -228,8 +297,15 @@ def dominance(rows: list[dict], family: str, cost: str) -> dict:
     ratios = []
     for r in front:
         native = cheapest_at(rows, "native", family, r["rms"], cost)
-        ratios.append({"povray": r["label"], "rms": r["rms"], "native": native["label"] if native else None,
-                       "ratio": (r[cost] / native[cost]) if native else 0.0, "resolved": r.get("resolved", True)})
+        ratios.append(
+            {
+                "povray": r["label"],
+                "rms": r["rms"],
+                "native": native["label"] if native else None,
+                "ratio": (r[cost] / native[cost]) if native else 0.0,
+                "resolved": r.get("resolved", True),
+            }
+        )
     counted = [x["ratio"] for x in ratios if x["resolved"]]
     return {"cost": cost, "min_ratio": min(counted, default=None), "levels": ratios}
 
@@ -282,9 +358,17 @@ def measure(scene: Scene, settings: RenderSettings, est: Estimator, backend: str
 
     s_scene, s_settings = est.apply(scene, settings)
     wall, cpu, image = timed(lambda: render_backend(s_scene, backend, s_settings), repeat)
-    row = {"family": est.family, "label": est.label, "backend": backend, "wall": wall, "cpu": cpu,
-           "rms": rms(ref["image"], image), "max": max_error(ref["image"], image),
-           "bias": float(np.mean(image.astype(np.float64) - ref["image"])), "spacing": est.spacing}
+    row = {
+        "family": est.family,
+        "label": est.label,
+        "backend": backend,
+        "wall": wall,
+        "cpu": cpu,
+        "rms": rms(ref["image"], image),
+        "max": max_error(ref["image"], image),
+        "bias": float(np.mean(image.astype(np.float64) - ref["image"])),
+        "spacing": est.spacing,
+    }
     row["resolved"] = row["rms"] >= REFERENCE_MARGIN * ref["rms_error_bound"]
     return row
 
@@ -294,15 +378,31 @@ def reference_line(family: str, ref: dict) -> str:
 
 
 def row_line(row: dict) -> str:
-    return (f"  {row['label']:<22} {row['backend']:<7} wall {row['wall']:7.3f} s  cpu {row['cpu']:7.3f} s  "
-            f"rms {row['rms']:.2e}  max {row['max']:.3f}{'' if row['resolved'] else '  (within 10x of the reference error)'}")
+    return (
+        f"  {row['label']:<22} {row['backend']:<7} wall {row['wall']:7.3f} s  cpu {row['cpu']:7.3f} s  "
+        f"rms {row['rms']:.2e}  max {row['max']:.3f}{'' if row['resolved'] else '  (within 10x of the reference error)'}"
+    )
 
 
-def result_of(settings: RenderSettings, repeat: int, references: dict, rows: list[dict], backends: Sequence[str],
-              families: list[str]) -> dict:
+def result_of(
+    settings: RenderSettings,
+    repeat: int,
+    references: dict,
+    rows: list[dict],
+    backends: Sequence[str],
+    families: list[str],
+) -> dict:
     """``run``'s JSON-able result from its rows (in table order) and references."""
-    result = {"width": settings.width, "height": settings.height, "threads": settings.threads, "repeat": repeat,
-              "specular": settings.specular, "references": references, "rows": rows, "dominance": {}}
+    result = {
+        "width": settings.width,
+        "height": settings.height,
+        "threads": settings.threads,
+        "repeat": repeat,
+        "specular": settings.specular,
+        "references": references,
+        "rows": rows,
+        "dominance": {},
+    }
     if set(backends) >= set(BACKEND_NAMES):
         for family in families:
             result["dominance"][family] = {c: dominance(rows, family, c) for c in ("cpu", "wall")}
@@ -318,8 +418,10 @@ def target(result: dict, rms_target: float) -> list[str]:
             for cost in ("cpu", "wall"):
                 row = cheapest_at(result["rows"], backend, family, rms_target, cost)
                 where = f"{family}, {backend}, by {cost} time"
-                lines.append(f"target RMS {rms_target:.2e}: {where}: " + (
-                    f"{row['label']} ({row[cost]:.3f} s, RMS {row['rms']:.2e})" if row else "no setting reaches it"))
+                lines.append(
+                    f"target RMS {rms_target:.2e}: {where}: "
+                    + (f"{row['label']} ({row[cost]:.3f} s, RMS {row['rms']:.2e})" if row else "no setting reaches it")
+                )
     return lines
 
 
@@ -331,12 +433,16 @@ def table(result: dict) -> str:
     """A plain-text table of every row (bias: the mean signed error over every channel value, an
     estimate of the estimator's bias on this scene), and the dominance summary."""
     out = io.StringIO()
-    out.write(f"{'family':<19} {'estimator':<22} {'backend':<7} {'wall s':>8} {'CPU s':>8} {'RMS':>9} {'max':>7} "
-              f"{'bias':>9}\n")
+    out.write(
+        f"{'family':<19} {'estimator':<22} {'backend':<7} {'wall s':>8} {'CPU s':>8} {'RMS':>9} {'max':>7} "
+        f"{'bias':>9}\n"
+    )
     for r in result["rows"]:
         flag = "" if r["resolved"] else "  *"
-        out.write(f"{r['family']:<19} {r['label']:<22} {r['backend']:<7} {r['wall']:8.3f} {r['cpu']:8.3f} "
-                  f"{r['rms']:9.2e} {r['max']:7.3f} {r['bias']:+9.1e}{flag}\n")
+        out.write(
+            f"{r['family']:<19} {r['label']:<22} {r['backend']:<7} {r['wall']:8.3f} {r['cpu']:8.3f} "
+            f"{r['rms']:9.2e} {r['max']:7.3f} {r['bias']:+9.1e}{flag}\n"
+        )
     if any(not r["resolved"] for r in result["rows"]):
         out.write(f"* RMS error within {REFERENCE_MARGIN:g}x of the reference's own error bound\n")
     for family, d in result["dominance"].items():
@@ -344,10 +450,12 @@ def table(result: dict) -> str:
             if info["min_ratio"] is None:
                 continue
             unresolved = sum(not x["resolved"] for x in info["levels"])
-            out.write(f"{family}: at every RMS level POV-Ray's Pareto front reaches, native is >= "
-                      f"{info['min_ratio']:.2f}x cheaper in {cost} time"
-                      + (f" ({unresolved} level(s) below what the reference resolves not counted)" if unresolved else "")
-                      + "\n")
+            out.write(
+                f"{family}: at every RMS level POV-Ray's Pareto front reaches, native is >= "
+                f"{info['min_ratio']:.2f}x cheaper in {cost} time"
+                + (f" ({unresolved} level(s) below what the reference resolves not counted)" if unresolved else "")
+                + "\n"
+            )
     return out.getvalue()
 
 
@@ -373,18 +481,40 @@ def draw(ax, result: dict, cost: str) -> None:
             mine = [r for r in rows if r["family"] == family and r["backend"] == backend]
             if not mine:
                 continue
-            ax.scatter([r[cost] for r in mine], [r["rms"] for r in mine], color=colours[backend],
-                       marker=markers[family], alpha=0.35, s=20)
+            ax.scatter(
+                [r[cost] for r in mine],
+                [r["rms"] for r in mine],
+                color=colours[backend],
+                marker=markers[family],
+                alpha=0.35,
+                s=20,
+            )
             front = [mine[i] for i in pareto_front([(r[cost], r["rms"]) for r in mine])]
-            ax.plot([r[cost] for r in front], [r["rms"] for r in front], color=colours[backend],
-                    marker=markers[family], linestyle="-" if family == AA else "--",
-                    label=f"{'POV-Ray' if backend == 'povray' else 'native'} Pareto front, {family}")
+            ax.plot(
+                [r[cost] for r in front],
+                [r["rms"] for r in front],
+                color=colours[backend],
+                marker=markers[family],
+                linestyle="-" if family == AA else "--",
+                label=f"{'POV-Ray' if backend == 'povray' else 'native'} Pareto front, {family}",
+            )
             for r in front:
-                ax.annotate(r["label"], (r[cost], r["rms"]), textcoords="offset points", xytext=(4, 3),
-                            fontsize=6, color=colours[backend])
+                ax.annotate(
+                    r["label"],
+                    (r[cost], r["rms"]),
+                    textcoords="offset points",
+                    xytext=(4, 3),
+                    fontsize=6,
+                    color=colours[backend],
+                )
         bound = result["references"][family]["rms_error_bound"]
-        ax.axhline(bound, color="grey", linestyle=":" if family == AA else "-.", linewidth=1,
-                   label=f"reference's own RMS error (bound), {family}")
+        ax.axhline(
+            bound,
+            color="grey",
+            linestyle=":" if family == AA else "-.",
+            linewidth=1,
+            label=f"reference's own RMS error (bound), {family}",
+        )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel(f"{'CPU' if cost == 'cpu' else 'wall'} time per image, end to end (s)")
@@ -429,4 +559,3 @@ def _json_default(value):
     if isinstance(value, (np.floating, np.integer)):
         return value.item()
     raise TypeError(f"not JSON: {type(value).__name__}")
-

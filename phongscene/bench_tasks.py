@@ -33,8 +33,9 @@ def reference_task(scene: str, settings: RenderSettings, family: str) -> dict:
     return bench.reference(family, loaded, settings, bench.render_native)
 
 
-def setting_task(scene: str, settings: RenderSettings, estimator: bench.Estimator, backend: str, ref: dict,
-                 repeat: int) -> dict:
+def setting_task(
+    scene: str, settings: RenderSettings, estimator: bench.Estimator, backend: str, ref: dict, repeat: int
+) -> dict:
     """``bench.measure``: one row (times, errors against ``ref``); the stage is read before the clock starts."""
     from .rendering import load_scene
     from .usd.stage_reuse import open_stage
@@ -70,14 +71,25 @@ def run(
 
     chosen = bench.estimators(scene, quick)
     wanted = bench.families_of(chosen, families)
-    jobs = [(est, backend) for family in wanted for est in chosen if est.family == family
-            for backend in backends if backend in est.backends]
+    jobs = [
+        (est, backend)
+        for family in wanted
+        for est in chosen
+        if est.family == family
+        for backend in backends
+        if backend in est.backends
+    ]
     cores = os.cpu_count() or 1
-    with dask_client(scheduler, lambda: min(workers or cores, slots_per_host(cores, settings.threads))) as (client, cluster):
+    with dask_client(scheduler, lambda: min(workers or cores, slots_per_host(cores, settings.threads))) as (
+        client,
+        cluster,
+    ):
         used = _workers_to_use(client, settings.threads, workers)
-        log(f"{len(used)} setting{'s' if len(used) > 1 else ''} at once: {len(used)} Dask worker"
+        log(
+            f"{len(used)} setting{'s' if len(used) > 1 else ''} at once: {len(used)} Dask worker"
             f"{'s' if len(used) > 1 else ''} ({cluster}), one task "
-            f"each, each rendering with {settings.threads or 'all'} thread{'' if settings.threads == 1 else 's'}")
+            f"each, each rendering with {settings.threads or 'all'} thread{'' if settings.threads == 1 else 's'}"
+        )
         references: dict = {}
         refs = {}
 
@@ -87,17 +99,29 @@ def run(
             # Sent once to every worker (in a list: a dict would be scattered value by value).
             refs[family] = client.scatter([ref], broadcast=True)[0]
 
-        _one_per_worker(client, used, [(reference_task, (scene_path, settings, f), f) for f in wanted],
-                        lambda family, future: reference_done(family, future.result()), as_completed)
+        _one_per_worker(
+            client,
+            used,
+            [(reference_task, (scene_path, settings, f), f) for f in wanted],
+            lambda family, future: reference_done(family, future.result()),
+            as_completed,
+        )
         rows: dict[int, dict] = {}
 
         def row_done(index: int, future) -> None:
             rows[index] = future.result()
             log(bench.row_line(rows[index]))
 
-        _one_per_worker(client, used, [
-            (setting_task, (scene_path, settings, est, backend, refs[est.family], repeat), i)
-            for i, (est, backend) in enumerate(jobs)], row_done, as_completed)
+        _one_per_worker(
+            client,
+            used,
+            [
+                (setting_task, (scene_path, settings, est, backend, refs[est.family], repeat), i)
+                for i, (est, backend) in enumerate(jobs)
+            ],
+            row_done,
+            as_completed,
+        )
     result = bench.result_of(settings, repeat, references, [rows[i] for i in range(len(jobs))], backends, wanted)
     return result | {"concurrency": len(used), "cluster": cluster}
 
@@ -140,8 +164,9 @@ def _one_per_worker(client, workers: list[str], jobs: list[tuple], done: Callabl
     for future in running:
         worker, tag = where.pop(future)
         if future.status == "error":
-            raise BackendError(f"bench: {tag if isinstance(tag, str) else _job_name(jobs, tag)}: "
-                               f"{future.exception()}") from None
+            raise BackendError(
+                f"bench: {tag if isinstance(tag, str) else _job_name(jobs, tag)}: {future.exception()}"
+            ) from None
         done(tag, future)
         if pending:
             submit(worker)

@@ -92,6 +92,7 @@ class Thresholds:
 # The backends must agree at half-float precision at every pixel (POV-Ray's EXR output).
 HALF_FLOAT = Thresholds()
 
+
 def for_povray_passes(passes: int, thresholds: Thresholds = HALF_FLOAT) -> Thresholds:
     """``thresholds`` for a POV-Ray image summed from ``passes`` half-float frames (the exact
     mapping renders one per light). Below 2⁻¹⁴ half floats are subnormal: each frame rounds to
@@ -182,8 +183,10 @@ def thresholds_for_files(a: str | os.PathLike, b: str | os.PathLike) -> tuple[Th
         return HALF_FLOAT, "floating-point images: half-float precision (POV-Ray's EXR output)"
     coarsest, path = min(integer, key=lambda fp: fp[0].bits)
     space = "sRGB" if coarsest.srgb else "linear"
-    reason = (f"{coarsest} input ({path}): values one code step apart agree "
-              f"(|a-b| <= {INTEGER_CODE_STEPS:g}/{2**coarsest.bits - 1} of the {space}-encoded values)")
+    reason = (
+        f"{coarsest} input ({path}): values one code step apart agree "
+        f"(|a-b| <= {INTEGER_CODE_STEPS:g}/{2**coarsest.bits - 1} of the {space}-encoded values)"
+    )
     return integer_thresholds(coarsest.bits, space), reason
 
 
@@ -336,7 +339,11 @@ def compare(a, b, thresholds: Thresholds | None = None) -> Report:
     else:
         a_clean, b_clean = a_img, b_img
     result = ImageBufAlgo.compare(
-        ImageBuf(a_clean), ImageBuf(b_clean), thresholds.fail, thresholds.fail, thresholds.fail_relative,
+        ImageBuf(a_clean),
+        ImageBuf(b_clean),
+        thresholds.fail,
+        thresholds.fail,
+        thresholds.fail_relative,
         thresholds.fail_relative,
     )
     failing = int(result.nfail) + int(special_fail.sum())

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import math
 import os
-from time import perf_counter
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
+from time import perf_counter
 from typing import TextIO
 
 import numpy as np
@@ -34,8 +34,8 @@ from .comparison import (
     for_povray_passes,
 )
 from .errors import BackendError
-from .progress import ProgressBar
 from .overrides import RenderOverrides
+from .progress import ProgressBar
 from .rendering import load_scene, render
 from .scene import RenderSettings, Scene
 
@@ -67,24 +67,26 @@ class DiffResult:
         if self.report.ok:
             return True
         allowed = POVRAY_SHADOW_CACHE.fail_percent / 100 * self.report.pixels
-        return (
-            not self.report.hard_fail
-            and not self.unexplained
-            and 0 < len(self.explained) <= allowed
-        )
+        return not self.report.hard_fail and not self.unexplained and 0 < len(self.explained) <= allowed
 
     def explanation(self) -> str:
         """Lines for the summary: the explained pixels and the numerics difference."""
         lines = []
         if self.explained:
-            shown = ", ".join(f"({x}, {y})" for x, y in self.explained[:10]) + (" ..." if len(self.explained) > 10 else "")
+            shown = ", ".join(f"({x}, {y})" for x, y in self.explained[:10]) + (
+                " ..." if len(self.explained) > 10 else ""
+            )
             lines.append(f"  {len(self.explained)} failing pixels explained by POV-Ray's shadow cache: {shown}")
         if self.unexplained:
-            shown = ", ".join(f"({x}, {y})" for x, y in self.unexplained[:10]) + (" ..." if len(self.unexplained) > 10 else "")
+            shown = ", ".join(f"({x}, {y})" for x, y in self.unexplained[:10]) + (
+                " ..." if len(self.unexplained) > 10 else ""
+            )
             lines.append(f"  {len(self.unexplained)} failing pixels not explained: {shown}")
         if self.numerics_differ:
-            lines.append(f"  {self.numerics_differ} pixels of a plain native render (scale-invariant tolerances) differ "
-                         "from the one in POV-Ray's numerics")
+            lines.append(
+                f"  {self.numerics_differ} pixels of a plain native render (scale-invariant tolerances) differ "
+                "from the one in POV-Ray's numerics"
+            )
         if self.explained and not self.report.ok:
             lines.append("  PASS (every failing pixel explained)" if self.ok else "  FAILURE")
         return "\n".join(lines)
@@ -139,8 +141,16 @@ def diff(
     """
     from .backends.povray import check_mapping
 
-    named = {"width": width, "height": height, "samples": samples, "threads": threads, "time": time,
-             "sample_pattern": sample_pattern, "aa_threshold": aa_threshold, "shadow_adaptive": shadow_adaptive}
+    named = {
+        "width": width,
+        "height": height,
+        "samples": samples,
+        "threads": threads,
+        "time": time,
+        "sample_pattern": sample_pattern,
+        "aa_threshold": aa_threshold,
+        "shadow_adaptive": shadow_adaptive,
+    }
     if overrides is None:
         overrides = RenderOverrides(mapping=mapping, **named)
     elif any(v is not None for v in named.values()):
@@ -184,8 +194,19 @@ def diff(
     plain = render_native_as_povray(scene, replace(settings, numerics="scale-invariant"), mapping)
     numerics_differ = int(failing_mask(images["native"], plain, thresholds).sum())
 
-    result = DiffResult(report, None, timings, images["povray"], images["native"], settings, mapping, warnings,
-                        explained, unexplained, numerics_differ)
+    result = DiffResult(
+        report,
+        None,
+        timings,
+        images["povray"],
+        images["native"],
+        settings,
+        mapping,
+        warnings,
+        explained,
+        unexplained,
+        numerics_differ,
+    )
     if outdir is not None:
         from .files import atomic_folder
         from .report import write_report
@@ -238,8 +259,9 @@ def render_native_as_povray(scene: Scene, settings: RenderSettings, mapping: str
     return total.astype(np.float32)
 
 
-def _explain(scene: Scene, settings: RenderSettings, mapping: str, images: dict, report: Report,
-             thresholds: Thresholds):
+def _explain(
+    scene: Scene, settings: RenderSettings, mapping: str, images: dict, report: Report, thresholds: Thresholds
+):
     """(explained, unexplained) failing pixels: a failing pixel where POV-Ray agrees with a native
     render in its shadow cache's window is explained by the cache."""
     if report.ok or not report.failing_pixels:
@@ -259,4 +281,3 @@ def _settings_dict(settings: RenderSettings) -> dict:
         if isinstance(value, float) and not math.isfinite(value):
             out[name] = str(value)
     return out
-

@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import os
 import time as _time
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Callable
 
 from .errors import BackendError, PhongSceneError
 
@@ -111,8 +111,16 @@ def run_frames(
         run.workers = len(client.scheduler_info().get("workers", {}))
         run.startup_seconds = _time.perf_counter() - began
         # pure=False: a frame is an action (it writes a file); never deduplicate or cache it.
-        futures = {client.submit(task, *arguments(f), key=f"{task.__name__}-frame-{f}-{os.getpid()}-{_time.time_ns()}",
-                                 retries=TASK_RETRIES, pure=False): f for f in frames}
+        futures = {
+            client.submit(
+                task,
+                *arguments(f),
+                key=f"{task.__name__}-frame-{f}-{os.getpid()}-{_time.time_ns()}",
+                retries=TASK_RETRIES,
+                pure=False,
+            ): f
+            for f in frames
+        }
         for done, future in enumerate(as_completed(futures), start=1):
             frame = futures[future]
             if future.status == "error":
@@ -140,8 +148,9 @@ def local_cluster(workers: int):
 
     from distributed import LocalCluster
 
-    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                        silence_logs=logging.CRITICAL)
+    return LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.CRITICAL
+    )
 
 
 def run_serially(

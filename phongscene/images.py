@@ -36,8 +36,11 @@ class Image(np.ndarray):
         # numpy ufuncs and reductions: what is still (H, W, 3) stays an Image; a reduction
         # (image.max(), image.mean(axis=2)) is a plain array or scalar, as for any ndarray.
         if obj.ndim == 3 and obj.shape[2] == 3:
-            return super().__array_wrap__(obj, context, return_scalar) if return_scalar else \
-                super().__array_wrap__(obj, context)
+            return (
+                super().__array_wrap__(obj, context, return_scalar)
+                if return_scalar
+                else super().__array_wrap__(obj, context)
+            )
         out = np.asarray(obj)
         return out[()] if return_scalar else out
 

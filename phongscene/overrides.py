@@ -75,7 +75,9 @@ class RenderOverrides:
         from .rendering import settings_for
 
         s = settings_for(scene, settings, mapping=self.mapping)
-        changes = {f.name: getattr(self, f.name) for f in fields(self) if f.metadata.get(APPLIES_TO, ("",))[0] == "settings"}
+        changes = {
+            f.name: getattr(self, f.name) for f in fields(self) if f.metadata.get(APPLIES_TO, ("",))[0] == "settings"
+        }
         width, height = changes["width"], changes["height"]
         if width is not None and height is None:
             changes["height"] = max(1, round(width * s.height / s.width))
@@ -91,9 +93,15 @@ class RenderOverrides:
             kind, name = f.metadata.get(APPLIES_TO, ("", None))
             value = getattr(self, f.name)
             if kind == "area_light" and value is not None:
-                scene = replace(scene, lights=tuple(
-                    replace(light, **{name: value}) if isinstance(light, (RectAreaLight, SphereAreaLight)) else light
-                    for light in scene.lights))
+                scene = replace(
+                    scene,
+                    lights=tuple(
+                        replace(light, **{name: value})
+                        if isinstance(light, (RectAreaLight, SphereAreaLight))
+                        else light
+                        for light in scene.lights
+                    ),
+                )
         return scene
 
     def apply(self, scene: Scene) -> tuple[Scene, RenderSettings]:

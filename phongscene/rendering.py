@@ -8,8 +8,9 @@ stays light and a missing backend fails only when asked for."""
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import replace
-from typing import TYPE_CHECKING, Callable, Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -52,8 +53,15 @@ def settings_with(
     """The scene's settings with the overrides that are not None applied, and the specular
     convention that the POV-Ray ``mapping`` reproduces (None: the scene's): ``RenderOverrides(...)
     .settings(scene)``. Giving only one of width/height keeps the aspect ratio."""
-    return RenderOverrides(mapping=mapping, width=width, height=height, samples=samples, threads=threads,
-                           sample_pattern=sample_pattern, aa_threshold=aa_threshold).settings(scene)
+    return RenderOverrides(
+        mapping=mapping,
+        width=width,
+        height=height,
+        samples=samples,
+        threads=threads,
+        sample_pattern=sample_pattern,
+        aa_threshold=aa_threshold,
+    ).settings(scene)
 
 
 def load_scene(
@@ -96,8 +104,10 @@ def check_settings(scene: Scene, settings: RenderSettings | None = None) -> Rend
         SceneError: every problem, in the terms of the file the scene came from.
     """
     if not isinstance(scene, Scene):  # a path or a stage given where the model is expected
-        raise TypeError(f"expected a phongscene Scene (phongscene.load_usd(path) reads a USD file), got "
-                        f"{type(scene).__name__} {scene!r:.80}")
+        raise TypeError(
+            f"expected a phongscene Scene (phongscene.load_usd(path) reads a USD file), got "
+            f"{type(scene).__name__} {scene!r:.80}"
+        )
     settings = scene.settings if settings is None else settings
     if not isinstance(settings, RenderSettings):
         raise TypeError(f"settings: expected a RenderSettings, got {type(settings).__name__}")

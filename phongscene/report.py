@@ -27,7 +27,7 @@ from OpenImageIO import ImageBuf, ImageBufAlgo
 from .comparison import CHANNEL_NAMES, Report, Thresholds, failing_mask, in_space
 from .errors import PhongSceneError
 from .files import write_text_atomic
-from .images import as_image, write_imagebuf, write_image
+from .images import as_image, write_image, write_imagebuf
 
 if TYPE_CHECKING:
     from .dask_runtime import FramesRun
@@ -170,7 +170,9 @@ def write_report(
     return write_text_atomic(out / FILE_NAMES["html"], page)
 
 
-def write_heat_map(path: str | os.PathLike, ratio: np.ndarray, failing: np.ndarray, explained: np.ndarray | None = None) -> None:
+def write_heat_map(
+    path: str | os.PathLike, ratio: np.ndarray, failing: np.ndarray, explained: np.ndarray | None = None
+) -> None:
     """Write the heat map PNG (no legend: the page draws it): ``ratio`` (H, W), each pixel's
     error over the allowed error, on inferno from 0 to ``ALLOWED_ERROR_COLOUR`` (0 .. allowed),
     with the ``failing`` pixels in ``FAILING_COLOUR`` and the ``explained`` ones in
@@ -216,7 +218,9 @@ def _dilate(mask: np.ndarray, radius: int) -> np.ndarray:
 def _legend_gradient() -> str:
     """The CSS gradient of the heat map's colours from 0 to the allowed error (OIIO's inferno)."""
     ramp = np.linspace(0.0, ALLOWED_ERROR_COLOUR, LEGEND_STOPS, dtype=np.float32)[None, :, None]
-    colours = np.asarray(ImageBufAlgo.color_map(ImageBuf(np.ascontiguousarray(ramp)), 0, HEAT_MAP).get_pixels(), np.float32)
+    colours = np.asarray(
+        ImageBufAlgo.color_map(ImageBuf(np.ascontiguousarray(ramp)), 0, HEAT_MAP).get_pixels(), np.float32
+    )
     stops = [_css_colour(c) for c in colours.reshape(-1, 3)]
     return f"linear-gradient(to right, {', '.join(stops)})"
 
@@ -243,12 +247,19 @@ def _failing_pixels(a, b, ratio, failing, thresholds: Thresholds, explained: set
             why = None
         else:
             why = cause if (x, y) in explained else "not explained"
-        out.append({
-            "x": x, "y": y, "channel": CHANNEL_NAMES[c],
-            "a": [_json_number(float(v)) for v in pa], "b": [_json_number(float(v)) for v in pb],
-            "error": _json_number(float(err[c])), "allowed": _json_number(float(allowed[c])),
-            "ratio": _json_number(float(per_channel[c])), "cause": why,
-        })
+        out.append(
+            {
+                "x": x,
+                "y": y,
+                "channel": CHANNEL_NAMES[c],
+                "a": [_json_number(float(v)) for v in pa],
+                "b": [_json_number(float(v)) for v in pb],
+                "error": _json_number(float(err[c])),
+                "allowed": _json_number(float(allowed[c])),
+                "ratio": _json_number(float(per_channel[c])),
+                "cause": why,
+            }
+        )
     return out
 
 
@@ -326,8 +337,18 @@ def _rgb(values) -> str:
     return "(" + ", ".join(_fmt(float(v)) for v in values) + ")"
 
 
-def _html_page(title, labels, files, report: Report, verdict: bool, metrics: dict, width: int, height: int,
-               cause: str, explained: set | None) -> str:
+def _html_page(
+    title,
+    labels,
+    files,
+    report: Report,
+    verdict: bool,
+    metrics: dict,
+    width: int,
+    height: int,
+    cause: str,
+    explained: set | None,
+) -> str:
     e = html.escape
     scale = display_scale(width)
     w, h = width * scale, height * scale
@@ -339,8 +360,11 @@ def _html_page(title, labels, files, report: Report, verdict: bool, metrics: dic
         status += f" &nbsp; every failing pixel is explained by {e(cause)}"
     numbers = [
         ("size", f"{report.width} x {report.height} pixels"),
-        ("failing pixels", f"{report.failing_pixels} of {report.pixels} ({report.failing_percent:.4g} %; "
-                           f"allowed {t.fail_percent:g} %)"),
+        (
+            "failing pixels",
+            f"{report.failing_pixels} of {report.pixels} ({report.failing_percent:.4g} %; "
+            f"allowed {t.fail_percent:g} %)",
+        ),
     ]
     if explained is not None:
         numbers += [
@@ -352,12 +376,18 @@ def _html_page(title, labels, files, report: Report, verdict: bool, metrics: dic
         ("max error at (x, y, channel)", f"({worst.x}, {worst.y}, {CHANNEL_NAMES[worst.channel]})" if worst else "-"),
         (f"{labels[0]} there", _rgb(worst.a) if worst else "-"),
         (f"{labels[1]} there", _rgb(worst.b) if worst else "-"),
-        ("max relative error (above the absolute floor)",
-         f"{_fmt(report.max_relative_error)} = {report.max_relative_error / t.fail_relative:.3g} x allowed"
-         if t.fail_relative > 0 else report.max_relative_error),
+        (
+            "max relative error (above the absolute floor)",
+            f"{_fmt(report.max_relative_error)} = {report.max_relative_error / t.fail_relative:.3g} x allowed"
+            if t.fail_relative > 0
+            else report.max_relative_error,
+        ),
         ("mean error", report.mean_error),
         ("RMS error", report.rms_error),
-        ("non-finite pixels", f"{report.nonfinite_pixels_a} in {labels[0]}, {report.nonfinite_pixels_b} in {labels[1]}"),
+        (
+            "non-finite pixels",
+            f"{report.nonfinite_pixels_a} in {labels[0]}, {report.nonfinite_pixels_b} in {labels[1]}",
+        ),
         ("hard fail (an error above hard_fail, or non-finite values that differ)", report.hard_fail),
     ]
     thresholds = [
@@ -379,8 +409,9 @@ def _html_page(title, labels, files, report: Report, verdict: bool, metrics: dic
     if listed:
         more = report.failing_pixels - len(listed)
         failing_section = (
-            f"<p class=note>Worst first (by error / allowed error); the worst channel's error and allowance."
-            + (f" {more} more not listed." if more > 0 else "") + "</p>\n<table>\n"
+            "<p class=note>Worst first (by error / allowed error); the worst channel's error and allowance."
+            + (f" {more} more not listed." if more > 0 else "")
+            + "</p>\n<table>\n"
             f"<tr><th>x</th><th>y</th><th>channel</th><th>{e(labels[0])} (R, G, B{space_note})</th>"
             f"<th>{e(labels[1])} (R, G, B{space_note})</th>"
             "<th>|a − b|</th><th>allowed</th><th>× allowed</th>" + ("<th>cause</th>" if classify else "") + "</tr>\n"
@@ -389,19 +420,35 @@ def _html_page(title, labels, files, report: Report, verdict: bool, metrics: dic
     else:
         failing_section = "<p>None: every pixel is within the allowed error.</p>"
     timings = metrics.get("timings_seconds", {})
-    skip = {"title", "labels", "files", "ok", "report", "heat_map", "timings_seconds", "failing_pixels_listed",
-            "explained_by_povray_shadow_cache", "unexplained_failing_pixels"}
+    skip = {
+        "title",
+        "labels",
+        "files",
+        "ok",
+        "report",
+        "heat_map",
+        "timings_seconds",
+        "failing_pixels_listed",
+        "explained_by_povray_shadow_cache",
+        "unexplained_failing_pixels",
+    }
     extra = [(k.replace("_", " "), v) for k, v in metrics.items() if k not in skip]
     ramp = _legend_gradient()
-    legend_items = [f'<span class="swatch" style="background:{_css_colour(FAILING_COLOUR)}"></span>failing pixel'
-                    + (" (not explained)" if classify else "")]
+    legend_items = [
+        f'<span class="swatch" style="background:{_css_colour(FAILING_COLOUR)}"></span>failing pixel'
+        + (" (not explained)" if classify else "")
+    ]
     if classify:
-        legend_items.append(f'<span class="swatch" style="background:{_css_colour(EXPLAINED_COLOUR)}"></span>'
-                            f"failing pixel explained by {e(cause)}")
+        legend_items.append(
+            f'<span class="swatch" style="background:{_css_colour(EXPLAINED_COLOUR)}"></span>'
+            f"failing pixel explained by {e(cause)}"
+        )
     radius = marker_radius(width)
     if radius:
-        legend_items.append(f"(a failing pixel is marked {2 * radius + 1} x {2 * radius + 1} pixels wide, so that it "
-                            "stays visible where the page scales the map down; the table has its exact place)")
+        legend_items.append(
+            f"(a failing pixel is marked {2 * radius + 1} x {2 * radius + 1} pixels wide, so that it "
+            "stays visible where the page scales the map down; the table has its exact place)"
+        )
     legend = f"""<div class="legend" id="legend" style="max-width: {max(w, 1)}px">
 <div class="ramp" style="background: {ramp}"></div>
 <div class="ramp-labels"><span>0</span><span>½ allowed</span><span>allowed error</span></div>
@@ -475,7 +522,9 @@ def write_frames_report(outdir: str | os.PathLike, scene: str, run: FramesRun, m
         if m is None:
             error = run.failures[frame]
             records.append({"frame": frame, "ok": False, "error": error})
-            rows.append(f"<tr class='fail'><td>{frame}</td><td>FAILED</td><td colspan='5'>{html.escape(error)}</td></tr>")
+            rows.append(
+                f"<tr class='fail'><td>{frame}</td><td>FAILED</td><td colspan='5'>{html.escape(error)}</td></tr>"
+            )
             continue
         folder = os.path.relpath(m["outdir"], out)
         records.append({k: v for k, v in m.items() if k != "warnings"} | {"report": folder})
@@ -490,7 +539,9 @@ def write_frames_report(outdir: str | os.PathLike, scene: str, run: FramesRun, m
             f"<td>{m['failing_pixels']} ({m['failing_percent']:.4g}%)</td>{thumbs}</tr>"
         )
     failed = [r["frame"] for r in records if not r["ok"]]
-    summary = f"{len(frames)} frames, {len(frames) - len(failed)} pass" + (f", fail: {', '.join(map(str, failed))}" if failed else "")
+    summary = f"{len(frames)} frames, {len(frames) - len(failed)} pass" + (
+        f", fail: {', '.join(map(str, failed))}" if failed else ""
+    )
     page = (
         "<!doctype html><html><head><meta charset='utf-8'>"
         f"<title>phongscene diff --frames: {html.escape(Path(scene).name)}</title>"
@@ -500,6 +551,8 @@ def write_frames_report(outdir: str | os.PathLike, scene: str, run: FramesRun, m
         "<table><tr><th>frame</th><th>verdict</th><th>max error</th><th>failing pixels</th>"
         "<th>POV-Ray</th><th>native</th><th>heat map</th></tr>" + "".join(rows) + "</table></body></html>\n"
     )
-    write_text_atomic(out / "metrics.json", json.dumps({"scene": scene, **meta, "summary": summary, "frames": records},
-                                                       indent=2, default=str) + "\n")
+    write_text_atomic(
+        out / "metrics.json",
+        json.dumps({"scene": scene, **meta, "summary": summary, "frames": records}, indent=2, default=str) + "\n",
+    )
     return write_text_atomic(out / FILE_NAMES["html"], page)

@@ -107,7 +107,10 @@ def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None,
     with tempfile.TemporaryFile() as stderr:
         proc = subprocess.Popen(
             [sys.executable, "-m", "phongscene.sandbox", path, mode, repr(time), str(os.getpid())],
-            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=stderr, env=env,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=stderr,
+            env=env,
         )
         try:
             payload = _receive(proc.stdout)
@@ -128,14 +131,22 @@ def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None,
         name = signal.Signals(-returncode).name
         # USD aborts when an allocation fails in C++ (std::bad_alloc is not turned into MemoryError).
         memory = " or ran out of its memory limit" if name == "SIGABRT" else ""
-        raise SceneError(Problem(
-            f"USD crashed reading this file ({name}){memory}; it was read in a sandboxed child process, which "
-            "alone died: the file is corrupt or triggers a bug in USD", file=path))
+        raise SceneError(
+            Problem(
+                f"USD crashed reading this file ({name}){memory}; it was read in a sandboxed child process, which "
+                "alone died: the file is corrupt or triggers a bug in USD",
+                file=path,
+            )
+        )
     if returncode == EXIT_OUT_OF_MEMORY:
-        raise SceneError(Problem(
-            f"reading this file needs more than the sandbox's memory limit ({last}): a corrupt file "
-            "(USD allocates what its header claims), or a scene too big to read sandboxed (--no-sandbox reads it in "
-            "process)", file=path))
+        raise SceneError(
+            Problem(
+                f"reading this file needs more than the sandbox's memory limit ({last}): a corrupt file "
+                "(USD allocates what its header claims), or a scene too big to read sandboxed (--no-sandbox reads it in "
+                "process)",
+                file=path,
+            )
+        )
     raise SceneError(Problem(f"the sandboxed reader failed (exit {returncode}): {last}", file=path))
 
 
@@ -263,7 +274,7 @@ def _child(path: str, mode: str, time: float | None, parent: int) -> int:
             return _out_of_memory(shown)
         print(f"{type(e).__name__}: {e}", file=sys.stderr)
         return EXIT_UNEXPECTED
-    except Exception as e:  # noqa: BLE001 - reported by the parent as one line naming the file
+    except Exception as e:
         print(f"{type(e).__name__}: {e}", file=sys.stderr)
         return EXIT_UNEXPECTED
     try:
@@ -281,5 +292,6 @@ def _out_of_memory(shown) -> int:
 
 if __name__ == "__main__":
     # The time code travels as its repr (None, or a float's shortest exact text).
-    raise SystemExit(_child(sys.argv[1], sys.argv[2], None if sys.argv[3] == "None" else float(sys.argv[3]),
-                            int(sys.argv[4])))
+    raise SystemExit(
+        _child(sys.argv[1], sys.argv[2], None if sys.argv[3] == "None" else float(sys.argv[3]), int(sys.argv[4]))
+    )

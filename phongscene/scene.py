@@ -100,8 +100,9 @@ def _readonly(array, dtype, shape_tail: tuple[int, ...]) -> np.ndarray:
         info = np.iinfo(dtype)
         if source.size and (source.min() < info.min or source.max() > info.max):
             bad = source.max() if source.max() > info.max else source.min()
-            raise ValueError(f"index {int(bad)} does not fit the model's {np.dtype(dtype).name} indices "
-                             f"({info.min}..{info.max})")
+            raise ValueError(
+                f"index {int(bad)} does not fit the model's {np.dtype(dtype).name} indices ({info.min}..{info.max})"
+            )
         array = source
     out = np.array(array, dtype=dtype, order="C", copy=True)
     if out.ndim != 1 + len(shape_tail) or out.shape[1:] != shape_tail:
@@ -151,8 +152,13 @@ class Texture:
         # A read-only float32 array that owns its data is taken as it is (the USD reader builds
         # one: a copy of a 16K texture would be 3.2 GB more, if only for a moment); anything else
         # is copied, so that the caller's array cannot change the model.
-        owned = isinstance(image, np.ndarray) and image.dtype == np.float32 and image.flags.c_contiguous \
-            and image.flags.owndata and not image.flags.writeable
+        owned = (
+            isinstance(image, np.ndarray)
+            and image.dtype == np.float32
+            and image.flags.c_contiguous
+            and image.flags.owndata
+            and not image.flags.writeable
+        )
         if not owned:
             image = np.array(image, dtype=np.float32, order="C", copy=True)
         if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] < 1 or image.shape[1] < 1:
@@ -224,9 +230,22 @@ class PhongMaterial:
 
     def without_textures(self) -> PhongMaterial:
         """The same material with its constant colours only (the textures' fallbacks)."""
-        return PhongMaterial(self.ka, self.kd, self.ks, self.exponent, self.diffuse_color, self.specular_color, self.source,
-                             emission=self.emission, kr=self.kr, reflective_color=self.reflective_color, kt=self.kt,
-                             ior=self.ior, fresnel=self.fresnel, interior_filter=self.interior_filter)
+        return PhongMaterial(
+            self.ka,
+            self.kd,
+            self.ks,
+            self.exponent,
+            self.diffuse_color,
+            self.specular_color,
+            self.source,
+            emission=self.emission,
+            kr=self.kr,
+            reflective_color=self.reflective_color,
+            kt=self.kt,
+            ior=self.ior,
+            fresnel=self.fresnel,
+            interior_filter=self.interior_filter,
+        )
 
 
 DEFAULT_MATERIAL = PhongMaterial()

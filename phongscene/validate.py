@@ -9,37 +9,15 @@ attributes of the file a scene was read from (``phongscene.usd.names.in_usd_term
 from __future__ import annotations
 
 import math
-
 from collections.abc import Iterable
 
 import numpy as np
 
 from .errors import Problem, SceneError
-from .scene import (
-    NUMERICS,
-    AmbientLight,
-    SAMPLE_PATTERNS,
-    Camera,
-    DirectionalLight,
-    INTRINSIC_KINDS,
-    Intrinsic,
-    Linking,
-    PhongMaterial,
-    PointLight,
-    RectAreaLight,
-    RenderSettings,
-    Scene,
-    Sphere,
-    SphereAreaLight,
-    TRANSMISSION_CONVENTIONS,
-    WRAPS,
-    TriangleMesh,
-)
-from .tolerances import SINGULAR_RELATIVE_DET, UNIT_TOLERANCE, is_singular
 
 # The bounds every size, count and sample knob has (phongscene/limits.py, which the CLI imports
 # without numpy).
-from .limits import (  # noqa: E402  (re-exported: validation's bounds)
+from .limits import (
     MAX_ADAPTIVE,
     MAX_CELL_SAMPLES,
     MAX_COORDINATE,
@@ -53,6 +31,28 @@ from .limits import (  # noqa: E402  (re-exported: validation's bounds)
     MAX_TEXTURE_SIDE,
     MAX_THREADS,
 )
+from .scene import (
+    INTRINSIC_KINDS,
+    NUMERICS,
+    SAMPLE_PATTERNS,
+    TRANSMISSION_CONVENTIONS,
+    WRAPS,
+    AmbientLight,
+    Camera,
+    DirectionalLight,
+    Intrinsic,
+    Linking,
+    PhongMaterial,
+    PointLight,
+    RectAreaLight,
+    RenderSettings,
+    Scene,
+    Sphere,
+    SphereAreaLight,
+    TriangleMesh,
+)
+from .tolerances import SINGULAR_RELATIVE_DET, UNIT_TOLERANCE, is_singular
+
 
 class _Collector:
     def __init__(self, file: str):
@@ -82,8 +82,12 @@ class _Collector:
             return False
         arr = np.asarray(value, dtype=np.float64)
         if arr.size and float(np.max(np.abs(arr))) > MAX_COORDINATE:
-            self.add(node, field, f"coordinates must be within ±{MAX_COORDINATE:g} (so that distances and their "
-                     f"squares stay finite), got {float(np.max(np.abs(arr))):.3g}")
+            self.add(
+                node,
+                field,
+                f"coordinates must be within ±{MAX_COORDINATE:g} (so that distances and their "
+                f"squares stay finite), got {float(np.max(np.abs(arr))):.3g}",
+            )
             return False
         return True
 
@@ -124,19 +128,30 @@ class _Collector:
     def samples_2k1(self, node) -> None:
         n = node.samples
         if not isinstance(n, (int, np.integer)) or n < 3 or n > MAX_SHADOW_SAMPLES or (n - 1) & (n - 2):
-            self.add(node, "samples", f"must be 2^k + 1 with 1 <= k <= 8 (3, 5, 9, 17, ..., {MAX_SHADOW_SAMPLES}), got {_show(n)}")
-
+            self.add(
+                node,
+                "samples",
+                f"must be 2^k + 1 with 1 <= k <= 8 (3, 5, 9, 17, ..., {MAX_SHADOW_SAMPLES}), got {_show(n)}",
+            )
 
     def adaptive(self, node) -> None:
         a = node.adaptive
-        if a is not None and (isinstance(a, bool) or not isinstance(a, (int, np.integer)) or not 0 <= a <= MAX_ADAPTIVE):
-            self.add(node, "adaptive", f"must be an integer in 0..{MAX_ADAPTIVE} (or unset: every grid point), got {_show(a)}")
+        if a is not None and (
+            isinstance(a, bool) or not isinstance(a, (int, np.integer)) or not 0 <= a <= MAX_ADAPTIVE
+        ):
+            self.add(
+                node,
+                "adaptive",
+                f"must be an integer in 0..{MAX_ADAPTIVE} (or unset: every grid point), got {_show(a)}",
+            )
         k = node.cell_samples
         if k is None:
             return
         # a power of 2: the (0,2)-sequence's k² points then stratify the cell evenly
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 2 <= k <= MAX_CELL_SAMPLES or k & (k - 1):
             self.add(node, "cell_samples", f"must be a power of 2 in 2..{MAX_CELL_SAMPLES} (or unset), got {_show(k)}")
+
+
 def _is_triple(value) -> bool:
     """A sequence of length 3 (of anything: ``finite`` then checks the numbers)."""
     return not isinstance(value, (str, bytes)) and hasattr(value, "__len__") and len(value) == 3
@@ -164,8 +179,11 @@ def _wrong_types(scene: Scene) -> list[Problem]:
     for name, kind in _NODE_TYPES.items():
         value = getattr(scene, name)
         if not isinstance(value, kind):
-            out.append(Problem(f"must be {_a(kind.__name__)}, got {type(value).__name__}", attribute=name,
-                               file=scene.source_file))
+            out.append(
+                Problem(
+                    f"must be {_a(kind.__name__)}, got {type(value).__name__}", attribute=name, file=scene.source_file
+                )
+            )
     for name, kinds in _ITEM_TYPES.items():
         items = getattr(scene, name)
         if not isinstance(items, (tuple, list)):
@@ -174,11 +192,22 @@ def _wrong_types(scene: Scene) -> list[Problem]:
         expected = " or ".join(_a(k.__name__) for k in kinds)
         for i, item in enumerate(items):
             if not isinstance(item, kinds):
-                out.append(Problem(f"must be {expected}, got {type(item).__name__}", attribute=f"{name}[{i}]",
-                                   file=scene.source_file))
+                out.append(
+                    Problem(
+                        f"must be {expected}, got {type(item).__name__}",
+                        attribute=f"{name}[{i}]",
+                        file=scene.source_file,
+                    )
+                )
             elif name != "lights" and not isinstance(item.material, PhongMaterial):
-                out.append(Problem(f"must be a PhongMaterial, got {type(item.material).__name__}",
-                                   prim=item.source, attribute="material", file=scene.source_file))
+                out.append(
+                    Problem(
+                        f"must be a PhongMaterial, got {type(item.material).__name__}",
+                        prim=item.source,
+                        attribute="material",
+                        file=scene.source_file,
+                    )
+                )
     return out
 
 
@@ -239,8 +268,12 @@ def validate(scene: Scene) -> list[Problem]:
         # Filtered shadows (through transmissive objects) are traced for single shadow rays only.
         for light in scene.lights:
             if isinstance(light, (RectAreaLight, SphereAreaLight)):
-                c.add(light, "samples", "area lights in a scene with transmissive materials (kt > 0) are not supported "
-                      "yet: their shadows through transmissive objects are not traced (use point or distant lights)")
+                c.add(
+                    light,
+                    "samples",
+                    "area lights in a scene with transmissive materials (kt > 0) are not supported "
+                    "yet: their shadows through transmissive objects are not traced (use point or distant lights)",
+                )
     return c.problems
 
 
@@ -352,7 +385,11 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
     if not isinstance(s.threads, (int, np.integer)) or not 0 <= s.threads <= MAX_THREADS:
         c.add(s, "threads", f"must be an integer in 0..{MAX_THREADS}, got {_show(s.threads)}")
     c.colour(s, "background")
-    if not isinstance(s.max_depth, (int, np.integer)) or isinstance(s.max_depth, bool) or not 0 <= s.max_depth <= MAX_DEPTH:
+    if (
+        not isinstance(s.max_depth, (int, np.integer))
+        or isinstance(s.max_depth, bool)
+        or not 0 <= s.max_depth <= MAX_DEPTH
+    ):
         c.add(s, "max_depth", f"must be an integer in 0..{MAX_DEPTH}, got {_show(s.max_depth)}")
     if s.transmission not in TRANSMISSION_CONVENTIONS:
         c.add(s, "transmission", f"must be one of {', '.join(TRANSMISSION_CONVENTIONS)}, got {_show(s.transmission)}")
@@ -391,10 +428,22 @@ def _check_light(c: _Collector, light) -> None:
         cone = light.cone
         if cone is not None:
             axis = np.asarray(cone.axis, dtype=np.float64)
-            if axis.shape != (3,) or not np.all(np.isfinite(axis)) or abs(float(np.linalg.norm(axis)) - 1) > UNIT_TOLERANCE:
+            if (
+                axis.shape != (3,)
+                or not np.all(np.isfinite(axis))
+                or abs(float(np.linalg.norm(axis)) - 1) > UNIT_TOLERANCE
+            ):
                 c.add(light, "cone", f"the cone's axis must be a finite unit vector, got {_show(tuple(cone.axis))}")
-            if not (np.isfinite(cone.cos_outer) and np.isfinite(cone.cos_inner) and 0 < cone.cos_outer <= cone.cos_inner <= 1):
-                c.add(light, "cone", f"must have 0 < cos_outer <= cos_inner <= 1, got {_show(cone.cos_outer)}, {_show(cone.cos_inner)}")
+            if not (
+                np.isfinite(cone.cos_outer)
+                and np.isfinite(cone.cos_inner)
+                and 0 < cone.cos_outer <= cone.cos_inner <= 1
+            ):
+                c.add(
+                    light,
+                    "cone",
+                    f"must have 0 < cos_outer <= cos_inner <= 1, got {_show(cone.cos_outer)}, {_show(cone.cos_inner)}",
+                )
             if not (np.isfinite(cone.focus) and cone.focus >= 0):
                 c.add(light, "cone", f"the cone's focus must be finite and >= 0, got {_show(cone.focus)}")
         fd_ok = c.finite(light, "fade_distance", light.fade_distance)
@@ -438,8 +487,12 @@ def _check_sphere(c: _Collector, s: Sphere) -> None:
         with np.errstate(over="ignore"):
             reach = float(np.max(np.abs(m[:3, 3]) + np.sqrt((m[:3, :3] ** 2).sum(axis=1))))
         if not reach <= MAX_COORDINATE:
-            c.add(s, "world_from_object", f"the sphere must lie within ±{MAX_COORDINATE:g} (so that distances and "
-                  f"their squares stay finite), it reaches {reach:.3g}")
+            c.add(
+                s,
+                "world_from_object",
+                f"the sphere must lie within ±{MAX_COORDINATE:g} (so that distances and "
+                f"their squares stay finite), it reaches {reach:.3g}",
+            )
 
 
 def _check_intrinsic(c: _Collector, i: Intrinsic) -> None:
@@ -457,7 +510,9 @@ def _check_intrinsic(c: _Collector, i: Intrinsic) -> None:
                 lo, hi = i.world_bounds()
                 reach = float(np.max(np.abs(np.concatenate([lo, hi]))))
             if not reach <= MAX_COORDINATE:
-                c.add(i, "world_from_object", f"the {i.kind} must lie within ±{MAX_COORDINATE:g}, it reaches {reach:.3g}")
+                c.add(
+                    i, "world_from_object", f"the {i.kind} must lie within ±{MAX_COORDINATE:g}, it reaches {reach:.3g}"
+                )
     for field in ("radius_bottom", "radius_top", "radius", "half_height"):
         value = getattr(i, field)
         if c.finite(i, field, value) and value < 0:
@@ -488,7 +543,11 @@ def _check_mesh(c: _Collector, mesh: TriangleMesh) -> None:
         if ui.shape != tri.shape:
             c.add(mesh, "uv_indices", f"must have one row per triangle ({tri.shape}), got {ui.shape}")
         elif ui.size and (ui.min() < 0 or ui.max() >= n_uvs):
-            c.add(mesh, "uv_indices", f"indices must be in [0, {n_uvs}): {int(np.count_nonzero((ui < 0) | (ui >= n_uvs)))} are not")
+            c.add(
+                mesh,
+                "uv_indices",
+                f"indices must be in [0, {n_uvs}): {int(np.count_nonzero((ui < 0) | (ui >= n_uvs)))} are not",
+            )
     if mesh.normals is None:
         return
     if c.finite(mesh, "normals", mesh.normals):
@@ -499,7 +558,11 @@ def _check_mesh(c: _Collector, mesh: TriangleMesh) -> None:
         else:
             off = np.flatnonzero(np.abs(lengths - 1) > UNIT_TOLERANCE)
             if off.size:
-                c.add(mesh, "normals", f"{off.size} normals are not unit length, e.g. row {int(off[0])}: {lengths[off[0]]:.9g}")
+                c.add(
+                    mesh,
+                    "normals",
+                    f"{off.size} normals are not unit length, e.g. row {int(off[0])}: {lengths[off[0]]:.9g}",
+                )
     ni = mesh.normal_indices
     if ni.shape != tri.shape:
         c.add(mesh, "normal_indices", f"must have one row per triangle ({tri.shape}), got {ni.shape}")

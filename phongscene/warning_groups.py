@@ -52,4 +52,6 @@ def capped(lines: list[str], limit: int = MAX_WARNING_LINES) -> list[str]:
     """At most ``limit`` lines, the last saying how many were left out."""
     if len(lines) <= limit:
         return lines
-    return lines[: limit - 1] + [f"... and {len(lines) - limit + 1} more warnings (`phongscene info SCENE` lists them all)"]
+    return lines[: limit - 1] + [
+        f"... and {len(lines) - limit + 1} more warnings (`phongscene info SCENE` lists them all)"
+    ]

@@ -81,7 +81,12 @@ def _materials(models) -> list[_native.Material]:
     return out
 
 
-_WRAPS = {"repeat": _native.Wrap.repeat, "clamp": _native.Wrap.clamp, "mirror": _native.Wrap.mirror, "black": _native.Wrap.black}
+_WRAPS = {
+    "repeat": _native.Wrap.repeat,
+    "clamp": _native.Wrap.clamp,
+    "mirror": _native.Wrap.mirror,
+    "black": _native.Wrap.black,
+}
 
 
 def texture_arrays(scene: Scene, *, half_texels: bool = False) -> dict | None:
@@ -98,15 +103,15 @@ def texture_arrays(scene: Scene, *, half_texels: bool = False) -> dict | None:
             textures.setdefault(id(t), t)
     if not textures:
         return None
-    corner_uv = [
-        m.uvs[m.uv_indices] if m.uvs is not None else np.zeros((len(m.triangles), 3, 2)) for m in scene.meshes
-    ]
+    corner_uv = [m.uvs[m.uv_indices] if m.uvs is not None else np.zeros((len(m.triangles), 3, 2)) for m in scene.meshes]
     images = [t.image.astype(np.float16).astype(np.float32) if half_texels else t.image for t in textures.values()]
     return {
         "images": [np.ascontiguousarray(i, dtype=np.float32) for i in images],
         "wrap_s": [_WRAPS[t.wrap_s] for t in textures.values()],
         "wrap_t": [_WRAPS[t.wrap_t] for t in textures.values()],
-        "corner_uv": np.ascontiguousarray(np.concatenate(corner_uv) if corner_uv else np.zeros((0, 3, 2)), dtype=np.float64),
+        "corner_uv": np.ascontiguousarray(
+            np.concatenate(corner_uv) if corner_uv else np.zeros((0, 3, 2)), dtype=np.float64
+        ),
     }
 
 
@@ -120,7 +125,10 @@ def _light(light: Light):
 def _native_light(light: Light):
     if isinstance(light, PointLight):
         native = _native.PointLight(
-            position=light.position, color=light.color, fade_distance=light.fade_distance, fade_power=light.fade_power,
+            position=light.position,
+            color=light.color,
+            fade_distance=light.fade_distance,
+            fade_power=light.fade_power,
             inverse_square=light.falloff == "inverse-square",
         )
         if light.cone is not None:
@@ -132,7 +140,11 @@ def _native_light(light: Light):
         return _native.DirectionalLight(direction=light.direction, color=light.color)
     if isinstance(light, RectAreaLight):
         native = _native.RectAreaLight(
-            center=light.center, axis_u=light.axis_u, axis_v=light.axis_v, color=light.color, samples=light.samples,
+            center=light.center,
+            axis_u=light.axis_u,
+            axis_v=light.axis_v,
+            color=light.color,
+            samples=light.samples,
             inverse_square=light.falloff == "inverse-square",
         )
         native.adaptive = _FULL_SUBDIVISION if light.adaptive is None else int(light.adaptive)
@@ -140,7 +152,10 @@ def _native_light(light: Light):
         return native
     if isinstance(light, SphereAreaLight):
         native = _native.SphereAreaLight(
-            center=light.center, radius=light.radius, color=light.color, samples=light.samples,
+            center=light.center,
+            radius=light.radius,
+            color=light.color,
+            samples=light.samples,
             inverse_square=light.falloff == "inverse-square",
         )
         native.adaptive = _FULL_SUBDIVISION if light.adaptive is None else int(light.adaptive)
@@ -174,7 +189,9 @@ def _settings(s: RenderSettings) -> _native.RenderSettings:
     )
     native.aa_threshold = float(s.aa_threshold)
     native.max_depth = int(s.max_depth)
-    native.transmission_convention = _native.TransmissionConvention.book if s.transmission == "book" else _native.TransmissionConvention.povray
+    native.transmission_convention = (
+        _native.TransmissionConvention.book if s.transmission == "book" else _native.TransmissionConvention.povray
+    )
     return native
 
 
@@ -235,9 +252,15 @@ def intrinsic_parts(scene: Scene, material_id) -> list:
             object_from_world = np.linalg.inv(m)[:3].reshape(-1)
             out.append(
                 _native.IntrinsicShape(
-                    kind=kind, object_from_world=[float(x) for x in object_from_world],
-                    bounds_lo=tuple(map(float, centre - half)), bounds_hi=tuple(map(float, centre + half)),
-                    r0=float(r0), r1=float(r1), z0=float(z0), material=material, object=first + i,
+                    kind=kind,
+                    object_from_world=[float(x) for x in object_from_world],
+                    bounds_lo=tuple(map(float, centre - half)),
+                    bounds_hi=tuple(map(float, centre + half)),
+                    r0=float(r0),
+                    r1=float(r1),
+                    z0=float(z0),
+                    material=material,
+                    object=first + i,
                 )
             )
     return out
@@ -350,8 +373,13 @@ class PreparedRender:
     reference to the model, whose arrays C++ has copied, so a caller that drops the model can
     free them before the render (the CLI does: phongscene.cli)."""
 
-    def __init__(self, native: _native.Scene, camera: _native.CameraDescription, settings: _native.RenderSettings,
-                 progress: Callable[[int, int], None] | None):
+    def __init__(
+        self,
+        native: _native.Scene,
+        camera: _native.CameraDescription,
+        settings: _native.RenderSettings,
+        progress: Callable[[int, int], None] | None,
+    ):
         self._native, self._camera, self._settings, self._progress = native, camera, settings, progress
 
     def __call__(self) -> np.ndarray:

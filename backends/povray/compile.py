@@ -94,13 +94,18 @@ LAMBERT_SPOTLIGHT = "spotlight radius 90 falloff 90 tightness 1"
 def _native_only(compiler, light) -> None:
     """POV-Ray has no cells estimator (the native tracer's own): an error naming the light."""
     if light.cell_samples is not None:
-        raise compiler._error(light, "cell_samples", "the cells shadow estimator is the native tracer's own; POV-Ray "
-                              "renders the grid or 'adaptive n' (unset phong:shadowCellSamples)")
+        raise compiler._error(
+            light,
+            "cell_samples",
+            "the cells shadow estimator is the native tracer's own; POV-Ray "
+            "renders the grid or 'adaptive n' (unset phong:shadowCellSamples)",
+        )
 
 
 def _adaptive(light) -> str:
     """POV-Ray's ``adaptive n`` of an area light (absent: every grid point, its default)."""
     return "" if light.adaptive is None else f" adaptive {int(light.adaptive)}"
+
 
 # Characters copied verbatim into a comment; everything else becomes \xNN / \uNNNN / \UNNNNNNNN.
 # '#', '"', '*', '\\' and all control characters are escaped, so a comment can neither end early
@@ -324,8 +329,7 @@ class _Compiler:
         # Materials some object wears where a light does not illuminate it (light linking): an
         # ambient-and-emission-only texture, Material_k_Unlit, is declared beside them.
         self.unlit_materials = {
-            o.material for o in scene.objects
-            if any(not light.linking.lights(o.source) for light in scene.lights)
+            o.material for o in scene.objects if any(not light.linking.lights(o.source) for light in scene.lights)
         }
         # Secondary rays (ref §18): only a scene with a reflective material gets the depth limit
         # (max_trace_level = max_depth + 1) and adc_bailout 0 (no weight cut-off), so the SDL of
@@ -349,8 +353,12 @@ class _Compiler:
             return 1.0
         att = 1.0 - m.kt
         if att <= 0.0 and (m.ka > 0 or m.kd > 0):
-            raise self._error(m, "kt", "kt = 1 with ambient or diffuse terms: POV-Ray scales those by 1 − kt, so it "
-                              "cannot show them (lower kt, or set ka = kd = 0 as for glass)")
+            raise self._error(
+                m,
+                "kt",
+                "kt = 1 with ambient or diffuse terms: POV-Ray scales those by 1 − kt, so it "
+                "cannot show them (lower kt, or set ka = kd = 0 as for glass)",
+            )
         return att if att > 0.0 else 1.0
 
     def interior(self, m: PhongMaterial) -> str:
@@ -378,8 +386,12 @@ class _Compiler:
         # The dielectric (ref §18): POV-Ray reflects min + (max − min)·F and, with
         # conserve_energy, transmits (1 − F) of kt: the model's split when the mirror weight is 1.
         if m.transmits and (m.kr != 1.0 or tuple(m.reflective_color) != (1.0, 1.0, 1.0)):
-            raise self._error(m, "kr", "a transmissive fresnel material needs kr = 1 and a white cr in POV-Ray "
-                              "(its conserve_energy takes 1 − F of the transmitted light only then)")
+            raise self._error(
+                m,
+                "kr",
+                "a transmissive fresnel material needs kr = 1 and a white cr in POV-Ray "
+                "(its conserve_energy takes 1 − F of the transmitted light only then)",
+            )
         conserve = " conserve_energy" if m.transmits else ""
         return f" reflection {{ 0, rgb {self.rgb(colour, m, 'reflective_color')} fresnel on }}{conserve}"
 
@@ -428,9 +440,12 @@ class _Compiler:
         else:
             self.lines.append(
                 f"global_settings {{ assumed_gamma 1.0 ambient_light rgb {self.rgb(self.scene.ambient.color, self.scene.ambient, 'color')}"
-                + (f" adc_bailout 0{self.trace_settings()}" if self.reflective else "") + " }"
+                + (f" adc_bailout 0{self.trace_settings()}" if self.reflective else "")
+                + " }"
             )
-            self.lines.append(f"background {{ color rgb {self.rgb(self.settings.background, self.settings, 'background')} }}")
+            self.lines.append(
+                f"background {{ color rgb {self.rgb(self.settings.background, self.settings, 'background')} }}"
+            )
             for i, light in enumerate(self.scene.lights):
                 self.comment(light, "light", i)
                 self.lines.append(self.light_source(light))
@@ -484,10 +499,14 @@ class _Compiler:
             # Classic: one finish per material, so a light has one strength for both terms.
             if light.specular != light.diffuse:
                 raise self._error(
-                    light, "specular", "differs from the diffuse multiplier, which the classic mapping cannot express "
-                    "(a POV-Ray light has one strength): use the exact mapping"
+                    light,
+                    "specular",
+                    "differs from the diffuse multiplier, which the classic mapping cannot express "
+                    "(a POV-Ray light has one strength): use the exact mapping",
                 )
-            light = dataclasses.replace(light, color=tuple(c * light.diffuse for c in light.color), diffuse=1.0, specular=1.0)
+            light = dataclasses.replace(
+                light, color=tuple(c * light.diffuse for c in light.color), diffuse=1.0, specular=1.0
+            )
         colour = self.rgb(light.color, light, "color")
         fade = ""
         if getattr(light, "falloff", "none") == "inverse-square":
@@ -566,7 +585,9 @@ class _Compiler:
 
     def exact_passes(self) -> None:
         self.lines.append(f"global_settings {{ assumed_gamma 1.0 adc_bailout 0{self.trace_settings()} }}")
-        self.lines.append(f"// n.l = sin(pi (v - 1/2)) of the slope value v, as a filter colour ({NDOTL_SEGMENTS} linear segments).")
+        self.lines.append(
+            f"// n.l = sin(pi (v - 1/2)) of the slope value v, as a filter colour ({NDOTL_SEGMENTS} linear segments)."
+        )
         entries = ["[0 rgbf <0, 0, 0, 1>]"]
         for k in range(NDOTL_SEGMENTS + 1):
             v = 0.5 + 0.5 * k / NDOTL_SEGMENTS
@@ -682,11 +703,19 @@ class _Compiler:
         # With emission, every entry of the average carries twice its share (see emissive_entry).
         k = 2 if emissive else 1
         if emissive and m.transmits:
-            raise self._error(m, "emission", "an emissive transmissive material: POV-Ray's average texture would "
-                              "halve its transmission (set emission or kt to 0)")
+            raise self._error(
+                m,
+                "emission",
+                "an emissive transmissive material: POV-Ray's average texture would "
+                "halve its transmission (set emission or kt to 0)",
+            )
         if self.exact and m.ks > 0 and m.transmits:
-            raise self._error(m, "kt", "a transmissive material with a highlight: the exact mapping's average texture "
-                              "would split POV-Ray's total internal reflection among its entries; use the classic mapping")
+            raise self._error(
+                m,
+                "kt",
+                "a transmissive material with a highlight: the exact mapping's average texture "
+                "would split POV-Ray's total internal reflection among its entries; use the classic mapping",
+            )
         if not self.exact or m.ks <= 0:
             # Classic: one idiomatic finish. Exact without a highlight: one plain texture is exact.
             phong = f" phong {self.coef(k * m.ks, m, 'ks')} phong_size {e}" if m.ks > 0 else ""
@@ -704,7 +733,9 @@ class _Compiler:
         cs = self.rgb(m.specular_color, m, "specular_color")
         if m.specular_texture is not None:
             # cs per point: the image as a filter layer (filter all 1: rgbf <texel, 1>, ref §16).
-            layers.append(f"texture {{ pigment {{ {self.image_map(m.specular_texture, ' filter all 1')} }} finish {{ ambient 0 diffuse 0 }} }}")
+            layers.append(
+                f"texture {{ pigment {{ {self.image_map(m.specular_texture, ' filter all 1')} }} finish {{ ambient 0 diffuse 0 }} }}"
+            )
         elif tuple(m.specular_color) != (1.0, 1.0, 1.0):
             layers.append(f"texture {{ pigment {{ rgbf <{cs[1:-1]}, 1> }} finish {{ ambient 0 diffuse 0 }} }}")
         # (B) the specular n.l of this pass's light.
@@ -738,7 +769,8 @@ class _Compiler:
         if not self.exact:
             if unlit:
                 raise self._error(
-                    lights[unlit[0]], "collection:lightLink",
+                    lights[unlit[0]],
+                    "collection:lightLink",
                     f"does not include {sanitize_comment(obj.source) or 'an object'}, which the other lights illuminate: "
                     "the classic mapping (one POV-Ray pass, all lights) cannot express light linking; use the exact mapping",
                 )
@@ -746,7 +778,8 @@ class _Compiler:
                 light = lights[unshadowing[0]]
                 attribute = "inputs:shadow:enable" if not light.linking.shadows else "collection:shadowLink"
                 raise self._error(
-                    light, attribute,
+                    light,
+                    attribute,
                     f"leaves {sanitize_comment(obj.source) or 'an object'} without this light's shadow but other lights "
                     "keep it: the classic mapping (one POV-Ray pass, all lights) has only no_shadow for all lights; "
                     "use the exact mapping",
@@ -773,8 +806,10 @@ class _Compiler:
         a, t = m[:3, :3], m[:3, 3]
         r = float(a[0, 0])
         if r > 0 and np.array_equal(a, np.diag([r, r, r])):
-            return (f"sphere {{ {self.vec(t, s, 'world_from_object')}, {self.num(r, s, 'world_from_object')}"
-                    f" texture {{ {texture} }}{self.interior(s.material)}{modifiers} }}")
+            return (
+                f"sphere {{ {self.vec(t, s, 'world_from_object')}, {self.num(r, s, 'world_from_object')}"
+                f" texture {{ {texture} }}{self.interior(s.material)}{modifiers} }}"
+            )
         # POV's matrix is row-vector: p' = p·M with M's first three rows the images of x, y, z
         # (the columns of our column-vector 3×3) and the translation as the fourth row.
         numbers = ", ".join(self.num(x, s, "world_from_object") for x in (*a.T.reshape(-1), *t))
@@ -792,7 +827,9 @@ class _Compiler:
         under its ``matrix``; the texture after the matrix stays in world space (the exact
         mapping's slope), as for spheres."""
         texture, modifiers = self.linked(i)
-        tail = f" {self.matrix(i, i.world_from_object)} texture {{ {texture} }}{self.interior(i.material)}{modifiers} }}"
+        tail = (
+            f" {self.matrix(i, i.world_from_object)} texture {{ {texture} }}{self.interior(i.material)}{modifiers} }}"
+        )
         if i.kind == "cube":
             return "box { <-1, -1, -1>, <1, 1, 1>" + tail
         if i.kind == "plane":
@@ -800,7 +837,9 @@ class _Compiler:
                 return "plane { z, 0" + tail
             return "polygon { 4, <-1, -1, 0>, <1, -1, 0>, <1, 1, 0>, <-1, 1, 0>" + tail
         if i.kind == "cylinder":
-            r0, r1 = (self.num(r, i, f"radius_{end}") for r, end in ((i.radius_bottom, "bottom"), (i.radius_top, "top")))
+            r0, r1 = (
+                self.num(r, i, f"radius_{end}") for r, end in ((i.radius_bottom, "bottom"), (i.radius_top, "top"))
+            )
             if i.radius_bottom == i.radius_top:
                 return f"cylinder {{ <0, 0, -1>, <0, 0, 1>, {r0}" + tail
             return f"cone {{ <0, 0, -1>, {r0}, <0, 0, 1>, {r1}" + tail
@@ -825,8 +864,10 @@ class _Compiler:
         out = self.lines
         out.append("mesh2 {")
         out.append(f"  vertex_vectors {{ {len(mesh.points)},\n{vertices}\n  }}")
-        same_indices = normals is not None and len(mesh.normals) == len(mesh.points) and np.array_equal(
-            mesh.normal_indices, mesh.triangles
+        same_indices = (
+            normals is not None
+            and len(mesh.normals) == len(mesh.points)
+            and np.array_equal(mesh.normal_indices, mesh.triangles)
         )
         if normals is not None:
             out.append(f"  normal_vectors {{ {len(mesh.normals)},\n{normals}\n  }}")

@@ -39,6 +39,11 @@ def resolve_mapping(settings: RenderSettings, mapping: str | None) -> str:
         mapping = MAPPING_OF_SPECULAR.get(settings.specular)
         if mapping is None:
             raise SceneError(
-                Problem(f"unknown specular convention {settings.specular!r}", settings.source, "specular", node="RenderSettings")
+                Problem(
+                    f"unknown specular convention {settings.specular!r}",
+                    settings.source,
+                    "specular",
+                    node="RenderSettings",
+                )
             )
     return check_mapping(mapping)

@@ -90,7 +90,9 @@ class PovJob:
         if self.frames > 1:
             lines.insert(1, f"; {self.frames} frames, one per light: add the linear frame images to get the picture")
         if self.supersample > 1:
-            lines.insert(1, f"; rendered {self.supersample}x larger: average {self.supersample}x{self.supersample} blocks")
+            lines.insert(
+                1, f"; rendered {self.supersample}x larger: average {self.supersample}x{self.supersample} blocks"
+            )
         return "\n".join(lines) + "\n"
 
 
@@ -115,7 +117,8 @@ def pov_quoted(name: str) -> str:
     if bad is not None:
         raise PhongSceneError(
             f"{name!r}: POV-Ray cannot read a file name with {bad!r} (printable ASCII only, no double quote or "
-            "backslash): choose another name")
+            "backslash): choose another name"
+        )
     return f'"{name}"' if any(c in NEEDS_QUOTES for c in name) else name
 
 
@@ -129,9 +132,15 @@ def render_switches(settings: RenderSettings, source_file: str = "") -> tuple[in
     """(width, height, supersample, switches) POV-Ray needs for ``settings`` (a SceneError naming
     ``source_file`` for a pattern POV-Ray does not have)."""
     if settings.sample_pattern not in POVRAY_SAMPLE_PATTERNS:
-        raise SceneError(Problem(
-            f"{settings.sample_pattern!r} is the native tracer's own; POV-Ray renders {', '.join(POVRAY_SAMPLE_PATTERNS)}",
-            settings.source, "sample_pattern", source_file, node="RenderSettings"))
+        raise SceneError(
+            Problem(
+                f"{settings.sample_pattern!r} is the native tracer's own; POV-Ray renders {', '.join(POVRAY_SAMPLE_PATTERNS)}",
+                settings.source,
+                "sample_pattern",
+                source_file,
+                node="RenderSettings",
+            )
+        )
     n = int(settings.samples)
     k = n if n > 1 and settings.sample_pattern == "grid" else 1
     width, height = settings.width * k, settings.height * k
@@ -155,7 +164,9 @@ def prepare(scene: Scene, settings: RenderSettings | None = None, mapping: str |
     mapping = resolve_mapping(settings, mapping)
     width, height, k, switches = render_switches(settings, scene.source_file)
     textures = tuple(texture_files(scene).items())
-    return PovJob(compile_pov(scene, settings, mapping), pass_count(scene, mapping), width, height, k, switches, textures)
+    return PovJob(
+        compile_pov(scene, settings, mapping), pass_count(scene, mapping), width, height, k, switches, textures
+    )
 
 
 def render(
@@ -235,8 +246,9 @@ def render_many(
             if progress:
                 progress(base + frames, total)
 
-        sums = _run(job, f"group{g}-" if len(groups) > 1 else "scene", timeout, keep_dir, frame_done, phase,
-                    PassSums(passes))
+        sums = _run(
+            job, f"group{g}-" if len(groups) > 1 else "scene", timeout, keep_dir, frame_done, phase, PassSums(passes)
+        )
         done += job.frames
         for i, image in zip(members, sums):
             if k > 1:
@@ -249,7 +261,11 @@ def render_many(
 def _batch_sdl(items: list[tuple[Scene, RenderSettings, str]]) -> str:
     """Several scenes in one file: scene i owns a range of frames, and its own passes count
     from 0 within it (the identifier ``Pass`` of ``compile_body``)."""
-    out = [f"// phongscene: {len(items)} scenes as frames of one POV-Ray run", "#version 3.7;", "#switch (frame_number)"]
+    out = [
+        f"// phongscene: {len(items)} scenes as frames of one POV-Ray run",
+        "#version 3.7;",
+        "#switch (frame_number)",
+    ]
     first = 0
     for scene, settings, mapping in items:
         last = first + pass_count(scene, mapping) - 1
@@ -286,8 +302,15 @@ class PassSums:
         return len(self.owner)
 
 
-def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, frame_done, phase=None,
-         sums: PassSums | None = None) -> list[np.ndarray]:
+def _run(
+    job: PovJob,
+    stem: str,
+    timeout: float | None,
+    keep_dir: str | None,
+    frame_done,
+    phase=None,
+    sums: PassSums | None = None,
+) -> list[np.ndarray]:
     """Run one POV-Ray process for ``job``, adding its frames into ``sums`` as they arrive (each
     frame file is removed once added, unless ``keep_dir``); return the sums (float64). The
     temporary directory is removed afterwards, except after a ``BackendError`` (it holds the kept
@@ -309,8 +332,9 @@ def _run(job: PovJob, stem: str, timeout: float | None, keep_dir: str | None, fr
     return images
 
 
-def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_done, phase, sums: PassSums,
-            keep: bool) -> list[np.ndarray]:
+def _run_in(
+    job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_done, phase, sums: PassSums, keep: bool
+) -> list[np.ndarray]:
     workdir.mkdir(parents=True, exist_ok=True)
     pov, output, log = workdir / f"{stem}.pov", workdir / f"{stem}.exr", workdir / f"{stem}.log"
     try:
@@ -366,7 +390,7 @@ def _run_in(job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_
             _release_signals(held)  # a held signal's handler runs here, where POV-Ray gets killed
             deadline = None if timeout is None else time.monotonic() + timeout
             parser = PovLogParser()
-            with open(log, "r", encoding="utf-8", errors="replace", newline="") as console:
+            with open(log, encoding="utf-8", errors="replace", newline="") as console:
                 while True:
                     try:
                         rc = proc.wait(timeout=POLL_SECONDS)

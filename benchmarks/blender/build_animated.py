@@ -7,11 +7,11 @@ whose power is keyframed 500 -> 1500 W, and a camera keyframed from y = -10 to y
 along +Y. Exported with bpy.ops.wm.usd_export(export_animation=True) in the TRS xform-op mode of
 build_scenes.py (translate/rotateXYZ/scale with timeSamples). No render: Cycles is not needed.
 """
+
 import math
 import sys
 
 import bpy
-
 from build_scenes import USD_EXPORT_OPTS, add_camera, add_light, add_plane, add_sphere, principled, reset
 
 
@@ -25,7 +25,7 @@ def main(out):
     add_plane("Ground", 20, white, z=0.0)
     ball = add_sphere("Ball", 1.0, (-3, 0, 1), red, segments=32, rings=16)
     cam = add_camera(scene, (0, -10, 2), rot=(math.radians(90), 0, 0), lens=35.0)
-    light = add_light(scene, "Key", 'POINT', (-2, -4, 6), 500.0)
+    light = add_light(scene, "Key", "POINT", (-2, -4, 6), 500.0)
     for frame, x, turn, power, y in ((1, -3.0, 0.0, 500.0, -10.0), (24, 3.0, 90.0, 1500.0, -12.0)):
         scene.frame_set(frame)
         ball.location.x = x

@@ -39,27 +39,39 @@ def add_bench_command(sub) -> None:
     add_scene_argument(p)
     p.add_argument("-o", "--outdir", required=True, metavar="OUTDIR", help="folder for bench.csv/.json/.png (created)")
     add_mapping_option(p, "POV-Ray mapping (default: the scene's specular convention)")
-    p.add_argument("--width", type=image_side, metavar="W",
-                   help=f"image width (default {BENCH_WIDTH}; the height keeps the aspect ratio)")
+    p.add_argument(
+        "--width",
+        type=image_side,
+        metavar="W",
+        help=f"image width (default {BENCH_WIDTH}; the height keeps the aspect ratio)",
+    )
     add_threads_option(p, "threads of both renderers (0 = all cores)")
     p.add_argument("--repeat", type=int_in(1, 100), default=3, metavar="N", help="runs per setting; the best counts")
     p.add_argument("--quick", action="store_true", help="a few estimators of each kind")
     p.add_argument("--native-only", action="store_true", help="measure the native tracer only")
-    p.add_argument("--family", choices=("anti-aliasing", "area-light shadows"), action="append",
-                   help="study only this family of estimators (repeatable; default: every one that applies; "
-                   "the anti-aliasing reference of a scene with area lights is slow)")
-    p.add_argument("--target-rms", type=float_in(0.0, math.inf), metavar="E",
-                   help="say which setting of each backend reaches RMS error E fastest")
-    group = p.add_argument_group("where the settings run (each one a Dask task; a task never shares its cores "
-                                 "with another)")
+    p.add_argument(
+        "--family",
+        choices=("anti-aliasing", "area-light shadows"),
+        action="append",
+        help="study only this family of estimators (repeatable; default: every one that applies; "
+        "the anti-aliasing reference of a scene with area lights is slow)",
+    )
+    p.add_argument(
+        "--target-rms",
+        type=float_in(0.0, math.inf),
+        metavar="E",
+        help="say which setting of each backend reaches RMS error E fastest",
+    )
+    group = p.add_argument_group(
+        "where the settings run (each one a Dask task; a task never shares its cores with another)"
+    )
     add_cluster_options(group, "", "as many as the cores hold renders of --threads, one with all threads")
     p.set_defaults(func=run_bench)
 
 
 def run_bench(args) -> int:
-    from pathlib import Path
-
     from dataclasses import replace
+    from pathlib import Path
 
     from .. import bench, bench_tasks
     from ..rendering import check_settings, load_scene
@@ -69,11 +81,23 @@ def run_bench(args) -> int:
     overrides = replace(overrides_from_args(args), width=args.width or BENCH_WIDTH)
     settings = check_settings(scene, overrides.settings(scene))
     backends = ("native",) if args.native_only else bench.BACKEND_NAMES
-    print(f"{args.scene}: {settings.width} x {settings.height}, specular {settings.specular}, "
-          f"threads {settings.threads or 'all'}, best of {args.repeat}", flush=True)
-    result = bench_tasks.run(os.path.abspath(args.scene), scene, settings, repeat=args.repeat, quick=args.quick,
-                             backends=backends, families=args.family, scheduler=args.scheduler, workers=args.workers,
-                             log=lambda line: print(line, flush=True))
+    print(
+        f"{args.scene}: {settings.width} x {settings.height}, specular {settings.specular}, "
+        f"threads {settings.threads or 'all'}, best of {args.repeat}",
+        flush=True,
+    )
+    result = bench_tasks.run(
+        os.path.abspath(args.scene),
+        scene,
+        settings,
+        repeat=args.repeat,
+        quick=args.quick,
+        backends=backends,
+        families=args.family,
+        scheduler=args.scheduler,
+        workers=args.workers,
+        log=lambda line: print(line, flush=True),
+    )
     print()
     print(bench.table(result), end="")
     if args.target_rms is not None:

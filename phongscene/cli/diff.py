@@ -35,14 +35,20 @@ def add_diff_command(sub) -> None:
     )
     add_scene_argument(p)
     p.add_argument("-o", "--outdir", required=True, metavar="OUTDIR", help="report folder (created)")
-    add_override_options(p, mapping_help="POV-Ray mapping: exact (the seed model, default) or classic (plain POV-Ray "
-                         "phong)", mapping_default="exact",
-                         spp_help=f"{SPP_HELP} (RenderSettings.samples; default: the scene's)",
-                         threads_help="native worker threads (0 = all cores)")
+    add_override_options(
+        p,
+        mapping_help="POV-Ray mapping: exact (the seed model, default) or classic (plain POV-Ray phong)",
+        mapping_default="exact",
+        spp_help=f"{SPP_HELP} (RenderSettings.samples; default: the scene's)",
+        threads_help="native worker threads (0 = all cores)",
+    )
     add_timeout_option(p, "stop POV-Ray after SECONDS per process (exit 3)")
     add_threshold_options(p)
-    add_time_options(p, "a report per frame in OUTDIR/frame.####, and OUTDIR/index.html with a row per frame; "
-                     "exit 1 if any frame fails")
+    add_time_options(
+        p,
+        "a report per frame in OUTDIR/frame.####, and OUTDIR/index.html with a row per frame; "
+        "exit 1 if any frame fails",
+    )
     add_sandbox_option(p)
     p.set_defaults(func=run_diff)
 
@@ -56,8 +62,15 @@ def run_diff(args) -> int:
     if args.frames:
         return _diff_frames(args, limits)
     check_output_folder(args.outdir)  # before the renders; OUTDIR may be new, its parent must exist
-    result = diff(args.scene, args.outdir, overrides=overrides_from_args(args), thresholds=limits,
-                  progress=sys.stderr, timeout=args.timeout, sandbox=args.sandbox)
+    result = diff(
+        args.scene,
+        args.outdir,
+        overrides=overrides_from_args(args),
+        thresholds=limits,
+        progress=sys.stderr,
+        timeout=args.timeout,
+        sandbox=args.sandbox,
+    )
     s = result.settings
     print(f"{args.scene}: {s.width} x {s.height}, mapping {result.mapping} (native {s.specular})")
     print(f"  povray {result.timings['povray']:.3f} s, native {result.timings['native']:.3f} s")
@@ -77,14 +90,21 @@ def _diff_frames(args, limits) -> int:
     overrides = frame_overrides(args)
     outdir = os.path.abspath(args.outdir)
     folder = lambda f: os.path.join(outdir, frame_name(FRAME_FOLDER, f))  # noqa: E731
-    run = run_frames(args, diff_frame, lambda f: (os.path.abspath(args.scene), f, folder(f), overrides, limits),
-                     "frames diffed")
+    run = run_frames(
+        args, diff_frame, lambda f: (os.path.abspath(args.scene), f, folder(f), overrides, limits), "frames diffed"
+    )
     for frame in sorted(run.results):
         m = run.results[frame]
-        print(f"  frame {frame}: {'PASS' if m['ok'] else 'FAIL'}, max error {m['max_error']:.6g}, "
-              f"{m['failing_pixels']} failing pixels ({m['failing_percent']:.4g}%)")
-    index = write_frames_report(outdir, os.path.abspath(args.scene), run,
-                                {"mapping": args.mapping, "workers": run.workers, "seconds": run.seconds})
+        print(
+            f"  frame {frame}: {'PASS' if m['ok'] else 'FAIL'}, max error {m['max_error']:.6g}, "
+            f"{m['failing_pixels']} failing pixels ({m['failing_percent']:.4g}%)"
+        )
+    index = write_frames_report(
+        outdir,
+        os.path.abspath(args.scene),
+        run,
+        {"mapping": args.mapping, "workers": run.workers, "seconds": run.seconds},
+    )
     print(f"report: {index}")
     if run.failures:
         return EXIT_BACKEND
@@ -131,7 +151,11 @@ def run_compare(args) -> int:
 
         with atomic_folder(args.outdir) as tmp:  # the whole report, or none of it
             index = write_report(
-                tmp, a, b, report, labels=(Path(args.a).stem, Path(args.b).stem),
+                tmp,
+                a,
+                b,
+                report,
+                labels=(Path(args.a).stem, Path(args.b).stem),
                 title=f"phongscene compare: {Path(args.a).name} vs {Path(args.b).name}",
                 meta={"a": os.path.abspath(args.a), "b": os.path.abspath(args.b)},
             )

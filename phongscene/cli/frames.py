@@ -46,8 +46,15 @@ def run_frames(args, task, arguments, label: str):
     if len(args.frames) == 1 and not (args.scheduler or args.workers):
         run = run_serially(task, args.frames, arguments, progress=bar, on_frame=on_frame)
     else:
-        run = run_frames(task, args.frames, arguments, scheduler=args.scheduler, workers=args.workers,
-                         progress=bar, on_frame=on_frame)
+        run = run_frames(
+            task,
+            args.frames,
+            arguments,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            progress=bar,
+            on_frame=on_frame,
+        )
     bar.done(run.seconds)
     # Warnings the first frame did not have (a light that clips only later, ...), once each.
     later: dict[str, list[int]] = {}
@@ -56,11 +63,17 @@ def run_frames(args, task, arguments, label: str):
             if warning not in warnings:
                 later.setdefault(warning, []).append(frame)
     print_warnings(f"frames {', '.join(map(str, frames))}: {warning}" for warning, frames in later.items())
-    where = f"on {run.workers} Dask worker{'' if run.workers == 1 else 's'} ({run.cluster})" if run.cluster else "in this process"
+    where = (
+        f"on {run.workers} Dask worker{'' if run.workers == 1 else 's'} ({run.cluster})"
+        if run.cluster
+        else "in this process"
+    )
     print(f"{args.scene}: {len(run.results)} of {len(args.frames)} {label} {where} in {run.seconds:.2f} s")
     if run.failures:
-        print(f"error: frames failed (each tried {1 + TASK_RETRIES} times): "
-              f"{', '.join(map(str, sorted(run.failures)))}", file=sys.stderr)
+        print(
+            f"error: frames failed (each tried {1 + TASK_RETRIES} times): {', '.join(map(str, sorted(run.failures)))}",
+            file=sys.stderr,
+        )
     return run
 
 

@@ -20,9 +20,12 @@ def add_info_command(sub) -> None:
         epilog="Exit codes: 0 ok, 2 the scene is invalid (one problem per line on stderr).",
     )
     p.add_argument("scene", metavar="SCENE", nargs="?", help=SCENE_HELP)
-    p.add_argument("--usd-plugin-path", action="store_true",
-                   help="print the folder of the Phong shader's Sdr definition and exit: other USD tools know the "
-                   "shader with PXR_SDR_FS_PLUGIN_SEARCH_PATHS=<it> PXR_SDR_FS_PLUGIN_ALLOWED_EXTS=usda")
+    p.add_argument(
+        "--usd-plugin-path",
+        action="store_true",
+        help="print the folder of the Phong shader's Sdr definition and exit: other USD tools know the "
+        "shader with PXR_SDR_FS_PLUGIN_SEARCH_PATHS=<it> PXR_SDR_FS_PLUGIN_ALLOWED_EXTS=usda",
+    )
     p.set_defaults(func=run_info)
 
 
@@ -58,8 +61,10 @@ def run_info(args) -> int:
             for role, t in (("diffuseColor", m.diffuse_texture), ("specularColor", m.specular_texture)):
                 if t is not None:
                     # The file, not t.source: equal textures are shared, and source is the first prim read.
-                    print(f"  {m.source or '(material)'} {role} <- {t.file or '(no file)'}, "
-                          f"{t.width}x{t.height}, wrap {t.wrap_s}/{t.wrap_t}")
+                    print(
+                        f"  {m.source or '(material)'} {role} <- {t.file or '(no file)'}, "
+                        f"{t.width}x{t.height}, wrap {t.wrap_s}/{t.wrap_t}"
+                    )
     secondary = [m for m in materials if m.reflects or m.transmits]
     if secondary:
         print("reflect or refract (secondary rays, up to max_depth):")
@@ -74,7 +79,9 @@ def run_info(args) -> int:
             print(f"  {m.source or '(material)'}: {', '.join(terms)}")
     print(f"ambient: {_vector(scene.ambient.color)}")
     cam = scene.camera
-    extent = f"hfov {cam.horizontal_fov_deg:.6g} deg" if cam.projection == "perspective" else f"width {cam.ortho_width:.6g}"
+    extent = (
+        f"hfov {cam.horizontal_fov_deg:.6g} deg" if cam.projection == "perspective" else f"width {cam.ortho_width:.6g}"
+    )
     print(
         f"camera: {cam.source or '(model default)'}: {cam.projection}, {extent}, position {_vector(cam.position)}, "
         f"forward {_vector(cam.forward)}, up {_vector(cam.up)}"
@@ -104,8 +111,11 @@ def add_validate_command(sub) -> None:
     )
     add_scene_argument(p)
     p.add_argument("-q", "--quiet", action="store_true", help="do not print warnings")
-    p.add_argument("--strict", action="store_true",
-                   help="treat every warning (a typo'd name, an ignored feature, a default camera or light) as an error")
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help="treat every warning (a typo'd name, an ignored feature, a default camera or light) as an error",
+    )
     add_sandbox_option(p)
     p.set_defaults(func=run_validate)
 

@@ -20,9 +20,14 @@ def add_import_command(sub) -> None:
     )
     p.add_argument("mesh", metavar="MESHFILE", help="any format trimesh.load reads")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="USD file to write (.usda, .usdc, .usd)")
-    p.add_argument("--crease-angle", type=_degrees, default=None, metavar="DEG",
-                   help="for files without normals: split normals where faces meet at more than DEG degrees "
-                   "(default 30, Blender's auto smooth; 0 = flat, 180 = smooth everywhere)")
+    p.add_argument(
+        "--crease-angle",
+        type=_degrees,
+        default=None,
+        metavar="DEG",
+        help="for files without normals: split normals where faces meet at more than DEG degrees "
+        "(default 30, Blender's auto smooth; 0 = flat, 180 = smooth everywhere)",
+    )
     p.set_defaults(func=run_import)
 
 

@@ -23,9 +23,11 @@ MAPPING_CHOICES = ("exact", "classic")
 # The backends (phongscene.rendering.BACKENDS, checked by a test), named here so that importing
 # the CLI imports no numpy: Ctrl-C before main() has no handler yet.
 BACKEND_CHOICES = ("native", "povray")
-SPP_HELP = (f"anti-aliasing: N x N samples per pixel, N in 1..{MAX_SAMPLES} "
-            f"(stratified: at most N x N, N up to {MAX_STRATIFIED_SAMPLES}; adaptive: cells down to 1/N pixel, "
-            f"N a power of 2 up to {MAX_STRATIFIED_SAMPLES})")
+SPP_HELP = (
+    f"anti-aliasing: N x N samples per pixel, N in 1..{MAX_SAMPLES} "
+    f"(stratified: at most N x N, N up to {MAX_STRATIFIED_SAMPLES}; adaptive: cells down to 1/N pixel, "
+    f"N a power of 2 up to {MAX_STRATIFIED_SAMPLES})"
+)
 # The estimators only the native tracer has (validate.py refuses them for POV-Ray, naming the
 # scene's attribute; from the command line the option is named instead).
 NATIVE_ONLY_PATTERNS = ("stratified", "adaptive")
@@ -137,8 +139,15 @@ def add_threads_option(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--threads", type=thread_count, metavar="N", help=help)
 
 
-def add_override_options(p: argparse.ArgumentParser, *, mapping_help: str, mapping_default: str | None = None,
-                         spp_help: str = SPP_HELP, shadow_cells: bool = False, threads_help: str | None = None) -> None:
+def add_override_options(
+    p: argparse.ArgumentParser,
+    *,
+    mapping_help: str,
+    mapping_default: str | None = None,
+    spp_help: str = SPP_HELP,
+    shadow_cells: bool = False,
+    threads_help: str | None = None,
+) -> None:
     """The render overrides (``RenderOverrides``) but --time, which ``add_time_options`` adds:
     --mapping, the size, the anti-aliasing and the area-light estimators; --shadow-cells (native
     only) and --threads for the commands that render natively."""
@@ -149,21 +158,40 @@ def add_override_options(p: argparse.ArgumentParser, *, mapping_help: str, mappi
     p.add_argument("--width", type=image_side, metavar="W", help="image width (alone: keeps the aspect ratio)")
     p.add_argument("--height", type=image_side, metavar="H", help="image height (alone: keeps the aspect ratio)")
     p.add_argument("--spp", dest="samples", type=_samples_per_axis, metavar="N", help=spp_help)
-    p.add_argument("--sample-pattern", choices=SAMPLE_PATTERNS,
-                   help="anti-aliasing pattern (RenderSettings.sample_pattern; default: the scene's)")
-    p.add_argument("--aa-threshold", type=float_in(0.0, 1.0), metavar="T",
-                   help="POV-Ray's +A threshold of povray-am1/am2: supersample where colours differ by >= T "
-                   "(0: everywhere); stratified: its stopping tolerance; adaptive: split a cell of side s while "
-                   "its corners' spread x s^1.5 >= T")
-    p.add_argument("--max-depth", type=int_in(0, MAX_DEPTH), metavar="D",
-                   help="the deepest reflected or refracted ray (RenderSettings.max_depth, phong:maxDepth; the camera "
-                   "ray has depth 0, deeper rays return black; POV-Ray: max_trace_level D + 1; default: the scene's)")
-    p.add_argument("--shadow-adaptive", type=int_in(0, MAX_ADAPTIVE), metavar="N",
-                   help="POV-Ray's 'adaptive N' on every area light (default: each light's own)")
+    p.add_argument(
+        "--sample-pattern",
+        choices=SAMPLE_PATTERNS,
+        help="anti-aliasing pattern (RenderSettings.sample_pattern; default: the scene's)",
+    )
+    p.add_argument(
+        "--aa-threshold",
+        type=float_in(0.0, 1.0),
+        metavar="T",
+        help="POV-Ray's +A threshold of povray-am1/am2: supersample where colours differ by >= T "
+        "(0: everywhere); stratified: its stopping tolerance; adaptive: split a cell of side s while "
+        "its corners' spread x s^1.5 >= T",
+    )
+    p.add_argument(
+        "--max-depth",
+        type=int_in(0, MAX_DEPTH),
+        metavar="D",
+        help="the deepest reflected or refracted ray (RenderSettings.max_depth, phong:maxDepth; the camera "
+        "ray has depth 0, deeper rays return black; POV-Ray: max_trace_level D + 1; default: the scene's)",
+    )
+    p.add_argument(
+        "--shadow-adaptive",
+        type=int_in(0, MAX_ADAPTIVE),
+        metavar="N",
+        help="POV-Ray's 'adaptive N' on every area light (default: each light's own)",
+    )
     if shadow_cells:
-        p.add_argument("--shadow-cells", type=_power_of_two_in(2, MAX_CELL_SAMPLES), metavar="K",
-                       help="native only: the cells shadow estimator on every area light, K x K points in each grid "
-                       "cell whose corners disagree (K a power of 2; phong:shadowCellSamples)")
+        p.add_argument(
+            "--shadow-cells",
+            type=_power_of_two_in(2, MAX_CELL_SAMPLES),
+            metavar="K",
+            help="native only: the cells shadow estimator on every area light, K x K points in each grid "
+            "cell whose corners disagree (K a power of 2; phong:shadowCellSamples)",
+        )
     if threads_help is not None:
         add_threads_option(p, threads_help)
 
@@ -176,44 +204,69 @@ def add_time_options(p: argparse.ArgumentParser, output: str) -> None:
     group = p.add_argument_group("time (an animated stage; default: its start time, with a warning)")
     when = group.add_mutually_exclusive_group()
     when.add_argument("--time", type=_time_code, metavar="T", help="read the stage at USD time code T")
-    when.add_argument("--frames", type=_frame_range, metavar="START:END[:STEP]",
-                      help=f"frames START, START+STEP, ... END (whole time codes): {output}. Frames run as Dask "
-                      "tasks: a LocalCluster here, or --scheduler")
+    when.add_argument(
+        "--frames",
+        type=_frame_range,
+        metavar="START:END[:STEP]",
+        help=f"frames START, START+STEP, ... END (whole time codes): {output}. Frames run as Dask "
+        "tasks: a LocalCluster here, or --scheduler",
+    )
     add_cluster_options(group, "with --frames: ", "one per core")
 
 
 def add_cluster_options(group, which: str, default_workers: str) -> None:
     """--scheduler and --workers: where Dask runs the tasks (frames, bench settings)."""
-    group.add_argument("--scheduler", metavar="tcp://HOST:PORT",
-                       help=f"{which}an existing Dask scheduler (default: $DASK_SCHEDULER_ADDRESS, else a "
-                       "LocalCluster); workers must see the scene and the output at the same paths")
-    group.add_argument("--workers", type=int_in(1), metavar="N",
-                       help=f"{which}LocalCluster worker processes (default: {default_workers})")
+    group.add_argument(
+        "--scheduler",
+        metavar="tcp://HOST:PORT",
+        help=f"{which}an existing Dask scheduler (default: $DASK_SCHEDULER_ADDRESS, else a "
+        "LocalCluster); workers must see the scene and the output at the same paths",
+    )
+    group.add_argument(
+        "--workers",
+        type=int_in(1),
+        metavar="N",
+        help=f"{which}LocalCluster worker processes (default: {default_workers})",
+    )
 
 
 def add_threshold_options(p: argparse.ArgumentParser, by_format: bool = False) -> None:
     from ..comparison import HALF_FLOAT as t  # OpenImageIO: only when a parser is built
 
-    title = ("thresholds (idiff vocabulary; default: by the files' formats: half-float precision for float "
-             "images, one code step for 8-bit ones)" if by_format else
-             "thresholds (idiff vocabulary; default: half-float precision)")
+    title = (
+        "thresholds (idiff vocabulary; default: by the files' formats: half-float precision for float "
+        "images, one code step for 8-bit ones)"
+        if by_format
+        else "thresholds (idiff vocabulary; default: half-float precision)"
+    )
     group = p.add_argument_group(title)
     # Defaults are None: a given option overrides one field of the default thresholds.
-    group.add_argument("--fail", type=float, metavar="ABS",
-                       help=f"absolute error always accepted (half-float default {t.fail:.3g}, one subnormal half step)")
-    group.add_argument("--fail-relative", type=float, metavar="REL",
-                       help=f"error accepted relative to mean(|a|,|b|) (half-float default {t.fail_relative:.3g} "
-                       "= 2 x 2^-11)")
-    group.add_argument("--fail-percent", type=float, metavar="PCT",
-                       help=f"%% of pixels allowed to fail (default {t.fail_percent:g})")
-    group.add_argument("--hard-fail", type=float, metavar="ABS",
-                       help="any error above this fails (default: none)")
+    group.add_argument(
+        "--fail",
+        type=float,
+        metavar="ABS",
+        help=f"absolute error always accepted (half-float default {t.fail:.3g}, one subnormal half step)",
+    )
+    group.add_argument(
+        "--fail-relative",
+        type=float,
+        metavar="REL",
+        help=f"error accepted relative to mean(|a|,|b|) (half-float default {t.fail_relative:.3g} = 2 x 2^-11)",
+    )
+    group.add_argument(
+        "--fail-percent", type=float, metavar="PCT", help=f"%% of pixels allowed to fail (default {t.fail_percent:g})"
+    )
+    group.add_argument("--hard-fail", type=float, metavar="ABS", help="any error above this fails (default: none)")
 
 
 def add_sandbox_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--no-sandbox", dest="sandbox", action="store_false",
-                   help="read SCENE in this process (default: in a child process with a memory limit, so that a "
-                   "corrupt file that crashes USD is an error, not a crash; ~0.5 s more)")
+    p.add_argument(
+        "--no-sandbox",
+        dest="sandbox",
+        action="store_false",
+        help="read SCENE in this process (default: in a child process with a memory limit, so that a "
+        "corrupt file that crashes USD is an error, not a crash; ~0.5 s more)",
+    )
 
 
 # ----------------------------------------------------------------------------------------------
@@ -228,8 +281,10 @@ def check_estimator_options(args) -> None:
         raise UsageError(f"argument --spp: expected a power of 2 with --sample-pattern adaptive, got {spp}")
     povray = args.command in ("diff", "compile") or getattr(args, "backend", None) == "povray"
     if povray and pattern in NATIVE_ONLY_PATTERNS:
-        raise UsageError(f"argument --sample-pattern: {pattern!r} is the native tracer's own; POV-Ray renders grid, "
-                         "povray-am1, povray-am2")
+        raise UsageError(
+            f"argument --sample-pattern: {pattern!r} is the native tracer's own; POV-Ray renders grid, "
+            "povray-am1, povray-am2"
+        )
 
 
 def overrides_from_args(args) -> RenderOverrides:

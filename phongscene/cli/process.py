@@ -27,7 +27,7 @@ TERMINATING_SIGNALS = ("SIGTERM", "SIGHUP")
 # occurred postprocessing module" and the import goes on half-done), so an early Ctrl-C was lost.
 PREIMPORTS = {
     "compare": ("OpenImageIO",),
-    **{command: ("pxr.Usd", "OpenImageIO") for command in ("diff", "info", "validate", "import", "compile")},
+    **dict.fromkeys(("diff", "info", "validate", "import", "compile"), ("pxr.Usd", "OpenImageIO")),
     # OpenImageIO's libraries (~32 MiB resident) only once the C++ scene is freed, for the write
     # (cli/render.py): imported first, they sat under the BVH build's peak (benchmarks/README.md).
     "render": ("pxr.Usd",),

@@ -32,13 +32,21 @@ def add_render_command(sub) -> None:
     add_scene_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="IMAGE", help="output image, .exr or .png (atomic write)")
     p.add_argument("--backend", choices=BACKEND_CHOICES, default="native", help="renderer (default: native)")
-    add_override_options(p, mapping_help="specular convention: exact (the seed model) or classic (plain POV-Ray "
-                         "phong, native 'povray-classic'); default: the scene's",
-                         shadow_cells=True, threads_help="worker threads (0 = all cores)")
+    add_override_options(
+        p,
+        mapping_help="specular convention: exact (the seed model) or classic (plain POV-Ray "
+        "phong, native 'povray-classic'); default: the scene's",
+        shadow_cells=True,
+        threads_help="worker threads (0 = all cores)",
+    )
     add_timeout_option(p, "--backend povray only: stop POV-Ray after SECONDS (exit 3)")
-    p.add_argument("--display", choices=("srgb", "book", "book-gamut"), default="srgb",
-                   help="how a .png encodes the linear image: srgb (default: clip, sRGB), book (Suffern's display: "
-                   "max_to_one, gamma 1, truncation) or book-gamut (its out-of-gamut red instead of max_to_one)")
+    p.add_argument(
+        "--display",
+        choices=("srgb", "book", "book-gamut"),
+        default="srgb",
+        help="how a .png encodes the linear image: srgb (default: clip, sRGB), book (Suffern's display: "
+        "max_to_one, gamma 1, truncation) or book-gamut (its out-of-gamut red instead of max_to_one)",
+    )
     add_time_options(p, "one image per frame, #### in IMAGE becomes the frame number")
     p.set_defaults(func=run_render)
 
@@ -93,9 +101,12 @@ def _render_frames(args) -> int:
     check_frame_pattern(args.output, "out.####.exr")
     overrides = frame_overrides(args)
     scene = os.path.abspath(args.scene)
-    run = run_frames(args, render_frame,
-                     lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), args.backend, overrides),
-                     "frames rendered")
+    run = run_frames(
+        args,
+        render_frame,
+        lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), args.backend, overrides),
+        "frames rendered",
+    )
     if run.results:
         m = next(iter(run.results.values()))
         print(f"{args.output}: {m['width']} x {m['height']}, {args.backend}, specular {m['specular']}")
@@ -113,8 +124,11 @@ def add_compile_command(sub) -> None:
     )
     add_scene_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT.pov", help="the SDL file to write")
-    add_override_options(p, mapping_help="exact (the seed model, one pass per light) or classic (one plain POV-Ray "
-                         "finish per material); default: the scene's specular convention")
+    add_override_options(
+        p,
+        mapping_help="exact (the seed model, one pass per light) or classic (one plain POV-Ray "
+        "finish per material); default: the scene's specular convention",
+    )
     add_time_options(p, "a .pov and an .ini per frame, #### in OUT.pov becomes the frame number")
     p.set_defaults(func=run_compile)
 
@@ -163,8 +177,12 @@ def _compile_frames(args) -> int:
     check_frame_pattern(args.output, "out.####.pov")
     overrides = frame_overrides(args)
     scene = os.path.abspath(args.scene)
-    run = run_frames(args, compile_frame, lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), overrides),
-                     "frames compiled")
+    run = run_frames(
+        args,
+        compile_frame,
+        lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), overrides),
+        "frames compiled",
+    )
     for frame in sorted(run.results):
         print(f"  {run.results[frame]['output']}")
     return EXIT_BACKEND if run.failures else EXIT_OK

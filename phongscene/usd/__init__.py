@@ -15,20 +15,22 @@ from .reader import OpenStage, ReadResult, load_usd, open_stage, read_usd  # noq
 
 # The writer's names, imported on first use (PEP 562): reading a scene does not need the writer
 # (nor the hashing and file helpers it imports), and a render's start-up is issue 15's.
-_WRITER_NAMES = frozenset({
-    "bind_material",
-    "define_camera",
-    "define_light",
-    "define_mesh",
-    "define_phong_material",
-    "define_render_settings",
-    "define_sphere",
-    "import_mesh",
-    "new_stage",
-    "save_stage",
-    "scene_to_stage",
-    "write_usd",
-})
+_WRITER_NAMES = frozenset(
+    {
+        "bind_material",
+        "define_camera",
+        "define_light",
+        "define_mesh",
+        "define_phong_material",
+        "define_render_settings",
+        "define_sphere",
+        "import_mesh",
+        "new_stage",
+        "save_stage",
+        "scene_to_stage",
+        "write_usd",
+    }
+)
 
 if TYPE_CHECKING:
     from .writer import (

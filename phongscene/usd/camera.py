@@ -18,7 +18,6 @@ from .context import ReadContext, unit
 from .names import FLOAT_TYPES, INT_TYPES, STRING_TYPES
 
 
-
 def read_render_settings(ctx: ReadContext) -> tuple[RenderSettings, Usd.Prim | None]:
     prim = UsdRender.Settings.GetStageRenderSettings(ctx.stage).GetPrim()
     if not prim:
@@ -36,7 +35,9 @@ def read_render_settings(ctx: ReadContext) -> tuple[RenderSettings, Usd.Prim | N
             if not (1 <= width <= MAX_IMAGE_SIDE and 1 <= height <= MAX_IMAGE_SIDE):
                 ctx.problem(prim, "resolution", f"must be two integers in 1..{MAX_IMAGE_SIDE}, got ({width}, {height})")
             elif width * height > MAX_PIXELS:
-                ctx.problem(prim, "resolution", f"width × height must be at most {MAX_PIXELS} pixels, got {width} × {height}")
+                ctx.problem(
+                    prim, "resolution", f"width × height must be at most {MAX_PIXELS} pixels, got {width} × {height}"
+                )
             else:
                 values["width"], values["height"] = width, height
     samples = ctx.get(prim, names.SAMPLES, INT_TYPES)
@@ -89,7 +90,10 @@ def conform_to_aperture(ctx: ReadContext, prim: Usd.Prim, settings: RenderSettin
     image_aspect = settings.width / settings.height
     if abs(image_aspect / aperture_aspect - 1.0) <= ASPECT_TOLERANCE:
         return settings
-    if not settings.source or not UsdRender.Settings(ctx.stage.GetPrimAtPath(settings.source)).GetResolutionAttr().HasAuthoredValue():
+    if (
+        not settings.source
+        or not UsdRender.Settings(ctx.stage.GetPrimAtPath(settings.source)).GetResolutionAttr().HasAuthoredValue()
+    ):
         return replace(settings, height=max(1, round(settings.width / aperture_aspect)))
     ctx.warn(
         f"{prim.GetPath()}: the aperture aspect {aperture_aspect:.4g} differs from the image's {image_aspect:.4g} "

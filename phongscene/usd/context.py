@@ -15,9 +15,7 @@ from ..tolerances import KEEP_UNIT
 from .names import COLOR_TYPES, FLOAT_TYPES
 
 # A Z-up stage is rotated −90° about X into the model's Y-up frame: (x, y, z) → (x, z, −y).
-Z_UP_TO_Y_UP = np.array(
-    [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
-)
+Z_UP_TO_Y_UP = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
 
 
 def tf_error_text(error: Exception) -> str:
@@ -53,8 +51,9 @@ def gf_to_numpy(m: Gf.Matrix4d) -> np.ndarray:
 class ReadContext:
     """Problems, warnings and transforms for one stage being read."""
 
-    def __init__(self, stage: Usd.Stage, file: str, time: Usd.TimeCode = Usd.TimeCode.Default(),
-                 types: dict | None = None):
+    def __init__(
+        self, stage: Usd.Stage, file: str, time: Usd.TimeCode = Usd.TimeCode.Default(), types: dict | None = None
+    ):
         self.stage = stage
         self.file = file
         self.problems: list[Problem] = []

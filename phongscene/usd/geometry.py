@@ -43,7 +43,9 @@ ON_AXIS_DISTANCE = 1e-12
 
 SEGMENTS = 64  # around the axis of Cylinder, Cone, Capsule: chord error r·(1 − cos(π/64)) ≈ 1.2e-3·r
 POINT_TYPES = ("point3f[]", "point3d[]", "float3[]", "double3[]")
-NORMAL_TYPES = tuple(t + "[]" for t in ("normal3f", "normal3d", "normal3h", "vector3f", "vector3d", "float3", "double3", "half3"))
+NORMAL_TYPES = tuple(
+    t + "[]" for t in ("normal3f", "normal3d", "normal3h", "vector3f", "vector3d", "float3", "double3", "half3")
+)
 # Cyclic permutations taking the object's Z axis to the USD `axis` (proper rotations, det +1).
 AXIS_FROM_Z = {
     "X": np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
@@ -79,8 +81,11 @@ def _normals_to_world(ctx: ReadContext, prim: Usd.Prim, normals: np.ndarray, wor
     a = world[:3, :3]
     if not np.array_equal(a, np.eye(3)):
         if is_singular(a):
-            ctx.problem(prim, "xformOpOrder", "the world transform is singular (a zero or degenerate scale): "
-                        "its normals cannot be transformed")
+            ctx.problem(
+                prim,
+                "xformOpOrder",
+                "the world transform is singular (a zero or degenerate scale): its normals cannot be transformed",
+            )
             return None
         normals = normals @ np.linalg.inv(a)
     lengths = np.linalg.norm(normals, axis=1)
@@ -105,14 +110,24 @@ def _ear_clip_concave_faces(fv, corners, counts, first_tri) -> None:
         row = first_tri[quads]
         p0, p1, p2, p3 = corners[fv[row, 0]], corners[fv[row, 1]], corners[fv[row, 2]], corners[fv[row + 1, 2]]
         d1, d2, d3 = p1 - p0, p2 - p0, p3 - p0
-        a1 = (d1[:, 1] * d2[:, 2] - d1[:, 2] * d2[:, 1], d1[:, 2] * d2[:, 0] - d1[:, 0] * d2[:, 2], d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
-        a2 = (d2[:, 1] * d3[:, 2] - d2[:, 2] * d3[:, 1], d2[:, 2] * d3[:, 0] - d2[:, 0] * d3[:, 2], d2[:, 0] * d3[:, 1] - d2[:, 1] * d3[:, 0])
+        a1 = (
+            d1[:, 1] * d2[:, 2] - d1[:, 2] * d2[:, 1],
+            d1[:, 2] * d2[:, 0] - d1[:, 0] * d2[:, 2],
+            d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0],
+        )
+        a2 = (
+            d2[:, 1] * d3[:, 2] - d2[:, 2] * d3[:, 1],
+            d2[:, 2] * d3[:, 0] - d2[:, 0] * d3[:, 2],
+            d2[:, 0] * d3[:, 1] - d2[:, 1] * d3[:, 0],
+        )
         bad = quads[a1[0] * a2[0] + a1[1] * a2[1] + a1[2] * a2[2] < 0]
         big = np.union1d(big, bad)  # those go through the general test and ear clipping below
     if not big.size:
         return
     per_face = counts[big] - 2
-    rows = np.repeat(first_tri[big], per_face) + (np.arange(int(per_face.sum())) - np.repeat(np.cumsum(per_face) - per_face, per_face))
+    rows = np.repeat(first_tri[big], per_face) + (
+        np.arange(int(per_face.sum())) - np.repeat(np.cumsum(per_face) - per_face, per_face)
+    )
     a, b, c = corners[fv[rows, 0]], corners[fv[rows, 1]], corners[fv[rows, 2]]
     e1, e2 = b - a, c - a
     area = np.empty_like(e1)  # twice the fan triangles' area vectors, e1 × e2
@@ -123,7 +138,9 @@ def _ear_clip_concave_faces(fv, corners, counts, first_tri) -> None:
     against = np.einsum("ij,ij->i", area, np.repeat(normal, per_face, axis=0)) < 0
     for j in np.unique(np.repeat(np.arange(len(big)), per_face)[against]):
         row = int(first_tri[big[j]])
-        ids = np.concatenate([fv[row : row + per_face[j], 0][:1], fv[row : row + per_face[j], 1], fv[row + per_face[j] - 1, 2:]])
+        ids = np.concatenate(
+            [fv[row : row + per_face[j], 0][:1], fv[row : row + per_face[j], 1], fv[row + per_face[j] - 1, 2:]]
+        )
         triangles = _ear_clip(corners[ids], normal[j])
         if triangles is not None:  # else degenerate or self-intersecting: keep the fan
             fv[row : row + len(triangles)] = ids[np.asarray(triangles)]
@@ -193,7 +210,9 @@ def mesh(
     part_of_face = np.full(n_faces, -1, dtype=np.int64)
     for j, (source, _, faces) in enumerate(subsets):
         if faces.min() < 0 or faces.max() >= n_faces:
-            ctx.problem(source, "indices", f"face indices must be in [0, {n_faces}), got {int(faces.min())}..{int(faces.max())}")
+            ctx.problem(
+                source, "indices", f"face indices must be in [0, {n_faces}), got {int(faces.min())}..{int(faces.max())}"
+            )
             return ()
         free = faces[part_of_face[faces] == -1]
         part_of_face[free] = j
@@ -204,11 +223,18 @@ def mesh(
         if mesh_.uvs is None and part_material.textures:
             part_material = part_material.without_textures()  # no st: the fallback colours
         if keep.any():
-            out.append(TriangleMesh(
-                mesh_.points, mesh_.triangles[keep], mesh_.normals,
-                None if mesh_.normal_indices is None else mesh_.normal_indices[keep], part_material, source,
-                mesh_.uvs, None if mesh_.uv_indices is None else mesh_.uv_indices[keep],
-            ))
+            out.append(
+                TriangleMesh(
+                    mesh_.points,
+                    mesh_.triangles[keep],
+                    mesh_.normals,
+                    None if mesh_.normal_indices is None else mesh_.normal_indices[keep],
+                    part_material,
+                    source,
+                    mesh_.uvs,
+                    None if mesh_.uv_indices is None else mesh_.uv_indices[keep],
+                )
+            )
     return tuple(out)
 
 
@@ -242,7 +268,9 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
         ctx.problem(prim, "faceVertexCounts", f"must be >= 0, got {int(counts.min())}")
         return None
     if int(counts.sum()) != len(idx):
-        ctx.problem(prim, "faceVertexCounts", f"sums to {int(counts.sum())}, but faceVertexIndices has {len(idx)} entries")
+        ctx.problem(
+            prim, "faceVertexCounts", f"sums to {int(counts.sum())}, but faceVertexIndices has {len(idx)} entries"
+        )
         return None
     out_of_range = (idx < 0) | (idx >= len(p))
     if out_of_range.any():
@@ -295,7 +323,11 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     normals = _mesh_normals(ctx, prim, len(p), len(idx), len(counts), fv, triangles, face_of_tri, p)
     if len(ctx.problems) > n_problems:
         return None
-    uvs = None if st is None else textures.mesh_uvs(ctx, prim, st, (len(p), len(idx), len(counts)), fv, triangles, face_of_tri)
+    uvs = (
+        None
+        if st is None
+        else textures.mesh_uvs(ctx, prim, st, (len(p), len(idx), len(counts)), fv, triangles, face_of_tri)
+    )
     if len(ctx.problems) > n_problems:
         return None
     uv_values, uv_indices = (None, None) if uvs is None else uvs
@@ -303,12 +335,20 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
         material = material.without_textures()  # no st: the fallback colours
     world_points = _to_world(p, world)
     if normals is None:
-        return TriangleMesh(world_points, triangles, material=material, source=path, uvs=uv_values, uv_indices=uv_indices), face_of_tri, len(counts)
+        return (
+            TriangleMesh(world_points, triangles, material=material, source=path, uvs=uv_values, uv_indices=uv_indices),
+            face_of_tri,
+            len(counts),
+        )
     values, normal_indices = normals
     world_normals = _normals_to_world(ctx, prim, values, world)
     if world_normals is None:
         return None
-    return TriangleMesh(world_points, triangles, world_normals, normal_indices, material, path, uv_values, uv_indices), face_of_tri, len(counts)
+    return (
+        TriangleMesh(world_points, triangles, world_normals, normal_indices, material, path, uv_values, uv_indices),
+        face_of_tri,
+        len(counts),
+    )
 
 
 def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_of_tri, points):
@@ -326,7 +366,9 @@ def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_o
     type_name = ctx.authored_type(attr)
     if type_name not in NORMAL_TYPES:
         # As USD renderers do: the mesh is drawn, without the normals it cannot read.
-        ctx.warn(f"{prim.GetPath()}.{name}: has type {type_name}, expected normal3f[] (ignored: the mesh is flat-shaded)")
+        ctx.warn(
+            f"{prim.GetPath()}.{name}: has type {type_name}, expected normal3f[] (ignored: the mesh is flat-shaded)"
+        )
         return None
     values = np.asarray(attr.Get(ctx.time), dtype=np.float64).reshape(-1, 3)
     expected = {
@@ -460,8 +502,11 @@ def intrinsic(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: Pho
         length = ctx.number(prim, "length", 2.0, minimum=0.0, strict=True)
         # Width along X and length along Y for axis Z; (width z, length y) for X and
         # (width x, length z) for Y (schema doc): object x is the width, y the length, z the normal.
-        columns = {"Z": ((1, 0, 0), (0, 1, 0), (0, 0, 1)), "X": ((0, 0, 1), (0, 1, 0), (1, 0, 0)),
-                   "Y": ((1, 0, 0), (0, 0, 1), (0, 1, 0))}[axis]
+        columns = {
+            "Z": ((1, 0, 0), (0, 1, 0), (0, 0, 1)),
+            "X": ((0, 0, 1), (0, 1, 0), (1, 0, 0)),
+            "Y": ((1, 0, 0), (0, 0, 1), (0, 1, 0)),
+        }[axis]
         placed[:3, :3] = np.array(columns, dtype=np.float64).T
         infinite = bool(ctx.get(prim, INFINITE, BOOL_TYPES, False))
         kind, scale = "plane", (1.0, 1.0, 1.0) if infinite else (width / 2, length / 2, 1.0)
@@ -517,7 +562,9 @@ def primitive(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: Pho
         axis = "Z"  # already placed
     else:
         radius = ctx.number(prim, "radius", 1.0, minimum=0.0, strict=True)
-        height = ctx.number(prim, "height", 2.0 if type_name != "Capsule" else 1.0, minimum=0.0, strict=type_name != "Capsule")
+        height = ctx.number(
+            prim, "height", 2.0 if type_name != "Capsule" else 1.0, minimum=0.0, strict=type_name != "Capsule"
+        )
         if len(ctx.problems) > n_problems:
             return None
         if type_name == "Cylinder":
@@ -533,7 +580,9 @@ def primitive(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: Pho
         else:  # Capsule: the normal points away from the nearest point of the spine segment
             tm = trimesh.creation.capsule(height=height, radius=radius, count=[SEGMENTS, SEGMENTS // 2])
             half = height / 2
-            normals = _smooth_corner_normals(tm, lambda p, fn: p - np.column_stack([np.zeros((len(p), 2)), np.clip(p[:, 2], -half, half)]))
+            normals = _smooth_corner_normals(
+                tm, lambda p, fn: p - np.column_stack([np.zeros((len(p), 2)), np.clip(p[:, 2], -half, half)])
+            )
     if len(ctx.problems) > n_problems:
         return None
     if axis not in AXIS_FROM_Z:
@@ -550,7 +599,9 @@ def primitive(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: Pho
         world_normals = _normals_to_world(ctx, prim, values, world)
         if world_normals is None:
             return None
-        return TriangleMesh(_to_world(np.asarray(tm.vertices), world), triangles, world_normals, normal_indices, material, path)
+        return TriangleMesh(
+            _to_world(np.asarray(tm.vertices), world), triangles, world_normals, normal_indices, material, path
+        )
     if _winding_flipped(world):
         triangles = triangles[:, [0, 2, 1]]
     return TriangleMesh(_to_world(np.asarray(tm.vertices), world), triangles, material=material, source=path)

@@ -66,8 +66,14 @@ def preflight(path: str) -> list[Sdf.Layer]:
             resolved = str(resolver.Resolve(anchored)) or anchored
             why = not_regular(resolved)
             if why is not None:
-                raise SceneError(Problem(f"@{dependency}@ ({resolved}) {why}", prim=str(spec.path) if spec else "",
-                                         attribute=arc, file=layer.realPath or layer.identifier))
+                raise SceneError(
+                    Problem(
+                        f"@{dependency}@ ({resolved}) {why}",
+                        prim=str(spec.path) if spec else "",
+                        attribute=arc,
+                        file=layer.realPath or layer.identifier,
+                    )
+                )
             pending.append(resolved)
     return opened
 

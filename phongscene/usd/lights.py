@@ -151,7 +151,6 @@ def _shadow_cell_samples(ctx: ReadContext, prim: Usd.Prim) -> int | None:
     return None if k is None else int(k)
 
 
-
 @dataclass(frozen=True)
 class _Common:
     """What every UsdLux light has, read (in this order) before its type's own inputs."""
@@ -191,9 +190,14 @@ def read_light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) ->
         if max(made.color) > MAX_RADIANCE:
             exposure = prim.GetAttribute("inputs:exposure")
             attribute = "inputs:exposure" if exposure and exposure.HasAuthoredValue() else "inputs:intensity"
-            ctx.problem(prim, attribute, (
-                f"the light's radiance intensity · 2^exposure · color (× its area) is {max(made.color):.4g}, beyond the "
-                f"{MAX_RADIANCE:.4g} the renderers' float32 radiance can shade without overflowing to inf"))
+            ctx.problem(
+                prim,
+                attribute,
+                (
+                    f"the light's radiance intensity · 2^exposure · color (× its area) is {max(made.color):.4g}, beyond the "
+                    f"{MAX_RADIANCE:.4g} the renderers' float32 radiance can shade without overflowing to inf"
+                ),
+            )
             del lights[first_light:], ambient[first_ambient:]
             break
 
@@ -225,14 +229,18 @@ def _sphere_light(ctx: ReadContext, prim: Usd.Prim, light: _Common, lights: list
     else:
         colour = luminance * (math.pi * radius_world**2)
         if radius_world == 0 and np.any(luminance > 0):
-            ctx.unsupported["point lights of radius 0 without inputs:normalize (they emit nothing in UsdLux)"].append(path)
+            ctx.unsupported["point lights of radius 0 without inputs:normalize (they emit nothing in UsdLux)"].append(
+                path
+            )
     if point:
         if prim.GetAttribute(names.SHADOW_SAMPLES).HasAuthoredValue():
             ctx.problem(prim, names.SHADOW_SAMPLES, "applies to area lights only (this SphereLight is a point light)")
         fade_distance = ctx.number(prim, names.FADE_DISTANCE, 0.0)
         fade_power = ctx.number(prim, names.FADE_POWER, 0.0)
         cone = _cone(ctx, prim, world)
-        lights.append(PointLight(light.centre, _rgb(colour), fade_distance, fade_power, path, light.falloff, cone, **terms))
+        lights.append(
+            PointLight(light.centre, _rgb(colour), fade_distance, fade_power, path, light.falloff, cone, **terms)
+        )
         ctx.nodes.append((path, "PointLight" + ("" if seed else " (UsdLux)")))
     else:
         if _shaping(ctx, prim) is not None:
@@ -242,8 +250,15 @@ def _sphere_light(ctx: ReadContext, prim: Usd.Prim, light: _Common, lights: list
                 ctx.problem(prim, name, "applies to point lights only (treatAsPoint or radius 0)")
         lights.append(
             SphereAreaLight(
-                light.centre, radius_world, _rgb(colour), _shadow_samples(ctx, prim), path, light.falloff,
-                adaptive=_shadow_adaptive(ctx, prim), cell_samples=_shadow_cell_samples(ctx, prim), **terms,
+                light.centre,
+                radius_world,
+                _rgb(colour),
+                _shadow_samples(ctx, prim),
+                path,
+                light.falloff,
+                adaptive=_shadow_adaptive(ctx, prim),
+                cell_samples=_shadow_cell_samples(ctx, prim),
+                **terms,
             )
         )
         ctx.nodes.append((path, "SphereAreaLight" + ("" if seed else " (UsdLux)")))
@@ -282,8 +297,9 @@ def _distant_light(ctx: ReadContext, prim: Usd.Prim, light: _Common, lights: lis
         factor = _blender_sun_factor(ctx)
         if factor != 1.0:
             irradiance = irradiance * factor
-            ctx.unsupported["Blender suns (its exporter writes strength S as intensity S/4: read as S, "
-                            "as Cycles renders them)"].append(light.path)
+            ctx.unsupported[
+                "Blender suns (its exporter writes strength S as intensity S/4: read as S, as Cycles renders them)"
+            ].append(light.path)
     lights.append(DirectionalLight(tuple(float(c) for c in direction), _rgb(irradiance), light.path, **light.terms))
     ctx.nodes.append((light.path, "DirectionalLight"))
 
@@ -307,7 +323,9 @@ def _disk_light(ctx: ReadContext, prim: Usd.Prim, light: _Common, lights: list, 
     _rect_area_light(ctx, prim, light, width, height, lights)
 
 
-def _rect_area_light(ctx: ReadContext, prim: Usd.Prim, light: _Common, width: float, height: float, lights: list) -> None:
+def _rect_area_light(
+    ctx: ReadContext, prim: Usd.Prim, light: _Common, width: float, height: float, lights: list
+) -> None:
     """A rectangle of ``width`` × ``height`` in the light's XY plane, facing its −Z axis."""
     axis_u = light.world[:3, :3] @ np.array([width, 0.0, 0.0])
     axis_v = light.world[:3, :3] @ np.array([0.0, height, 0.0])
@@ -317,8 +335,16 @@ def _rect_area_light(ctx: ReadContext, prim: Usd.Prim, light: _Common, width: fl
         colour = light.luminance * float(np.linalg.norm(np.cross(axis_u, axis_v)))
     lights.append(
         RectAreaLight(
-            light.centre, _rgb(axis_u), _rgb(axis_v), _rgb(colour), _shadow_samples(ctx, prim), light.path, light.falloff,
-            adaptive=_shadow_adaptive(ctx, prim), cell_samples=_shadow_cell_samples(ctx, prim), **light.terms,
+            light.centre,
+            _rgb(axis_u),
+            _rgb(axis_v),
+            _rgb(colour),
+            _shadow_samples(ctx, prim),
+            light.path,
+            light.falloff,
+            adaptive=_shadow_adaptive(ctx, prim),
+            cell_samples=_shadow_cell_samples(ctx, prim),
+            **light.terms,
         )
     )
     ctx.nodes.append((light.path, "RectAreaLight" + ("" if light.seed else " (UsdLux)")))

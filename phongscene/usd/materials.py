@@ -167,7 +167,9 @@ class MaterialReader:
             network = MDL_NETWORKS.get(shader.GetSourceAssetSubIdentifier(MDL_SOURCE_TYPE))
             if network is not None:
                 return self._network(shader, network)
-            shader_id = f"{shader.GetSourceAsset(MDL_SOURCE_TYPE)} {shader.GetSourceAssetSubIdentifier(MDL_SOURCE_TYPE)}"
+            shader_id = (
+                f"{shader.GetSourceAsset(MDL_SOURCE_TYPE)} {shader.GetSourceAssetSubIdentifier(MDL_SOURCE_TYPE)}"
+            )
         self.ctx.unsupported["unknown surface shaders (rendered grey)"].append(f"{shader.GetPath()} ({shader_id})")
         return DEFAULT_MATERIAL
 
@@ -187,7 +189,9 @@ class MaterialReader:
             where = f"{shader.GetPath()}.inputs:{name}"
             connected = self.textures.connected(shader, name)
             if connected is not None:
-                self.ctx.unsupported["textured inputs without a per-point model (the texture's mean is used)"].append(where)
+                self.ctx.unsupported["textured inputs without a per-point model (the texture's mean is used)"].append(
+                    where
+                )
                 if connected.texture is None:
                     value = connected.fallback
                 else:
@@ -231,19 +235,28 @@ class MaterialReader:
                 values[field] = default
                 continue
             value = self._input_value(shader, name, default)
-            values[field] = (tuple(float(c) for c in value) if isinstance(default, tuple)
-                             else bool(value) if isinstance(default, bool) else float(value))
+            values[field] = (
+                tuple(float(c) for c in value)
+                if isinstance(default, tuple)
+                else bool(value)
+                if isinstance(default, bool)
+                else float(value)
+            )
         for inp in shader.GetInputs():
             if inp.GetBaseName() not in PHONG_INPUTS:
                 self.ctx.problem(
-                    prim, f"inputs:{inp.GetBaseName()}", f"is not an input of {PHONG_SHADER_ID} (expected one of {', '.join(PHONG_INPUTS)})"
+                    prim,
+                    f"inputs:{inp.GetBaseName()}",
+                    f"is not an input of {PHONG_SHADER_ID} (expected one of {', '.join(PHONG_INPUTS)})",
                 )
         material = PhongMaterial(source=str(prim.GetPath()), **values)
         specular = connected["specularColor"]
         ks = connected["ks"]
         if ks is not None and ks.texture is not None:
             if specular is not None and specular.texture is not None:
-                self.ctx.unsupported["textured ks over a textured specularColor (ks's fallback is used)"].append(str(prim.GetPath()))
+                self.ctx.unsupported["textured ks over a textured specularColor (ks's fallback is used)"].append(
+                    str(prim.GetPath())
+                )
             else:
                 # The highlight is ks·cs: a textured ks with a constant cs is the texture
                 # cs·ks(x)/max ks under ks = max ks (the same product at every point).
@@ -253,7 +266,13 @@ class MaterialReader:
                     k = np.clip(k, 0.0, 1.0)
                 top = float(k.max())
                 image = np.asarray(material.specular_color) * (k / top if top > 0 else k)
-                cs = Texture(image.astype(np.float32), ks.texture.wrap_s, ks.texture.wrap_t, source=ks.texture.source, file=ks.texture.file)
+                cs = Texture(
+                    image.astype(np.float32),
+                    ks.texture.wrap_s,
+                    ks.texture.wrap_t,
+                    source=ks.texture.source,
+                    file=ks.texture.file,
+                )
                 material = dataclasses.replace(material, ks=top)
                 specular = Connected(cs, material.specular_color, ks.st)
         return self._textured(material, connected["diffuseColor"], specular)
@@ -266,8 +285,9 @@ class MaterialReader:
         if not inp:
             return (0.0, 0.0, 0.0)
         if inp.HasConnectedSource():
-            self.ctx.unsupported["UsdPreviewSurface inputs:emissiveColor connected to a texture (its constant value is used)"].append(
-                str(prim.GetPath()))
+            self.ctx.unsupported[
+                "UsdPreviewSurface inputs:emissiveColor connected to a texture (its constant value is used)"
+            ].append(str(prim.GetPath()))
         value = self._input_value(shader, "emissiveColor", (0.0, 0.0, 0.0))
         try:
             arr = np.asarray(value, dtype=np.float64)
@@ -334,7 +354,11 @@ class MaterialReader:
                 specular_level = float(value)
             else:
                 self.ctx.problem(prim, f"inputs:{BLENDER_SPECULAR_LEVEL}", f"must be a finite number, got {value!r}")
-        if diffuse_texture is not None and diffuse_texture.texture is not None and not int(values["useSpecularWorkflow"]):
+        if (
+            diffuse_texture is not None
+            and diffuse_texture.texture is not None
+            and not int(values["useSpecularWorkflow"])
+        ):
             # The spec's diffuse lobe is diffuseColor·(1 − metallic): the texels are scaled so.
             factor = 1.0 - float(np.clip(values["metallic"], 0.0, 1.0))
             if factor != 1.0:
@@ -399,7 +423,9 @@ class MaterialReader:
             tuple(diffuse), roughness, specular_color=tuple(f0), use_specular_workflow=1, source=source
         )
 
-    def _metallic_textured(self, material: PhongMaterial, connected, values: dict, specular_level: float) -> PhongMaterial:
+    def _metallic_textured(
+        self, material: PhongMaterial, connected, values: dict, specular_level: float
+    ) -> PhongMaterial:
         """A UsdPreviewSurface with a textured metallic m (and a constant diffuseColor): the
         mapping's diffuse colour cd·(1 − m) and highlight strength ks·cs (F0 = (1 − m)·F0_ior +
         m·cd, times a factor of the roughness) are both linear in m, so they are two textures,
@@ -407,8 +433,12 @@ class MaterialReader:
         metal = connected.texture
         ends = [
             preview_to_phong(
-                tuple(values["diffuseColor"]), float(values["roughness"]), m, ior=float(values["ior"]),
-                source=material.source, specular_level=specular_level,
+                tuple(values["diffuseColor"]),
+                float(values["roughness"]),
+                m,
+                ior=float(values["ior"]),
+                source=material.source,
+                specular_level=specular_level,
             )
             for m in (0.0, 1.0)
         ]
@@ -425,8 +455,11 @@ class MaterialReader:
             return Texture(image.astype(np.float32), metal.wrap_s, metal.wrap_t, source=metal.source, file=metal.file)
 
         textured = dataclasses.replace(
-            material, ks=ks, specular_color=tuple(float(c) for c in fallback_cs),
-            diffuse_texture=texture(diffuse_image), specular_texture=texture(cs_image),
+            material,
+            ks=ks,
+            specular_color=tuple(float(c) for c in fallback_cs),
+            diffuse_texture=texture(diffuse_image),
+            specular_texture=texture(cs_image),
         )
         self.st_of[textured] = connected.st
         return textured

@@ -146,6 +146,14 @@ def reduce(network: Network, values: dict[str, object]) -> tuple[np.ndarray, flo
 
 def inputs(network: Network) -> dict[str, object]:
     """Every input the mapping reads, with the network's default."""
-    pairs = (network.base_weight, network.base_color, network.base_tint, network.metalness, network.specular_weight,
-             network.specular_color, network.roughness, network.ior)
+    pairs = (
+        network.base_weight,
+        network.base_color,
+        network.base_tint,
+        network.metalness,
+        network.specular_weight,
+        network.specular_color,
+        network.roughness,
+        network.ior,
+    )
     return dict(pair for pair in pairs if pair is not None)

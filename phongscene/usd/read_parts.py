@@ -21,8 +21,8 @@ replayed part extended does not exist yet, the read is made anew in full (``Redo
 from __future__ import annotations
 
 from collections import defaultdict
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from pxr import Usd
 
@@ -72,8 +72,9 @@ class _Lists:
     def since(self, mark) -> Delta:
         lengths, kinds = mark
         tails = tuple(tuple(x[n:]) for x, n in zip(self.lists, lengths))
-        unsupported = tuple((k, tuple(v[kinds.get(k, 0):])) for k, v in self.ctx.unsupported.items()
-                            if len(v) > kinds.get(k, 0))
+        unsupported = tuple(
+            (k, tuple(v[kinds.get(k, 0) :])) for k, v in self.ctx.unsupported.items() if len(v) > kinds.get(k, 0)
+        )
         return Delta(tails, unsupported, frozenset(k for k, _ in unsupported if k in kinds))
 
     def append(self, delta: Delta) -> None:

@@ -12,6 +12,7 @@ and each type's area factor applied), ``camera`` (camera and render settings), `
 ``materials``, ``stage_checks`` (what is checked whatever the time) and ``scene_checks``
 (warnings about the scene as read).
 """
+
 from __future__ import annotations
 
 import math
@@ -27,15 +28,15 @@ from ..scene import AmbientLight, Camera, Intrinsic, RenderSettings, Scene, fram
 from ..validate import validate
 from . import geometry
 from .camera import conform_to_aperture, read_camera, read_render_settings
+from .context import ReadContext, gf_to_numpy, tf_error_text
 from .diagnostics import as_warnings, usd_output
 from .layers import preflight
-from .context import ReadContext, gf_to_numpy, tf_error_text
 from .lights import read_light
 from .linking import link_lights
 from .materials import MaterialReader
+from .names import in_usd_terms
 from .read_cache import KeptRead, ReadCache
 from .read_parts import EveryPart, RecordParts, Redo
-from .names import in_usd_terms
 from .scene_checks import warn_clipping_lights, warn_single_sided
 from .stage_checks import check_stage
 
@@ -182,8 +183,10 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
         if camera is not None:
             settings = conform_to_aperture(ctx, camera_prim, settings)
     ambient_color = tuple(float(sum(a.color[i] for a in ambient)) for i in range(3)) if ambient else (0.0, 0.0, 0.0)
-    if ambient and settings.background == RenderSettings().background and any(
-        o.material.reflects or o.material.transmits for o in (*spheres, *meshes)
+    if (
+        ambient
+        and settings.background == RenderSettings().background
+        and any(o.material.reflects or o.material.transmits for o in (*spheres, *meshes))
     ):
         # A DomeLight is the environment at infinity: what a mirror or a glass (and a camera ray
         # that misses) sees there, as every USD renderer shows it. Only scenes with secondary rays
@@ -233,7 +236,11 @@ def _time_to_read(stage: Usd.Stage, time: float | None) -> tuple[Usd.TimeCode, s
     start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
     if time is not None:
         outside = ranged and not (start <= time <= end)
-        said = f"time {time:g} is outside the stage's time codes {start:g} to {end:g}: USD holds the nearest sample" if outside else ""
+        said = (
+            f"time {time:g} is outside the stage's time codes {start:g} to {end:g}: USD holds the nearest sample"
+            if outside
+            else ""
+        )
         return Usd.TimeCode(float(time)), said
     # A range alone animates nothing (49 public files author start/end codes and no sample):
     # such a stage reads the same at every time, so it is read at its start without a word.
@@ -339,7 +346,9 @@ class _Renderable:
 # -- geometry -------------------------------------------------------------------------------
 
 
-def _gprim(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, materials: MaterialReader, spheres: list, meshes: list) -> None:
+def _gprim(
+    ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, materials: MaterialReader, spheres: list, meshes: list
+) -> None:
     type_name = prim.GetTypeName()
     path = str(prim.GetPath())
     if type_name not in _GEOMETRY_TYPES:

@@ -35,7 +35,9 @@ def warn_clipping_lights(ctx: ReadContext, scene: Scene) -> None:
     white Lambert surface facing it, over points of the geometry (shadows ignored), exceeds
     CLIP_RADIANCE, a PNG clips most of what it lights to white. Said per light, with the exposure change that
     brings that median to 1 (UsdLux ``inputs:exposure``)."""
-    points = [m.points[:: max(1, len(m.points) * max(1, len(scene.meshes)) // CLIP_SAMPLE_POINTS)] for m in scene.meshes]
+    points = [
+        m.points[:: max(1, len(m.points) * max(1, len(scene.meshes)) // CLIP_SAMPLE_POINTS)] for m in scene.meshes
+    ]
     points += [s.world_from_object[:3, 3][None, :] for s in scene.spheres]
     if not points:
         return
@@ -81,5 +83,7 @@ def warn_single_sided(ctx: ReadContext, stage: Usd.Stage, scene: Scene) -> None:
         if not np.all(uses == 2):
             seen.append(mesh.source)
     if seen:
-        ctx.unsupported["single-sided meshes (doubleSided = false) whose back the camera may see, shaded from both "
-                        "sides as POV-Ray does (USD renderers would not draw the back)"].extend(seen)
+        ctx.unsupported[
+            "single-sided meshes (doubleSided = false) whose back the camera may see, shaded from both "
+            "sides as POV-Ray does (USD renderers would not draw the back)"
+        ].extend(seen)

@@ -13,8 +13,16 @@ from pxr import Sdf, Sdr, Usd, UsdShade
 
 from ..schemas import DEFINITIONS_FILE, folder
 from .names import PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
-__all__ = ["DEFINITIONS_FILE", "PHONG_RENDER_CONTEXT", "PHONG_SHADER_ID", "phong_inputs", "phong_input_defaults",
-           "phong_input_help", "register_phong_shader"]
+
+__all__ = [
+    "DEFINITIONS_FILE",
+    "PHONG_RENDER_CONTEXT",
+    "PHONG_SHADER_ID",
+    "phong_inputs",
+    "phong_input_defaults",
+    "phong_input_help",
+    "register_phong_shader",
+]
 
 
 def phong_inputs() -> dict[str, tuple[str, Sdf.ValueTypeName]]:
@@ -42,8 +50,13 @@ def phong_input_defaults() -> dict[str, object]:
     for name in PHONG_INPUTS:
         value = node.GetShaderInput(name).GetDefaultValue()
         # Sdr has no bool type (it holds a bool input's default as an int): ours says which are.
-        out[name] = (tuple(float(c) for c in value) if hasattr(value, "__len__")
-                     else bool(value) if PHONG_INPUTS[name][1] == "bool" else float(value))
+        out[name] = (
+            tuple(float(c) for c in value)
+            if hasattr(value, "__len__")
+            else bool(value)
+            if PHONG_INPUTS[name][1] == "bool"
+            else float(value)
+        )
     return out
 
 

@@ -86,7 +86,8 @@ class TexelBudget:
         if not self.fits(texels):
             raise TextureTooBig(
                 f"{what} would bring the scene's textures to {self.used + texels} texels, more than the "
-                f"{self.limit} (2^{self.limit.bit_length() - 1}) a scene may hold (each texture is kept as float32 RGB)")
+                f"{self.limit} (2^{self.limit.bit_length() - 1}) a scene may hold (each texture is kept as float32 RGB)"
+            )
         self.used += texels
 
 
@@ -136,13 +137,19 @@ def read_header(path: str, shown: str) -> ImageHeader:
     if max(spec.width, spec.height) > MAX_TEXTURE_SIDE:
         raise TextureTooBig(
             f"{shown} is {spec.width} x {spec.height} texels (its header); a texture's sides must be at most "
-            f"{MAX_TEXTURE_SIDE}")
+            f"{MAX_TEXTURE_SIDE}"
+        )
     stored = {oiio.UINT8: "uint8", oiio.UINT16: "uint16", oiio.HALF: "half"}.get(spec.format.basetype, "float")
     wraps = spec.get_string_attribute("wrapmodes", "")
     parts = [FILE_WRAPS.get(w) for w in wraps.split(",")] if wraps else []
     return ImageHeader(
-        path, spec.width, spec.height, min(spec.nchannels, MAX_USED_CHANNELS), stored == "uint8",
-        tuple(parts) if len(parts) == 2 and None not in parts else (), stored,
+        path,
+        spec.width,
+        spec.height,
+        min(spec.nchannels, MAX_USED_CHANNELS),
+        stored == "uint8",
+        tuple(parts) if len(parts) == 2 and None not in parts else (),
+        stored,
     )
 
 
@@ -171,8 +178,9 @@ def decode(header: ImageHeader, shown: str) -> np.ndarray:
     return np.asarray(pixels).reshape(header.height, header.width, header.channels)
 
 
-def texels(pixels: np.ndarray, srgb: bool, channel: int | None, scale: np.ndarray, bias: np.ndarray,
-           factor: float, shown: str) -> tuple[np.ndarray, bool, int]:
+def texels(
+    pixels: np.ndarray, srgb: bool, channel: int | None, scale: np.ndarray, bias: np.ndarray, factor: float, shown: str
+) -> tuple[np.ndarray, bool, int]:
     """The model's (H, W, 3) float32 texels of the selected output of ``pixels`` (``decode``):
     RGB (grey repeated), or one channel repeated (a missing alpha is 1, a missing colour channel
     of a grey image is the grey); sRGB-decoded when ``srgb`` (OpenImageIO's colour conversion, on

@@ -22,7 +22,16 @@ from pxr import Sdf, Usd, UsdGeom, UsdShade
 
 from ..scene import Texture
 from .context import ReadContext
-from .texture_files import ImageHeader, TexelBudget, TextureRefused, TextureTooBig, decode, local_file, read_header, texels
+from .texture_files import (
+    ImageHeader,
+    TexelBudget,
+    TextureRefused,
+    TextureTooBig,
+    decode,
+    local_file,
+    read_header,
+    texels,
+)
 
 TEXTURE_SHADER_ID = "UsdUVTexture"
 PRIMVAR_READER_ID = "UsdPrimvarReader_float2"
@@ -113,7 +122,9 @@ class TextureReader:
         value = tuple(float(c) for c in (fallback[:3] if channel is None else np.repeat(fallback[channel], 3)))
         st = self._st(tex_shader)
         if output not in ("rgb", *CHANNELS):
-            self.ctx.problem(prim, f"outputs:{output}", "is not an output of UsdUVTexture (rgb, r, g, b, a) a colour can use")
+            self.ctx.problem(
+                prim, f"outputs:{output}", "is not an output of UsdUVTexture (rgb, r, g, b, a) a colour can use"
+            )
             return Connected(None, value, st)
         asset = _value(tex_shader.GetInput("file"), time, None)
         resolved = asset.resolvedPath if isinstance(asset, Sdf.AssetPath) else ""
@@ -141,7 +152,9 @@ class TextureReader:
                 # The file's own wrap mode, else black (the UsdUVTexture spec).
                 wrap = header.wraps[axis] if header.wraps else "black"
             elif wrap not in WRAP_TOKENS:
-                self.ctx.problem(prim, f"inputs:{attr}", f"must be one of {', '.join(WRAP_TOKENS)}, useMetadata; got {wrap!r}")
+                self.ctx.problem(
+                    prim, f"inputs:{attr}", f"must be one of {', '.join(WRAP_TOKENS)}, useMetadata; got {wrap!r}"
+                )
                 wrap = "black"
             wraps.append(wrap)
         key = (resolved, srgb, output, tuple(scale), tuple(bias), factor, *wraps)
@@ -181,7 +194,9 @@ class TextureReader:
                 return StSource(None, **transform)
             shader, _ = source
         if shader.GetShaderId() != PRIMVAR_READER_ID:
-            self.ctx.unsupported["texture coordinates from other shaders (st (0, 0) used)"].append(str(shader.GetPath()))
+            self.ctx.unsupported["texture coordinates from other shaders (st (0, 0) used)"].append(
+                str(shader.GetPath())
+            )
             return StSource(None, **transform)
         varname = _value(shader.GetInput("varname"), time, "")
         return StSource(str(varname) or None, **transform)
@@ -221,7 +236,9 @@ class TextureReader:
         return self.pixels[resolved]
 
 
-def corner_elements(interpolation: str, triangles: np.ndarray, fv: np.ndarray, face_of_tri: np.ndarray) -> np.ndarray | None:
+def corner_elements(
+    interpolation: str, triangles: np.ndarray, fv: np.ndarray, face_of_tri: np.ndarray
+) -> np.ndarray | None:
     """The primvar element of each triangle corner for an interpolation (None: unknown)."""
     if interpolation in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
         return triangles
@@ -243,7 +260,9 @@ def mesh_uvs(ctx: ReadContext, prim: Usd.Prim, st: StSource, counts: tuple[int, 
         return st.apply(values), element
     primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(st.primvar)
     if not primvar or not primvar.HasAuthoredValue():
-        ctx.unsupported["textured meshes without their st primvar (the fallback colour is used)"].append(f"{path} ({st.primvar})")
+        ctx.unsupported["textured meshes without their st primvar (the fallback colour is used)"].append(
+            f"{path} ({st.primvar})"
+        )
         return None
     name = f"primvars:{st.primvar}"
     type_name = ctx.authored_type(primvar.GetAttr())

@@ -45,23 +45,33 @@ def check_names(ctx: ReadContext) -> None:
         type_name = prim.GetTypeName()
         if type_name and not prim.GetPrimTypeInfo().GetSchemaType():
             type_names = type_names or _schema_type_names()
-            ctx.warn(f"{path}: prim type {type_name!r} is defined by no schema (ignored){did_you_mean(type_name, type_names)}")
+            ctx.warn(
+                f"{path}: prim type {type_name!r} is defined by no schema (ignored){did_you_mean(type_name, type_names)}"
+            )
         if prim.HasAPI(UsdLux.LightAPI):
             defined = set(prim.GetPrimDefinition().GetPropertyNames())
             inputs = [name for name in defined if name.startswith("inputs:")]
             for attr in prim.GetAuthoredAttributes():
                 name = attr.GetName()
                 if name.startswith("inputs:") and name not in defined:
-                    ctx.warn(f"{path}.{name}: not an input of {type_name or 'this light'} (ignored){did_you_mean(name, inputs)}")
+                    ctx.warn(
+                        f"{path}.{name}: not an input of {type_name or 'this light'} (ignored){did_you_mean(name, inputs)}"
+                    )
         binding = prim.GetRelationship("material:binding")
         if binding:
             for target in binding.GetTargets():
                 if not ctx.stage.GetPrimAtPath(target):
-                    ctx.warn(f"{path}.material:binding: targets {target}, which does not exist (the prim renders without it)")
+                    ctx.warn(
+                        f"{path}.material:binding: targets {target}, which does not exist (the prim renders without it)"
+                    )
         if prim.IsA(UsdShade.Shader):
             shader_id = UsdShade.Shader(prim).GetShaderId()
             # The MaterialX surfaces the reader maps (pbr_networks) need no registered node.
-            if shader_id and shader_id not in MTLX_NETWORKS and Sdr.Registry().GetShaderNodeByIdentifier(shader_id) is None:
+            if (
+                shader_id
+                and shader_id not in MTLX_NETWORKS
+                and Sdr.Registry().GetShaderNodeByIdentifier(shader_id) is None
+            ):
                 unregistered[shader_id].append(str(path))
     # One warning per unknown id, however many shaders use it (a set of 524 instanced teapots
     # is one line, not 524).

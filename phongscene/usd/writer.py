@@ -78,7 +78,9 @@ def _frame(x, y, origin) -> np.ndarray:
 # -- authoring helpers ----------------------------------------------------------------------
 
 
-def _texture_shader(stage: Usd.Stage, path: str, texture, image_file: str, fallback, scale: float = 1.0) -> UsdShade.Shader:
+def _texture_shader(
+    stage: Usd.Stage, path: str, texture, image_file: str, fallback, scale: float = 1.0
+) -> UsdShade.Shader:
     """A UsdUVTexture reading ``image_file`` (a linear float EXR: sourceColorSpace raw) at the
     mesh's ``st`` primvar (texCoord2d, faceVarying: what define_mesh writes), its texels × scale;
     ``fallback`` (the material's own colour) where the image is missing."""
@@ -145,7 +147,11 @@ def define_phong_material(
     preview.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(float(math.sqrt(alpha)))
     if material.diffuse_texture is not None:
         albedo_texture = _texture_shader(
-            stage, f"{path}/PreviewDiffuseTexture", material.diffuse_texture, texture_file(material.diffuse_texture), albedo,
+            stage,
+            f"{path}/PreviewDiffuseTexture",
+            material.diffuse_texture,
+            texture_file(material.diffuse_texture),
+            albedo,
             float(material.kd),
         )
         preview.GetInput("diffuseColor").ConnectToSource(albedo_texture.ConnectableAPI(), "rgb")
@@ -217,8 +223,10 @@ def define_linking(stage: Usd.Stage, light_path: str, linking, written: dict[str
     if not linking.shadows:
         UsdLux.ShadowAPI.Apply(prim).CreateShadowEnableAttr(False)
     api = UsdLux.LightAPI(prim)
-    for members, collection in ((linking.illuminates, api.GetLightLinkCollectionAPI()),
-                                (linking.shadowed_by, api.GetShadowLinkCollectionAPI())):
+    for members, collection in (
+        (linking.illuminates, api.GetLightLinkCollectionAPI()),
+        (linking.shadowed_by, api.GetShadowLinkCollectionAPI()),
+    ):
         if members is None:
             continue
         collection.CreateIncludeRootAttr(False)
@@ -232,7 +240,9 @@ def define_mesh(stage: Usd.Stage, path: str, mesh: TriangleMesh) -> UsdGeom.Mesh
     points = np.asarray(mesh.points, dtype=np.float32)
     prim.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
     prim.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(mesh.triangles), 3, dtype=np.int32)))
-    prim.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.triangles.ravel(), dtype=np.int32)))
+    prim.CreateFaceVertexIndicesAttr(
+        Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.triangles.ravel(), dtype=np.int32))
+    )
     prim.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     prim.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
     prim.CreateDoubleSidedAttr(True)  # the model shades both sides (so do both backends)
@@ -251,7 +261,9 @@ def define_mesh(stage: Usd.Stage, path: str, mesh: TriangleMesh) -> UsdGeom.Mesh
             primvar.SetIndices(Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.normal_indices.ravel(), dtype=np.int32)))
     if mesh.uvs is not None:
         # Double precision: the model's uvs read back unchanged.
-        st = UsdGeom.PrimvarsAPI(prim).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2dArray, UsdGeom.Tokens.faceVarying)
+        st = UsdGeom.PrimvarsAPI(prim).CreatePrimvar(
+            "st", Sdf.ValueTypeNames.TexCoord2dArray, UsdGeom.Tokens.faceVarying
+        )
         st.Set(Vt.Vec2dArray.FromNumpy(np.ascontiguousarray(mesh.uvs, dtype=np.float64)))
         st.SetIndices(Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.uv_indices.ravel(), dtype=np.int32)))
     return prim
@@ -325,7 +337,9 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
         if light.adaptive is not None:
             prim.GetPrim().CreateAttribute(names.SHADOW_ADAPTIVE, Sdf.ValueTypeNames.Int).Set(int(light.adaptive))
         if light.cell_samples is not None:
-            prim.GetPrim().CreateAttribute(names.SHADOW_CELL_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.cell_samples))
+            prim.GetPrim().CreateAttribute(names.SHADOW_CELL_SAMPLES, Sdf.ValueTypeNames.Int).Set(
+                int(light.cell_samples)
+            )
         if falloff != "none":
             strength = strength * 4.0
     elif isinstance(light, DirectionalLight):
@@ -346,7 +360,9 @@ def define_light(stage: Usd.Stage, path: str, light) -> Usd.Prim:
         if light.adaptive is not None:
             prim.GetPrim().CreateAttribute(names.SHADOW_ADAPTIVE, Sdf.ValueTypeNames.Int).Set(int(light.adaptive))
         if light.cell_samples is not None:
-            prim.GetPrim().CreateAttribute(names.SHADOW_CELL_SAMPLES, Sdf.ValueTypeNames.Int).Set(int(light.cell_samples))
+            prim.GetPrim().CreateAttribute(names.SHADOW_CELL_SAMPLES, Sdf.ValueTypeNames.Int).Set(
+                int(light.cell_samples)
+            )
     else:
         raise TypeError(f"not a light: {light!r}")
     api = UsdLux.LightAPI(prim.GetPrim())
@@ -382,7 +398,9 @@ def define_camera(stage: Usd.Stage, path: str, camera: Camera, aspect: float = 4
     return prim
 
 
-def define_render_settings(stage: Usd.Stage, path: str, settings: RenderSettings, camera_path: str | None) -> UsdRender.Settings:
+def define_render_settings(
+    stage: Usd.Stage, path: str, settings: RenderSettings, camera_path: str | None
+) -> UsdRender.Settings:
     """A UsdRender.Settings prim with resolution, camera and our ``phong:`` knobs; it becomes
     the stage's render settings."""
     prim = UsdRender.Settings.Define(stage, path)
@@ -534,8 +552,9 @@ def write_usd(scene: Scene, path) -> Path:
 DEFAULT_CREASE_ANGLE_DEG = 30.0
 
 
-def import_mesh(mesh_file, output, material: PhongMaterial = DEFAULT_MATERIAL, *,
-                crease_angle_deg: float = DEFAULT_CREASE_ANGLE_DEG) -> Path:
+def import_mesh(
+    mesh_file, output, material: PhongMaterial = DEFAULT_MATERIAL, *, crease_angle_deg: float = DEFAULT_CREASE_ANGLE_DEG
+) -> Path:
     """Convert a mesh file (anything ``trimesh.load`` reads: OBJ, PLY, STL, OFF, GLB, ...) to a
     USD file with one Mesh (subdivisionScheme none) and a Phong material. No camera or lights:
     readers then use the framing camera and head light.
@@ -544,7 +563,6 @@ def import_mesh(mesh_file, output, material: PhongMaterial = DEFAULT_MATERIAL, *
     OFF files, have none) normals smoothed across edges where faces meet at less than
     ``crease_angle_deg`` and split where they meet at more (trimesh's ``smooth_shade``), so a
     box stays a box and a sphere stays smooth."""
-    import trimesh
 
     mesh_file = Path(mesh_file)
     if not mesh_file.exists():

@@ -71,8 +71,9 @@ def test_values_between_samples_are_usd_interpolation():
 def test_without_a_time_an_animated_stage_is_read_at_its_start_with_a_warning():
     result = read_usd(ANIMATED)
     assert _ball(result.scene).world_from_object[0, 3] == -3.0
-    assert any("animated (time codes 1 to 24): rendering its start time 1" in w and "--time" in w
-               for w in result.warnings)
+    assert any(
+        "animated (time codes 1 to 24): rendering its start time 1" in w and "--time" in w for w in result.warnings
+    )
 
 
 def test_a_time_outside_the_range_holds_the_last_sample_and_says_so():
@@ -90,8 +91,10 @@ def test_time_samples_without_a_range_read_the_earliest_sample_not_the_origin(tm
     )
     result = read_usd(path)
     assert result.scene.spheres[0].world_from_object[0, 3] == 2.0
-    assert any("time samples but no startTimeCode/endTimeCode: rendering its earliest sample, time 5" in w
-               for w in result.warnings)
+    assert any(
+        "time samples but no startTimeCode/endTimeCode: rendering its earliest sample, time 5" in w
+        for w in result.warnings
+    )
     assert read_usd(path, time=7).scene.spheres[0].world_from_object[0, 3] == 4.0
 
 
@@ -100,7 +103,8 @@ def test_a_static_stage_reads_the_same_at_any_time():
     plain, at_time = read_usd(path), read_usd(path, time=100)
     assert at_time.warnings == plain.warnings
     assert [s.world_from_object.tolist() for s in at_time.scene.spheres] == [
-        s.world_from_object.tolist() for s in plain.scene.spheres]
+        s.world_from_object.tolist() for s in plain.scene.spheres
+    ]
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, "24"])
@@ -119,14 +123,19 @@ def test_a_blender_style_export_with_keyframes_reads_its_frames():
     # A quarter turn about Blender's Z: the cube's corner (1, 1) turns to (-1, 1).
     corner = cube(last).points[0] - cube(last).points.mean(axis=0)
     assert corner == pytest.approx([-1.0, 1.0, -1.0], abs=1e-5)
-    assert first.camera.position == pytest.approx((0.0, 2.0, 10.0)) and last.camera.position == pytest.approx((0.0, 2.0, 12.0))
+    assert first.camera.position == pytest.approx((0.0, 2.0, 10.0)) and last.camera.position == pytest.approx(
+        (0.0, 2.0, 12.0)
+    )
     # The light's power was keyframed 500 -> 1500 W: its intensity samples 159.15494 -> 477.46484.
     assert last.lights[0].color[0] / first.lights[0].color[0] == pytest.approx(477.46484 / 159.15494)
 
 
 def test_a_blender_style_export_renders_its_frames(tmp_path):
     for frame in (1, 24):
-        assert main(["render", str(BLENDER), "-o", str(tmp_path / "b.####.exr"), "--time", str(frame), "--width", "64"]) == 0
+        assert (
+            main(["render", str(BLENDER), "-o", str(tmp_path / "b.####.exr"), "--time", str(frame), "--width", "64"])
+            == 0
+        )
     # The red cube (Blender's base colour (0.8, 0.1, 0.1)) crosses the frame from the left to the right.
     first, last = (read_image(tmp_path / f"b.{f:04d}.exr") for f in (1, 24))
     red_x = lambda image: float(np.nonzero(image[..., 0] > 2 * image[..., 1] + 1e-3)[1].mean())  # noqa: E731
@@ -141,8 +150,9 @@ def _same_read(a, b) -> bool:
     return pickle.dumps(a.scene) == pickle.dumps(b.scene) and a.warnings == b.warnings and a.nodes == b.nodes
 
 
-@pytest.mark.parametrize("path", [ANIMATED, BLENDER, SCENES / "warned" / "missing_reference.usda"],
-                         ids=lambda p: p.name)
+@pytest.mark.parametrize(
+    "path", [ANIMATED, BLENDER, SCENES / "warned" / "missing_reference.usda"], ids=lambda p: p.name
+)
 def test_a_stage_opened_once_reads_at_every_time_what_the_file_reads(path):
     # The time-independent checks (composition errors, typos) run at the first read and are
     # replayed by the others; each read's own warnings (the time, clipping lights) are its own.
@@ -217,9 +227,16 @@ def Xform "World"
     }
 }
 """
-_STATIC = {"camera": " = (0, 1, 10)", "light": " = 2", "ancestor": " = (0, 0, 0)", "visibility": ' = "inherited"',
-           "transform": " = (0, 1, 0)", "instancer": " = [(-2, 0, 0), (2, 0, 0)]", "velocities": "",
-           "material": " = (1, 0, 0)"}
+_STATIC = {
+    "camera": " = (0, 1, 10)",
+    "light": " = 2",
+    "ancestor": " = (0, 0, 0)",
+    "visibility": ' = "inherited"',
+    "transform": " = (0, 1, 0)",
+    "instancer": " = [(-2, 0, 0), (2, 0, 0)]",
+    "velocities": "",
+    "material": " = (1, 0, 0)",
+}
 _ANIMATED = {
     "camera": {"camera": ".timeSamples = {1: (0, 1, 10), 24: (0, 1, 12)}"},
     "light": {"light": ".timeSamples = {1: 2, 24: 6}"},
@@ -229,7 +246,10 @@ _ANIMATED = {
     "instancer": {"instancer": ".timeSamples = {1: [(-2, 0, 0), (2, 0, 0)], 24: [(-2, 3, 0), (2, 3, 0)]}"},
     # One positions sample, which does not vary in time: USD moves the instances from it by their
     # velocities (units per second) to the time read.
-    "velocities": {"instancer": ".timeSamples = {1: [(-2, 0, 0), (2, 0, 0)]}", "velocities": ".timeSamples = {1: [(24, 0, 0), (0, 24, 0)]}"},
+    "velocities": {
+        "instancer": ".timeSamples = {1: [(-2, 0, 0), (2, 0, 0)]}",
+        "velocities": ".timeSamples = {1: [(24, 0, 0), (0, 24, 0)]}",
+    },
     "material": {"material": ".timeSamples = {1: (1, 0, 0), 24: (0, 0, 1)}"},
 }
 
@@ -261,8 +281,10 @@ def test_a_single_time_sample_beside_a_default_is_held_at_every_time(tmp_path):
     # One sample does not vary in time, but it is not the default value: every numeric time reads
     # the sample, the default time the default (the stage has a range, so no read is at default).
     path = tmp_path / "held.usda"
-    path.write_text('#usda 1.0\n(\n    startTimeCode = 1\n    endTimeCode = 4\n)\n'
-                    'def Sphere "Ball" {\n    double radius = 1\n    double radius.timeSamples = {2: 3}\n}\n')
+    path.write_text(
+        "#usda 1.0\n(\n    startTimeCode = 1\n    endTimeCode = 4\n)\n"
+        'def Sphere "Ball" {\n    double radius = 1\n    double radius.timeSamples = {2: 3}\n}\n'
+    )
     opened = open_stage(path)
     for time_code in (1, 4, None, 100):
         read = read_usd(opened, time=time_code)
@@ -276,7 +298,8 @@ def test_a_material_first_used_by_another_part_at_another_time_reads_the_stage_a
     # one time the mesh, read anew, uses it first, at the other the sphere after it (kept). The
     # material's warning must come once, as a read of the file gives it.
     path = tmp_path / "subset.usda"
-    path.write_text("""#usda 1.0
+    path.write_text(
+        """#usda 1.0
 (
     startTimeCode = 1
     endTimeCode = 24
@@ -305,14 +328,17 @@ def Scope "Looks"
     {
     }
 }
-""".replace("INDICES", indices))
+""".replace("INDICES", indices)
+    )
     opened = open_stage(path)
     read_usd(opened, time=1)
     assert opened.reads.by_parts  # the subset is its mesh's input: the sphere is kept
     for time_code in (24, 1, 12, 24):
         assert _same_read(read_usd(opened, time=time_code), read_usd(path, time=time_code)), time_code
-    assert any("materials without a surface shader (rendered grey) (1): /Looks/Bare" in w
-               for w in read_usd(opened, time=24).warnings)
+    assert any(
+        "materials without a surface shader (rendered grey) (1): /Looks/Bare" in w
+        for w in read_usd(opened, time=24).warnings
+    )
 
 
 def test_a_stage_read_once_reads_a_changed_texture_again(tmp_path):
@@ -343,7 +369,7 @@ def test_a_kept_stage_is_reused_until_its_file_or_a_layer_changes(tmp_path):
 
     layer, root = tmp_path / "ball.usda", tmp_path / "shot.usda"
     layer.write_text('#usda 1.0\ndef Sphere "Ball" {\n    double radius = 1\n}\n')
-    root.write_text(f'#usda 1.0\n(\n    subLayers = [@{layer.name}@]\n)\n')
+    root.write_text(f"#usda 1.0\n(\n    subLayers = [@{layer.name}@]\n)\n")
     radius = lambda: load_scene(workers.open_stage(str(root)), time=1.0)[0].spheres[0].world_from_object[0, 0]  # noqa: E731
     try:
         first = workers.open_stage(str(root))
@@ -361,16 +387,32 @@ def test_a_kept_stage_is_reused_until_its_file_or_a_layer_changes(tmp_path):
 
 
 def test_frames_read_from_the_kept_stage_are_bit_identical_to_render_time(tmp_path):
-    from phongscene.usd import stage_reuse as workers
-
     from phongscene.overrides import RenderOverrides
+    from phongscene.usd import stage_reuse as workers
 
     options = RenderOverrides(width=48, samples=2, threads=1)
     try:
         for frame in (1, 9, 17, 24):
-            metrics = animation.render_frame(str(ANIMATED), frame, str(tmp_path / f"task.{frame}.exr"), "native", options)
-            assert main(["render", str(ANIMATED), "-o", str(tmp_path / f"cli.{frame}.exr"), "--time", str(frame),
-                         "--width", "48", "--spp", "2"]) == 0
+            metrics = animation.render_frame(
+                str(ANIMATED), frame, str(tmp_path / f"task.{frame}.exr"), "native", options
+            )
+            assert (
+                main(
+                    [
+                        "render",
+                        str(ANIMATED),
+                        "-o",
+                        str(tmp_path / f"cli.{frame}.exr"),
+                        "--time",
+                        str(frame),
+                        "--width",
+                        "48",
+                        "--spp",
+                        "2",
+                    ]
+                )
+                == 0
+            )
             task, serial = (read_image(tmp_path / f"{kind}.{frame}.exr") for kind in ("task", "cli"))
             assert np.array_equal(task, serial), frame
             assert metrics["warnings"] == read_usd(ANIMATED, time=frame).warnings
@@ -399,8 +441,12 @@ def test_a_worker_has_made_its_imports_when_it_joins():
 def test_frame_ranges_and_names():
     assert animation.parse_frames("1:24:8") == (1, 9, 17)
     assert animation.parse_frames("3:3") == (3,)
-    for bad, message in (("5:1", "before the start"), ("1:5:0", "step must be >= 1"), ("1:2.5", "whole numbers"),
-                         ("7", "START:END")):
+    for bad, message in (
+        ("5:1", "before the start"),
+        ("1:5:0", "step must be >= 1"),
+        ("1:2.5", "whole numbers"),
+        ("7", "START:END"),
+    ):
         with pytest.raises(ValueError, match=message):
             animation.parse_frames(bad)
     assert animation.frame_name("out/a.####.exr", 7) == os.path.join("out", "a.0007.exr")
@@ -423,8 +469,18 @@ def test_a_scheduler_that_is_not_there_is_one_error_naming_it(tmp_path, capsys):
     import distributed  # noqa: F401  (its config defaults first: leaving set() restores the config as it was)
 
     with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
-        rc = main(["render", str(ANIMATED), "-o", str(tmp_path / "f.####.exr"), "--frames", "1:2",
-                   "--scheduler", "tcp://127.0.0.1:9"])  # the discard port: nothing listens
+        rc = main(
+            [
+                "render",
+                str(ANIMATED),
+                "-o",
+                str(tmp_path / "f.####.exr"),
+                "--frames",
+                "1:2",
+                "--scheduler",
+                "tcp://127.0.0.1:9",
+            ]
+        )  # the discard port: nothing listens
     assert rc == 3
     assert "error: cannot reach the Dask scheduler tcp://127.0.0.1:9: " in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
@@ -469,9 +525,11 @@ def test_frame_options_are_checked_before_anything_runs(tmp_path, capsys):
 
 @pytest.mark.subprocess
 def test_one_frame_does_not_start_dask(tmp_path):
-    code = ("import sys; from phongscene.cli import main; "
-            f"rc = main(['render', {str(ANIMATED)!r}, '-o', {str(tmp_path / 'f.####.exr')!r}, '--frames', '24:24']); "
-            "print(rc, 'distributed' in sys.modules, 'dask' in sys.modules)")
+    code = (
+        "import sys; from phongscene.cli import main; "
+        f"rc = main(['render', {str(ANIMATED)!r}, '-o', {str(tmp_path / 'f.####.exr')!r}, '--frames', '24:24']); "
+        "print(rc, 'distributed' in sys.modules, 'dask' in sys.modules)"
+    )
     out = subprocess.run([PYTHON, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
     assert out[-1] == "0 False False"
     assert (tmp_path / "f.0024.exr").is_file()
@@ -493,7 +551,9 @@ def test_compile_frames_write_one_pov_and_ini_per_frame(tmp_path):
 @pytest.mark.dask
 def test_frames_on_a_local_cluster_of_processes_are_bit_identical_to_serial_renders(tmp_path, capsys):
     out = tmp_path / "f.####.exr"
-    assert main(["render", str(ANIMATED), "-o", str(out), "--frames", "1:24:8", "--workers", "2", "--threads", "1"]) == 0
+    assert (
+        main(["render", str(ANIMATED), "-o", str(out), "--frames", "1:24:8", "--workers", "2", "--threads", "1"]) == 0
+    )
     printed = capsys.readouterr()
     assert "3 of 3 frames rendered on 2 Dask workers (LocalCluster)" in printed.out
     assert "frames: rendered in" in printed.err  # the progress bar counts frames (not a terminal: one line)
@@ -552,14 +612,34 @@ def test_diff_frames_through_a_scheduler_and_a_worker_started_as_processes(tmp_p
     env = {**os.environ, "DASK_DISTRIBUTED__LOGGING__DISTRIBUTED": "error"}
     started = []
     try:
-        started.append(subprocess.Popen([str(dask), "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                                         "--scheduler-file", str(info)], env=env, stderr=subprocess.DEVNULL))
+        started.append(
+            subprocess.Popen(
+                [
+                    str(dask),
+                    "scheduler",
+                    "--host",
+                    "127.0.0.1",
+                    "--port",
+                    "0",
+                    "--no-dashboard",
+                    "--scheduler-file",
+                    str(info),
+                ],
+                env=env,
+                stderr=subprocess.DEVNULL,
+            )
+        )
         deadline = time.monotonic() + CLUSTER_START_TIMEOUT_S
         while not info.exists() and time.monotonic() < deadline:
             time.sleep(0.2)
         address = json.loads(info.read_text())["address"]
-        started.append(subprocess.Popen([str(dask), "worker", address, "--nworkers", "1", "--nthreads", "1",
-                                         "--no-dashboard"], env=env, stderr=subprocess.DEVNULL))
+        started.append(
+            subprocess.Popen(
+                [str(dask), "worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard"],
+                env=env,
+                stderr=subprocess.DEVNULL,
+            )
+        )
         from distributed import Client
 
         with Client(address, timeout=CLUSTER_START_TIMEOUT_S) as client:

@@ -9,13 +9,13 @@ import csv
 import dataclasses
 import json
 
-from support import calibration
 import numpy as np
 import pytest
 
 from phongscene import bench
 from phongscene.cli import main
 from phongscene.usd import write_usd
+from support import calibration
 
 # Tiny images: the point is that every part runs and its numbers are consistent, not the figures.
 TINY = (24, 18)
@@ -31,8 +31,14 @@ def test_pareto_front_keeps_only_undominated_points_by_increasing_cost():
 
 
 def test_dominance_is_povrays_cost_over_natives_cheapest_at_each_povray_level():
-    rows = [_row("povray", "p1", 1.0, 1e-2), _row("povray", "p2", 4.0, 1e-3), _row("povray", "slow", 5.0, 2e-2),
-            _row("native", "n1", 0.1, 2e-2), _row("native", "n2", 0.2, 5e-3), _row("native", "n3", 1.0, 1e-3)]
+    rows = [
+        _row("povray", "p1", 1.0, 1e-2),
+        _row("povray", "p2", 4.0, 1e-3),
+        _row("povray", "slow", 5.0, 2e-2),
+        _row("native", "n1", 0.1, 2e-2),
+        _row("native", "n2", 0.2, 5e-3),
+        _row("native", "n3", 1.0, 1e-3),
+    ]
     d = bench.dominance(rows, bench.AA, "cpu")
     # POV-Ray's front: p1 (1e-2 at 1 s) and p2 (1e-3 at 4 s); native reaches 1e-2 at 0.2 s (5x)
     # and 1e-3 at 1 s (4x).
@@ -41,14 +47,19 @@ def test_dominance_is_povrays_cost_over_natives_cheapest_at_each_povray_level():
 
 
 def test_dominance_counts_only_levels_the_reference_resolves():
-    rows = [_row("povray", "p1", 1.0, 1e-2), _row("povray", "p2", 4.0, 1e-3), _row("native", "n1", 0.1, 1e-2),
-            _row("native", "n2", 2.0, 1e-3)]
+    rows = [
+        _row("povray", "p1", 1.0, 1e-2),
+        _row("povray", "p2", 4.0, 1e-3),
+        _row("native", "n1", 0.1, 1e-2),
+        _row("native", "n2", 2.0, 1e-3),
+    ]
     rows[1]["resolved"] = False  # p2's error is within 10x of the reference's own
     d = bench.dominance(rows, bench.AA, "cpu")
     assert [x["resolved"] for x in d["levels"]] == [True, False]
     assert d["min_ratio"] == pytest.approx(10.0)  # p2's 2x is listed, not counted
     assert "1 level(s) below what the reference resolves not counted" in bench.table(
-        {"rows": [], "dominance": {bench.AA: {"cpu": d}}})
+        {"rows": [], "dominance": {bench.AA: {"cpu": d}}}
+    )
 
 
 def test_target_names_the_cheapest_setting_that_reaches_the_error():
@@ -81,8 +92,22 @@ def test_the_reference_error_bound_shrinks_with_the_reference():
 def test_bench_cli_native_only_writes_table_csv_json_and_plot(tmp_path, capsys):
     path = write_usd(calibration.rect_area_light(), tmp_path / "scene.usda")
     out = tmp_path / "bench"
-    code = main(["bench", str(path), "-o", str(out), "--width", str(TINY[0]), "--repeat", "1", "--quick",
-                 "--native-only", "--target-rms", "1e-2"])
+    code = main(
+        [
+            "bench",
+            str(path),
+            "-o",
+            str(out),
+            "--width",
+            str(TINY[0]),
+            "--repeat",
+            "1",
+            "--quick",
+            "--native-only",
+            "--target-rms",
+            "1e-2",
+        ]
+    )
     assert code == 0
     printed = capsys.readouterr().out
     assert "am2 R3 A0.1" in printed and "area 9 adaptive 1" in printed and "target RMS 1.00e-02" in printed
@@ -125,13 +150,15 @@ def test_bench_settings_as_dask_tasks_measure_what_the_serial_run_measures(tmp_p
     scene, _ = load_scene(path)
     settings = dataclasses.replace(scene.settings, width=TINY[0], height=TINY[1], threads=1)
     lines = []
-    tasks = bench_tasks.run(str(path), scene, settings, repeat=1, quick=True, backends=("native",), workers=2,
-                            log=lines.append)
+    tasks = bench_tasks.run(
+        str(path), scene, settings, repeat=1, quick=True, backends=("native",), workers=2, log=lines.append
+    )
     serial = bench.run(scene, settings, repeat=1, quick=True, backends=("native",), log=lambda line: None)
     errors = lambda result: [(r["family"], r["label"], r["rms"], r["max"], r["bias"]) for r in result["rows"]]  # noqa: E731
     assert errors(tasks) == errors(serial)
-    assert tasks["references"] == {f: r | {"seconds": tasks["references"][f]["seconds"]}
-                                   for f, r in serial["references"].items()}
+    assert tasks["references"] == {
+        f: r | {"seconds": tasks["references"][f]["seconds"]} for f, r in serial["references"].items()
+    }
     assert tasks["concurrency"] == 2 and lines[0].startswith("2 settings at once: 2 Dask workers (LocalCluster)")
     assert len({r["pid"] for r in tasks["rows"]}) == 2  # both workers measured
 

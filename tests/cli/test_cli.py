@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import pytest
 
-from support.paths import REPO
 from phongscene.cli import build_parser, main
+from support.paths import REPO
 
 COMMANDS = ("diff", "compare", "info", "validate", "import", "render", "compile", "bench")
 
@@ -22,8 +22,15 @@ def test_every_command_is_registered_with_help():
 
 OUTPUT = {"render": ["-o", "x.png"], "diff": ["-o", "outdir"], "compile": ["-o", "x.pov"]}
 # --spp 10..16 is the stratified pattern's range: validation rejects it for the others (test_adaptive.py).
-BAD_OPTIONS = [["--spp", "0"], ["--spp", "17"], ["--width", "0"], ["--spp", "two"], ["--aa-threshold", "1.5"],
-               ["--shadow-adaptive", "-1"], ["--sample-pattern", "jitter"]]
+BAD_OPTIONS = [
+    ["--spp", "0"],
+    ["--spp", "17"],
+    ["--width", "0"],
+    ["--spp", "two"],
+    ["--aa-threshold", "1.5"],
+    ["--shadow-adaptive", "-1"],
+    ["--sample-pattern", "jitter"],
+]
 
 
 @pytest.mark.parametrize(

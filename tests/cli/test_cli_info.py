@@ -3,12 +3,10 @@
 
 from __future__ import annotations
 
-
 import pytest
 
-from support.paths import EXAMPLES, SHARED_ASSETS
 from phongscene.cli import build_parser, main
-from support.paths import SCENES
+from support.paths import EXAMPLES, SCENES, SHARED_ASSETS
 
 
 def test_info_lists_nodes_counts_camera_settings_and_warnings(capsys):

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import dataclasses
 
-from support import calibration
 import numpy as np
 
 from phongscene.backends import native
 from phongscene.cli import EXIT_OK, EXIT_SCENE, main
 from phongscene.images import read_image
 from phongscene.usd import load_usd, write_usd
+from support import calibration
 
 
 def test_render_writes_the_native_image_as_float_exr(tmp_path, capsys):

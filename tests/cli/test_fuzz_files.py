@@ -20,8 +20,8 @@ import pytest
 from hypothesis import given, seed
 from hypothesis import strategies as st
 
-from support.paths import EXAMPLES, REPO
 from support.fuzz import SEED, fuzz_settings
+from support.paths import EXAMPLES, REPO
 
 FILES_PER_EXAMPLE = 4  # run two at a time
 BATCHES = 3  # x PHONGSCENE_FUZZ_BUDGET (12 files in CI: ~25 s on a loaded 2-core machine)
@@ -73,21 +73,22 @@ def mutate(data: bytes, edits) -> bytes:
     for kind, where, arg in edits:
         at = int(where * len(data))
         if kind == "overwrite":
-            data = data[:at] + arg + data[at + len(arg):]
+            data = data[:at] + arg + data[at + len(arg) :]
         elif kind == "insert":
             data = data[:at] + arg + data[at:]
         elif kind == "delete":
-            data = data[:at] + data[at + arg:]
+            data = data[:at] + data[at + arg :]
         elif kind == "duplicate":
-            data = data[:at] + data[at:at + arg] + data[at:]
+            data = data[:at] + data[at : at + arg] + data[at:]
         else:
             data = data[:at]
     return data
 
 
 def _validate(path: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "phongscene", "validate", str(path)], capture_output=True,
-                          timeout=TIMEOUT_S)
+    return subprocess.run(
+        [sys.executable, "-m", "phongscene", "validate", str(path)], capture_output=True, timeout=TIMEOUT_S
+    )
 
 
 def check_clear_answer(path: Path, result: subprocess.CompletedProcess) -> None:
@@ -106,8 +107,13 @@ def check_clear_answer(path: Path, result: subprocess.CompletedProcess) -> None:
 @pytest.mark.subprocess
 @seed(SEED)
 @fuzz_settings(BATCHES)
-@given(st.lists(st.tuples(st.integers(0, 2**16), st.lists(mutation(), min_size=1, max_size=3)),
-                min_size=FILES_PER_EXAMPLE, max_size=FILES_PER_EXAMPLE))
+@given(
+    st.lists(
+        st.tuples(st.integers(0, 2**16), st.lists(mutation(), min_size=1, max_size=3)),
+        min_size=FILES_PER_EXAMPLE,
+        max_size=FILES_PER_EXAMPLE,
+    )
+)
 def test_corrupt_files_get_a_clear_answer(seeds, tmp_path_factory, files):
     root = tmp_path_factory.mktemp("mutants")
     paths = []
@@ -187,8 +193,13 @@ def Xform "World"
 }
 """
 # The image seeds: every format and pixel type the reader converts differently.
-IMAGE_SEEDS = [("rgb8.png", "uint8", 3), ("grey16.png", "uint16", 1), ("rgba.exr", "half", 4),
-               ("float.tif", "float", 3), ("grey.jpg", "uint8", 1)]
+IMAGE_SEEDS = [
+    ("rgb8.png", "uint8", 3),
+    ("grey16.png", "uint16", 1),
+    ("rgba.exr", "half", 4),
+    ("float.tif", "float", 3),
+    ("grey.jpg", "uint8", 1),
+]
 TEXTURES_PER_BATCH = 4  # run two at a time
 TEXTURE_BATCHES = 2  # x PHONGSCENE_FUZZ_BUDGET
 HEADER_BYTES = 64  # where an image's size, channels and pixel type sit (a header edit)
@@ -222,7 +233,7 @@ def mutate_image(data: bytes, edits) -> bytes:
     for edit in edits:
         if edit[0] == "header":
             _, at, arg = edit
-            data = data[:at] + arg + data[at + len(arg):]
+            data = data[:at] + arg + data[at + len(arg) :]
         else:
             data = mutate(data, [edit])
     return data
@@ -230,15 +241,23 @@ def mutate_image(data: bytes, edits) -> bytes:
 
 def _validate_in_process(path: Path) -> subprocess.CompletedProcess:
     # In process, no sandbox: a crash in OpenImageIO's decoder would be this command's signal.
-    return subprocess.run([sys.executable, "-m", "phongscene", "validate", "--no-sandbox", str(path)],
-                          capture_output=True, timeout=TIMEOUT_S)
+    return subprocess.run(
+        [sys.executable, "-m", "phongscene", "validate", "--no-sandbox", str(path)],
+        capture_output=True,
+        timeout=TIMEOUT_S,
+    )
 
 
 @pytest.mark.subprocess
 @seed(SEED)
 @fuzz_settings(TEXTURE_BATCHES)
-@given(st.lists(st.tuples(st.integers(0, 2**16), st.lists(image_mutation(), min_size=1, max_size=3)),
-                min_size=TEXTURES_PER_BATCH, max_size=TEXTURES_PER_BATCH))
+@given(
+    st.lists(
+        st.tuples(st.integers(0, 2**16), st.lists(image_mutation(), min_size=1, max_size=3)),
+        min_size=TEXTURES_PER_BATCH,
+        max_size=TEXTURES_PER_BATCH,
+    )
+)
 def test_corrupt_texture_files_get_a_clear_answer(image_seeds, tmp_path_factory, files):
     paths = []
     for i, (which, edits) in enumerate(files):

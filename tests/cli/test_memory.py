@@ -39,4 +39,3 @@ def test_freed_heap_memory_leaves_the_resident_set():
     assert release_free_heap()
     assert before - resident_bytes() >= RETURNED_FRACTION * BLOCK_BYTES * (BLOCKS - 1)
     assert last.sum() == BLOCK_BYTES  # the live block is untouched
-

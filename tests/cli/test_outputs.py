@@ -17,8 +17,8 @@ import pytest
 
 import phongscene.crossvalidation
 import phongscene.rendering
-from support.paths import EXAMPLES
 from phongscene.cli import main
+from support.paths import EXAMPLES
 
 SCENE = EXAMPLES / "seed_lobe.usda"
 # Bytes a child may write per file: the .ini (~300 bytes) and small SDL fit, an image or a
@@ -31,8 +31,9 @@ def _refuse_to_render(*args, **kwargs):
 
 
 @pytest.mark.parametrize(("command", "name"), [("render", "x.png"), ("compile", "x.pov"), ("diff", "report")])
-def test_a_missing_output_folder_is_found_before_rendering_and_not_created(command, name, tmp_path, capsys,
-                                                                           monkeypatch):
+def test_a_missing_output_folder_is_found_before_rendering_and_not_created(
+    command, name, tmp_path, capsys, monkeypatch
+):
     monkeypatch.setattr(phongscene.rendering, "render", _refuse_to_render)
     monkeypatch.setattr(phongscene.crossvalidation, "render", _refuse_to_render)
     missing = tmp_path / "no-such-folder"

@@ -14,8 +14,10 @@ from phongscene.scene import PointLight, RectAreaLight, RenderSettings, Scene
 
 SCENE = Scene(
     settings=RenderSettings(width=320, height=240, samples=3, threads=2),
-    lights=(RectAreaLight(center=(0.0, 4.0, 0.0), axis_u=(1.0, 0.0, 0.0), axis_v=(0.0, 0.0, 1.0), color=(1.0, 1.0, 1.0)),
-            PointLight(position=(0.0, 5.0, 0.0), color=(1.0, 1.0, 1.0))),
+    lights=(
+        RectAreaLight(center=(0.0, 4.0, 0.0), axis_u=(1.0, 0.0, 0.0), axis_v=(0.0, 0.0, 1.0), color=(1.0, 1.0, 1.0)),
+        PointLight(position=(0.0, 5.0, 0.0), color=(1.0, 1.0, 1.0)),
+    ),
 )
 
 
@@ -32,10 +34,12 @@ def test_it_is_frozen():
 
 
 def test_settings_are_the_ones_settings_with_gives():
-    overrides = RenderOverrides(mapping="classic", width=40, samples=1, threads=0, sample_pattern="povray-am2",
-                                aa_threshold=0.1)
-    assert overrides.settings(SCENE) == settings_with(SCENE, "classic", width=40, samples=1, threads=0,
-                                                      sample_pattern="povray-am2", aa_threshold=0.1)
+    overrides = RenderOverrides(
+        mapping="classic", width=40, samples=1, threads=0, sample_pattern="povray-am2", aa_threshold=0.1
+    )
+    assert overrides.settings(SCENE) == settings_with(
+        SCENE, "classic", width=40, samples=1, threads=0, sample_pattern="povray-am2", aa_threshold=0.1
+    )
     assert (overrides.settings(SCENE).width, overrides.settings(SCENE).height) == (40, 30)
     assert RenderOverrides().settings(SCENE) == SCENE.settings
 

@@ -41,7 +41,18 @@ def test_the_package_is_typed_and_licensed():
 def test_wheel_contains_the_backends_the_extension_and_no_cpp(tmp_path):
     # --no-build-isolation: the build requirements are already in the test environment.
     subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-build-isolation", "--no-deps", "-q", "-w", str(tmp_path), str(REPO)],
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--no-build-isolation",
+            "--no-deps",
+            "-q",
+            "-w",
+            str(tmp_path),
+            str(REPO),
+        ],
         check=True,
         capture_output=True,
     )
@@ -73,4 +84,6 @@ def test_wheel_contains_the_backends_the_extension_and_no_cpp(tmp_path):
         "assert n.__file__.startswith(sys.argv[1]) and p.__file__.startswith(sys.argv[1]), (n.__file__, p.__file__);"
         "assert n._native.hardware_threads() >= 1"
     )
-    subprocess.run([sys.executable, "-S", "-c", probe, str(target), sysconfig.get_paths()["purelib"]], check=True, cwd=tmp_path)
+    subprocess.run(
+        [sys.executable, "-S", "-c", probe, str(target), sysconfig.get_paths()["purelib"]], check=True, cwd=tmp_path
+    )

@@ -168,8 +168,16 @@ def test_povray_progress_on_a_terminal_moves_between_0_and_100(tmp_path):
     # 1600 x 1200 renders for ~1 s after ~0.5 s of start-up; POV-Ray prints its count every
     # ~0.2 s (measured, ref §17), so at least one redraw lies strictly between 0 and 100 %.
     rc, text = _on_a_terminal(
-        ["render", str(EXAMPLES / "seed_exponents.usda"), "-o", str(tmp_path / "x.exr"), "--backend", "povray",
-         "--width", "1600"]
+        [
+            "render",
+            str(EXAMPLES / "seed_exponents.usda"),
+            "-o",
+            str(tmp_path / "x.exr"),
+            "--backend",
+            "povray",
+            "--width",
+            "1600",
+        ]
     )
     assert rc == 0, text
     frames = text.split("\r")
@@ -183,7 +191,9 @@ def test_povray_progress_on_a_terminal_moves_between_0_and_100(tmp_path):
 
 @pytest.mark.subprocess
 def test_native_progress_on_a_terminal_names_its_phases(tmp_path):
-    rc, text = _on_a_terminal(["render", str(EXAMPLES / "seed_lobe.usda"), "-o", str(tmp_path / "x.png"), "--width", "64"])
+    rc, text = _on_a_terminal(
+        ["render", str(EXAMPLES / "seed_lobe.usda"), "-o", str(tmp_path / "x.png"), "--width", "64"]
+    )
     assert rc == 0, text
     frames = text.split("\r")
     assert any("reading seed_lobe.usda" in f for f in frames)

@@ -43,9 +43,7 @@ def test_unknown_names_raise_attribute_error():
 @pytest.mark.parametrize("module", ["phongscene", "phongscene.cli"])
 def test_importing_the_package_or_the_cli_loads_no_heavy_module(module):
     probe = (
-        f"import sys, {module}\n"
-        f"heavy = [m for m in {HEAVY_MODULES!r} if m in sys.modules]\n"
-        "assert not heavy, heavy\n"
+        f"import sys, {module}\nheavy = [m for m in {HEAVY_MODULES!r} if m in sys.modules]\nassert not heavy, heavy\n"
     )
     subprocess.run([sys.executable, "-c", probe], check=True)
 
@@ -72,9 +70,7 @@ def test_render_overrides_apply_to_given_settings_and_spp_is_samples_per_axis():
     np.testing.assert_array_equal(image, phongscene.render(scene, settings=replace(small, samples=2)))
     assert not np.array_equal(image, phongscene.render(scene, settings=small))  # anti-aliasing changed it
     classic = phongscene.render(scene, settings=small, mapping="classic")
-    np.testing.assert_array_equal(
-        classic, phongscene.render(scene, settings=replace(small, specular="povray-classic"))
-    )
+    np.testing.assert_array_equal(classic, phongscene.render(scene, settings=replace(small, specular="povray-classic")))
 
 
 def test_an_image_displays_in_jupyter_as_the_png_write_image_writes(tmp_path):

@@ -8,10 +8,10 @@ from dataclasses import replace
 
 import pytest
 
-from support.paths import EXAMPLES
 from phongscene.errors import SceneError
 from phongscene.rendering import BACKENDS, load_scene, render, settings_with
 from phongscene.scene import PhongMaterial, RenderSettings, Scene, Sphere
+from support.paths import EXAMPLES
 
 # 320 x 240 (4:3), specular "povray-classic": every override below visibly changes it.
 SCENE = Scene(settings=RenderSettings(width=320, height=240, samples=3, threads=2, specular="povray-classic"))
@@ -71,8 +71,9 @@ def test_a_prepared_native_render_frees_the_model_and_renders_the_same_image():
     scene = load_scene(EXAMPLES / "seed_exponents.usda")[0]
     settings = settings_with(scene, None, width=40)
     expected = render(scene, "native", settings)
-    mesh_points = weakref.finalize(scene.meshes[0].points.base if scene.meshes[0].points.base is not None
-                                   else scene.meshes[0].points, lambda: None)
+    mesh_points = weakref.finalize(
+        scene.meshes[0].points.base if scene.meshes[0].points.base is not None else scene.meshes[0].points, lambda: None
+    )
     prepared = prepare_render(scene, "native", settings)
     del scene
     gc.collect()

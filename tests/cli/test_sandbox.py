@@ -13,10 +13,10 @@ import sys
 import numpy as np
 import pytest
 
-from support.paths import EXAMPLES, REPO
 from phongscene.errors import SceneError
 from phongscene.sandbox import read_usd_sandboxed
 from phongscene.usd import read_usd
+from support.paths import EXAMPLES, REPO
 
 # A .usdc the file fuzzer made from an example (a few bytes changed): USD grows to 10 GB resident
 # in 20 s reading it (and on, until the machine runs out). The sandbox stops it at its limit.
@@ -54,8 +54,12 @@ def test_a_memory_limit_too_small_for_the_file_is_a_clear_error():
 
 @pytest.mark.subprocess
 def test_a_runaway_allocation_is_stopped_and_named():
-    result = subprocess.run([sys.executable, "-m", "phongscene", "validate", str(RUNAWAY)], capture_output=True,
-                            text=True, timeout=RUNAWAY_TIMEOUT_S)
+    result = subprocess.run(
+        [sys.executable, "-m", "phongscene", "validate", str(RUNAWAY)],
+        capture_output=True,
+        text=True,
+        timeout=RUNAWAY_TIMEOUT_S,
+    )
     assert result.returncode == 2
     (line,) = result.stderr.splitlines()
     assert line.startswith(f"error: {RUNAWAY}: ") and "sandboxed child process" in line
@@ -130,11 +134,19 @@ def _textured_quads(folder, count: int, side: int) -> str:
 @pytest.mark.povray
 def test_a_scene_with_several_4k_textures_passes_validate_and_diff(tmp_path):
     scene = _textured_quads(tmp_path, TEXTURES_4K, TEXTURE_SIDE_4K)
-    result = subprocess.run([sys.executable, "-m", "phongscene", "validate", scene], capture_output=True, text=True,
-                            timeout=TEXTURED_TIMEOUT_S)
+    result = subprocess.run(
+        [sys.executable, "-m", "phongscene", "validate", scene],
+        capture_output=True,
+        text=True,
+        timeout=TEXTURED_TIMEOUT_S,
+    )
     assert (result.returncode, result.stdout.strip()) == (0, f"ok: {scene}"), result.stderr
-    result = subprocess.run([sys.executable, "-m", "phongscene", "diff", scene, "-o", str(tmp_path / "report")],
-                            capture_output=True, text=True, timeout=TEXTURED_TIMEOUT_S)
+    result = subprocess.run(
+        [sys.executable, "-m", "phongscene", "diff", scene, "-o", str(tmp_path / "report")],
+        capture_output=True,
+        text=True,
+        timeout=TEXTURED_TIMEOUT_S,
+    )
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "report" / "metrics.json").is_file()
 
@@ -155,8 +167,10 @@ def test_the_reader_announces_each_layer_and_texture_before_reading_it(tmp_path)
     decoded = memory_model.texture_decode_bytes(texels, 3, 1)  # 8-bit RGB
     assert announced == [
         (scene, memory_model.layer_bytes(os.path.getsize(scene))),
-        (str(tmp_path / "t0.png"), decoded), (str(tmp_path / "t0.png"), memory_model.texture_model_bytes(texels)),
-        (str(tmp_path / "t1.png"), decoded), (str(tmp_path / "t1.png"), memory_model.texture_model_bytes(texels)),
+        (str(tmp_path / "t0.png"), decoded),
+        (str(tmp_path / "t0.png"), memory_model.texture_model_bytes(texels)),
+        (str(tmp_path / "t1.png"), decoded),
+        (str(tmp_path / "t1.png"), memory_model.texture_model_bytes(texels)),
     ]
     # Sandboxed, under the limit those announcements build: the same scene, its texels read-only.
     sandboxed = read_usd_sandboxed(scene)
@@ -244,8 +258,9 @@ def test_a_sigkilled_parent_leaves_no_sandbox_child(tmp_path):
 
 @pytest.mark.subprocess
 def test_an_interrupted_parent_kills_its_sandbox_child(tmp_path):
-    parent = subprocess.Popen([sys.executable, "-c", PARENT, str(EXAMPLES / "seed_exponents.usda")],
-                              stderr=subprocess.PIPE)
+    parent = subprocess.Popen(
+        [sys.executable, "-c", PARENT, str(EXAMPLES / "seed_exponents.usda")], stderr=subprocess.PIPE
+    )
     child = None
     try:
         child = _sandbox_child_of(parent)

@@ -58,8 +58,14 @@ def _start(tmp_path: Path, args: list[str]) -> tuple[subprocess.Popen, int, Path
     tmp = tmp_path / "tmp"
     tmp.mkdir()
     env = dict(os.environ, TMPDIR=str(tmp))
-    proc = subprocess.Popen([str(PHONGSCENE), *args], env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [str(PHONGSCENE), *args],
+        env=env,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     deadline = time.monotonic() + WAIT_SECONDS
     while time.monotonic() < deadline and proc.poll() is None:
         povray = [c for c in _children(proc.pid) if _command(c) == "povray"]
@@ -127,11 +133,17 @@ def test_timeout_abandons_a_stopped_povray_with_exit_3(tmp_path, command):
 
 @pytest.mark.subprocess
 def test_timeout_is_for_the_povray_backend_only(tmp_path):
-    r = subprocess.run([str(PHONGSCENE), "render", str(SCENE), "-o", str(tmp_path / "x.png"), "--timeout", "5"],
-                       capture_output=True, text=True)
+    r = subprocess.run(
+        [str(PHONGSCENE), "render", str(SCENE), "-o", str(tmp_path / "x.png"), "--timeout", "5"],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 2 and "--timeout applies to --backend povray only" in r.stderr
-    r = subprocess.run([str(PHONGSCENE), "diff", str(SCENE), "-o", str(tmp_path / "r"), "--timeout", "0"],
-                       capture_output=True, text=True)
+    r = subprocess.run(
+        [str(PHONGSCENE), "diff", str(SCENE), "-o", str(tmp_path / "r"), "--timeout", "0"],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 2 and "expected a number of seconds > 0" in r.stderr
 
 
@@ -158,8 +170,13 @@ def _interrupted(script: str, delay: float) -> tuple[subprocess.Popen, str, str]
     """Runs ``script`` (one of the _SIGNAL_ME_... programs), sends SIGINT ``delay`` s after it
     announces its import, and returns the process and its output."""
     read, write = os.pipe()
-    proc = subprocess.Popen([sys.executable, "-c", script, str(SCENE), str(write)],
-                            pass_fds=(write,), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", script, str(SCENE), str(write)],
+        pass_fds=(write,),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     os.close(write)
     assert os.read(read, 1) == b"!"
     os.close(read)

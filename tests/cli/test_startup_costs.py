@@ -22,8 +22,14 @@ from support.paths import EXAMPLES
 
 EXAMPLE = EXAMPLES / "seed_lobe.usda"
 # Modules a render does not need, each a measurable share of its start-up (benchmarks/startup.py).
-NOT_FOR_A_RENDER = ("phongscene.usd.writer", "numpy.ma", "importlib.resources", "secrets",
-                    "phongscene.backends.povray.compile", "phongscene.backends.povray.run")
+NOT_FOR_A_RENDER = (
+    "phongscene.usd.writer",
+    "numpy.ma",
+    "importlib.resources",
+    "secrets",
+    "phongscene.backends.povray.compile",
+    "phongscene.backends.povray.run",
+)
 
 CUBE_SCENE = """#usda 1.0
 (
@@ -95,9 +101,11 @@ def test_a_native_render_imports_no_usd_writer_povray_compiler_numpy_ma_importli
     # The whole command in process, the EXR write included: each name is imported by a call a
     # render used to make (np.median, importlib.resources.files, secrets.token_hex, a package's
     # __init__, the --mapping's vocabulary).
-    code = (f"from phongscene.cli import main\n"
-            f"assert main(['render', {str(EXAMPLE)!r}, '-o', {str(tmp_path / 'a.exr')!r}, '--width', '8', '--height', '6']) == 0\n"
-            f"import sys\nprint(' '.join(sorted(sys.modules)))\n")
+    code = (
+        f"from phongscene.cli import main\n"
+        f"assert main(['render', {str(EXAMPLE)!r}, '-o', {str(tmp_path / 'a.exr')!r}, '--width', '8', '--height', '6']) == 0\n"
+        f"import sys\nprint(' '.join(sorted(sys.modules)))\n"
+    )
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout
     loaded = set(out.split())
     assert "phongscene.usd.reader" in loaded and "OpenImageIO" in loaded  # the probe did render
@@ -106,9 +114,11 @@ def test_a_native_render_imports_no_usd_writer_povray_compiler_numpy_ma_importli
 
 @pytest.mark.subprocess
 def test_the_usd_writer_and_the_povray_compiler_are_still_reachable_from_their_packages():
-    loaded = loaded_modules("from phongscene.usd import write_usd, define_sphere\nassert callable(write_usd)\n"
-                            "from phongscene.backends import povray\nassert callable(povray.compile_pov)\n"
-                            "assert povray.INSTALL_HINT and povray.MAPPINGS == ('exact', 'classic')")
+    loaded = loaded_modules(
+        "from phongscene.usd import write_usd, define_sphere\nassert callable(write_usd)\n"
+        "from phongscene.backends import povray\nassert callable(povray.compile_pov)\n"
+        "assert povray.INSTALL_HINT and povray.MAPPINGS == ('exact', 'classic')"
+    )
     assert "pxr" in loaded
 
 
@@ -125,13 +135,18 @@ def console_run(args: list[str], env_extra: dict) -> subprocess.CompletedProcess
     """``python -m phongscene ARGS`` with an exit handler that prints the BLAS thread variable:
     it shows that exit handlers run and that block-buffered output (a pipe, no
     PYTHONUNBUFFERED) is flushed before the process ends."""
-    env = {k: v for k, v in os.environ.items()
-           if k not in ("PYTHONUNBUFFERED", "OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")}
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("PYTHONUNBUFFERED", "OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+    }
     env.update(env_extra)
-    code = ("import atexit, os, runpy, sys\n"
-            "atexit.register(lambda: print('at exit: OPENBLAS_NUM_THREADS', os.environ.get('OPENBLAS_NUM_THREADS')))\n"
-            f"sys.argv = ['phongscene', *{args!r}]\n"
-            "runpy.run_module('phongscene', run_name='__main__')\n")
+    code = (
+        "import atexit, os, runpy, sys\n"
+        "atexit.register(lambda: print('at exit: OPENBLAS_NUM_THREADS', os.environ.get('OPENBLAS_NUM_THREADS')))\n"
+        f"sys.argv = ['phongscene', *{args!r}]\n"
+        "runpy.run_module('phongscene', run_name='__main__')\n"
+    )
     return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
 
 
@@ -147,8 +162,9 @@ def test_the_phongscene_process_uses_one_blas_thread_runs_exit_handlers_and_flus
 
 @pytest.mark.subprocess
 def test_the_phongscene_process_keeps_a_users_blas_threads_and_its_exit_status(tmp_path):
-    done = console_run(["render", str(tmp_path / "missing.usda"), "-o", str(tmp_path / "a.exr")],
-                       {"OMP_NUM_THREADS": "2"})
+    done = console_run(
+        ["render", str(tmp_path / "missing.usda"), "-o", str(tmp_path / "a.exr")], {"OMP_NUM_THREADS": "2"}
+    )
     assert done.returncode == 2
     assert "file not found" in done.stderr
     assert done.stdout.rstrip().endswith("at exit: OPENBLAS_NUM_THREADS None")

@@ -9,7 +9,9 @@ from phongscene.warning_groups import MAX_WARNING_LINES, PRIMS_SHOWN, capped, gr
 
 
 def test_the_same_message_about_many_prims_is_one_line_in_place():
-    warnings = ["first, about no prim"] + [f"/Set/Teapot{i}.inputs:x: not an input of Foo (ignored)" for i in range(500)]
+    warnings = ["first, about no prim"] + [
+        f"/Set/Teapot{i}.inputs:x: not an input of Foo (ignored)" for i in range(500)
+    ]
     warnings += ["/Other: something else", "last"]
     lines = grouped(warnings)
     assert lines[0] == "first, about no prim"

@@ -15,8 +15,8 @@ import pytest
 
 import phongscene
 from phongscene.cli import EXIT_BACKEND, EXIT_DIFFERENT, EXIT_OK, EXIT_SCENE, main
-from phongscene.progress import ProgressBar
 from phongscene.images import write_image
+from phongscene.progress import ProgressBar
 from support.paths import EXAMPLES
 
 # A small scene for diff runs: one sphere, one point light, a camera (48×36 keeps POV-Ray fast).
@@ -164,7 +164,10 @@ def test_cli_diff_agreeing_backends_exit_0(tmp_path, small_scene, capsys):
 @pytest.mark.slow
 @pytest.mark.povray
 def test_cli_diff_classic_mapping_exit_0(tmp_path, small_scene):
-    assert main(["diff", str(small_scene), "-o", str(tmp_path / "out"), "--mapping", "classic", "--width", "32"]) == EXIT_OK
+    assert (
+        main(["diff", str(small_scene), "-o", str(tmp_path / "out"), "--mapping", "classic", "--width", "32"])
+        == EXIT_OK
+    )
     metrics = json.loads((tmp_path / "out" / "metrics.json").read_text(encoding="utf-8"))
     assert metrics["mapping"] == "classic" and metrics["native_specular"] == "povray-classic"
 
@@ -173,7 +176,18 @@ def test_cli_diff_classic_mapping_exit_0(tmp_path, small_scene):
 @pytest.mark.povray
 def test_cli_diff_differing_images_exit_1(tmp_path, small_scene, capsys):
     # With zero tolerance, POV-Ray's half-float rounding alone makes the images differ.
-    args = ["diff", str(small_scene), "-o", str(tmp_path / "out"), "--width", "32", "--fail", "0", "--fail-relative", "0"]
+    args = [
+        "diff",
+        str(small_scene),
+        "-o",
+        str(tmp_path / "out"),
+        "--width",
+        "32",
+        "--fail",
+        "0",
+        "--fail-relative",
+        "0",
+    ]
     assert main(args) == EXIT_DIFFERENT
     assert "FAILURE" in capsys.readouterr().out
 

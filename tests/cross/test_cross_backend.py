@@ -34,9 +34,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from support import oracle
-from support.calibration import ADAPTIVE_SCENES, SCENES
-from support.paths import EXAMPLES, SHARED_ASSETS
 from phongscene.comparison import (
     HALF_FLOAT,
     POVRAY_MESH_FLOAT32,
@@ -46,9 +43,12 @@ from phongscene.comparison import (
     failing_mask,
 )
 from phongscene.crossvalidation import render_native_as_povray
-from phongscene.rendering import render, settings_for
+from phongscene.rendering import settings_for
 from phongscene.report import write_report
 from phongscene.scene import RectAreaLight, Scene, SphereAreaLight
+from support import oracle
+from support.calibration import ADAPTIVE_SCENES, SCENES
+from support.paths import EXAMPLES, SHARED_ASSETS
 
 pytestmark = pytest.mark.povray
 
@@ -151,11 +151,21 @@ def _check(case: tuple[str, str, str], povray_images, tmp_path: Path, monkeypatc
             explained |= ~failing_mask(pov, cached, HALF_FLOAT)
         unexplained = [(int(x), int(y)) for y, x in np.argwhere(failing & ~explained)]
     if not report.ok or unexplained:
-        index = write_report(tmp_path / "report", pov, native, report, labels=("povray", "native"),
-                             title=f"{name} ({mapping})", meta={"scene": name, "mapping": mapping})
+        index = write_report(
+            tmp_path / "report",
+            pov,
+            native,
+            report,
+            labels=("povray", "native"),
+            title=f"{name} ({mapping})",
+            meta={"scene": name, "mapping": mapping},
+        )
         why = f"pixels (x, y) not explained by {allowance}: {unexplained}\n" if unexplained else ""
-        pytest.fail(f"{kind} scene {name}, mapping {mapping}, thresholds {allowance}:\n{report.summary()}\n"
-                    f"{why}report: {index}", pytrace=False)
+        pytest.fail(
+            f"{kind} scene {name}, mapping {mapping}, thresholds {allowance}:\n{report.summary()}\n"
+            f"{why}report: {index}",
+            pytrace=False,
+        )
 
 
 def _ids(case) -> str:

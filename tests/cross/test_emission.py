@@ -11,11 +11,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from support import oracle
-from support.calibration import GOLD, _sphere_on_ground, classic_variant
 from phongscene import compile_pov, render
 from phongscene.comparison import compare
 from phongscene.scene import PointLight
+from support import oracle
+from support.calibration import GOLD, _sphere_on_ground, classic_variant
 
 # As tests/test_native_render.py: the native tracer against the float64 oracle.
 ORACLE_RELATIVE_TOLERANCE = 1e-6
@@ -41,9 +41,16 @@ def test_native_adds_le_as_the_oracle(convention):
 
 def test_le_is_added_and_lights_nothing_else():
     scene = emissive_scene()
-    plain = dataclasses.replace(scene, spheres=tuple(dataclasses.replace(s, material=dataclasses.replace(s.material, emission=(0, 0, 0))) for s in scene.spheres))
+    plain = dataclasses.replace(
+        scene,
+        spheres=tuple(
+            dataclasses.replace(s, material=dataclasses.replace(s.material, emission=(0, 0, 0))) for s in scene.spheres
+        ),
+    )
     got, without = render(scene, "native"), render(plain, "native")
-    ball = np.any(render(dataclasses.replace(scene, meshes=()), "native") != np.float32(scene.settings.background), axis=2)
+    ball = np.any(
+        render(dataclasses.replace(scene, meshes=()), "native") != np.float32(scene.settings.background), axis=2
+    )
     np.testing.assert_allclose(got[ball] - without[ball], np.broadcast_to(LE, got[ball].shape), rtol=0, atol=1e-6)
     np.testing.assert_array_equal(got[~ball], without[~ball])  # the ground is not lit by it
 

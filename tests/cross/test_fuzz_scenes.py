@@ -27,7 +27,6 @@ import pytest
 from hypothesis import given, seed
 from hypothesis import strategies as st
 
-from support.fuzz import SEED, fuzz_settings
 from phongscene.comparison import compare, for_povray_passes
 from phongscene.crossvalidation import DiffResult, _explain
 from phongscene.rendering import render, settings_for
@@ -42,6 +41,7 @@ from phongscene.scene import (
     Sphere,
     TriangleMesh,
 )
+from support.fuzz import SEED, fuzz_settings
 
 pytestmark = pytest.mark.povray
 
@@ -85,7 +85,9 @@ def triangles(draw) -> TriangleMesh:
     n = draw(st.integers(1, 4))
     points = np.array(draw(st.lists(st.tuples(*[st.floats(-2.0, 2.0)] * 3), min_size=3 * n, max_size=3 * n)))
     tri = np.arange(3 * n, dtype=np.int32).reshape(n, 3)
-    area = np.linalg.norm(np.cross(points[tri[:, 1]] - points[tri[:, 0]], points[tri[:, 2]] - points[tri[:, 0]]), axis=1)
+    area = np.linalg.norm(
+        np.cross(points[tri[:, 1]] - points[tri[:, 0]], points[tri[:, 2]] - points[tri[:, 0]]), axis=1
+    )
     keep = area > 1e-3  # a sliver has no area the image can resolve; the model rejects none
     if not keep.any():
         points, tri = np.array([[-2.0, -2.0, -2.0], [2.0, -2.0, -2.0], [0.0, -2.0, 2.0]]), np.array([[0, 1, 2]])
@@ -113,7 +115,9 @@ def scene(draw) -> Scene:
     eye = draw(direction()) * draw(st.floats(*CAMERA_DISTANCE))
     camera = Camera.look_at(tuple(eye), (0.0, 0.0, 0.0), draw(st.floats(30.0, 80.0)))
     settings = RenderSettings(
-        width=SIZE[0], height=SIZE[1], background=draw(colour),
+        width=SIZE[0],
+        height=SIZE[1],
+        background=draw(colour),
         specular=draw(st.sampled_from(["seed", "povray-classic"])),
     )
     return Scene(

@@ -14,13 +14,13 @@ import math
 import numpy as np
 import pytest
 
-from support import oracle
-from support.calibration import GOLD, _sphere_on_ground
 from phongscene import compile_pov, render
 from phongscene.backends import native
 from phongscene.comparison import compare
 from phongscene.scene import Intrinsic, PointLight, Scene
 from phongscene.validate import validate
+from support import oracle
+from support.calibration import GOLD, _sphere_on_ground
 
 # As tests/test_native_render.py: the native tracer against the float64 oracle.
 ORACLE_RELATIVE_TOLERANCE = 1e-6
@@ -60,15 +60,18 @@ def intrinsic_scene(name: str) -> Scene:
     """The calibration ground and light with one tilted, non-uniformly scaled intrinsic above it
     (casting its shadow on the ground and, for the concave-free shapes, on itself)."""
     base = _sphere_on_ground(PointLight((3.41, 5.07, 2.93), (2.2, 1.3, 0.7)), material=GOLD)
-    return dataclasses.replace(base, spheres=(), intrinsics=(Intrinsic(world_from_object=TILTED, material=GOLD, **KINDS[name]),))
+    return dataclasses.replace(
+        base, spheres=(), intrinsics=(Intrinsic(world_from_object=TILTED, material=GOLD, **KINDS[name]),)
+    )
 
 
 def infinite_plane_scene() -> Scene:
     """The calibration sphere resting 0.01 above an infinite ground plane (y = 0: the plane's
     z axis turned onto +y)."""
     base = _sphere_on_ground(PointLight((3.41, 5.07, 2.93), (2.2, 1.3, 0.7)), material=GOLD)
-    ground = Intrinsic("plane", placed((0, 0, 0), (1, 1, 1), rotation(0, -math.pi / 2)), base.meshes[0].material,
-                       infinite=True)
+    ground = Intrinsic(
+        "plane", placed((0, 0, 0), (1, 1, 1), rotation(0, -math.pi / 2)), base.meshes[0].material, infinite=True
+    )
     return dataclasses.replace(base, meshes=(), intrinsics=(ground,))
 
 
@@ -171,8 +174,14 @@ def test_povray_draws_each_intrinsic_as_the_native_tracer(name):
 
 
 def test_the_sdl_uses_povrays_own_shapes():
-    expected = {"cube": "box {", "cylinder": "cylinder {", "cone": "cone {", "cylinder_1": "cone {",
-                "capsule": "union { sphere", "plane": "polygon { 4"}
+    expected = {
+        "cube": "box {",
+        "cylinder": "cylinder {",
+        "cone": "cone {",
+        "cylinder_1": "cone {",
+        "capsule": "union { sphere",
+        "plane": "polygon { 4",
+    }
     for name, keyword in expected.items():
         assert keyword in compile_pov(intrinsic_scene(name), mapping="classic")
     assert "plane { z, 0" in compile_pov(infinite_plane_scene(), mapping="classic")

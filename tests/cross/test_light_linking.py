@@ -13,12 +13,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from support import oracle
-from support.calibration import GOLD, _sphere_on_ground, classic_variant
 from phongscene import compile_pov, render
 from phongscene.comparison import compare
 from phongscene.errors import SceneError
 from phongscene.scene import Linking, PointLight, RectAreaLight
+from support import oracle
+from support.calibration import GOLD, _sphere_on_ground, classic_variant
 
 # As tests/test_native_render.py: the native tracer against the float64 oracle.
 ORACLE_RELATIVE_TOLERANCE = 1e-6
@@ -119,7 +119,9 @@ def test_the_sdl_is_unchanged_without_linking():
 
 
 def test_the_exact_mapping_switches_per_pass():
-    sdl = compile_pov(linked_scene(Linking(illuminates=frozenset({BALL})), Linking(shadowed_by=frozenset())), mapping="exact")
+    sdl = compile_pov(
+        linked_scene(Linking(illuminates=frozenset({BALL})), Linking(shadowed_by=frozenset())), mapping="exact"
+    )
     assert "#if (Pass = 0) Material_1_Unlit #else Material_1 #end" in sdl  # the ground, unlit by light 0
     assert sdl.count("#if (Pass = 1) no_shadow #end") == 2  # light 1: nothing casts its shadows
 
@@ -134,7 +136,9 @@ def test_the_exact_mapping_switches_per_pass():
 )
 def test_the_classic_mapping_names_the_light_and_collection_it_cannot_express(linkings, attribute):
     scene = classic_variant(linked_scene(*linkings))
-    scene = dataclasses.replace(scene, lights=tuple(dataclasses.replace(l, source=f"/World/Light{i}") for i, l in enumerate(scene.lights)))
+    scene = dataclasses.replace(
+        scene, lights=tuple(dataclasses.replace(l, source=f"/World/Light{i}") for i, l in enumerate(scene.lights))
+    )
     with pytest.raises(SceneError, match=attribute) as error:
         compile_pov(scene, mapping="classic")
     assert "/World/Light" in str(error.value)

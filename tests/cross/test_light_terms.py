@@ -11,12 +11,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from support import oracle
-from support.calibration import GOLD, _sphere_on_ground, classic_variant
 from phongscene import compile_pov, render
 from phongscene.comparison import compare
 from phongscene.errors import SceneError
 from phongscene.scene import PointLight
+from support import oracle
+from support.calibration import GOLD, _sphere_on_ground, classic_variant
 
 # As tests/native/test_native_render.py: the native tracer against the float64 oracle.
 ORACLE_RELATIVE_TOLERANCE = 1e-6
@@ -27,11 +27,15 @@ def terms_scene():
     """A gold sphere with a highlight from each of two lights: one mostly specular (diffuse 0.3,
     specular 2), one diffuse only (specular 0)."""
     scene = _sphere_on_ground(PointLight((3.41, 5.07, 2.93), (2.2, 1.3, 0.7), diffuse=0.3, specular=2.0), material=GOLD)
-    return dataclasses.replace(scene, lights=(*scene.lights, PointLight((-3.7, 4.3, 1.9), (0.6, 1.1, 2.1), specular=0.0)))
+    return dataclasses.replace(
+        scene, lights=(*scene.lights, PointLight((-3.7, 4.3, 1.9), (0.6, 1.1, 2.1), specular=0.0))
+    )
 
 
 def without_terms(scene):
-    return dataclasses.replace(scene, lights=tuple(dataclasses.replace(l, diffuse=1.0, specular=1.0) for l in scene.lights))
+    return dataclasses.replace(
+        scene, lights=tuple(dataclasses.replace(l, diffuse=1.0, specular=1.0) for l in scene.lights)
+    )
 
 
 @pytest.mark.parametrize("convention", ["seed", "povray-classic"])
@@ -64,6 +68,8 @@ def test_the_classic_mapping_rejects_unequal_multipliers_naming_the_light():
 
 @pytest.mark.povray
 def test_the_classic_mapping_scales_a_light_with_equal_multipliers():
-    scene = classic_variant(_sphere_on_ground(PointLight((3.41, 5.07, 2.93), (2.2, 1.3, 0.7), diffuse=0.5, specular=0.5)))
+    scene = classic_variant(
+        _sphere_on_ground(PointLight((3.41, 5.07, 2.93), (2.2, 1.3, 0.7), diffuse=0.5, specular=0.5))
+    )
     scene = dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, numerics="povray"))
     assert compare(render(scene, "povray", mapping="classic"), render(scene, "native")).ok

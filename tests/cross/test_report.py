@@ -56,12 +56,18 @@ def _write(tmp_path, a, b, **kw):
 def test_report_every_referenced_file_exists_and_decodes(tmp_path):
     a, b = _images()
     index = _write(
-        tmp_path, a, b, labels=("povray", "native"), timings={"povray": 0.8, "native": 0.01},
+        tmp_path,
+        a,
+        b,
+        labels=("povray", "native"),
+        timings={"povray": 0.8, "native": 0.01},
         meta={"scene": "x.usda", "mapping": "exact"},
     )
     parser = _Links()
     parser.feed(index.read_text(encoding="utf-8"))
-    assert {"povray.png", "native.png", "povray.exr", "native.exr", "diff_heat.png", "metrics.json"} <= set(parser.links)
+    assert {"povray.png", "native.png", "povray.exr", "native.exr", "diff_heat.png", "metrics.json"} <= set(
+        parser.links
+    )
     for link in parser.links:
         assert "://" not in link and not link.startswith("/"), f"external resource {link}"
         path = index.parent / link
@@ -185,8 +191,14 @@ def test_report_page_shows_values_as_text_and_every_failing_pixel_on_both_sides(
     a, b = _images()
     b[20, 30] = (0.25, 0.5, 0.75)
     index = write_report(
-        tmp_path / "rep", a, b, compare(a, b), labels=("povray", "native"), explained=[(30, 20)],
-        cause="POV-Ray's shadow cache", meta={"settings": {"width": 32, "background": [0.0, 0.0, 0.0]}},
+        tmp_path / "rep",
+        a,
+        b,
+        compare(a, b),
+        labels=("povray", "native"),
+        explained=[(30, 20)],
+        cause="POV-Ray's shadow cache",
+        meta={"settings": {"width": 32, "background": [0.0, 0.0, 0.0]}},
     )
     text = _page_text(index)
     # No raw Python or JSON values: booleans, infinities and dicts are written for a reader.
@@ -206,8 +218,9 @@ def test_report_page_shows_values_as_text_and_every_failing_pixel_on_both_sides(
 
 def test_diff_report_passes_when_every_failing_pixel_is_explained(tmp_path):
     a, b = _images()
-    index = write_report(tmp_path / "rep", a, b, compare(a, b), explained=[(9, 5)], cause="POV-Ray's shadow cache",
-                         ok=True)
+    index = write_report(
+        tmp_path / "rep", a, b, compare(a, b), explained=[(9, 5)], cause="POV-Ray's shadow cache", ok=True
+    )
     text = _page_text(index)
     assert "PASS" in text and "FAIL" not in text
     assert "every failing pixel is explained by POV-Ray's shadow cache" in text

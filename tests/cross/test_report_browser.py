@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from OpenImageIO import ImageBuf, ImageBufAlgo, TypeFloat
 
-from support.paths import chromium
 from phongscene.comparison import HALF_FLOAT, compare
 from phongscene.report import ALLOWED_ERROR_COLOUR, EXPLAINED_COLOUR, FAILING_COLOUR, HEAT_MAP, write_report
+from support.paths import chromium
 
 pytestmark = pytest.mark.chromium
 
@@ -41,9 +41,20 @@ CLUSTER_PIXELS = 20
 def _screenshot(index: Path, out: Path) -> np.ndarray:
     width, height = WINDOW
     subprocess.run(
-        [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--force-device-scale-factor=1",
-         f"--window-size={width},{height}", f"--screenshot={out}", index.as_uri()],
-        check=True, capture_output=True, timeout=CHROMIUM_SECONDS,
+        [
+            chromium(),
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+            "--force-device-scale-factor=1",
+            f"--window-size={width},{height}",
+            f"--screenshot={out}",
+            index.as_uri(),
+        ],
+        check=True,
+        capture_output=True,
+        timeout=CHROMIUM_SECONDS,
     )
     return np.asarray(ImageBuf(str(out)).get_pixels(TypeFloat))[..., :3]  # sRGB codes / 255
 
@@ -102,8 +113,9 @@ def test_a_pass_is_dark_everywhere_and_shows_no_overlay(tmp_path):
     b = (a.astype(np.float64) * (1 + 0.95 * HALF_FLOAT.fail_relative)).astype(np.float32)
     report = compare(a, b)
     assert report.ok and report.max_relative_error > 0.9 * HALF_FLOAT.fail_relative
-    index = write_report(tmp_path / "rep", a, b, report, labels=("povray", "native"), explained=[],
-                         cause="POV-Ray's shadow cache")
+    index = write_report(
+        tmp_path / "rep", a, b, report, labels=("povray", "native"), explained=[], cause="POV-Ray's shadow cache"
+    )
     shot = _screenshot(index, tmp_path / "shot.png")
 
     # The map's colour (ratio ~0.95 everywhere) covers the map's area on screen, and it is dark.

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from phongscene.rendering import compile_pov, render  # the validating entry points
 from phongscene.errors import SceneError
+from phongscene.rendering import compile_pov, render  # the validating entry points
 from phongscene.scene import PhongMaterial, PointLight, Scene, Sphere, TriangleMesh
 
 POINTS = np.zeros((3, 3))

@@ -8,13 +8,11 @@ the shading model in docs/concepts/phong-model.md and the POV-Ray reference (ref
 from __future__ import annotations
 
 import dataclasses
-
 import math
 
 import numpy as np
 import pytest
 
-from support import calibration, oracle
 from phongscene.scene import (
     AmbientLight,
     Camera,
@@ -29,6 +27,7 @@ from phongscene.scene import (
     TriangleMesh,
 )
 from phongscene.validate import validate
+from support import calibration, oracle
 
 # Closed forms are evaluated in float64 like the oracle; only the order of operations differs.
 EXACT = 1e-12
@@ -123,7 +122,9 @@ def test_antialiasing_of_an_edge_inside_a_pixel(samples, pattern, fraction):
     c = 0.5
     material = PhongMaterial(ka=1.0, kd=0.0, ks=0.0, diffuse_color=(c, c, c))
     x_edge = 3.4 - 4.0  # image x = sx maps to world x = sx − W/2
-    tri = TriangleMesh(points=[(x_edge, -500, 0), (x_edge, 500, 0), (1000, 0, 0)], triangles=[(0, 1, 2)], material=material)
+    tri = TriangleMesh(
+        points=[(x_edge, -500, 0), (x_edge, 500, 0), (1000, 0, 0)], triangles=[(0, 1, 2)], material=material
+    )
     scene = Scene(
         camera=Camera(position=(0, 0, 5), forward=(0, 0, -1), up=(0, 1, 0), projection="orthographic", ortho_width=8.0),
         ambient=AmbientLight((1.0, 1.0, 1.0)),
@@ -152,7 +153,9 @@ def test_area_light_subdivision_weights():
 # Shading closed forms
 
 
-HEAD_ON = PhongMaterial(ka=0.2, kd=0.7, ks=0.4, exponent=15.0, diffuse_color=(0.8, 0.5, 0.3), specular_color=(0.3, 0.6, 0.9))
+HEAD_ON = PhongMaterial(
+    ka=0.2, kd=0.7, ks=0.4, exponent=15.0, diffuse_color=(0.8, 0.5, 0.3), specular_color=(0.3, 0.6, 0.9)
+)
 HEAD_ON_LA = np.array([0.5, 0.4, 0.3])
 HEAD_ON_L = np.array([2.0, 2.5, 3.0])
 
@@ -171,16 +174,19 @@ def test_head_on_directional_light_centre_pixel_seed():
     # Centre pixel of an odd image looks along −Z at the sphere's pole: n = l = wo = +Z, so
     # n·l = 1 and r·wo = 1: L = ka·cd·La + (kd·cd/π + ks·cs)·L (docs/concepts/phong-model.md).
     m = HEAD_ON
-    expected = m.ka * np.array(m.diffuse_color) * HEAD_ON_LA + (
-        m.kd * np.array(m.diffuse_color) / math.pi + m.ks * np.array(m.specular_color)
-    ) * HEAD_ON_L
+    expected = (
+        m.ka * np.array(m.diffuse_color) * HEAD_ON_LA
+        + (m.kd * np.array(m.diffuse_color) / math.pi + m.ks * np.array(m.specular_color)) * HEAD_ON_L
+    )
     np.testing.assert_allclose(oracle.render(_head_on_scene("seed"))[12, 16], expected, atol=EXACT)
 
 
 def test_head_on_directional_light_centre_pixel_classic():
     # Same pole, povray-classic: L = ka·cd·La + kd/π·cd·L + ks·L (white highlight, no cs).
     m = HEAD_ON
-    expected = m.ka * np.array(m.diffuse_color) * HEAD_ON_LA + (m.kd * np.array(m.diffuse_color) / math.pi + m.ks) * HEAD_ON_L
+    expected = (
+        m.ka * np.array(m.diffuse_color) * HEAD_ON_LA + (m.kd * np.array(m.diffuse_color) / math.pi + m.ks) * HEAD_ON_L
+    )
     np.testing.assert_allclose(oracle.render(_head_on_scene("povray-classic"))[12, 16], expected, atol=EXACT)
 
 
@@ -279,12 +285,15 @@ def test_usdlux_inverse_square_point_and_lambertian_rect_light():
     point = PointLight((0, 3, 0), (18.0, 18.0, 18.0), falloff="inverse-square")
     got = _one_ray(_ground_scene([point]), (0.5, 1, 1), (0, 0, 0))
     np.testing.assert_allclose(got, _ground_value(np.full(3, 2.0), 1.0), atol=1e-9)
-    down = RectAreaLight((4, 3, 0), axis_u=(0, 0, 0.1), axis_v=(0.1, 0, 0), color=(50.0, 50.0, 50.0), samples=3,
-                         falloff="inverse-square")  # emits along −(u × v) = −y
+    down = RectAreaLight(
+        (4, 3, 0), axis_u=(0, 0, 0.1), axis_v=(0.1, 0, 0), color=(50.0, 50.0, 50.0), samples=3, falloff="inverse-square"
+    )  # emits along −(u × v) = −y
     got = _one_ray(_ground_scene([down]), (0.5, 1, 1), (0, 0, 0))
     np.testing.assert_allclose(got, _ground_value(np.full(3, 50.0 * 0.6 / 25.0), 0.6), atol=1e-9)
     up = dataclasses.replace(down, axis_u=down.axis_v, axis_v=down.axis_u)
-    np.testing.assert_allclose(_one_ray(_ground_scene([up]), (0.5, 1, 1), (0, 0, 0)), _ground_value((0, 0, 0), 0.6), atol=1e-9)
+    np.testing.assert_allclose(
+        _one_ray(_ground_scene([up]), (0.5, 1, 1), (0, 0, 0)), _ground_value((0, 0, 0), 0.6), atol=1e-9
+    )
 
 
 @pytest.mark.parametrize(("samples", "fraction"), [(3, 1 / 4), (5, 3 / 8), (9, 5 / 16)])
@@ -297,7 +306,9 @@ def test_rect_area_light_shades_from_centre_and_shadows_from_trapezoid_grid(samp
     light = RectAreaLight(center=(0, 4, 0), axis_u=(2, 0, 0), axis_v=(0, 0, 2), color=(2, 2, 2), samples=samples)
     occluder = _quad([(-10, 2, -10), (-10, 2, 10), (0.15, 2, 10), (0.15, 2, -10)], GROUND_MAT)
     scene = _ground_scene([light], meshes=(occluder,))
-    np.testing.assert_allclose(_one_ray(scene, (0.05, 1, 1), (0, 0, 0)), _ground_value((2, 2, 2), 1.0, fraction), atol=EXACT)
+    np.testing.assert_allclose(
+        _one_ray(scene, (0.05, 1, 1), (0, 0, 0)), _ground_value((2, 2, 2), 1.0, fraction), atol=EXACT
+    )
 
 
 def test_sphere_area_light_samples_form_an_oriented_disc():
@@ -340,8 +351,12 @@ def test_primary_hit_needs_min_isect_depth_and_max_distance():
     material = PhongMaterial(ka=0.5, kd=0.0, ks=0.0, diffuse_color=(0.5, 0.5, 0.5))
 
     def value(z_quad, origin_z, half=1.0):
-        quad = _quad([(-half, -half, z_quad), (half, -half, z_quad), (half, half, z_quad), (-half, half, z_quad)], material)
-        scene = Scene(ambient=AmbientLight((1, 1, 1)), meshes=(quad,), settings=RenderSettings(background=(0.0, 0.0, 0.0)))
+        quad = _quad(
+            [(-half, -half, z_quad), (half, -half, z_quad), (half, half, z_quad), (-half, half, z_quad)], material
+        )
+        scene = Scene(
+            ambient=AmbientLight((1, 1, 1)), meshes=(quad,), settings=RenderSettings(background=(0.0, 0.0, 0.0))
+        )
         return _one_ray(scene, (0.1, 0.2, origin_z), (0.1, 0.2, origin_z - 1.0))[0]
 
     assert value(0.0, 5e-5) == 0.0
@@ -352,7 +367,13 @@ def test_primary_hit_needs_min_isect_depth_and_max_distance():
 
 @pytest.mark.parametrize(
     ("distance_along_l", "shadowed"),
-    [(5e-4, False), (2e-3, True), (2 * math.sqrt(2) - 5e-4, False), (2 * math.sqrt(2) - 2e-3, True), (2 * math.sqrt(2) + 0.5, False)],
+    [
+        (5e-4, False),
+        (2e-3, True),
+        (2 * math.sqrt(2) - 5e-4, False),
+        (2 * math.sqrt(2) - 2e-3, True),
+        (2 * math.sqrt(2) + 0.5, False),
+    ],
 )
 def test_shadow_window(distance_along_l, shadowed):
     # ref §6: a shadow ray starts exactly at P; an occluder counts for 1e-3 < t < dist − 1e-3.
@@ -382,11 +403,17 @@ def test_sphere_and_ellipsoid_coverage_orthographic():
     # area), to within the area of a ring of width √2/2 px around the outline.
     width, height, ortho = 64, 48, 4.0
     s = width / ortho
-    ellipsoid = calibration.translation((0.9, -0.3, 0)) @ calibration.rotation((0, 0, 1), 30.0) @ calibration.scaling((0.6, 0.35, 2.0))
+    ellipsoid = (
+        calibration.translation((0.9, -0.3, 0))
+        @ calibration.rotation((0, 0, 1), 30.0)
+        @ calibration.scaling((0.6, 0.35, 2.0))
+    )
     cases = [(Sphere.at((-0.2, 0.1, 0.0), 1.1), 1.1 * 1.1, 1.1), (Sphere(ellipsoid), 0.6 * 0.35, 0.6)]
     for sphere, ab, largest in cases:
         scene = Scene(
-            camera=Camera(position=(0, 0, 10), forward=(0, 0, -1), up=(0, 1, 0), projection="orthographic", ortho_width=ortho),
+            camera=Camera(
+                position=(0, 0, 10), forward=(0, 0, -1), up=(0, 1, 0), projection="orthographic", ortho_width=ortho
+            ),
             ambient=AmbientLight((1, 1, 1)),
             spheres=(sphere,),
             settings=RenderSettings(width=width, height=height, background=(-1.0, -1.0, -1.0)),
@@ -428,7 +455,9 @@ def test_smooth_mesh_normal_is_barycentric_interpolation_and_two_sided():
     material = PhongMaterial(ka=0.0, kd=0.9, ks=0.0, diffuse_color=(0.4, 0.5, 0.6))
     expected = 0.9 * np.array([0.4, 0.5, 0.6]) / math.pi * 1.5 * (n @ light_l)
     for sign in (1.0, -1.0):
-        mesh = TriangleMesh(points=corners, triangles=[(0, 1, 2)], normals=sign * normals, normal_indices=[(0, 1, 2)], material=material)
+        mesh = TriangleMesh(
+            points=corners, triangles=[(0, 1, 2)], normals=sign * normals, normal_indices=[(0, 1, 2)], material=material
+        )
         scene = Scene(lights=(DirectionalLight(_tup(-light_l), (1.5, 1.5, 1.5)),), meshes=(mesh,))
         np.testing.assert_allclose(_one_ray(scene, hit + [0.0, 0.0, 3.0], hit), expected, atol=1e-9)
 
@@ -451,7 +480,9 @@ def test_povray_golden_example():
     # Reference §15 in model terms (see calibration.povray_golden for the camera conversion).
     image = oracle.render(calibration.povray_golden())
     for (col, row), expected in GOLDEN_PIXELS.items():
-        np.testing.assert_allclose(image[row, col], expected, atol=GOLDEN_TABLE_TOLERANCE, err_msg=f"pixel {(col, row)}")
+        np.testing.assert_allclose(
+            image[row, col], expected, atol=GOLDEN_TABLE_TOLERANCE, err_msg=f"pixel {(col, row)}"
+        )
 
 
 def test_handedness_red_right_green_top():
@@ -580,7 +611,9 @@ def test_calibration_scene_is_well_posed(name):
             continue
         for dx, dy in ((COINCIDENCE_SHIFT_PX, COINCIDENCE_SHIFT_PX), (-COINCIDENCE_SHIFT_PX, COINCIDENCE_SHIFT_PX)):
             jump = np.abs(_render_shifted(variant, dx, dy) - image).max(axis=2)
-            assert jump.max() <= COINCIDENCE_JUMP, f"{name}: discontinuity near a sample at pixels {np.argwhere(jump > COINCIDENCE_JUMP)}"
+            assert jump.max() <= COINCIDENCE_JUMP, (
+                f"{name}: discontinuity near a sample at pixels {np.argwhere(jump > COINCIDENCE_JUMP)}"
+            )
 
 
 @pytest.mark.parametrize("name", sorted(calibration.SCENES))

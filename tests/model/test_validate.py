@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from phongscene.errors import SceneError
+from phongscene.rendering import in_file_terms
 from phongscene.scene import (
     AmbientLight,
     Camera,
@@ -23,7 +24,6 @@ from phongscene.scene import (
     SphereAreaLight,
     TriangleMesh,
 )
-from phongscene.rendering import in_file_terms
 from phongscene.validate import check, validate
 
 NAN, INF = float("nan"), float("inf")
@@ -58,7 +58,9 @@ def with_light(i: int, **kw) -> Scene:
 
 
 def with_mesh(**kw) -> Scene:
-    fields = dict(points=TRI.points, triangles=TRI.triangles, normals=TRI.normals, normal_indices=TRI.normal_indices, material=MAT)
+    fields = dict(
+        points=TRI.points, triangles=TRI.triangles, normals=TRI.normals, normal_indices=TRI.normal_indices, material=MAT
+    )
     fields.update(kw)
     return replace(base(), meshes=(TriangleMesh(**fields),))
 
@@ -82,7 +84,10 @@ BAD = {
     "NaN camera position": (lambda: replace(base(), camera=Camera(position=(NAN, 0, 0))), "position"),
     "fov 0": (lambda: replace(base(), camera=Camera(horizontal_fov_deg=0.0)), "horizontal_fov_deg"),
     "fov 180": (lambda: replace(base(), camera=Camera(horizontal_fov_deg=180.0)), "horizontal_fov_deg"),
-    "ortho width 0": (lambda: replace(base(), camera=Camera(projection="orthographic", ortho_width=0.0)), "ortho_width"),
+    "ortho width 0": (
+        lambda: replace(base(), camera=Camera(projection="orthographic", ortho_width=0.0)),
+        "ortho_width",
+    ),
     "unknown projection": (lambda: replace(base(), camera=Camera(projection="fisheye")), "projection"),
     "width 0": (lambda: replace(base(), settings=RenderSettings(width=0)), "width"),
     "height 0": (lambda: replace(base(), settings=RenderSettings(height=0)), "height"),
@@ -105,8 +110,14 @@ BAD = {
     "sphere light samples 6": (lambda: with_light(3, samples=6), "samples"),
     "sphere radius 0": (lambda: sphere_matrix(np.diag([0, 0, 0, 1])), "world_from_object"),
     "flattened sphere": (lambda: sphere_matrix(np.diag([1, 1, 0, 1])), "world_from_object"),
-    "sphere with NaN": (lambda: sphere_matrix([[1, 0, 0, NAN], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), "world_from_object"),
-    "projective sphere matrix": (lambda: sphere_matrix([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1]]), "world_from_object"),
+    "sphere with NaN": (
+        lambda: sphere_matrix([[1, 0, 0, NAN], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]),
+        "world_from_object",
+    ),
+    "projective sphere matrix": (
+        lambda: sphere_matrix([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1]]),
+        "world_from_object",
+    ),
     "triangle index out of range": (lambda: with_mesh(triangles=[(0, 1, 3)]), "triangles"),
     "negative triangle index": (lambda: with_mesh(triangles=[(0, -1, 2)]), "triangles"),
     "NaN point": (lambda: with_mesh(points=[(0, 0, NAN), (1, 0, 0), (0, 1, 0)]), "points"),
@@ -161,7 +172,10 @@ def test_boundary_values_are_valid():
     scene = replace(
         with_material(ka=0.0, kd=1.0, ks=1.0, exponent=0.0, diffuse_color=(0, 0, 0)),
         settings=RenderSettings(samples=9, width=1, height=1),
-        lights=(RectAreaLight((0, 5, 0), (1, 0, 0), (0, 0, 1), (0, 0, 0), 3), SphereAreaLight((0, 0, 0), 1e-9, (1, 1, 1), 17)),
+        lights=(
+            RectAreaLight((0, 5, 0), (1, 0, 0), (0, 0, 1), (0, 0, 0), 3),
+            SphereAreaLight((0, 0, 0), 1e-9, (1, 1, 1), 17),
+        ),
     )
     assert validate(scene) == []
 
@@ -170,14 +184,23 @@ def test_a_shared_material_is_reported_once_in_order_of_first_use():
     bad_ks = replace(MAT, ks=-0.5)
     bad_ka = replace(MAT, ka=2.0)
     unhashable = replace(MAT, diffuse_color=[0.5, -1.0, 0.5])  # a list colour, as built by hand
-    materials = [bad_ks, bad_ka, replace(MAT, ks=-0.5), unhashable, bad_ka, replace(MAT, diffuse_color=[0.5, -1.0, 0.5])]
+    materials = [
+        bad_ks,
+        bad_ka,
+        replace(MAT, ks=-0.5),
+        unhashable,
+        bad_ka,
+        replace(MAT, diffuse_color=[0.5, -1.0, 0.5]),
+    ]
     scene = replace(base(), spheres=tuple(Sphere.at((i, 0, 0), 0.4, m) for i, m in enumerate(materials)))
     assert [p.attribute for p in validate(scene)] == ["ks", "ka", "diffuse_color"]
 
 
 def test_positions_the_tracer_cannot_represent_are_problems():
     # ±1e308 is finite, but the extent between two such spheres is not (it crashed the BVH build).
-    far = replace(base(), spheres=(Sphere.at((1e308, 0, 0), 1.0, source="/A"), Sphere.at((-1e308, 0, 0), 1.0, source="/B")))
+    far = replace(
+        base(), spheres=(Sphere.at((1e308, 0, 0), 1.0, source="/A"), Sphere.at((-1e308, 0, 0), 1.0, source="/B"))
+    )
     found = {(p.prim, p.attribute) for p in validate(far)}
     assert found == {("/A", "world_from_object"), ("/B", "world_from_object")}
     mesh = TriangleMesh([[1.5e308, 0, 0], [-1.5e308, 0, 0], [0, 1, 0]], [[0, 1, 2]], source="/T")
@@ -190,8 +213,11 @@ def test_native_tracer_survives_infinite_extents():
     # What validation rejects must still not crash the C++ (bins clamp whatever slips through).
     from phongscene.backends import native
 
-    far = replace(base(), spheres=(Sphere.at((1e308, 0, 0), 1.0), Sphere.at((-1e308, 0, 0), 1.0)),
-                  settings=RenderSettings(width=8, height=6))
+    far = replace(
+        base(),
+        spheres=(Sphere.at((1e308, 0, 0), 1.0), Sphere.at((-1e308, 0, 0), 1.0)),
+        settings=RenderSettings(width=8, height=6),
+    )
     image = native.render(far)
     assert image.shape == (6, 8, 3)
 
@@ -214,8 +240,10 @@ def test_sizes_threads_and_grids_beyond_what_a_render_can_hold_are_problems():
 def test_cli_rejects_sizes_and_threads_out_of_range(capsys):
     from phongscene.cli import main
 
-    for argv in (["render", "x.usda", "-o", "x.png", "--width", "1000000"],
-                 ["render", "x.usda", "-o", "x.png", "--threads", "3000000000"]):
+    for argv in (
+        ["render", "x.usda", "-o", "x.png", "--width", "1000000"],
+        ["render", "x.usda", "-o", "x.png", "--threads", "3000000000"],
+    ):
         with pytest.raises(SystemExit) as e:
             main(argv)
         assert e.value.code == 2

@@ -9,17 +9,17 @@ from __future__ import annotations
 
 import dataclasses
 
-from support import calibration
 import numpy as np
 import pytest
 
-from phongscene.backends.povray.run import render_switches
 from phongscene.backends.povray.compile import compile_pov
+from phongscene.backends.povray.run import render_switches
 from phongscene.errors import SceneError
 from phongscene.rendering import render
 from phongscene.scene import RenderSettings
 from phongscene.usd import load_usd, write_usd
 from phongscene.validate import validate
+from support import calibration
 
 R = dataclasses.replace
 # A pixel counts as changed by the adaptive rule when it moves by more than float32 rounding
@@ -114,8 +114,9 @@ def test_exact_mapping_passes_decide_adaptive_aa_on_their_own():
 
 
 def _stratified(scene, n, threshold, size=(48, 36)):
-    settings = R(scene.settings, width=size[0], height=size[1], samples=n, sample_pattern="stratified",
-                 aa_threshold=threshold)
+    settings = R(
+        scene.settings, width=size[0], height=size[1], samples=n, sample_pattern="stratified", aa_threshold=threshold
+    )
     return render(scene, "native", settings).astype(np.float64)
 
 
@@ -167,12 +168,35 @@ def test_cli_rejects_more_than_9_samples_except_for_stratified(tmp_path, capsys)
     path = write_usd(calibration.point_light(), tmp_path / "scene.usda")
     assert main(["render", str(path), "-o", str(tmp_path / "a.exr"), "--spp", "10"]) == 2
     assert "phong:samples" in capsys.readouterr().err
-    assert main(["render", str(path), "-o", str(tmp_path / "b.exr"), "--spp", "10", "--width", "8",
-                 "--sample-pattern", "stratified", "--aa-threshold", "0.05"]) == 0
+    assert (
+        main(
+            [
+                "render",
+                str(path),
+                "-o",
+                str(tmp_path / "b.exr"),
+                "--spp",
+                "10",
+                "--width",
+                "8",
+                "--sample-pattern",
+                "stratified",
+                "--aa-threshold",
+                "0.05",
+            ]
+        )
+        == 0
+    )
 
 
-@pytest.mark.parametrize("change", [{"samples": 10, "sample_pattern": "povray-am2"}, {"aa_threshold": float("nan")},
-                                    {"samples": 17, "sample_pattern": "stratified"}])
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"samples": 10, "sample_pattern": "povray-am2"},
+        {"aa_threshold": float("nan")},
+        {"samples": 17, "sample_pattern": "stratified"},
+    ],
+)
 def test_the_extension_refuses_settings_validation_would_reject(change):
     """Validation runs in Python; the extension still refuses what would make it misbehave (a
     2^(n-1)-sized +AM2 buffer, a NaN threshold), with an error and not a crash."""
@@ -211,8 +235,12 @@ def _quadtree_from_lattice(lattice, width, height, n, threshold):
                 clear[j, i] = False
             if weighted >= threshold:
                 h = s // 2
-                return (cell(j, i, x, y, h) + cell(j, i, x + h, y, h) + cell(j, i, x, y + h, h)
-                        + cell(j, i, x + h, y + h, h)) / 4
+                return (
+                    cell(j, i, x, y, h)
+                    + cell(j, i, x + h, y, h)
+                    + cell(j, i, x, y + h, h)
+                    + cell(j, i, x + h, y + h, h)
+                ) / 4
         return c.mean(axis=0)
 
     for j in range(height):
@@ -227,8 +255,9 @@ def test_adaptive_equals_the_quadtree_over_oracle_rays(n, threshold):
 
     scene = calibration.point_light()
     width, height = 32, 24
-    settings = R(scene.settings, width=width, height=height, samples=n, sample_pattern="adaptive",
-                 aa_threshold=threshold)
+    settings = R(
+        scene.settings, width=width, height=height, samples=n, sample_pattern="adaptive", aa_threshold=threshold
+    )
     xs, ys = np.meshgrid(np.arange(width * n + 1) / n, np.arange(height * n + 1) / n, indexing="xy")
     origins, directions = oracle.camera_rays(scene.camera, width, height, xs, ys)
     lattice = oracle.trace_rays(scene, origins, directions, settings).reshape(height * n + 1, width * n + 1, 3)
@@ -285,8 +314,23 @@ def test_adaptive_needs_a_power_of_two_and_is_native_only(tmp_path, capsys):
         native.build(scene).render(native._camera(scene.camera), native._settings(R(ok, samples=6)))
     path = write_usd(R(scene, settings=ok), tmp_path / "scene.usda")
     assert load_usd(path).settings.sample_pattern == "adaptive"
-    assert main(["render", str(path), "-o", str(tmp_path / "a.exr"), "--spp", "8", "--sample-pattern", "adaptive",
-                 "--aa-threshold", "0.01"]) == 0
+    assert (
+        main(
+            [
+                "render",
+                str(path),
+                "-o",
+                str(tmp_path / "a.exr"),
+                "--spp",
+                "8",
+                "--sample-pattern",
+                "adaptive",
+                "--aa-threshold",
+                "0.01",
+            ]
+        )
+        == 0
+    )
     assert main(["render", str(path), "-o", str(tmp_path / "b.exr"), "--spp", "6", "--sample-pattern", "adaptive"]) == 2
     assert "power of 2" in capsys.readouterr().err
 
@@ -295,8 +339,9 @@ def test_adaptive_needs_a_power_of_two_and_is_native_only(tmp_path, capsys):
 
 
 def _with_light(scene, **change):
-    return R(scene, lights=tuple(R(light, **change) if hasattr(light, "cell_samples") else light
-                                 for light in scene.lights))
+    return R(
+        scene, lights=tuple(R(light, **change) if hasattr(light, "cell_samples") else light for light in scene.lights)
+    )
 
 
 def _shadow_rms(scene, reference, **change):
@@ -367,8 +412,15 @@ def test_command_line_estimator_combinations_name_the_option_not_the_file(tmp_pa
     scene = write_usd(calibration.point_light(), tmp_path / "scene.usda")
     runs = {
         ("render", "-o", str(tmp_path / "a.exr"), "--sample-pattern", "adaptive", "--spp", "3"): "argument --spp",
-        ("render", "-o", str(tmp_path / "a.exr"), "--backend", "povray", "--sample-pattern", "adaptive"):
-            "argument --sample-pattern",
+        (
+            "render",
+            "-o",
+            str(tmp_path / "a.exr"),
+            "--backend",
+            "povray",
+            "--sample-pattern",
+            "adaptive",
+        ): "argument --sample-pattern",
         ("diff", "-o", str(tmp_path / "report"), "--sample-pattern", "stratified"): "argument --sample-pattern",
         ("compile", "-o", str(tmp_path / "s.pov"), "--sample-pattern", "adaptive"): "argument --sample-pattern",
     }
@@ -376,4 +428,6 @@ def test_command_line_estimator_combinations_name_the_option_not_the_file(tmp_pa
         assert main([command, str(scene), *options]) == 2
         err = capsys.readouterr().err
         assert err.startswith(f"phongscene {command}: error: {named}") and "/Render" not in err, err
-    assert not (tmp_path / "a.exr").exists() and not (tmp_path / "report").exists() and not (tmp_path / "s.pov").exists()
+    assert (
+        not (tmp_path / "a.exr").exists() and not (tmp_path / "report").exists() and not (tmp_path / "s.pov").exists()
+    )

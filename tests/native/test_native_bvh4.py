@@ -107,10 +107,13 @@ def test_random_rays_equal_brute_force(path, scale):
     # brute-force one, to the last bit.
     rng = np.random.default_rng(13)
     corners = float32_triangles(rng, 2000, 5.0 * scale, 0.0)
-    spheres = tuple(Sphere.at(tuple(rng.uniform(-5, 5, 3) * scale), float(rng.uniform(0.05, 0.5)) * scale)
-                    for _ in range(80))
+    spheres = tuple(
+        Sphere.at(tuple(rng.uniform(-5, 5, 3) * scale), float(rng.uniform(0.05, 0.5)) * scale) for _ in range(80)
+    )
     points = corners.reshape(-1, 3)
-    scene = Scene(spheres=spheres, meshes=(TriangleMesh(points=points, triangles=np.arange(len(points)).reshape(-1, 3)),))
+    scene = Scene(
+        spheres=spheres, meshes=(TriangleMesh(points=points, triangles=np.arange(len(points)).reshape(-1, 3)),)
+    )
     built = native.build(scene)
     origins = rng.uniform(-8, 8, size=(5000, 3)) * scale
     dirs = unit(rng.normal(size=(5000, 3)))

@@ -153,8 +153,11 @@ def test_scaled_sphere_hits_equal_the_general_transform_bit_for_bit(centre):
     # rays from the centres of the mirrored spheres here differ by an ulp.)
     rng = np.random.default_rng(5)
     c = np.asarray(centre)
-    offsets = [np.array([x, y, z]) for x in (0.0, -0.0) for y in (0.0, -0.0) for z in (0.0, -0.0)] + [
-        np.array([0.3, 0.0, -0.0]), np.array([0.0, -0.4, 0.0])] + list(rng.uniform(-3, 3, size=(8, 3)))
+    offsets = (
+        [np.array([x, y, z]) for x in (0.0, -0.0) for y in (0.0, -0.0) for z in (0.0, -0.0)]
+        + [np.array([0.3, 0.0, -0.0]), np.array([0.0, -0.4, 0.0])]
+        + list(rng.uniform(-3, 3, size=(8, 3)))
+    )
     directions = [s * np.eye(3)[k] for k in range(3) for s in (1.0, -1.0)] + list(unit(rng.normal(size=(8, 3))))
     # Mirrored axes too: their inverses carry -0.0 translations and off-diagonal terms.
     for scales in rng.uniform(0.2, 3.0, size=(24, 3)) * rng.choice([1.0, -1.0], size=(24, 3)):
@@ -229,8 +232,9 @@ def test_a_million_triangles_flatten_fast_and_build():
     idx = np.arange(n * n).reshape(n, n)
     a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
     tris = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
-    mesh = TriangleMesh(points=points, triangles=tris, normals=np.array([[0.0, 0.0, 1.0]]),
-                        normal_indices=np.zeros_like(tris))
+    mesh = TriangleMesh(
+        points=points, triangles=tris, normals=np.array([[0.0, 0.0, 1.0]]), normal_indices=np.zeros_like(tris)
+    )
     scene = Scene(meshes=(mesh,))
     assert scene.triangle_count > 990_000
     start = time.perf_counter()
@@ -247,7 +251,9 @@ def test_triangles_are_numbered_across_the_meshes_in_order():
     # Each mesh's arrays go to C++ as they are (one list entry per mesh); primitive ids count
     # spheres, then every mesh's triangles in mesh order.
     meshes = tuple(
-        TriangleMesh(points=jittered_grid(6, seed=k).points + (0.0, 0.0, float(k)), triangles=jittered_grid(6, seed=k).triangles)
+        TriangleMesh(
+            points=jittered_grid(6, seed=k).points + (0.0, 0.0, float(k)), triangles=jittered_grid(6, seed=k).triangles
+        )
         for k in range(3)
     )
     spheres = (Sphere.at((3.0, 3.0, 10.0), 0.5),)

@@ -20,10 +20,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from support import oracle
 from phongscene import render
 from phongscene.comparison import compare
 from phongscene.scene import AmbientLight, Camera, DirectionalLight, PhongMaterial, RenderSettings, Scene, TriangleMesh
+from support import oracle
 
 WHITE = PhongMaterial(ka=0.2, kd=0.8, ks=0.0, exponent=1.0, diffuse_color=(1.0, 1.0, 1.0))
 # The light comes from -x, low: a floor point at distance x0 from the fold meets the wall at

@@ -16,9 +16,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from support import oracle
 from phongscene import render
 from phongscene.scene import AmbientLight, Camera, PhongMaterial, RenderSettings, Scene, TriangleMesh
+from support import oracle
 
 # A parallelogram A, B, C, D = A + C − B (float32 values), split along A–C.
 A = (0.18905338644981384, -0.5227484703063965, -0.41306355595588684)
@@ -48,7 +48,9 @@ def quad_scene() -> Scene:
         ortho_width=VIEW_WIDTH,
     )
     white = PhongMaterial(ka=1.0, kd=0.0, ks=0.0, exponent=1.0, diffuse_color=(1.0, 1.0, 1.0))
-    mesh = TriangleMesh(points=np.array([A, B, C, A, C, D]), triangles=np.arange(6, dtype=np.int32).reshape(2, 3), material=white)
+    mesh = TriangleMesh(
+        points=np.array([A, B, C, A, C, D]), triangles=np.arange(6, dtype=np.int32).reshape(2, 3), material=white
+    )
     return Scene(
         camera=camera,
         meshes=(mesh,),

@@ -12,9 +12,7 @@ import math
 import threading
 import time
 
-from support import calibration
 import numpy as np
-from support import oracle
 import pytest
 
 from phongscene.backends import native
@@ -27,6 +25,7 @@ from phongscene.scene import (
     Scene,
     Sphere,
 )
+from support import calibration, oracle
 
 # The native image is stored as float32, whose rounding is 2^-24 ≈ 6e-8 relative; everything
 # before that is float64 in both renderers. 1e-6 relative leaves 16x headroom for the different
@@ -89,16 +88,28 @@ def scaled(scene: Scene, k: float) -> Scene:
         lights.append(dataclasses.replace(light, **changes))
     return dataclasses.replace(
         scene,
-        camera=dataclasses.replace(scene.camera, position=pos(scene.camera.position),
-                                   ortho_width=k * scene.camera.ortho_width),
+        camera=dataclasses.replace(
+            scene.camera, position=pos(scene.camera.position), ortho_width=k * scene.camera.ortho_width
+        ),
         lights=tuple(lights),
         spheres=tuple(dataclasses.replace(sp, world_from_object=s @ sp.world_from_object) for sp in scene.spheres),
         meshes=tuple(dataclasses.replace(m, points=k * m.points) for m in scene.meshes),
     )
 
 
-@pytest.mark.parametrize("name", ["shadows_two_lights", "rect_area_light", "sphere_area_light", "smooth_mesh",
-                                  "orthographic", "fade", "mirror_floor", "facing_mirrors"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "shadows_two_lights",
+        "rect_area_light",
+        "sphere_area_light",
+        "smooth_mesh",
+        "orthographic",
+        "fade",
+        "mirror_floor",
+        "facing_mirrors",
+    ],
+)
 def test_native_image_is_the_same_from_1e_minus_6_to_1e6_units(name):
     scene = calibration.SCENES[name]()
     reference = native.render(scene).astype(np.float64)
@@ -153,7 +164,7 @@ def translated(scene: Scene, offset) -> Scene:
 
 
 def without_light(scene: Scene, index: int) -> Scene:
-    return dataclasses.replace(scene, lights=scene.lights[:index] + scene.lights[index + 1:])
+    return dataclasses.replace(scene, lights=scene.lights[:index] + scene.lights[index + 1 :])
 
 
 def unlit_by(image: np.ndarray, image_without_light: np.ndarray) -> np.ndarray:
@@ -167,8 +178,19 @@ def unlit_by(image: np.ndarray, image_without_light: np.ndarray) -> np.ndarray:
     [(1.0, (1e6, -1e6, 1e6)), (1.0, (-2.7e6, 3.1e5, 1.3e6)), (1e-6, (1.0, -1.0, 1.0))],
     ids=["1e6", "mixed-1e6", "1e-6-units-at-1"],
 )
-@pytest.mark.parametrize("name", ["shadows_two_lights", "rect_area_light", "sphere_area_light", "smooth_mesh",
-                                  "transformed_spheres", "orthographic", "directional_light", "fade"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "shadows_two_lights",
+        "rect_area_light",
+        "sphere_area_light",
+        "smooth_mesh",
+        "transformed_spheres",
+        "orthographic",
+        "directional_light",
+        "fade",
+    ],
+)
 def test_native_image_is_the_same_translated_far_from_the_origin(name, scale, offset):
     scene = calibration.SCENES[name]()
     reference = native.render(scene).astype(np.float64)
@@ -185,7 +207,7 @@ def test_native_image_is_the_same_translated_far_from_the_origin(name, scale, of
         expected = unlit_by(native.render(scene), native.render(without_light(scene, k)))
         actual = unlit_by(native.render(moved), native.render(without_light(moved, k)))
         assert np.array_equal(actual, expected)
-        assert expected[expected.shape[0] // 2:].sum() > 0  # some shadow on the ground (lower half)
+        assert expected[expected.shape[0] // 2 :].sum() > 0  # some shadow on the ground (lower half)
 
 
 # The radius-1e-3 sphere 1e6 from the origin: every coordinate there rounds by ~6e-11, i.e.
@@ -211,7 +233,7 @@ def test_a_radius_1e_minus_3_sphere_at_1e6_casts_its_contact_shadow():
     # Same shadow, pixel for pixel (and no acne: no lit pixel turns dark).
     shadow = unlit_by(expected, oracle.render(without_light(unit_scene, 0)))
     assert np.array_equal(unlit_by(image, native.render(without_light(far, 0))), shadow)
-    assert shadow[shadow.shape[0] // 2:].sum() > 20  # the shadow on the ground (lower half)
+    assert shadow[shadow.shape[0] // 2 :].sum() > 20  # the shadow on the ground (lower half)
 
 
 def rotated(scene: Scene, rotation: np.ndarray) -> Scene:
@@ -224,14 +246,23 @@ def rotated(scene: Scene, rotation: np.ndarray) -> Scene:
     fields = ("position", "center", "axis_u", "axis_v", "direction")
     return dataclasses.replace(
         scene,
-        camera=dataclasses.replace(scene.camera, position=rot(scene.camera.position),
-                                   forward=rot(scene.camera.forward), up=rot(scene.camera.up)),
-        lights=tuple(dataclasses.replace(light, **{f: rot(getattr(light, f)) for f in fields if hasattr(light, f)})
-                     for light in scene.lights),
-        spheres=tuple(dataclasses.replace(sp, world_from_object=rotation @ sp.world_from_object)
-                      for sp in scene.spheres),
-        meshes=tuple(dataclasses.replace(m, points=m.points @ r.T, normals=None if m.normals is None else m.normals @ r.T)
-                     for m in scene.meshes),
+        camera=dataclasses.replace(
+            scene.camera,
+            position=rot(scene.camera.position),
+            forward=rot(scene.camera.forward),
+            up=rot(scene.camera.up),
+        ),
+        lights=tuple(
+            dataclasses.replace(light, **{f: rot(getattr(light, f)) for f in fields if hasattr(light, f)})
+            for light in scene.lights
+        ),
+        spheres=tuple(
+            dataclasses.replace(sp, world_from_object=rotation @ sp.world_from_object) for sp in scene.spheres
+        ),
+        meshes=tuple(
+            dataclasses.replace(m, points=m.points @ r.T, normals=None if m.normals is None else m.normals @ r.T)
+            for m in scene.meshes
+        ),
     )
 
 
@@ -302,8 +333,9 @@ def test_area_light_shadows_of_a_mesh_match_the_oracle(light):
     scene = calibration.smooth_mesh()
     mesh = calibration.icosphere(2, (0.07, 1.08, -0.13), 1.03, calibration.GOLD, smooth=False)
     area = (
-        calibration.RectAreaLight(center=(2.37, 4.11, 1.63), axis_u=(1.7, 0.0, 0.3), axis_v=(-0.2, 0.1, 1.3),
-                                  color=(3.2, 3.1, 2.9), samples=5)
+        calibration.RectAreaLight(
+            center=(2.37, 4.11, 1.63), axis_u=(1.7, 0.0, 0.3), axis_v=(-0.2, 0.1, 1.3), color=(3.2, 3.1, 2.9), samples=5
+        )
         if light == "rect"
         else calibration.SphereAreaLight(center=(-2.13, 3.61, 2.27), radius=0.63, color=(3.1, 3.0, 3.2), samples=5)
     )

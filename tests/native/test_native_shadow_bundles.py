@@ -18,9 +18,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from support import calibration
 from phongscene.backends import native
 from phongscene.scene import Camera, RectAreaLight, RenderSettings, Sphere, SphereAreaLight, TriangleMesh
+from support import calibration
 
 # The two estimators add the same weights of the same visible points in different orders
 # (a flat sum against nested means of quadrants): a few ulps of each pixel's value.
@@ -33,6 +33,7 @@ NUMERICS = ("scale-invariant", "povray")
 def every_point_one_at_a_time(scene):
     """The scene with each area light's grid traced through POV-Ray's recursion down to single
     cells (samples = 2^k + 1, adaptive k: every region splits, whatever its corners say)."""
+
     def deep(light):
         if not hasattr(light, "samples"):
             return light
@@ -70,8 +71,9 @@ def sphere_cloud(rng, count: int):
 def test_full_grid_bundles_equal_single_rays(light, numerics):
     rng = np.random.default_rng(5)
     area = (
-        RectAreaLight(center=(0.37, 4.6, -0.21), axis_u=(2.3, 0.0, 0.4), axis_v=(-0.3, 0.2, 1.9),
-                      color=(2.1, 2.0, 1.9), samples=9)
+        RectAreaLight(
+            center=(0.37, 4.6, -0.21), axis_u=(2.3, 0.0, 0.4), axis_v=(-0.3, 0.2, 1.9), color=(2.1, 2.0, 1.9), samples=9
+        )
         if light == "rect"
         else SphereAreaLight(center=(-0.43, 4.2, 0.57), radius=1.1, color=(2.0, 2.1, 1.9), samples=9)
     )
@@ -97,21 +99,37 @@ def test_axis_parallel_rays_on_box_planes(numerics):
     # 1/32 + {−1, −1/2, 0, 1/2, 1}: from pixels i, j in {16, 24, 32, 40, 48} some rays have a
     # direction component exactly 0. The spheres' boxes have planes at x = 1/32 or z = 1/32 + 1/2
     # (floats, so the boxes are exact): those rays run inside the planes.
-    camera = Camera(position=(0.0, 10.0, 0.0), forward=(0.0, -1.0, 0.0), up=(0.0, 0.0, -1.0),
-                    projection="orthographic", ortho_width=4.0)
-    light = RectAreaLight(center=(1 / 32, 4.0, 1 / 32), axis_u=(2.0, 0.0, 0.0), axis_v=(0.0, 0.0, 2.0),
-                          color=(2.0, 2.0, 2.0), samples=5)
+    camera = Camera(
+        position=(0.0, 10.0, 0.0),
+        forward=(0.0, -1.0, 0.0),
+        up=(0.0, 0.0, -1.0),
+        projection="orthographic",
+        ortho_width=4.0,
+    )
+    light = RectAreaLight(
+        center=(1 / 32, 4.0, 1 / 32), axis_u=(2.0, 0.0, 0.0), axis_v=(0.0, 0.0, 2.0), color=(2.0, 2.0, 2.0), samples=5
+    )
     spheres = (
         Sphere.at((1 / 32 + 0.75, 1.5, 1 / 32 + 0.25), 0.75, calibration.RED),  # box x from 1/32
         Sphere.at((-0.75, 2.0, 1 / 32 + 0.5 + 0.5), 0.5, calibration.GREEN),  # box z from 1/32 + 1/2
-        Sphere(np.diag([0.25, 0.5, 1.0, 1.0]) + np.array([[0, 0, 0, 1 / 32 - 0.25 - 1.0], [0, 0, 0, 1.0],
-                                                           [0, 0, 0, -1.0], [0, 0, 0, 0]]), calibration.BLUE),
+        Sphere(
+            np.diag([0.25, 0.5, 1.0, 1.0])
+            + np.array([[0, 0, 0, 1 / 32 - 0.25 - 1.0], [0, 0, 0, 1.0], [0, 0, 0, -1.0], [0, 0, 0, 0]]),
+            calibration.BLUE,
+        ),
     )
     # A quad at y = 2.5 whose box's planes are x = 1/32 and z = 1/32 + 1/2 (its triangles are
     # tested behind their boxes, spheres are not).
-    quad = TriangleMesh(points=[(1 / 32 - 1.5, 2.5, 1 / 32 + 0.5), (1 / 32, 2.5, 1 / 32 + 0.5),
-                                (1 / 32, 2.5, 1 / 32 + 1.5), (1 / 32 - 1.5, 2.5, 1 / 32 + 1.5)],
-                        triangles=[(0, 2, 1), (0, 3, 2)], material=calibration.GOLD)
+    quad = TriangleMesh(
+        points=[
+            (1 / 32 - 1.5, 2.5, 1 / 32 + 0.5),
+            (1 / 32, 2.5, 1 / 32 + 0.5),
+            (1 / 32, 2.5, 1 / 32 + 1.5),
+            (1 / 32 - 1.5, 2.5, 1 / 32 + 1.5),
+        ],
+        triangles=[(0, 2, 1), (0, 3, 2)],
+        material=calibration.GOLD,
+    )
     scene = dataclasses.replace(
         calibration.point_light(),
         camera=camera,

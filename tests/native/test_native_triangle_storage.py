@@ -7,9 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from support import calibration
 import numpy as np
-from support import oracle
 import pytest
 from test_native_intersect import jittered_grid, unit
 from test_native_render import assert_matches_oracle
@@ -17,8 +15,8 @@ from test_native_render import assert_matches_oracle
 from phongscene.backends import native
 from phongscene.scene import Scene, TriangleMesh
 from phongscene.usd import load_usd
+from support import calibration, oracle
 from support.paths import EXAMPLES
-
 
 
 def as_float(a):
@@ -46,8 +44,13 @@ def with_double_numbers(scene):
     reaches it), whose vertex 1000.1 and normal (0.6, 0.8, 0) are not floats: the whole scene
     falls back to double storage."""
     far = np.array([[-1e3, -1e3, 1e3 + 0.1], [-1e3 + 1.0, -1e3, 1e3], [-1e3, -1e3 + 1.0, 1e3]])
-    extra = TriangleMesh(points=far, triangles=[(0, 1, 2)], material=scene.meshes[0].material,
-                         normals=np.array([[0.6, 0.8, 0.0]]), normal_indices=np.zeros((1, 3), np.int64))
+    extra = TriangleMesh(
+        points=far,
+        triangles=[(0, 1, 2)],
+        material=scene.meshes[0].material,
+        normals=np.array([[0.6, 0.8, 0.0]]),
+        normal_indices=np.zeros((1, 3), np.int64),
+    )
     return dataclasses.replace(scene, meshes=(*scene.meshes, extra))
 
 

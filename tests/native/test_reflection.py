@@ -13,16 +13,24 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from support import calibration
 import numpy as np
-from support import oracle
 import pytest
 
 from phongscene.backends import native
 from phongscene.backends.povray import compile_pov
 from phongscene.errors import SceneError
-from phongscene.scene import AmbientLight, Camera, PhongMaterial, PointLight, RenderSettings, Scene, Sphere, TriangleMesh
+from phongscene.scene import (
+    AmbientLight,
+    Camera,
+    PhongMaterial,
+    PointLight,
+    RenderSettings,
+    Scene,
+    Sphere,
+    TriangleMesh,
+)
 from phongscene.validate import check
+from support import calibration, oracle
 
 # The two paths of a closed-form comparison (a reflected ray from the mirror point, or the
 # straight ray of the mirrored scene) round differently in float64 (~1e-15 relative); the images
@@ -100,8 +108,14 @@ def test_mirror_plane_shows_the_mirrored_scene_exactly(render):
     camera = Camera.look_at((0.4, 2.6, 6.3), (-0.2, 0.2, -0.5), 55.0)
     settings = RenderSettings(width=64, height=48, background=BACKGROUND)
     ambient = AmbientLight((0.15, 0.16, 0.18))
-    with_mirror = Scene(camera=camera, ambient=ambient, lights=(light,), spheres=spheres,
-                        meshes=(_quad(0.0, 1e3, PURE_MIRROR),), settings=settings)
+    with_mirror = Scene(
+        camera=camera,
+        ambient=ambient,
+        lights=(light,),
+        spheres=spheres,
+        meshes=(_quad(0.0, 1e3, PURE_MIRROR),),
+        settings=settings,
+    )
 
     def flipped(p):
         return (p[0], -p[1], p[2])
@@ -109,8 +123,13 @@ def test_mirror_plane_shows_the_mirrored_scene_exactly(render):
     mirrored_spheres = tuple(
         dataclasses.replace(s, world_from_object=np.diag([1.0, -1.0, 1.0, 1.0]) @ s.world_from_object) for s in spheres
     )
-    mirrored = Scene(camera=camera, ambient=ambient, lights=(dataclasses.replace(light, position=flipped(light.position)),),
-                     spheres=mirrored_spheres, settings=settings)
+    mirrored = Scene(
+        camera=camera,
+        ambient=ambient,
+        lights=(dataclasses.replace(light, position=flipped(light.position)),),
+        spheres=mirrored_spheres,
+        settings=settings,
+    )
     # The camera rays that reach the mirror first: downward, and not stopped by an object (the
     # objects alone leave the background there; BACKGROUND is no colour an object shows).
     alone = render(dataclasses.replace(with_mirror, meshes=()))
@@ -176,9 +195,12 @@ def test_mirror_sphere_shows_a_ball_where_the_mirror_law_puts_it(render):
     ball = PhongMaterial(ka=1.0, kd=0.0, ks=0.0, exponent=1.0, diffuse_color=ball_colour)
     camera = Camera.look_at((0.0, 0.3, 4.0), (0.0, 0.0, 0.0), 34.0)
     width, height = 120, 90
-    scene = Scene(camera=camera, ambient=AmbientLight((1.0, 1.0, 1.0)),
-                  spheres=(Sphere.at((0.0, 0.0, 0.0), 1.0, PURE_MIRROR), Sphere.at(ball_centre, 0.5, ball)),
-                  settings=RenderSettings(width=width, height=height))
+    scene = Scene(
+        camera=camera,
+        ambient=AmbientLight((1.0, 1.0, 1.0)),
+        spheres=(Sphere.at((0.0, 0.0, 0.0), 1.0, PURE_MIRROR), Sphere.at(ball_centre, 0.5, ball)),
+        settings=RenderSettings(width=width, height=height),
+    )
     image = render(scene)
     q = _mirror_point(camera.position, ball_centre, 1.0)
     sx, sy = _pixel_of(camera, width, height, q)
@@ -193,8 +215,12 @@ def test_mirror_sphere_shows_a_ball_where_the_mirror_law_puts_it(render):
     side /= np.linalg.norm(side)
     up = np.cross(side, direction)
     for axis in (side, up, -side, -up):
-        inner = _pixel_of(camera, width, height, _mirror_point(camera.position, np.asarray(ball_centre) + 0.25 * axis, 1.0))
-        outer = _pixel_of(camera, width, height, _mirror_point(camera.position, np.asarray(ball_centre) + 1.0 * axis, 1.0))
+        inner = _pixel_of(
+            camera, width, height, _mirror_point(camera.position, np.asarray(ball_centre) + 0.25 * axis, 1.0)
+        )
+        outer = _pixel_of(
+            camera, width, height, _mirror_point(camera.position, np.asarray(ball_centre) + 1.0 * axis, 1.0)
+        )
         assert np.array_equal(image[int(inner[1]), int(inner[0])], np.float32(ball_colour))
         assert not np.array_equal(image[int(outer[1]), int(outer[0])], np.float32(ball_colour))
 
@@ -219,8 +245,12 @@ def test_rays_between_two_mirrors_sum_a_geometric_series_up_to_max_depth(render,
         return TriangleMesh(points=corners, triangles=[(0, 1, 2), (0, 2, 3)], material=material)
 
     camera = Camera(position=(0.0, 0.0, 5.0), forward=(0.0, 0.0, -1.0), projection="orthographic", ortho_width=2.0)
-    scene = Scene(camera=camera, ambient=AmbientLight((1.0, 1.0, 1.0)), meshes=(wall(0.0, a), wall(10.0, b)),
-                  settings=RenderSettings(width=8, height=6, background=BACKGROUND, max_depth=max_depth))
+    scene = Scene(
+        camera=camera,
+        ambient=AmbientLight((1.0, 1.0, 1.0)),
+        meshes=(wall(0.0, a), wall(10.0, b)),
+        settings=RenderSettings(width=8, height=6, background=BACKGROUND, max_depth=max_depth),
+    )
     expected = sum(kr**k * np.asarray(a if k % 2 == 0 else b) for k in range(max_depth + 1))
     image = render(scene)
     assert _close(image, np.broadcast_to(expected, image.shape), FLOAT32_TWO_ULPS)
@@ -241,8 +271,11 @@ def test_grazing_reflection_shows_the_background_without_acne_at_any_scale(scale
     half = 1e4
     camera = Camera.look_at((0.0, scale, 0.0), (0.0, scale * (1 - 0.03 * 180 / math.pi), -scale * 180 / math.pi), 20.0)
     width, height = 48, 36
-    scene = Scene(camera=camera, meshes=(_quad(0.0, half * scale, floor),),
-                  settings=RenderSettings(width=width, height=height, background=BACKGROUND))
+    scene = Scene(
+        camera=camera,
+        meshes=(_quad(0.0, half * scale, floor),),
+        settings=RenderSettings(width=width, height=height, background=BACKGROUND),
+    )
     sx, sy = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
     _, d = oracle.camera_rays(camera, width, height, sx, sy)
     dy = d[:, 1].reshape(height, width)
@@ -314,7 +347,8 @@ def test_phong_shader_inputs_round_trip_and_are_written_only_when_used(tmp_path)
     back = load_usd(write_usd(scene, tmp_path / "dielectric.usda"))
     for a, b in zip((*scene.spheres, *scene.meshes), (*back.spheres, *back.meshes)):
         assert (b.material.kr, b.material.kt, b.material.ior, b.material.fresnel) == pytest.approx(
-            (a.material.kr, a.material.kt, a.material.ior, a.material.fresnel))
+            (a.material.kr, a.material.kt, a.material.ior, a.material.fresnel)
+        )
         assert b.material.reflective_color == pytest.approx(a.material.reflective_color)
     text = (tmp_path / "dielectric.usda").read_text()
     assert "bool inputs:fresnel = 1" in text and "float inputs:kt = 1" in text

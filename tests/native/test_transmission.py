@@ -11,17 +11,25 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from support import calibration
 import numpy as np
-from support import oracle
 import pytest
 
 from phongscene.backends import native
 from phongscene.backends.povray import compile_pov
 from phongscene.errors import SceneError
 from phongscene.rendering import settings_for
-from phongscene.scene import AmbientLight, Camera, PhongMaterial, PointLight, RectAreaLight, RenderSettings, Scene, TriangleMesh
+from phongscene.scene import (
+    AmbientLight,
+    Camera,
+    PhongMaterial,
+    PointLight,
+    RectAreaLight,
+    RenderSettings,
+    Scene,
+    TriangleMesh,
+)
 from phongscene.validate import check
+from support import calibration, oracle
 
 # As in tests/test_reflection.py: two float32 ulps between two equally exact float64 paths (here
 # the η factors of entry and exit, 1/η² and η², whose product rounds near 1).
@@ -64,13 +72,22 @@ def test_slab_shifts_the_view_by_snells_law(render, convention):
     left, right = (0.9, 0.3, 0.1), (0.1, 0.4, 0.9)
     slab = calibration.box_mesh((-50.0, -50.0, -3.0), (50.0, 50.0, -3.0 + thickness), GLASS_ONLY)
     forward = (math.sin(theta), 0.0, -math.cos(theta))
-    camera = Camera(position=(-8.5, 0.0, 3.0), forward=forward, up=(0.0, 1.0, 0.0), projection="orthographic",
-                    ortho_width=6.0)
+    camera = Camera(
+        position=(-8.5, 0.0, 3.0), forward=forward, up=(0.0, 1.0, 0.0), projection="orthographic", ortho_width=6.0
+    )
     width, height = 48, 4
-    scene = Scene(camera=camera, ambient=AmbientLight((1.0, 1.0, 1.0)),
-                  meshes=(slab, _rect_z(-60, 0, -60, 60, -10.0, _self_lit(left)), _rect_z(0, 60, -60, 60, -10.0, _self_lit(right))),
-                  settings=RenderSettings(width=width, height=height, background=BACKGROUND, max_depth=3,
-                                          transmission=convention))
+    scene = Scene(
+        camera=camera,
+        ambient=AmbientLight((1.0, 1.0, 1.0)),
+        meshes=(
+            slab,
+            _rect_z(-60, 0, -60, 60, -10.0, _self_lit(left)),
+            _rect_z(0, 60, -60, 60, -10.0, _self_lit(right)),
+        ),
+        settings=RenderSettings(
+            width=width, height=height, background=BACKGROUND, max_depth=3, transmission=convention
+        ),
+    )
     image = render(scene)
     sx, sy = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
     o, d = oracle.camera_rays(camera, width, height, sx, sy)
@@ -82,8 +99,12 @@ def test_slab_shifts_the_view_by_snells_law(render, convention):
     assert (x < 0).any() and (x > 0).any()
     assert np.all(np.abs(image - expected) <= FLOAT32_TWO_ULPS * np.abs(expected))
     # the shift is visible: without refraction (ior 1) some pixels change colour
-    straight = render(dataclasses.replace(scene, meshes=(dataclasses.replace(slab, material=dataclasses.replace(GLASS_ONLY, ior=1.0)),
-                                                       *scene.meshes[1:])))
+    straight = render(
+        dataclasses.replace(
+            scene,
+            meshes=(dataclasses.replace(slab, material=dataclasses.replace(GLASS_ONLY, ior=1.0)), *scene.meshes[1:]),
+        )
+    )
     assert np.any(np.abs(straight - image) > 0.1)
 
 
@@ -96,13 +117,21 @@ def _inside_glass(ior: float, convention: str, kr: float = 0.3, kt: float = 0.5)
     a self-lit floor K inside the box at y = −5; the background beyond the top face."""
     glass = dataclasses.replace(GLASS_ONLY, kr=kr, kt=kt, ior=ior)
     box = calibration.box_mesh((-1e3, -10.0, -1e3), (1e3, 10.0, 1e3), glass)
-    floor = TriangleMesh(points=[(-900, -5, -900), (900, -5, -900), (900, -5, 900), (-900, -5, 900)],
-                         triangles=[(0, 2, 1), (0, 3, 2)], material=_self_lit((0.8, 0.6, 0.4)))
+    floor = TriangleMesh(
+        points=[(-900, -5, -900), (900, -5, -900), (900, -5, 900), (-900, -5, 900)],
+        triangles=[(0, 2, 1), (0, 3, 2)],
+        material=_self_lit((0.8, 0.6, 0.4)),
+    )
     s, c = math.sin(math.radians(60.0)), math.cos(math.radians(60.0))
-    camera = Camera(position=(0.0, 0.0, 0.0), forward=(s, c, 0.0), up=(-c, s, 0.0), projection="orthographic",
-                    ortho_width=0.01)
-    return Scene(camera=camera, ambient=AmbientLight((1.0, 1.0, 1.0)), meshes=(box, floor),
-                 settings=RenderSettings(width=2, height=2, background=BACKGROUND, max_depth=5, transmission=convention))
+    camera = Camera(
+        position=(0.0, 0.0, 0.0), forward=(s, c, 0.0), up=(-c, s, 0.0), projection="orthographic", ortho_width=0.01
+    )
+    return Scene(
+        camera=camera,
+        ambient=AmbientLight((1.0, 1.0, 1.0)),
+        meshes=(box, floor),
+        settings=RenderSettings(width=2, height=2, background=BACKGROUND, max_depth=5, transmission=convention),
+    )
 
 
 def _fresnel_free_leaving(ior: float, kr: float, kt: float, convention: str) -> np.ndarray:
@@ -135,17 +164,33 @@ def test_shadow_through_a_transmissive_box_is_the_light_times_kt_per_crossing(re
     opaque box; the box is out of the camera's view."""
     kt = 0.6
     floor = PhongMaterial(ka=0.0, kd=1.0, ks=0.0, exponent=1.0, diffuse_color=(0.7, 0.8, 0.9))
-    quad = TriangleMesh(points=[(-50, 0, -50), (50, 0, -50), (50, 0, 50), (-50, 0, 50)], triangles=[(0, 2, 1), (0, 3, 2)],
-                        material=floor)
-    camera = Camera(position=(0.0, 3.0, 0.0), forward=(0.0, -1.0, 0.0), up=(0.0, 0.0, -1.0), projection="orthographic",
-                    ortho_width=1.0)
+    quad = TriangleMesh(
+        points=[(-50, 0, -50), (50, 0, -50), (50, 0, 50), (-50, 0, 50)],
+        triangles=[(0, 2, 1), (0, 3, 2)],
+        material=floor,
+    )
+    camera = Camera(
+        position=(0.0, 3.0, 0.0),
+        forward=(0.0, -1.0, 0.0),
+        up=(0.0, 0.0, -1.0),
+        projection="orthographic",
+        ortho_width=1.0,
+    )
 
     def scene(box_material):
         box = calibration.box_mesh((-2.0, 4.0, -2.0), (2.0, 6.0, 2.0), box_material)  # above the camera
-        return Scene(camera=camera, lights=(PointLight((0.0, 10.0, 0.0), (math.pi, math.pi, math.pi)),),
-                     meshes=(quad, box), settings=RenderSettings(width=4, height=4))
+        return Scene(
+            camera=camera,
+            lights=(PointLight((0.0, 10.0, 0.0), (math.pi, math.pi, math.pi)),),
+            meshes=(quad, box),
+            settings=RenderSettings(width=4, height=4),
+        )
 
-    lit = render(Scene(camera=camera, lights=scene(GLASS_ONLY).lights, meshes=(quad,), settings=RenderSettings(width=4, height=4)))
+    lit = render(
+        Scene(
+            camera=camera, lights=scene(GLASS_ONLY).lights, meshes=(quad,), settings=RenderSettings(width=4, height=4)
+        )
+    )
     filtered = render(scene(dataclasses.replace(GLASS_ONLY, kt=kt)))
     blocked = render(scene(dataclasses.replace(GLASS_ONLY, kt=0.0)))
     assert np.all(lit > 0.5)
@@ -162,17 +207,23 @@ def test_povray_mappings_render_the_native_image_in_povrays_convention():
     assert scene.settings.transmission == "book"
     # an ambient term on the glass: seen from inside (after entering), the book scales it by 1/η²
     glass = scene.spheres[-1]
-    scene = dataclasses.replace(scene, spheres=(*scene.spheres[:-1], dataclasses.replace(
-        glass, material=dataclasses.replace(glass.material, ka=0.2))))
+    scene = dataclasses.replace(
+        scene,
+        spheres=(*scene.spheres[:-1], dataclasses.replace(glass, material=dataclasses.replace(glass.material, ka=0.2))),
+    )
     for mapping in ("exact", "classic"):
         assert settings_for(scene, mapping=mapping).transmission == "povray"
     book = native.render(scene)
-    povray = native.render(dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, transmission="povray")))
+    povray = native.render(
+        dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, transmission="povray"))
+    )
     assert np.abs(book - povray).max() > 1e-3  # the paths that end inside the glass
 
 
-@pytest.mark.parametrize(("change", "field"), [({"kt": 1.2}, "kt"), ({"kt": -0.5}, "kt"), ({"ior": 0.0}, "ior"),
-                                                ({"ior": float("inf")}, "ior")])
+@pytest.mark.parametrize(
+    ("change", "field"),
+    [({"kt": 1.2}, "kt"), ({"kt": -0.5}, "kt"), ({"ior": 0.0}, "ior"), ({"ior": float("inf")}, "ior")],
+)
 def test_transmissive_material_out_of_range_is_a_scene_error(change, field):
     scene = calibration.glass_sphere()
     glass = scene.spheres[-1]
@@ -184,7 +235,9 @@ def test_transmissive_material_out_of_range_is_a_scene_error(change, field):
 
 def test_area_lights_with_transmissive_materials_are_a_clear_scene_error():
     scene = calibration.glass_sphere()
-    light = RectAreaLight(center=(3.0, 5.0, 3.0), axis_u=(1.0, 0.0, 0.0), axis_v=(0.0, 0.0, 1.0), color=(3.0, 3.0, 3.0), samples=3)
+    light = RectAreaLight(
+        center=(3.0, 5.0, 3.0), axis_u=(1.0, 0.0, 0.0), axis_v=(0.0, 0.0, 1.0), color=(3.0, 3.0, 3.0), samples=3
+    )
     with pytest.raises(SceneError, match="area lights in a scene with transmissive materials"):
         check(dataclasses.replace(scene, lights=(light,)))
 
@@ -192,7 +245,9 @@ def test_area_lights_with_transmissive_materials_are_a_clear_scene_error():
 def test_transmissive_sdl_compensates_povrays_att_and_declares_the_interior():
     glass = PhongMaterial(ka=0.1, kd=0.5, ks=0.4, exponent=30.0, diffuse_color=(0.9, 0.95, 1.0), kt=0.75, ior=1.33)
     scene = calibration.glass_sphere()
-    scene = dataclasses.replace(scene, spheres=(*scene.spheres[:-1], dataclasses.replace(scene.spheres[-1], material=glass)))
+    scene = dataclasses.replace(
+        scene, spheres=(*scene.spheres[:-1], dataclasses.replace(scene.spheres[-1], material=glass))
+    )
     classic = compile_pov(scene, mapping="classic")
     # POV-Ray scales ambient and diffuse by att = 1 − kt: the finish divides it back out
     assert "pigment { rgbt <0.9, 0.95, 1.0, 0.75> } finish { ambient 0.4 diffuse 0.63661975" in classic
@@ -200,8 +255,16 @@ def test_transmissive_sdl_compensates_povrays_att_and_declares_the_interior():
     with pytest.raises(SceneError, match="exact mapping"):
         compile_pov(scene, mapping="exact")
     with pytest.raises(SceneError, match="kt = 1 with ambient or diffuse"):
-        compile_pov(dataclasses.replace(scene, spheres=(*scene.spheres[:-1], dataclasses.replace(
-            scene.spheres[-1], material=dataclasses.replace(glass, kt=1.0)))), mapping="classic")
+        compile_pov(
+            dataclasses.replace(
+                scene,
+                spheres=(
+                    *scene.spheres[:-1],
+                    dataclasses.replace(scene.spheres[-1], material=dataclasses.replace(glass, kt=1.0)),
+                ),
+            ),
+            mapping="classic",
+        )
     mesh_sdl = compile_pov(calibration.glass_slab(), mapping="classic")
     assert "inside_vector" in mesh_sdl and "interior { ior 1.5 }" in mesh_sdl
 
@@ -219,7 +282,9 @@ def test_fresnel_at_normal_incidence_reflects_the_closed_form(render, ior):
     depth 2, 4, 6)."""
     f = ((ior - 1) / (ior + 1)) ** 2
     camera = Camera(position=(0.0, 0.0, 5.0), forward=(0.0, 0.0, -1.0), projection="orthographic", ortho_width=1.0)
-    mirror = PhongMaterial(ka=0.0, kd=0.0, ks=0.0, exponent=1.0, diffuse_color=(0.0, 0.0, 0.0), kr=1.0, ior=ior, fresnel=True)
+    mirror = PhongMaterial(
+        ka=0.0, kd=0.0, ks=0.0, exponent=1.0, diffuse_color=(0.0, 0.0, 0.0), kr=1.0, ior=ior, fresnel=True
+    )
     settings = RenderSettings(width=2, height=2, background=BACKGROUND, max_depth=6)
     image = render(Scene(camera=camera, meshes=(_rect_z(-9, 9, -9, 9, 0.0, mirror),), settings=settings))
     expected = f * np.asarray(BACKGROUND)
@@ -227,9 +292,12 @@ def test_fresnel_at_normal_incidence_reflects_the_closed_form(render, ior):
     dielectric = dataclasses.replace(GLASS_ONLY, kr=1.0, kt=1.0, ior=ior, fresnel=True)
     slab = calibration.box_mesh((-50.0, -50.0, -2.0), (50.0, 50.0, 0.0), dielectric)
     backdrop = (0.8, 0.6, 0.4)
-    scene = Scene(camera=camera, ambient=AmbientLight((1.0, 1.0, 1.0)),
-                  meshes=(slab, _rect_z(-60, 60, -60, 60, -5.0, _self_lit(backdrop))),
-                  settings=dataclasses.replace(settings, background=(0.0, 0.0, 0.0)))
+    scene = Scene(
+        camera=camera,
+        ambient=AmbientLight((1.0, 1.0, 1.0)),
+        meshes=(slab, _rect_z(-60, 60, -60, 60, -5.0, _self_lit(backdrop))),
+        settings=dataclasses.replace(settings, background=(0.0, 0.0, 0.0)),
+    )
     expected = np.asarray(backdrop) * (1 - f) ** 2 * sum(f ** (2 * j) for j in range(3))
     image = render(scene)
     assert np.all(np.abs(image - expected) <= FLOAT32_TWO_ULPS * expected)
@@ -249,20 +317,40 @@ def test_beer_lambert_through_a_slab_and_in_its_shadow(render, convention):
     glass = dataclasses.replace(GLASS_ONLY, interior_filter=tuple(cf))
     camera = Camera(position=(0.0, 0.0, 5.0), forward=(0.0, 0.0, -1.0), projection="orthographic", ortho_width=1.0)
     backdrop = np.array([0.8, 0.6, 0.4])
-    scene = Scene(camera=camera, ambient=AmbientLight((1.0, 1.0, 1.0)),
-                  meshes=(calibration.box_mesh((-50, -50, -2), (50, 50, 0), glass), _rect_z(-60, 60, -60, 60, -5.0, _self_lit(tuple(backdrop)))),
-                  settings=RenderSettings(width=2, height=2, max_depth=4, transmission=convention))
+    scene = Scene(
+        camera=camera,
+        ambient=AmbientLight((1.0, 1.0, 1.0)),
+        meshes=(
+            calibration.box_mesh((-50, -50, -2), (50, 50, 0), glass),
+            _rect_z(-60, 60, -60, 60, -5.0, _self_lit(tuple(backdrop))),
+        ),
+        settings=RenderSettings(width=2, height=2, max_depth=4, transmission=convention),
+    )
     expected = backdrop * glass.kt**2 * cf**2
     assert np.all(np.abs(render(scene) - expected) <= FLOAT32_TWO_ULPS * expected)
     floor = PhongMaterial(ka=0.0, kd=1.0, ks=0.0, exponent=1.0, diffuse_color=(1.0, 1.0, 1.0))
-    quad = TriangleMesh(points=[(-50, 0, -50), (50, 0, -50), (50, 0, 50), (-50, 0, 50)], triangles=[(0, 2, 1), (0, 3, 2)],
-                        material=floor)
-    down = Camera(position=(0.0, 3.0, 0.0), forward=(0.0, -1.0, 0.0), up=(0.0, 0.0, -1.0), projection="orthographic",
-                  ortho_width=1.0)
+    quad = TriangleMesh(
+        points=[(-50, 0, -50), (50, 0, -50), (50, 0, 50), (-50, 0, 50)],
+        triangles=[(0, 2, 1), (0, 3, 2)],
+        material=floor,
+    )
+    down = Camera(
+        position=(0.0, 3.0, 0.0),
+        forward=(0.0, -1.0, 0.0),
+        up=(0.0, 0.0, -1.0),
+        projection="orthographic",
+        ortho_width=1.0,
+    )
     light = PointLight((0.0, 10.0, 0.0), (math.pi, math.pi, math.pi))
     lit = render(Scene(camera=down, lights=(light,), meshes=(quad,), settings=RenderSettings(width=2, height=2)))
-    shadowed = render(Scene(camera=down, lights=(light,), meshes=(quad, calibration.box_mesh((-2, 4, -2), (2, 6, 2), glass)),
-                            settings=RenderSettings(width=2, height=2, transmission=convention)))
+    shadowed = render(
+        Scene(
+            camera=down,
+            lights=(light,),
+            meshes=(quad, calibration.box_mesh((-2, 4, -2), (2, 6, 2), glass)),
+            settings=RenderSettings(width=2, height=2, transmission=convention),
+        )
+    )
     # the shadow ray from floor point q to the light crosses the 2 units of box along a slant:
     # 2·|light − q|/10 inside
     sx, sy = np.meshgrid(np.arange(2) + 0.5, np.arange(2) + 0.5)

@@ -16,7 +16,6 @@ import time
 import numpy as np
 import pytest
 
-from support import calibration
 from phongscene.backends.povray import compile_pov, numbers, pass_count, prepare
 from phongscene.scene import (
     AmbientLight,
@@ -31,7 +30,9 @@ from phongscene.scene import (
     SphereAreaLight,
     TriangleMesh,
 )
-from support.paths import EXAMPLES, GOLDEN as GOLDEN_ROOT
+from support import calibration
+from support.paths import EXAMPLES
+from support.paths import GOLDEN as GOLDEN_ROOT
 
 GOLDEN = GOLDEN_ROOT / "povray"
 UPDATE_GOLDEN = os.environ.get("PHONGSCENE_UPDATE_GOLDEN", "") not in ("", "0")
@@ -58,7 +59,9 @@ def _scene(**kw) -> Scene:
         camera=Camera(position=(0.0, 1.0, 5.0), forward=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0), horizontal_fov_deg=50.0),
         ambient=AmbientLight((0.2, 0.25, 0.3)),
         lights=(PointLight((3.0, 5.0, 4.0), (1.5, 1.4, 1.3)),),
-        spheres=(Sphere.at((0.0, 0.0, 0.0), 1.0, PhongMaterial(ks=0.4, exponent=30.0, specular_color=(0.9, 0.5, 0.2))),),
+        spheres=(
+            Sphere.at((0.0, 0.0, 0.0), 1.0, PhongMaterial(ks=0.4, exponent=30.0, specular_color=(0.9, 0.5, 0.2))),
+        ),
         settings=RenderSettings(width=64, height=48, background=(0.1, 0.2, 0.3)),
     )
     base.update(kw)
@@ -144,8 +147,8 @@ def test_classic_is_one_idiomatic_finish_per_material():
     texture = re.search(r"#declare Material_0 = (.*)", sdl).group(1)
     assert texture == (
         # diffuse kd/π as the shortest decimal of the float32 POV-Ray stores (numbers.sdl_float32)
-        f"texture {{ pigment {{ rgb <0.8, 0.3, 0.2> }} finish {{ ambient 0.15 diffuse 0.22281691 "
-        f"phong 0.35 phong_size 22.0 }} }}"
+        "texture { pigment { rgb <0.8, 0.3, 0.2> } finish { ambient 0.15 diffuse 0.22281691 "
+        "phong 0.35 phong_size 22.0 } }"
     )
     assert "ambient_light rgb <0.2, 0.25, 0.3>" in sdl
     assert "light_source { <3.0, 5.0, 4.0> color rgb <1.5, 1.4, 1.3> }" in sdl
@@ -183,7 +186,9 @@ def test_exact_without_lights_is_one_ambient_pass():
 
 
 def test_exact_texture_doubles_each_half_of_the_average():
-    m = PhongMaterial(ka=0.1, kd=0.6, ks=0.3, exponent=20.0, diffuse_color=(0.5, 0.4, 0.3), specular_color=(0.9, 0.5, 0.2))
+    m = PhongMaterial(
+        ka=0.1, kd=0.6, ks=0.3, exponent=20.0, diffuse_color=(0.5, 0.4, 0.3), specular_color=(0.9, 0.5, 0.2)
+    )
     sdl = compile_pov(_scene(spheres=(Sphere.at((0, 0, 0), 1.0, m),)))
     assert "[1 pigment { rgb <0.5, 0.4, 0.3> } finish { ambient 0.2 diffuse 0.38197187 }]" in sdl  # float32
     assert "phong 0.6 phong_size 20.0" in sdl
@@ -220,7 +225,11 @@ def test_each_object_is_preceded_by_its_prim_path():
     )
     for mapping in ("exact", "classic"):
         lines = [x.strip() for x in compile_pov(scene, mapping=mapping).splitlines()]
-        for prim, follows in (("/World/Ball", "sphere"), ("/World/Key", "light_source"), ("/World/Looks/Red", "#declare Material_0")):
+        for prim, follows in (
+            ("/World/Ball", "sphere"),
+            ("/World/Key", "light_source"),
+            ("/World/Looks/Red", "#declare Material_0"),
+        ):
             assert lines[lines.index(f"// {prim}") + 1].startswith(follows)
 
 
@@ -255,7 +264,11 @@ def test_camera_is_an_explicit_right_handed_basis(projection):
 
 def test_sphere_matrix_is_the_row_vector_transpose():
     # A rotated, non-uniformly scaled, translated sphere: POV computes p' = [p 1]·M (4x3).
-    world = calibration.translation((0.3, -1.2, 2.5)) @ calibration.rotation((1, 2, 0.5), 37.0) @ calibration.scaling((1.7, 0.4, 0.9))
+    world = (
+        calibration.translation((0.3, -1.2, 2.5))
+        @ calibration.rotation((1, 2, 0.5), 37.0)
+        @ calibration.scaling((1.7, 0.4, 0.9))
+    )
     sdl = compile_pov(_scene(spheres=(Sphere(world),)))
     numbers_ = np.array(_floats(re.search(r"matrix <([^>]*)>", sdl).group(1)))
     assert numbers_.shape == (12,)
@@ -286,7 +299,9 @@ def test_parallel_light_is_placed_beyond_the_scene():
     direction /= np.linalg.norm(direction)
     spheres = (Sphere.at((10.0, 0.0, 0.0), 2.0), Sphere.at((-4.0, 3.0, 1.0), 0.5))
     for mapping in ("exact", "classic"):
-        sdl = compile_pov(_scene(spheres=spheres, lights=(DirectionalLight(tuple(direction), (1, 1, 1)),)), mapping=mapping)
+        sdl = compile_pov(
+            _scene(spheres=spheres, lights=(DirectionalLight(tuple(direction), (1, 1, 1)),)), mapping=mapping
+        )
         line = next(x for x in sdl.splitlines() if "parallel" in x)
         position = np.array(_floats(line.split("light_source {")[1].split(">")[0]))
         target = _vector_after(line, "point_at")
@@ -346,7 +361,11 @@ def test_render_switches_and_ini():
 def _golden_scenes() -> dict[str, tuple[Scene, str]]:
     scenes = {
         f"calibration_{name}": (calibration.SCENES[name](), mapping)
-        for name, mapping in (("point_light", "exact"), ("transformed_spheres", "classic"), ("shadows_two_lights", "exact"))
+        for name, mapping in (
+            ("point_light", "exact"),
+            ("transformed_spheres", "classic"),
+            ("shadows_two_lights", "exact"),
+        )
     }
     for usda in sorted(EXAMPLES.glob("seed_*.usda")):
         from phongscene import load_usd
@@ -406,7 +425,9 @@ def test_compile_cli_on_a_usd_example(tmp_path, capsys):
     out.parent.mkdir()  # phongscene creates no missing folder (issue 10)
     assert cli.main(["compile", str(usda), "-o", str(out), "--width", "48", "--spp", "2"]) == 0
     scene = load_usd(usda)
-    settings = dataclasses.replace(scene.settings, width=48, height=round(48 * scene.settings.height / scene.settings.width), samples=2)
+    settings = dataclasses.replace(
+        scene.settings, width=48, height=round(48 * scene.settings.height / scene.settings.width), samples=2
+    )
     assert out.read_text() == compile_pov(scene, settings)
     job = prepare(scene, settings)
     ini = (tmp_path / "sub" / "scene.ini").read_text()
@@ -437,14 +458,17 @@ def test_float32_numbers_read_back_as_the_float32_of_the_exact_text():
     # POV-Ray reads a number to a double and stores a colour as float32 (ref §2): the short text
     # must give the same float32 as the 17-digit text did, for every magnitude and sign.
     rng = np.random.default_rng(11)
-    values = np.concatenate([
-        np.exp(rng.uniform(np.log(1e-37), np.log(1e37), 20000)) * rng.choice([-1.0, 1.0], 20000),
-        rng.uniform(0, 1, 20000),
-        # float32 values themselves and the float64 midpoints between neighbours (ties)
-        rng.uniform(0, 1, 5000).astype(np.float32).astype(np.float64),
-        (lambda f: (f.astype(np.float64) + np.nextafter(f, np.float32(2)).astype(np.float64)) / 2)(
-            rng.uniform(0, 1, 5000).astype(np.float32)),
-    ])
+    values = np.concatenate(
+        [
+            np.exp(rng.uniform(np.log(1e-37), np.log(1e37), 20000)) * rng.choice([-1.0, 1.0], 20000),
+            rng.uniform(0, 1, 20000),
+            # float32 values themselves and the float64 midpoints between neighbours (ties)
+            rng.uniform(0, 1, 5000).astype(np.float32).astype(np.float64),
+            (lambda f: (f.astype(np.float64) + np.nextafter(f, np.float32(2)).astype(np.float64)) / 2)(
+                rng.uniform(0, 1, 5000).astype(np.float32)
+            ),
+        ]
+    )
     for x in values:
         text = numbers.sdl_float32(x)
         assert np.float32(float(text)) == np.float32(float(numbers.sdl_float(x))), (x, text)

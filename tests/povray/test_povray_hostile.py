@@ -12,12 +12,11 @@ import re
 import numpy as np
 import pytest
 
-from support import calibration
 from phongscene import cli
 from phongscene.backends import povray
 from phongscene.backends.povray import compile_pov, sanitize_comment
-from phongscene.rendering import compile_pov as checked_compile_pov  # validates; names in the file's terms
 from phongscene.errors import SceneError
+from phongscene.rendering import compile_pov as checked_compile_pov  # validates; names in the file's terms
 from phongscene.scene import (
     AmbientLight,
     DirectionalLight,
@@ -28,10 +27,11 @@ from phongscene.scene import (
     Sphere,
     TriangleMesh,
 )
+from support import calibration
 
 HOSTILE_NAMES = [
     '/World/"quoted"}',
-    "/World/evil\n#include \"/etc/passwd\"\n",
+    '/World/evil\n#include "/etc/passwd"\n',
     '/World/x\r#fopen F "/tmp/owned" write #write (F, "x") #fclose F',
     "/World/*/ /* }}} #declare Pass = 7; #end",
     "/World/\\x23system",
@@ -48,9 +48,7 @@ def _hostile_scene() -> Scene:
     def rename(node):
         return dataclasses.replace(node, source=next(names))
 
-    spheres = tuple(
-        dataclasses.replace(rename(s), material=rename(s.material)) for s in base.spheres
-    )
+    spheres = tuple(dataclasses.replace(rename(s), material=rename(s.material)) for s in base.spheres)
     meshes = tuple(dataclasses.replace(rename(m), material=rename(m.material)) for m in base.meshes)
     return dataclasses.replace(
         base,
@@ -93,7 +91,9 @@ def test_sanitize_comment_escapes_everything_outside_a_safe_set():
 def test_hostile_names_render_like_plain_ones(tmp_path):
     hostile = _hostile_scene()
     plain = calibration.SCENES["shadows_two_lights"]()
-    images = povray.render_many([(hostile, None, "exact"), (plain, None, "exact"), (hostile, None, "classic"), (plain, None, "classic")])
+    images = povray.render_many(
+        [(hostile, None, "exact"), (plain, None, "exact"), (hostile, None, "classic"), (plain, None, "classic")]
+    )
     np.testing.assert_array_equal(images[0], images[1])
     np.testing.assert_array_equal(images[2], images[3])
 
@@ -139,14 +139,40 @@ NAN = float("nan")
 @pytest.mark.parametrize(
     "change,where",
     [
-        (lambda s: dataclasses.replace(s, spheres=(Sphere.at((0, 0, 0), 1.0, PhongMaterial(ks=NAN, source="/World/Mat")),)), "/World/Mat.inputs:ks"),
-        (lambda s: dataclasses.replace(s, lights=(PointLight((NAN, 0, 0), (1, 1, 1), source="/World/Key"),)), "/World/Key.xformOp"),
-        (lambda s: dataclasses.replace(s, lights=(DirectionalLight((0, -1, 0), (np.inf, 1, 1), source="/World/Sun"),)), "/World/Sun.inputs:color"),
-        (lambda s: dataclasses.replace(s, camera=dataclasses.replace(s.camera, position=(0, NAN, 5), source="/World/Cam")), "/World/Cam.xformOp"),
-        (lambda s: dataclasses.replace(s, spheres=(Sphere(np.diag([1, 1, NAN, 1]), source="/World/Egg"),)), "/World/Egg.radius"),
         (
             lambda s: dataclasses.replace(
-                s, meshes=(TriangleMesh(np.eye(3), [[0, 1, 2]], [[0, 0, 1], [0, NAN, 1], [0, 0, 1]], [[0, 1, 2]], source="/World/M"),)
+                s, spheres=(Sphere.at((0, 0, 0), 1.0, PhongMaterial(ks=NAN, source="/World/Mat")),)
+            ),
+            "/World/Mat.inputs:ks",
+        ),
+        (
+            lambda s: dataclasses.replace(s, lights=(PointLight((NAN, 0, 0), (1, 1, 1), source="/World/Key"),)),
+            "/World/Key.xformOp",
+        ),
+        (
+            lambda s: dataclasses.replace(
+                s, lights=(DirectionalLight((0, -1, 0), (np.inf, 1, 1), source="/World/Sun"),)
+            ),
+            "/World/Sun.inputs:color",
+        ),
+        (
+            lambda s: dataclasses.replace(
+                s, camera=dataclasses.replace(s.camera, position=(0, NAN, 5), source="/World/Cam")
+            ),
+            "/World/Cam.xformOp",
+        ),
+        (
+            lambda s: dataclasses.replace(s, spheres=(Sphere(np.diag([1, 1, NAN, 1]), source="/World/Egg"),)),
+            "/World/Egg.radius",
+        ),
+        (
+            lambda s: dataclasses.replace(
+                s,
+                meshes=(
+                    TriangleMesh(
+                        np.eye(3), [[0, 1, 2]], [[0, 0, 1], [0, NAN, 1], [0, 0, 1]], [[0, 1, 2]], source="/World/M"
+                    ),
+                ),
             ),
             "/World/M.normals",
         ),
@@ -179,7 +205,9 @@ def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
     out = tmp_path / "out.pov"
     assert cli.main(["compile", "scene.usda", "-o", str(out), "--mapping", "classic", "--width", "32"]) == 0
     text = capsys.readouterr()
-    assert out.read_text() == compile_pov(scene, dataclasses.replace(scene.settings, width=32, height=24, specular="povray-classic"), "classic")
+    assert out.read_text() == compile_pov(
+        scene, dataclasses.replace(scene.settings, width=32, height=24, specular="povray-classic"), "classic"
+    )
     assert "povray +Iout.pov +Oout.exr" in text.out and "+W32 +H24" in text.out
     assert "Input_File_Name=out.pov" in (tmp_path / "out.ini").read_text()
     assert "warning: a warning" in text.err

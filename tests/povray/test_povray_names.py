@@ -22,11 +22,22 @@ from support.paths import EXAMPLES
 SCENE = EXAMPLES / "seed_exponents.usda"
 TINY = ("+W8", "+H6")  # appended to a compiled .ini's options: later options win
 CLI_TIMEOUT_S = 120  # a compile or a tiny POV-Ray render; generous for a loaded 2-core machine
-SDL = '#version 3.7;\ncamera { location <0, 0, -3> look_at 0 }\nsphere { 0, 1 pigment { rgb 1 } }\n'
+SDL = "#version 3.7;\ncamera { location <0, 0, -3> look_at 0 }\nsphere { 0, 1 pigment { rgb 1 } }\n"
 
 
-@pytest.mark.parametrize("name", ["x\nPre_Scene_Command=touch pwned\n.pov", "a\rb.pov", "nul\0.pov", "tab\t.pov",
-                                  'quote".pov', "back\\slash.pov", "caf\u00e9.pov", "del\x7f.pov"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "x\nPre_Scene_Command=touch pwned\n.pov",
+        "a\rb.pov",
+        "nul\0.pov",
+        "tab\t.pov",
+        'quote".pov',
+        "back\\slash.pov",
+        "caf\u00e9.pov",
+        "del\x7f.pov",
+    ],
+)
 def test_a_name_povray_cannot_read_or_that_would_inject_is_refused(name):
     with pytest.raises(PhongSceneError, match="POV-Ray cannot read a file name with"):
         pov_quoted(name)
@@ -37,10 +48,19 @@ def test_a_name_povray_cannot_read_or_that_would_inject_is_refused(name):
         job.ini("scene.pov", name)
 
 
-@pytest.mark.parametrize("name,expected", [("scene.pov", "scene.pov"), ("a-b_c.1.pov", "a-b_c.1.pov"),
-                                           ("my scene.pov", '"my scene.pov"'), ("a;b.pov", '"a;b.pov"'),
-                                           ("a,b.pov", '"a,b.pov"'), ("a#b.pov", '"a#b.pov"'),
-                                           ("it's.pov", "\"it's.pov\""), ("a=b.pov", '"a=b.pov"')])
+@pytest.mark.parametrize(
+    "name,expected",
+    [
+        ("scene.pov", "scene.pov"),
+        ("a-b_c.1.pov", "a-b_c.1.pov"),
+        ("my scene.pov", '"my scene.pov"'),
+        ("a;b.pov", '"a;b.pov"'),
+        ("a,b.pov", '"a,b.pov"'),
+        ("a#b.pov", '"a#b.pov"'),
+        ("it's.pov", '"it\'s.pov"'),
+        ("a=b.pov", '"a=b.pov"'),
+    ],
+)
 def test_names_povray_reads_only_quoted_are_quoted(name, expected):
     assert pov_quoted(name) == expected
     ini = PovJob(SDL, 1, 8, 6, 1, ("+FE",)).ini(name, "out.exr")
@@ -50,8 +70,13 @@ def test_names_povray_reads_only_quoted_are_quoted(name, expected):
 @pytest.mark.subprocess
 def test_compile_refuses_a_newline_in_the_output_name(tmp_path):
     out = tmp_path / "x\nPre_Scene_Command=touch pwned\n.pov"
-    result = subprocess.run([sys.executable, "-m", "phongscene", "compile", str(SCENE), "-o", str(out)],
-                            capture_output=True, text=True, timeout=CLI_TIMEOUT_S, cwd=tmp_path)
+    result = subprocess.run(
+        [sys.executable, "-m", "phongscene", "compile", str(SCENE), "-o", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=CLI_TIMEOUT_S,
+        cwd=tmp_path,
+    )
     assert result.returncode == 2
     (line,) = result.stderr.splitlines()
     assert "POV-Ray cannot read a file name with '\\n'" in line
@@ -63,21 +88,31 @@ def test_compile_refuses_a_newline_in_the_output_name(tmp_path):
 @pytest.mark.parametrize("stem", ["a;b c", "x,y", "it's=1"])  # no #: a frame pattern in -o
 def test_a_compiled_ini_and_the_printed_command_render_with_a_quoted_name(tmp_path, stem):
     out = tmp_path / f"{stem}.pov"
-    result = subprocess.run([sys.executable, "-m", "phongscene", "compile", str(SCENE), "-o", str(out)],
-                            capture_output=True, text=True, timeout=CLI_TIMEOUT_S)
+    result = subprocess.run(
+        [sys.executable, "-m", "phongscene", "compile", str(SCENE), "-o", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=CLI_TIMEOUT_S,
+    )
     assert result.returncode == 0, result.stderr
     env = povray_environment(tmp_path)
     ini = out.with_suffix(".ini")
-    run = subprocess.run(["povray", pov_quoted(ini.name), *TINY, "-GA"], cwd=tmp_path, env=env,
-                         capture_output=True, timeout=CLI_TIMEOUT_S)
+    run = subprocess.run(
+        ["povray", pov_quoted(ini.name), *TINY, "-GA"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        timeout=CLI_TIMEOUT_S,
+    )
     assert run.returncode == 0 and out.with_suffix(".exr").is_file(), run.stderr[-500:]
     out.with_suffix(".exr").unlink()
     command = [line for line in result.stdout.splitlines() if line.startswith("  povray ")]
     import shlex
 
     (printed,) = command
-    run = subprocess.run([*shlex.split(printed), *TINY, "-GA"], cwd=tmp_path, env=env, capture_output=True,
-                         timeout=CLI_TIMEOUT_S)
+    run = subprocess.run(
+        [*shlex.split(printed), *TINY, "-GA"], cwd=tmp_path, env=env, capture_output=True, timeout=CLI_TIMEOUT_S
+    )
     assert run.returncode == 0 and out.with_suffix(".exr").is_file(), run.stderr[-500:]
 
 
@@ -85,8 +120,14 @@ def _povray(workdir: Path, sdl: str, *options: str) -> subprocess.CompletedProce
     """Run POV-Ray on ``sdl`` in ``workdir`` exactly as the runner does (its environment, no shell)."""
     (workdir / "scene.pov").write_text(sdl, encoding="ascii")
     command = PovJob(sdl, 1, 8, 6, 1, ("+FE", "+W8", "+H6", "-D", "-GA")).command("scene.pov", "scene.exr")
-    return subprocess.run([*command, *options], cwd=workdir, env=povray_environment(workdir), capture_output=True,
-                          timeout=CLI_TIMEOUT_S, stdin=subprocess.DEVNULL)
+    return subprocess.run(
+        [*command, *options],
+        cwd=workdir,
+        env=povray_environment(workdir),
+        capture_output=True,
+        timeout=CLI_TIMEOUT_S,
+        stdin=subprocess.DEVNULL,
+    )
 
 
 @pytest.mark.povray

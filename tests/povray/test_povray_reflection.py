@@ -107,8 +107,10 @@ def _disc(pigment: str) -> str:
 
 
 def _box(pigment: str, interior: str = "", finish: str = "") -> str:
-    return (f"box {{ <-3, 4, -3>, <3, 6, 3> pigment {{ {pigment} }} finish {{ ambient 0 diffuse 0 {finish} }}"
-            f" interior {{ ior 1 {interior} }} no_image }}")
+    return (
+        f"box {{ <-3, 4, -3>, <3, 6, 3> pigment {{ {pigment} }} finish {{ ambient 0 diffuse 0 {finish} }}"
+        f" interior {{ ior 1 {interior} }} no_image }}"
+    )
 
 
 def _fade(c, d: float, fd: float, power: float) -> np.ndarray:
@@ -137,22 +139,46 @@ F_INSIDE_11 = _fresnel(math.cos(math.radians(60)), 1.1, 1.0)
 CASES = [
     # reflection is added on top of the pigment, unweighted
     ("reflection adds kr·B", _plane("ambient 1 diffuse 0 reflection 0.5"), LOCAL + 0.5 * B),
-    ("reflection colour adds cr·B", _plane("ambient 1 diffuse 0 reflection rgb <0.5, 0.3, 0.1>"),
-     LOCAL + np.array([0.5, 0.3, 0.1]) * B),
-    ("metallic reflection is tinted by the pigment", _plane("ambient 1 diffuse 0 reflection { 0.5 metallic }"),
-     LOCAL + 0.5 * PIGMENT * B),
-    ("conserve_energy changes nothing when opaque", _plane("ambient 1 diffuse 0 reflection 0.5 conserve_energy"),
-     LOCAL + 0.5 * B),
-    ("fresnel without an interior: ior 1, no reflection", _plane("ambient 1 diffuse 0 reflection { 0, 1 fresnel on }"),
-     LOCAL),
-    ("fresnel at normal incidence, ior 1.5", _plane("ambient 0 diffuse 0 reflection { 0, 1 fresnel on }",
-                                                   interior="interior { ior 1.5 }"), F15 * B),
-    ("fresnel at normal incidence, ior 2", _plane("ambient 0 diffuse 0 reflection { 0, 1 fresnel on }",
-                                                 interior="interior { ior 2 }"), (1 / 3) ** 2 * B),
-    ("fresnel blends min and max", _plane("ambient 0 diffuse 0 reflection { 0.2, 0.6 fresnel on }",
-                                          interior="interior { ior 1.5 }"), (0.2 + 0.4 * F15) * B),
-    ("reflection is not scaled by transmit", _plane("ambient 1 diffuse 0 reflection 0.5", pigment="rgbt <0.5, 0.25, 0.1, 0.5>"),
-     0.5 * LOCAL + 0.5 * B + 0.5 * B),
+    (
+        "reflection colour adds cr·B",
+        _plane("ambient 1 diffuse 0 reflection rgb <0.5, 0.3, 0.1>"),
+        LOCAL + np.array([0.5, 0.3, 0.1]) * B,
+    ),
+    (
+        "metallic reflection is tinted by the pigment",
+        _plane("ambient 1 diffuse 0 reflection { 0.5 metallic }"),
+        LOCAL + 0.5 * PIGMENT * B,
+    ),
+    (
+        "conserve_energy changes nothing when opaque",
+        _plane("ambient 1 diffuse 0 reflection 0.5 conserve_energy"),
+        LOCAL + 0.5 * B,
+    ),
+    (
+        "fresnel without an interior: ior 1, no reflection",
+        _plane("ambient 1 diffuse 0 reflection { 0, 1 fresnel on }"),
+        LOCAL,
+    ),
+    (
+        "fresnel at normal incidence, ior 1.5",
+        _plane("ambient 0 diffuse 0 reflection { 0, 1 fresnel on }", interior="interior { ior 1.5 }"),
+        F15 * B,
+    ),
+    (
+        "fresnel at normal incidence, ior 2",
+        _plane("ambient 0 diffuse 0 reflection { 0, 1 fresnel on }", interior="interior { ior 2 }"),
+        (1 / 3) ** 2 * B,
+    ),
+    (
+        "fresnel blends min and max",
+        _plane("ambient 0 diffuse 0 reflection { 0.2, 0.6 fresnel on }", interior="interior { ior 1.5 }"),
+        (0.2 + 0.4 * F15) * B,
+    ),
+    (
+        "reflection is not scaled by transmit",
+        _plane("ambient 1 diffuse 0 reflection 0.5", pigment="rgbt <0.5, 0.25, 0.1, 0.5>"),
+        0.5 * LOCAL + 0.5 * B + 0.5 * B,
+    ),
     # depth: max_trace_level N shades N surfaces, then black (not the background)
     *[(f"max_trace_level {n}", _mirrors(f"max_trace_level {n}"), _mirror_series(n)) for n in (1, 2, 3, 6)],
     ("max_trace_level defaults to 5", _mirrors(""), _mirror_series(5)),
@@ -163,18 +189,41 @@ CASES = [
     ("slab rgb 0.5 filter 0.5: (0.25)^2", _glass(SLAB, "rgbf <0.5, 0.5, 0.5, 0.5>", "ior 1.5"), 0.0625 * K),
     ("slab transmit 0.5: squared", _glass(SLAB, "rgbt <0.5, 0.5, 0.5, 0.5>", "ior 1.5"), 0.25 * K),
     # fresnel with conserve_energy: (1 − F) per crossing, plus the internal echo F²(1 − F)²
-    ("slab fresnel conserve_energy", _glass(SLAB, "rgbf <1, 1, 1, 1>", "ior 1.5", "reflection { 0, 1 fresnel on } conserve_energy"),
-     K * (1 - F15) ** 2 * (1 + F15**2)),
-    ("slab fresnel alone: the echo only", _glass(SLAB, "rgbf <1, 1, 1, 1>", "ior 1.5", "reflection { 0, 1 fresnel on }"),
-     K * (1 + F15**2)),
+    (
+        "slab fresnel conserve_energy",
+        _glass(SLAB, "rgbf <1, 1, 1, 1>", "ior 1.5", "reflection { 0, 1 fresnel on } conserve_energy"),
+        K * (1 - F15) ** 2 * (1 + F15**2),
+    ),
+    (
+        "slab fresnel alone: the echo only",
+        _glass(SLAB, "rgbf <1, 1, 1, 1>", "ior 1.5", "reflection { 0, 1 fresnel on }"),
+        K * (1 + F15**2),
+    ),
     # Beer-Lambert fade over the slab's 2 units
-    *[(f"fade_power {p}", _glass(SLAB, "rgbf <1, 1, 1, 1>", f"ior 1 fade_distance 1 fade_power {p} fade_color <0.5, 0.25, 1>"),
-       K * _fade((0.5, 0.25, 1.0), 2.0, 1.0, p)) for p in (1, 2, 1001)],
-    ("negative fade_color: Beer-Lambert 0.2^2", _glass(SLAB, "rgbf <1, 1, 1, 1>", f"ior 1.5 fade_distance 1 fade_power 1001 fade_color "
-                                                     f"<{1 + math.log(0.2)}, {1 + math.log(0.5)}, 1>"), K * np.array([0.04, 0.25, 1.0])),
-    ("only the transmitted branch is faded: TIR", _tir("rgbf <1, 1, 1, 1>", 1.5).replace(
-        "interior { ior 1.5 }", "interior { ior 1.5 fade_distance 100 fade_power 1001 fade_color <0.5, 0.5, 0.5> }"),
-     K * math.exp(-0.2 * 0.5)),
+    *[
+        (
+            f"fade_power {p}",
+            _glass(SLAB, "rgbf <1, 1, 1, 1>", f"ior 1 fade_distance 1 fade_power {p} fade_color <0.5, 0.25, 1>"),
+            K * _fade((0.5, 0.25, 1.0), 2.0, 1.0, p),
+        )
+        for p in (1, 2, 1001)
+    ],
+    (
+        "negative fade_color: Beer-Lambert 0.2^2",
+        _glass(
+            SLAB,
+            "rgbf <1, 1, 1, 1>",
+            f"ior 1.5 fade_distance 1 fade_power 1001 fade_color <{1 + math.log(0.2)}, {1 + math.log(0.5)}, 1>",
+        ),
+        K * np.array([0.04, 0.25, 1.0]),
+    ),
+    (
+        "only the transmitted branch is faded: TIR",
+        _tir("rgbf <1, 1, 1, 1>", 1.5).replace(
+            "interior { ior 1.5 }", "interior { ior 1.5 fade_distance 100 fade_power 1001 fade_color <0.5, 0.5, 0.5> }"
+        ),
+        K * math.exp(-0.2 * 0.5),
+    ),
     ("reflection inside is not faded", _inside_up("reflection 0.5"), 0.5 * K),
     # total internal reflection: full weight, unfiltered, no reflection term; att·local still added
     ("TIR at full weight", _tir("rgbf <1, 1, 1, 1>", 1.5), K),
@@ -182,11 +231,16 @@ CASES = [
     ("TIR ignores transmit", _tir("rgbt <0.5, 0.5, 0.5, 0.5>", 1.5), K),
     ("TIR adds no reflection term", _tir("rgbf <1, 1, 1, 1>", 1.5, "reflection 0.3"), K),
     ("TIR plus att·local", _tir("rgbf <0.5, 0.5, 0.5, 0.5>", 1.5, ambient="1"), 0.25 + K),
-    ("TIR is the next trace level", _tir("rgbf <0.5, 0.5, 0.5, 0.5>", 1.5, ambient="1", max_trace_level=1),
-     np.array([0.25, 0.25, 0.25])),
-    ("below the critical angle: F reflected, 1 − F transmitted",
-     _tir("rgbf <1, 1, 1, 1>", 1.1, "reflection { 0, 1 fresnel on } conserve_energy"),
-     F_INSIDE_11 * K + (1 - F_INSIDE_11) * np.array([0.0, 0.0, 1.0])),
+    (
+        "TIR is the next trace level",
+        _tir("rgbf <0.5, 0.5, 0.5, 0.5>", 1.5, ambient="1", max_trace_level=1),
+        np.array([0.25, 0.25, 0.25]),
+    ),
+    (
+        "below the critical angle: F reflected, 1 − F transmitted",
+        _tir("rgbf <1, 1, 1, 1>", 1.1, "reflection { 0, 1 fresnel on } conserve_energy"),
+        F_INSIDE_11 * K + (1 - F_INSIDE_11) * np.array([0.0, 0.0, 1.0]),
+    ),
     # shadows: c·f + t per crossing, fade inside, no refraction, no Fresnel
     ("unshadowed floor", _shadow(""), np.ones(3)),
     ("shadow through a filter disc", _shadow(_disc("rgbf <0.5, 0.8, 1, 1>")), OCCLUDER),
@@ -196,10 +250,16 @@ CASES = [
     ("shadow through filter and transmit", _shadow(_disc("rgbft <0.5, 0.8, 1, 0.3, 0.4>")), 0.3 * OCCLUDER + 0.4),
     ("shadow rays are not refracted", _shadow(_box("rgbf <0.5, 0.8, 1, 1>", "ior 1.5")), OCCLUDER**2),
     ("an opaque occluder blocks", _shadow(_disc("rgb <0.5, 0.8, 1>")), np.zeros(3)),
-    ("shadow rays fade inside", _shadow(_box("rgbf <1, 1, 1, 1>", "fade_distance 1 fade_power 1 fade_color <0.5, 0.25, 1>")),
-     _fade((0.5, 0.25, 1.0), 2.0, 1.0, 1)),
-    ("Fresnel does not dim shadows", _shadow(_box("rgbf <1, 1, 1, 1>", "ior 1.5", "reflection { 0, 1 fresnel on } conserve_energy")),
-     np.ones(3)),
+    (
+        "shadow rays fade inside",
+        _shadow(_box("rgbf <1, 1, 1, 1>", "fade_distance 1 fade_power 1 fade_color <0.5, 0.25, 1>")),
+        _fade((0.5, 0.25, 1.0), 2.0, 1.0, 1),
+    ),
+    (
+        "Fresnel does not dim shadows",
+        _shadow(_box("rgbf <1, 1, 1, 1>", "ior 1.5", "reflection { 0, 1 fresnel on } conserve_energy")),
+        np.ones(3),
+    ),
 ]
 
 
@@ -216,7 +276,9 @@ def measured() -> dict[str, np.ndarray]:
     return {name: frame[SIZE // 2, SIZE // 2].astype(np.float64) for (name, _, _), frame in zip(CASES, frames)}
 
 
-@pytest.mark.parametrize(("name", "expected"), [(name, expected) for name, _, expected in CASES], ids=[c[0] for c in CASES])
+@pytest.mark.parametrize(
+    ("name", "expected"), [(name, expected) for name, _, expected in CASES], ids=[c[0] for c in CASES]
+)
 def test_povray_behaves_as_the_semantics_document_says(measured, name, expected):
     got = measured[name]
     assert np.all(np.abs(got - expected) <= HALF_RELATIVE * np.abs(expected) + 2.0**-24), f"{name}: {got} != {expected}"

@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from support import calibration, oracle
 from phongscene.backends import povray
 from phongscene.backends.povray import run
 from phongscene.errors import BackendError
 from phongscene.scene import PhongMaterial, PointLight, RenderSettings, Scene, Sphere
+from support import calibration, oracle
 
 # POV-Ray writes half-float EXR (ref §2): round-to-nearest half is within 2^-11 relative of the
 # value it stores.
@@ -49,8 +49,9 @@ def _variant(name: str, mapping: str) -> Scene:
     scene = calibration.SCENES[name]()
     # POV-Ray's refracted rays carry kt, without the book's 1/η², and it fades only what a surface
     # transmits (docs/reflection.md): the oracle renders in its transmission convention.
-    return dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, specular=MAPPING_CONVENTION[mapping],
-                                                                   transmission="povray"))
+    return dataclasses.replace(
+        scene, settings=dataclasses.replace(scene.settings, specular=MAPPING_CONVENTION[mapping], transmission="povray")
+    )
 
 
 def _within(image: np.ndarray, ref: np.ndarray) -> np.ndarray:
@@ -79,7 +80,9 @@ def test_calibration_scene_matches_oracle(calibration_renders, name, mapping, mo
     if ok.all():
         return
     outliers = np.argwhere(~ok)
-    assert len(outliers) <= SHADOW_CACHE_MAX_PIXELS, f"{len(outliers)} pixels off, e.g. (row, col) {outliers[:5].tolist()}"
+    assert len(outliers) <= SHADOW_CACHE_MAX_PIXELS, (
+        f"{len(outliers)} pixels off, e.g. (row, col) {outliers[:5].tolist()}"
+    )
     monkeypatch.setattr(oracle, "SHADOW_TOLERANCE", SHADOW_CACHE_WINDOW)
     cached = oracle.render(oracle.with_half_texels(scene))
     explained = _within(image, cached)
@@ -101,7 +104,9 @@ def _two_light_scene() -> Scene:
     return Scene(
         camera=calibration.look_at((0.0, 1.0, 5.0), (0.0, 0.0, 0.0)),
         lights=(PointLight((3.0, 4.0, 5.0), (1.0, 0.9, 0.8)), PointLight((-4.0, 2.0, 3.0), (0.3, 0.4, 0.5))),
-        spheres=(Sphere.at((0.0, 0.0, 0.0), 1.0, PhongMaterial(ks=0.5, exponent=30.0, specular_color=(0.9, 0.6, 0.3))),),
+        spheres=(
+            Sphere.at((0.0, 0.0, 0.0), 1.0, PhongMaterial(ks=0.5, exponent=30.0, specular_color=(0.9, 0.6, 0.3))),
+        ),
         settings=RenderSettings(width=24, height=18, background=(0.05, 0.1, 0.2)),
     )
 
@@ -176,12 +181,18 @@ def test_interrupt_removes_the_temporary_directory(monkeypatch, tmp_path):
 def _light_on_the_surface() -> Scene:
     from phongscene.scene import Camera, TriangleMesh
 
-    quad = TriangleMesh([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]],
-                        material=PhongMaterial(ka=0.5, diffuse_color=(1, 1, 1)))
-    return Scene(camera=Camera((0, 0, 5), (0, 0, -1), (0, 1, 0), horizontal_fov_deg=20),
-                 ambient=dataclasses.replace(Scene().ambient, color=(0.2, 0.2, 0.2)),
-                 lights=(PointLight((0.0, 0.0, 0.0), (1, 1, 1)),), meshes=(quad,),
-                 settings=RenderSettings(width=9, height=9))
+    quad = TriangleMesh(
+        [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+        [[0, 1, 2], [0, 2, 3]],
+        material=PhongMaterial(ka=0.5, diffuse_color=(1, 1, 1)),
+    )
+    return Scene(
+        camera=Camera((0, 0, 5), (0, 0, -1), (0, 1, 0), horizontal_fov_deg=20),
+        ambient=dataclasses.replace(Scene().ambient, color=(0.2, 0.2, 0.2)),
+        lights=(PointLight((0.0, 0.0, 0.0), (1, 1, 1)),),
+        meshes=(quad,),
+        settings=RenderSettings(width=9, height=9),
+    )
 
 
 def test_native_light_exactly_on_a_surface_point_gives_the_ambient_term():

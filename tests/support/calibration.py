@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -97,7 +97,9 @@ GROUND = PhongMaterial(ka=0.15, kd=0.7, ks=0.0, exponent=1.0, diffuse_color=(0.6
 RED = PhongMaterial(ka=0.12, kd=0.75, ks=0.35, exponent=24.0, diffuse_color=(0.85, 0.18, 0.12))
 GREEN = PhongMaterial(ka=0.12, kd=0.7, ks=0.3, exponent=40.0, diffuse_color=(0.2, 0.75, 0.25))
 BLUE = PhongMaterial(ka=0.12, kd=0.7, ks=0.4, exponent=12.0, diffuse_color=(0.15, 0.3, 0.85))
-GOLD = PhongMaterial(ka=0.1, kd=0.6, ks=0.5, exponent=18.0, diffuse_color=(0.8, 0.6, 0.2), specular_color=(1.0, 0.9, 0.6))
+GOLD = PhongMaterial(
+    ka=0.1, kd=0.6, ks=0.5, exponent=18.0, diffuse_color=(0.8, 0.6, 0.2), specular_color=(1.0, 0.9, 0.6)
+)
 
 BACKGROUND = (0.05, 0.07, 0.1)
 
@@ -180,7 +182,11 @@ def pixel_centres() -> Scene:
     return Scene(
         camera=camera,
         ambient=AmbientLight((0.4, 0.4, 0.4)),
-        lights=(DirectionalLight(_vec(np.array([-0.21, -0.33, -0.92]) / np.linalg.norm([-0.21, -0.33, -0.92])), (2.5, 2.5, 2.5)),),
+        lights=(
+            DirectionalLight(
+                _vec(np.array([-0.21, -0.33, -0.92]) / np.linalg.norm([-0.21, -0.33, -0.92])), (2.5, 2.5, 2.5)
+            ),
+        ),
         meshes=tuple(meshes),
         settings=_settings(width, height),
     )
@@ -219,17 +225,30 @@ def inverse_square_lights() -> Scene:
         PointLight((3.41, 5.07, 2.93), (61.0, 57.0, 52.0), falloff="inverse-square"), material=GOLD
     )
     rect = RectAreaLight(
-        center=(-2.41, 3.93, 1.17), axis_u=(1.2, 0.0, 0.2), axis_v=(0.1, 0.3, -1.0), color=(48.0, 50.0, 55.0),
-        samples=5, falloff="inverse-square",
+        center=(-2.41, 3.93, 1.17),
+        axis_u=(1.2, 0.0, 0.2),
+        axis_v=(0.1, 0.3, -1.0),
+        color=(48.0, 50.0, 55.0),
+        samples=5,
+        falloff="inverse-square",
     )
-    disc = SphereAreaLight(center=(0.37, 4.61, -2.9), radius=0.41, color=(20.0, 26.0, 31.0), samples=3,
-                           falloff="inverse-square")
+    disc = SphereAreaLight(
+        center=(0.37, 4.61, -2.9), radius=0.41, color=(20.0, 26.0, 31.0), samples=3, falloff="inverse-square"
+    )
     spot_axis = np.array([0.3, -1.0, -0.2]) / np.linalg.norm([0.3, -1.0, -0.2])
-    spot = PointLight((-0.8, 3.9, 0.9), (16.0, 14.0, 12.0), falloff="inverse-square",
-                      cone=Cone(_vec(spot_axis), math.cos(math.radians(21.0)), math.cos(math.radians(14.0))))
+    spot = PointLight(
+        (-0.8, 3.9, 0.9),
+        (16.0, 14.0, 12.0),
+        falloff="inverse-square",
+        cone=Cone(_vec(spot_axis), math.cos(math.radians(21.0)), math.cos(math.radians(14.0))),
+    )
     focused_axis = np.array([-0.4, -1.0, 0.3]) / np.linalg.norm([-0.4, -1.0, 0.3])
-    focused = PointLight((1.9, 3.3, 1.4), (13.0, 15.0, 11.0), falloff="inverse-square",
-                         cone=Cone(_vec(focused_axis), math.cos(math.radians(33.0)), math.cos(math.radians(27.0)), 7.5))
+    focused = PointLight(
+        (1.9, 3.3, 1.4),
+        (13.0, 15.0, 11.0),
+        falloff="inverse-square",
+        cone=Cone(_vec(focused_axis), math.cos(math.radians(33.0)), math.cos(math.radians(27.0)), 7.5),
+    )
     return dataclasses.replace(scene, lights=(*scene.lights, rect, disc, spot, focused))
 
 
@@ -325,7 +344,9 @@ def back_faces() -> Scene:
     return Scene(
         camera=look_at((0.23, 0.31, 4.9), (0.0, 0.0, -0.3), 55.0),
         ambient=AmbientLight((0.9, 0.85, 0.8)),
-        lights=(DirectionalLight(_vec(np.array([0.1, 0.05, 1.0]) / np.linalg.norm([0.1, 0.05, 1.0])), (3.0, 3.0, 3.0)),),
+        lights=(
+            DirectionalLight(_vec(np.array([0.1, 0.05, 1.0]) / np.linalg.norm([0.1, 0.05, 1.0])), (3.0, 3.0, 3.0)),
+        ),
         meshes=(TriangleMesh(points=points, triangles=tris, material=material),),
         settings=_settings(),
     )
@@ -343,7 +364,9 @@ def shadows_two_lights() -> Scene:
 
 def coloured_specular() -> Scene:
     """cs differs from white and from cd: the seed convention tints the highlight by cs."""
-    material = PhongMaterial(ka=0.1, kd=0.55, ks=0.7, exponent=22.0, diffuse_color=(0.2, 0.3, 0.8), specular_color=(1.0, 0.55, 0.1))
+    material = PhongMaterial(
+        ka=0.1, kd=0.55, ks=0.7, exponent=22.0, diffuse_color=(0.2, 0.3, 0.8), specular_color=(1.0, 0.55, 0.1)
+    )
     scene = _sphere_on_ground(PointLight((2.63, 4.31, 4.07), (2.9, 2.9, 2.9)), material=material)
     return dataclasses.replace(scene, lights=(*scene.lights, PointLight((-3.9, 1.7, 2.6), (0.9, 1.0, 1.2))))
 
@@ -368,7 +391,9 @@ def orthographic() -> Scene:
     base = look_at((4.13, 5.27, 6.91), (0.05, 0.63, -0.21))
     camera = dataclasses.replace(base, projection="orthographic", ortho_width=6.3)
     scene = transformed_spheres()
-    return dataclasses.replace(scene, camera=camera, meshes=(*scene.meshes, icosphere(1, (-1.1, 0.45, 1.6), 0.44, BLUE, smooth=True)))
+    return dataclasses.replace(
+        scene, camera=camera, meshes=(*scene.meshes, icosphere(1, (-1.1, 0.45, 1.6), 0.44, BLUE, smooth=True))
+    )
 
 
 def aa_grid() -> Scene:
@@ -391,7 +416,9 @@ def classic_convention() -> Scene:
 def exponent_zero() -> Scene:
     """e = 0: seed counts (r·wo)^0 = 1 wherever r·wo > 0 (a sharp edge where r·wo crosses 0);
     classic counts it wherever r·l > 0 (ref §10, §12.4)."""
-    material = PhongMaterial(ka=0.1, kd=0.5, ks=0.25, exponent=0.0, diffuse_color=(0.7, 0.4, 0.3), specular_color=(0.9, 0.9, 1.0))
+    material = PhongMaterial(
+        ka=0.1, kd=0.5, ks=0.25, exponent=0.0, diffuse_color=(0.7, 0.4, 0.3), specular_color=(0.9, 0.9, 1.0)
+    )
     return _sphere_on_ground(PointLight((3.41, 5.07, 2.93), (2.6, 2.6, 2.6)), material=material)
 
 
@@ -399,7 +426,9 @@ def huge_exponent() -> Scene:
     """e = 1e4: a sub-pixel highlight. Light at the eye and the sphere on the axis of an
     odd-sized image, so the centre pixel sits on the peak (value ka·cd·La + (kd·cd/π + ks·cs)·L)
     and its neighbours see almost nothing; no overflow or NaN anywhere."""
-    material = PhongMaterial(ka=0.1, kd=0.4, ks=0.9, exponent=1e4, diffuse_color=(0.5, 0.5, 0.6), specular_color=(1.0, 1.0, 1.0))
+    material = PhongMaterial(
+        ka=0.1, kd=0.4, ks=0.9, exponent=1e4, diffuse_color=(0.5, 0.5, 0.6), specular_color=(1.0, 1.0, 1.0)
+    )
     return Scene(
         camera=Camera(position=(0, 0, 4.3), forward=(0, 0, -1), up=(0, 1, 0), horizontal_fov_deg=45.0),
         ambient=AmbientLight((0.2, 0.2, 0.2)),
@@ -453,7 +482,9 @@ def checker_texture(wrap_s: str = "repeat", wrap_t: str = "repeat", seed: int = 
     that a swapped axis, a flipped row order or a half-texel shift all show). Cached: textures
     compare by identity, and a calibration scene built twice must be equal."""
     rng = np.random.default_rng(seed)
-    return Texture(rng.uniform(0.05, 1.0, (3, 5, 3)).astype(np.float32), wrap_s, wrap_t, source="/Looks/Checker/Texture")
+    return Texture(
+        rng.uniform(0.05, 1.0, (3, 5, 3)).astype(np.float32), wrap_s, wrap_t, source="/Looks/Checker/Texture"
+    )
 
 
 def textured_quad(texture: Texture, uv_lo: float, uv_hi: float, height: float = 0.0) -> TriangleMesh:
@@ -496,8 +527,9 @@ def texture_specular() -> Scene:
 # Mirror reflection (Suffern ch. 24; ref §18)
 
 MIRROR_FLOOR = dataclasses.replace(GROUND, kr=0.6, reflective_color=(0.9, 0.8, 1.0))
-CHROME = PhongMaterial(ka=0.05, kd=0.1, ks=0.4, exponent=40.0, diffuse_color=(0.9, 0.9, 0.9), kr=0.8,
-                       reflective_color=(1.0, 0.9, 0.7))
+CHROME = PhongMaterial(
+    ka=0.05, kd=0.1, ks=0.4, exponent=40.0, diffuse_color=(0.9, 0.9, 0.9), kr=0.8, reflective_color=(1.0, 0.9, 0.7)
+)
 
 
 def mirror_floor() -> Scene:
@@ -546,7 +578,9 @@ def box_mesh(lo, hi, material: PhongMaterial) -> TriangleMesh:
     lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
     box = trimesh.creation.box(extents=hi - lo)
     box.apply_translation((lo + hi) / 2)
-    return TriangleMesh(points=np.asarray(box.vertices), triangles=np.asarray(box.faces, dtype=np.int32), material=material)
+    return TriangleMesh(
+        points=np.asarray(box.vertices), triangles=np.asarray(box.faces, dtype=np.int32), material=material
+    )
 
 
 def glass_sphere() -> Scene:
@@ -566,7 +600,9 @@ def glass_slab() -> Scene:
     the sphere shifted by refraction through the slab, a filtered shadow."""
     scene = point_light()
     slab = box_mesh((-1.9, 0.05, 1.2), (1.3, 1.6, 1.65), dataclasses.replace(GLASS, kr=0.0, kt=0.85))
-    return dataclasses.replace(scene, meshes=(*scene.meshes, slab), settings=dataclasses.replace(scene.settings, max_depth=6))
+    return dataclasses.replace(
+        scene, meshes=(*scene.meshes, slab), settings=dataclasses.replace(scene.settings, max_depth=6)
+    )
 
 
 def dielectric_sphere() -> Scene:
@@ -576,7 +612,11 @@ def dielectric_sphere() -> Scene:
     dielectric = dataclasses.replace(GLASS, kr=1.0, kt=1.0, fresnel=True)
     coated = dataclasses.replace(RED, kr=1.0, fresnel=True, ior=1.5)
     return dataclasses.replace(
-        scene, spheres=(dataclasses.replace(scene.spheres[0], material=coated), dataclasses.replace(scene.spheres[1], material=dielectric))
+        scene,
+        spheres=(
+            dataclasses.replace(scene.spheres[0], material=coated),
+            dataclasses.replace(scene.spheres[1], material=dielectric),
+        ),
     )
 
 
@@ -586,8 +626,12 @@ def tinted_glass() -> Scene:
     shadows through them."""
     scene = glass_slab()
     tint = (0.45, 0.8, 0.9)
-    slab = dataclasses.replace(scene.meshes[1], material=dataclasses.replace(scene.meshes[1].material, interior_filter=tint))
-    sphere = Sphere.at((1.2, 0.55, 2.4), 0.5, dataclasses.replace(GLASS, interior_filter=(0.9, 0.5, 0.3), fresnel=True, kr=1.0, kt=1.0))
+    slab = dataclasses.replace(
+        scene.meshes[1], material=dataclasses.replace(scene.meshes[1].material, interior_filter=tint)
+    )
+    sphere = Sphere.at(
+        (1.2, 0.55, 2.4), 0.5, dataclasses.replace(GLASS, interior_filter=(0.9, 0.5, 0.3), fresnel=True, kr=1.0, kt=1.0)
+    )
     return dataclasses.replace(scene, meshes=(scene.meshes[0], slab), spheres=(*scene.spheres, sphere))
 
 

@@ -390,8 +390,19 @@ def _prepare(scene: Scene) -> _Geometry:
         corner_uv = None if texture is None and specular is None else mesh.uvs[mesh.uv_indices]
         meshes.append(
             _Mesh(
-                p0, e1, e2, cross_len, flat, corner_normals, material_index(mesh.material), lo - pad, hi + pad,
-                corner_uv, texture, specular, mesh.source,
+                p0,
+                e1,
+                e2,
+                cross_len,
+                flat,
+                corner_normals,
+                material_index(mesh.material),
+                lo - pad,
+                hi + pad,
+                corner_uv,
+                texture,
+                specular,
+                mesh.source,
             )
         )
     intrinsic_materials = [material_index(i.material) for i in scene.intrinsics]
@@ -451,7 +462,9 @@ def _ray_aabb(o: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> n
     return (t_near <= t_far) & (t_far >= 0.0)
 
 
-def _mesh_hits(mesh: _Mesh, o: np.ndarray, d: np.ndarray, accept) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _mesh_hits(
+    mesh: _Mesh, o: np.ndarray, d: np.ndarray, accept
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Nearest accepted triangle hit per ray: (t, triangle, u, v); t = inf where none."""
     n = len(o)
     best_t = np.full(n, np.inf)
@@ -592,6 +605,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
     specular = np.zeros((n, 3))
 
     if accept is None:
+
         def accept(t, _rows):
             return (t >= MIN_ISECT_DEPTH) & (t < MAX_DISTANCE)
 
@@ -753,8 +767,19 @@ def _visible_fraction(geo: _Geometry, light, p: np.ndarray, l: np.ndarray, dist:
     return (~blocked).astype(np.float64) @ weights
 
 
-def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material, cd, cs, source,
-           medium: np.ndarray | None = None) -> np.ndarray:
+def _shade(
+    geo: _Geometry,
+    scene: Scene,
+    settings: RenderSettings,
+    p,
+    d,
+    normal,
+    material,
+    cd,
+    cs,
+    source,
+    medium: np.ndarray | None = None,
+) -> np.ndarray:
     n = np.where((np.einsum("ij,ij->i", normal, d) > 0.0)[:, None], -normal, normal)  # face the viewer
     wo = -d
     ka, kd, ks, e = geo.ka[material], geo.kd[material], geo.ks[material], geo.exponent[material]
@@ -796,8 +821,15 @@ def _shade(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal,
 # Public API
 
 
-def _trace(geo: _Geometry, scene: Scene, settings: RenderSettings, origins, directions, depth: int = 0,
-           medium: np.ndarray | None = None) -> np.ndarray:
+def _trace(
+    geo: _Geometry,
+    scene: Scene,
+    settings: RenderSettings,
+    origins,
+    directions,
+    depth: int = 0,
+    medium: np.ndarray | None = None,
+) -> np.ndarray:
     o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
@@ -808,16 +840,38 @@ def _trace(geo: _Geometry, scene: Scene, settings: RenderSettings, origins, dire
     hit = np.isfinite(t)
     if hit.any():
         p = o[hit] + t[hit, None] * d[hit]
-        radiance[hit] = _shade(geo, scene, settings, p, d[hit], normal[hit], material[hit], colour[hit], specular[hit],
-                               source[hit], medium[hit])
+        radiance[hit] = _shade(
+            geo,
+            scene,
+            settings,
+            p,
+            d[hit],
+            normal[hit],
+            material[hit],
+            colour[hit],
+            specular[hit],
+            source[hit],
+            medium[hit],
+        )
         if depth < settings.max_depth:
-            radiance[hit] += _reflected(geo, scene, settings, p, d[hit], normal[hit], material[hit], depth, medium[hit],
-                                        t[hit])
+            radiance[hit] += _reflected(
+                geo, scene, settings, p, d[hit], normal[hit], material[hit], depth, medium[hit], t[hit]
+            )
     return radiance * geo.medium_transmittance(medium, t) if settings.transmission == "book" else radiance
 
 
-def _reflected(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, normal, material, depth: int,
-               medium: np.ndarray, t_hit: np.ndarray) -> np.ndarray:
+def _reflected(
+    geo: _Geometry,
+    scene: Scene,
+    settings: RenderSettings,
+    p,
+    d,
+    normal,
+    material,
+    depth: int,
+    medium: np.ndarray,
+    t_hit: np.ndarray,
+) -> np.ndarray:
     """The secondary rays' radiance at each hit (zero where none is traced): kr·cr·L(P, r) with r
     the mirror of d, plus the refracted ray's, or L(P, r) alone under total internal reflection."""
     out = np.zeros((len(p), 3))
@@ -845,14 +899,17 @@ def _reflected(geo: _Geometry, scene: Scene, settings: RenderSettings, p, d, nor
     if len(mirror_rows):
         dr, nr = d[mirror_rows], n[mirror_rows]
         r = dr - 2.0 * np.einsum("ij,ij->i", dr, nr)[:, None] * nr
-        out[mirror_rows] += weight[mirror_rows] * _trace(geo, scene, settings, p[mirror_rows], r, depth + 1,
-                                                         reflected_medium[mirror_rows])
+        out[mirror_rows] += weight[mirror_rows] * _trace(
+            geo, scene, settings, p[mirror_rows], r, depth + 1, reflected_medium[mirror_rows]
+        )
     rows = np.nonzero(transmits & ~tir)[0]
     if len(rows):
         e, c = eta[rows, None], cos_i[rows, None]
         t = d[rows] / e - (np.sqrt(cos_t2[rows, None]) - c / e) * n[rows]
         w = kt[rows] / eta[rows] ** 2 if settings.transmission == "book" else kt[rows]
-        out[rows] += w[:, None] * carried[rows] * _trace(geo, scene, settings, p[rows], t, depth + 1, refracted_medium[rows])
+        out[rows] += (
+            w[:, None] * carried[rows] * _trace(geo, scene, settings, p[rows], t, depth + 1, refracted_medium[rows])
+        )
     return out
 
 
@@ -922,7 +979,9 @@ def with_half_texels(scene: Scene) -> Scene:
 
     def half(material):
         return dataclasses.replace(
-            material, diffuse_texture=half_texture(material.diffuse_texture), specular_texture=half_texture(material.specular_texture)
+            material,
+            diffuse_texture=half_texture(material.diffuse_texture),
+            specular_texture=half_texture(material.specular_texture),
         )
 
     return dataclasses.replace(

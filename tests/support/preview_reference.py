@@ -27,7 +27,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from phongscene.usd import preview_to_phong  # noqa: E402
+from phongscene.usd import preview_to_phong
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 VIEW = np.array([0.0, 0.0, 1.0])
@@ -51,7 +51,9 @@ def _normals():
     dtheta = 1.5 * math.pi * u**2 / GRID_U
     phi = (np.arange(GRID_PHI) + 0.5) / GRID_PHI * 2 * math.pi
     st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
-    n = (ct[..., None] * h + st[..., None] * (np.cos(phi)[None, :, None] * t1 + np.sin(phi)[None, :, None] * t2)).reshape(-1, 3)
+    n = (
+        ct[..., None] * h + st[..., None] * (np.cos(phi)[None, :, None] * t1 + np.sin(phi)[None, :, None] * t2)
+    ).reshape(-1, 3)
     weight = (np.sin(theta) * dtheta)[:, None] * np.full(GRID_PHI, 2 * math.pi / GRID_PHI)
     return n, weight.reshape(-1)
 

@@ -33,7 +33,11 @@ def test_it_reads_as_the_books_build_function(result):
     assert scene.camera.horizontal_fov_deg == pytest.approx(2 * math.degrees(math.atan(300 / 340)), rel=1e-6)
     assert scene.camera.position == pytest.approx((7.5, 4, 10))
     assert (scene.settings.width, scene.settings.height, scene.settings.samples, scene.settings.sample_pattern) == (
-        600, 400, 4, "grid")
+        600,
+        400,
+        4,
+        "grid",
+    )
     (sun,) = scene.lights
     assert not sun.linking.shadows and sun.color == pytest.approx((2, 2, 2))
     assert np.asarray(sun.direction) == pytest.approx(-np.array([15, 15, 2.5]) / np.linalg.norm([15, 15, 2.5]))
@@ -49,5 +53,6 @@ def test_it_reads_as_the_books_build_function(result):
 def test_it_renders_as_the_oracle(result):
     scene = result.scene
     small = dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, width=60, height=40, samples=1))
-    np.testing.assert_allclose(render(small, "native"), oracle.render(small), rtol=ORACLE_RELATIVE_TOLERANCE,
-                               atol=ORACLE_ABSOLUTE_FLOOR)
+    np.testing.assert_allclose(
+        render(small, "native"), oracle.render(small), rtol=ORACLE_RELATIVE_TOLERANCE, atol=ORACLE_ABSOLUTE_FLOOR
+    )

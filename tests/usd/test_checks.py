@@ -7,9 +7,7 @@ from __future__ import annotations
 import math
 
 import pytest
-
 from usda import read
-
 
 TYPOS = """
 def SphereLight "L" {

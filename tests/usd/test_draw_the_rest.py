@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from usda import read
 
 from phongscene.cli import main
-from usda import read
 
 CAMERA_AND_LIGHT = """
 def Camera "Cam" { double3 xformOp:translate = (0, 0, 5)
@@ -56,7 +56,9 @@ def test_a_zero_length_normal_takes_its_triangles_geometric_normal(tmp_path):
 def test_a_repaired_scene_still_fails_validate_strict(tmp_path, capsys):
     scene = tmp_path / "scene.usda"
     normals = 'normal3f[] normals = [(0, 0, 1), (0, 0, 1), (0, 0, 0), (0, 0, 1)] (interpolation = "vertex")'
-    scene.write_text("#usda 1.0\n" + (CAMERA_AND_LIGHT + _quad("Q", normals=normals)).replace("{ ", "{\n").replace(" }", "\n}"))
+    scene.write_text(
+        "#usda 1.0\n" + (CAMERA_AND_LIGHT + _quad("Q", normals=normals)).replace("{ ", "{\n").replace(" }", "\n}")
+    )
     assert main(["validate", "--no-sandbox", str(scene)]) == 0
     capsys.readouterr()
     assert main(["validate", "--no-sandbox", "--strict", str(scene)]) == 2

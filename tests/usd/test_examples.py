@@ -10,8 +10,8 @@ import sys
 
 import pytest
 
-from support.paths import EXAMPLES
 from phongscene.usd import read_usd
+from support.paths import EXAMPLES
 
 SEED = ("seed_exponents", "seed_lobe", "seed_specular_color", "seed_buildup")
 
@@ -38,7 +38,9 @@ def test_seed_lobe_specular_color_and_buildup():
     assert colour["WhiteHighlight"].specular_color == (1.0, 1.0, 1.0)
     assert colour["DiffuseColoredHighlight"].specular_color == colour["DiffuseColoredHighlight"].diffuse_color
     build = exponents_by_sphere(read_usd(EXAMPLES / "seed_buildup.usda").scene)
-    assert [(m.kd > 0, m.ks > 0) for m in (build["Ambient"], build["AmbientDiffuse"], build["AmbientDiffuseSpecular"])] == [
+    assert [
+        (m.kd > 0, m.ks > 0) for m in (build["Ambient"], build["AmbientDiffuse"], build["AmbientDiffuseSpecular"])
+    ] == [
         (False, False),
         (True, False),
         (True, True),

@@ -9,10 +9,9 @@ import math
 
 import numpy as np
 import pytest
-
-from phongscene.errors import SceneError
 from usda import FLOAT32, read
 
+from phongscene.errors import SceneError
 
 LIGHTS = """
 def DomeLight "Dome" { float inputs:intensity = 0.5 }

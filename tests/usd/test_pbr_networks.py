@@ -7,10 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from usda import FLOAT32, read
 
 from phongscene.usd import pbr_networks
-
-from usda import FLOAT32, read
 
 CAMERA_AND_LIGHT = """
 def Camera "Cam" { double3 xformOp:translate = (0, 0, 5)
@@ -147,7 +146,9 @@ def test_unmodelled_lobes_are_one_warning_listing_the_materials(tmp_path):
     body = CAMERA_AND_LIGHT
     for i in range(3):
         body += _material(
-            f"C{i}", "mtlx:", 'uniform token info:id = "ND_standard_surface_surfaceshader"\n        float inputs:coat = 1'
+            f"C{i}",
+            "mtlx:",
+            'uniform token info:id = "ND_standard_surface_surfaceshader"\n        float inputs:coat = 1',
         )
         body += _sphere(f"S{i}", f"C{i}")
     warnings = [w for w in read(tmp_path, body).warnings if "inputs:coat" in w]

@@ -24,14 +24,21 @@ def _settings(resolution: str) -> str:
     return f'def RenderSettings "Settings" {{ int2 resolution = {resolution}\n rel camera = </Cam> }}\n'
 
 
-@pytest.mark.parametrize("light,attribute", [
-    ('def SphereLight "L" { float inputs:exposure = 1000\n bool treatAsPoint = 1\n bool inputs:normalize = 1 }',
-     "inputs:exposure"),
-    ('def SphereLight "L" { float inputs:intensity = 3.4e38\n bool treatAsPoint = 1\n bool inputs:normalize = 1 }',
-     "inputs:intensity"),
-    ('def DistantLight "L" { float inputs:intensity = 1e30\n float inputs:exposure = 30 }', "inputs:exposure"),
-    ('def DomeLight "L" { float inputs:exposure = 127 }', "inputs:exposure"),
-])
+@pytest.mark.parametrize(
+    "light,attribute",
+    [
+        (
+            'def SphereLight "L" { float inputs:exposure = 1000\n bool treatAsPoint = 1\n bool inputs:normalize = 1 }',
+            "inputs:exposure",
+        ),
+        (
+            'def SphereLight "L" { float inputs:intensity = 3.4e38\n bool treatAsPoint = 1\n bool inputs:normalize = 1 }',
+            "inputs:intensity",
+        ),
+        ('def DistantLight "L" { float inputs:intensity = 1e30\n float inputs:exposure = 30 }', "inputs:exposure"),
+        ('def DomeLight "L" { float inputs:exposure = 127 }', "inputs:exposure"),
+    ],
+)
 def test_a_light_beyond_float32_radiance_is_an_error_naming_it(tmp_path, light, attribute):
     with pytest.raises(SceneError) as info:
         read(tmp_path, light + "\n" + 'def Sphere "Ball" { }\n')
@@ -41,8 +48,11 @@ def test_a_light_beyond_float32_radiance_is_an_error_naming_it(tmp_path, light, 
 
 
 def test_a_bright_light_within_float32_is_read(tmp_path):
-    result = read(tmp_path, 'def SphereLight "L" { float inputs:exposure = 90\n bool treatAsPoint = 1\n '
-                            'bool inputs:normalize = 1 }\ndef Sphere "Ball" { }\n')
+    result = read(
+        tmp_path,
+        'def SphereLight "L" { float inputs:exposure = 90\n bool treatAsPoint = 1\n '
+        'bool inputs:normalize = 1 }\ndef Sphere "Ball" { }\n',
+    )
     (light,) = result.scene.lights
     assert max(light.color) == 2.0**90 / 4  # L/4 for a normalized point light
 
@@ -60,11 +70,14 @@ def test_a_resolution_out_of_bounds_is_an_error_before_the_aperture_conform(tmp_
 @pytest.mark.parametrize("command", ["info", "render"])
 def test_a_zero_resolution_is_one_line_not_a_traceback(tmp_path, command):
     scene = tmp_path / "scene.usda"
-    scene.write_text("#usda 1.0\n" + (CAMERA + _settings("(0, 0)") + 'def Sphere "Ball" { }\n')
-                     .replace("{ ", "{\n").replace(" }", "\n}"))
+    scene.write_text(
+        "#usda 1.0\n"
+        + (CAMERA + _settings("(0, 0)") + 'def Sphere "Ball" { }\n').replace("{ ", "{\n").replace(" }", "\n}")
+    )
     args = [command, str(scene)] + (["-o", str(tmp_path / "out.exr")] if command == "render" else [])
-    result = subprocess.run([sys.executable, "-m", "phongscene", *args], capture_output=True, text=True,
-                            timeout=CLI_TIMEOUT_S)
+    result = subprocess.run(
+        [sys.executable, "-m", "phongscene", *args], capture_output=True, text=True, timeout=CLI_TIMEOUT_S
+    )
     assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
     (line,) = [line for line in result.stderr.splitlines() if line.startswith("error")]
     assert "/Settings.resolution: must be two integers" in line

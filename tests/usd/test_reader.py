@@ -8,14 +8,13 @@ import math
 
 import numpy as np
 import pytest
+from usda import EXACT, read
 
-from support.paths import REPO
 from phongscene.errors import SceneError
 from phongscene.scene import DEFAULT_MATERIAL, PointLight
 from phongscene.usd import preview_to_phong, read_usd
 from phongscene.usd.materials import PREVIEW_MAX_EXPONENT
-from usda import EXACT, read
-
+from support.paths import REPO
 
 QUAD_AND_PENTAGON = """
 def Mesh "M"
@@ -58,18 +57,27 @@ def test_subdivision_mesh_renders_cage_with_one_warning(tmp_path):
     "normals, expected_rows",
     [
         # vertex: one per point; corner normal = normals[point id]
-        ('normal3f[] normals = [(0,0,1),(0,0,1),(0,0,1),(0,0,1),(1,0,0),(1,0,0),(1,0,0),(1,0,0),(0,1,0)] (interpolation = "vertex")',
-         [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7], [4, 7, 8]]),
+        (
+            'normal3f[] normals = [(0,0,1),(0,0,1),(0,0,1),(0,0,1),(1,0,0),(1,0,0),(1,0,0),(1,0,0),(0,1,0)] (interpolation = "vertex")',
+            [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7], [4, 7, 8]],
+        ),
         # faceVarying: one per face-vertex; the pentagon's fan corners are face-vertices 4..8
-        ('normal3f[] normals = [(0,0,1),(0,0,1),(0,0,1),(0,0,1),(1,0,0),(1,0,0),(1,0,0),(1,0,0),(0,1,0)] (interpolation = "faceVarying")',
-         [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7], [4, 7, 8]]),
+        (
+            'normal3f[] normals = [(0,0,1),(0,0,1),(0,0,1),(0,0,1),(1,0,0),(1,0,0),(1,0,0),(1,0,0),(0,1,0)] (interpolation = "faceVarying")',
+            [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7], [4, 7, 8]],
+        ),
         # uniform: one per face
-        ('normal3f[] normals = [(0,0,1),(1,0,0)] (interpolation = "uniform")', [[0, 0, 0], [0, 0, 0], [1, 1, 1], [1, 1, 1], [1, 1, 1]]),
+        (
+            'normal3f[] normals = [(0,0,1),(1,0,0)] (interpolation = "uniform")',
+            [[0, 0, 0], [0, 0, 0], [1, 1, 1], [1, 1, 1], [1, 1, 1]],
+        ),
         # constant: one for all
         ('normal3f[] normals = [(0,0,1)] (interpolation = "constant")', [[0, 0, 0]] * 5),
         # indexed primvar (per point, two distinct values)
-        ('normal3f[] primvars:normals = [(0,0,1),(1,0,0)] (interpolation = "vertex")\n    int[] primvars:normals:indices = [0,0,0,0,1,1,1,1,1]',
-         [[0, 0, 0], [0, 0, 0], [1, 1, 1], [1, 1, 1], [1, 1, 1]]),
+        (
+            'normal3f[] primvars:normals = [(0,0,1),(1,0,0)] (interpolation = "vertex")\n    int[] primvars:normals:indices = [0,0,0,0,1,1,1,1,1]',
+            [[0, 0, 0], [0, 0, 0], [1, 1, 1], [1, 1, 1], [1, 1, 1]],
+        ),
     ],
 )
 def test_normals_of_every_interpolation(tmp_path, normals, expected_rows):
@@ -85,7 +93,9 @@ def test_primvar_normals_take_precedence_over_normals(tmp_path):
 
 
 def test_unnormalized_normals_are_normalized(tmp_path):
-    mesh = read(tmp_path, QUAD_AND_PENTAGON.format(extra='normal3f[] normals = [(0,0,3)] (interpolation = "constant")')).scene.meshes[0]
+    mesh = read(
+        tmp_path, QUAD_AND_PENTAGON.format(extra='normal3f[] normals = [(0,0,3)] (interpolation = "constant")')
+    ).scene.meshes[0]
     assert mesh.normals.tolist() == [[0.0, 0.0, 1.0]]
 
 
@@ -121,7 +131,10 @@ def test_transform_and_z_up(tmp_path):
 
 
 def test_mirroring_transform_flips_winding(tmp_path):
-    body = QUAD_AND_PENTAGON.format(extra="").replace('def Mesh "M"\n{', 'def Mesh "M"\n{\n    double3 xformOp:scale = (-1, 1, 1)\n    uniform token[] xformOpOrder = ["xformOp:scale"]')
+    body = QUAD_AND_PENTAGON.format(extra="").replace(
+        'def Mesh "M"\n{',
+        'def Mesh "M"\n{\n    double3 xformOp:scale = (-1, 1, 1)\n    uniform token[] xformOpOrder = ["xformOp:scale"]',
+    )
     mesh = read(tmp_path, body).scene.meshes[0]
     assert mesh.triangles.tolist()[0] == [0, 2, 1]
 
@@ -146,7 +159,9 @@ def test_tessellated_primitives_match_their_schema_extent(tmp_path, prim, triang
 
 
 def test_curved_primitives_have_smooth_unit_normals(tmp_path):
-    mesh = read(tmp_path, 'def Capsule "P" { custom bool phong:tessellate = 1\n double radius = 1\n double height = 2 }').scene.meshes[0]
+    mesh = read(
+        tmp_path, 'def Capsule "P" { custom bool phong:tessellate = 1\n double radius = 1\n double height = 2 }'
+    ).scene.meshes[0]
     corners = mesh.points[mesh.triangles].reshape(-1, 3)
     spine = np.column_stack([np.zeros((len(corners), 2)), np.clip(corners[:, 2], -1, 1)])
     expected = (corners - spine) / np.linalg.norm(corners - spine, axis=1)[:, None]
@@ -156,7 +171,9 @@ def test_curved_primitives_have_smooth_unit_normals(tmp_path):
 def test_defaults_without_camera_or_lights_warn(tmp_path):
     result = read(tmp_path, 'def Sphere "B" {}')
     assert result.scene.camera.source == "(default framing camera)"
-    assert result.scene.lights == (PointLight(result.scene.camera.position, (math.pi,) * 3, source="(default head light)"),)
+    assert result.scene.lights == (
+        PointLight(result.scene.camera.position, (math.pi,) * 3, source="(default head light)"),
+    )
     assert any("no camera" in w for w in result.warnings) and any("head light" in w for w in result.warnings)
 
 
@@ -207,9 +224,10 @@ def test_preview_to_phong_metallic_and_specular_workflow():
 
 
 def test_texture_without_an_image_uses_its_fallback_with_a_warning(tmp_path):
-    inputs = 'color3f inputs:diffuseColor.connect = </M/T.outputs:rgb>\n float inputs:roughness = 0.5'
+    inputs = "color3f inputs:diffuseColor.connect = </M/T.outputs:rgb>\n float inputs:roughness = 0.5"
     body = PREVIEW.format(inputs=inputs).replace(
-        'def Shader "S"', 'def Shader "T" { uniform token info:id = "UsdUVTexture"\n float3 outputs:rgb }\n    def Shader "S"'
+        'def Shader "S"',
+        'def Shader "T" { uniform token info:id = "UsdUVTexture"\n float3 outputs:rgb }\n    def Shader "S"',
     )
     result = read(tmp_path, body)
     # A texture without an image gives its fallback (UsdUVTexture's default: (0, 0, 0, 1)).
@@ -345,7 +363,11 @@ def test_geom_subset_material_bindings_split_the_mesh(tmp_path):
     """
     left, right = read(tmp_path, body).scene.meshes
     assert (left.source, right.source) == ("/Strip", "/Strip/Right")
-    assert left.material.diffuse_color == pytest.approx((0.5, 0.5, 0.5)) and right.material.diffuse_color == (1.0, 0.0, 0.0)
+    assert left.material.diffuse_color == pytest.approx((0.5, 0.5, 0.5)) and right.material.diffuse_color == (
+        1.0,
+        0.0,
+        0.0,
+    )
     assert len(left.triangles) == len(right.triangles) == 2
     assert set(right.triangles.ravel()) == {1, 2, 4, 5}  # the second quad's corners
 

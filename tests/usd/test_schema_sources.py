@@ -31,10 +31,13 @@ def test_phong_h_is_the_seed_light_term(tmp_path):
         (0.2, 1.0, 1.0, 1.0, 0.0, 1.0, -0.1, 2.0),  # r·wo <= 0: no highlight, also for e = 0
     ]
     program = tmp_path / "probe.cpp"
-    calls = "\n".join(f"    std::printf(\"%.17g\\n\", phong_light_term({', '.join(map(repr, c))}));" for c in cases)
+    calls = "\n".join(f'    std::printf("%.17g\\n", phong_light_term({", ".join(map(repr, c))}));' for c in cases)
     program.write_text(f'#include <cstdio>\n#include "phong.h"\nint main() {{\n{calls}\n}}\n')
     subprocess.run(["g++", "-std=c++17", "-I", str(SCHEMAS), str(program), "-o", str(tmp_path / "probe")], check=True)
-    out = [float(x) for x in subprocess.run([str(tmp_path / "probe")], capture_output=True, text=True, check=True).stdout.split()]
+    out = [
+        float(x)
+        for x in subprocess.run([str(tmp_path / "probe")], capture_output=True, text=True, check=True).stdout.split()
+    ]
     for value, (kd, cd, ks, cs, e, n_dot_l, r_dot_wo, light) in zip(out, cases):
         specular = ks * cs * r_dot_wo**e if r_dot_wo > 0 else 0.0
         expected = (kd * cd / math.pi + specular) * light * n_dot_l

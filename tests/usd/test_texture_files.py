@@ -18,12 +18,12 @@ import zlib
 import numpy as np
 import OpenImageIO as oiio
 import pytest
+from test_textures import textured_stage, write_png
 
 from phongscene import limits, load_usd
 from phongscene.errors import SceneError
 from phongscene.limits import MAX_TEXTURE_SIDE
 from phongscene.usd import texture_files
-from test_textures import textured_stage, write_png
 
 # Reading a scene whose texture is not a regular file: interpreter start-up and a stat; far below
 # this on a loaded 2-core machine, and far below "forever" (the hang this replaces).
@@ -39,14 +39,20 @@ BIG_SIDE = 2048  # a texture big enough that bytes per texel dominate the slack 
 
 
 def _cli(*args, stdin=subprocess.DEVNULL) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "phongscene", *args], capture_output=True, text=True,
-                          timeout=PROMPT_TIMEOUT_S, stdin=stdin)
+    return subprocess.run(
+        [sys.executable, "-m", "phongscene", *args],
+        capture_output=True,
+        text=True,
+        timeout=PROMPT_TIMEOUT_S,
+        stdin=stdin,
+    )
 
 
 def _png_header_only(path, width: int, height: int) -> str:
     """A PNG whose header says width × height 8-bit grey, with only one row of pixel data: read
     whole it would decode width × height bytes (or fail on the truncation); its header alone is
     a few bytes."""
+
     def chunk(kind: bytes, data: bytes) -> bytes:
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
 
@@ -139,8 +145,9 @@ def test_an_8bit_texture_is_decoded_as_bytes_and_converted_a_block_at_a_time(tmp
 
 def test_a_dome_texture_bomb_is_refused_from_its_header(tmp_path):
     _png_header_only(tmp_path / "bomb.png", 30000, 30000)
-    (tmp_path / "s.usda").write_text('#usda 1.0\ndef DomeLight "Dome" {\n    asset inputs:texture:file = @./bomb.png@\n}\n'
-                                     'def Sphere "Ball" {\n}\n')
+    (tmp_path / "s.usda").write_text(
+        '#usda 1.0\ndef DomeLight "Dome" {\n    asset inputs:texture:file = @./bomb.png@\n}\ndef Sphere "Ball" {\n}\n'
+    )
     with pytest.raises(SceneError) as info:
         load_usd(tmp_path / "s.usda")
     (problem,) = info.value.problems

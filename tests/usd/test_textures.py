@@ -13,10 +13,10 @@ import OpenImageIO as oiio
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from support import calibration, oracle
 from phongscene import load_usd
 from phongscene.backends import native
 from phongscene.validate import check, validate
+from support import calibration, oracle
 from support.paths import SCENES
 
 # The native tracer against the float64 oracle: float32 texels and colour arithmetic.
@@ -30,7 +30,10 @@ SRGB_ABS = 1e-6
 
 # A 4 × 2 RGB texture with distinct 8-bit values (row 0 at the top of the file).
 PIXELS8 = np.array(
-    [[[10, 200, 30], [250, 5, 60], [90, 90, 240], [0, 128, 255]], [[255, 255, 255], [40, 10, 170], [128, 64, 32], [7, 77, 177]]],
+    [
+        [[10, 200, 30], [250, 5, 60], [90, 90, 240], [0, 128, 255]],
+        [[255, 255, 255], [40, 10, 170], [128, 64, 32], [7, 77, 177]],
+    ],
     dtype=np.uint8,
 )
 
@@ -169,7 +172,14 @@ def test_float_exr_is_raw_under_auto(tmp_path):
 def test_single_channel_output_scale_and_bias(tmp_path, output, channel):
     write_png(tmp_path / "tex.png")
     scene = load_usd(
-        textured_stage(tmp_path / "s.usda", "tex.png", color_space="raw", output=output, scale=(2, 3, 4, 1), bias=(0.1, 0.2, 0.3, 0))
+        textured_stage(
+            tmp_path / "s.usda",
+            "tex.png",
+            color_space="raw",
+            output=output,
+            scale=(2, 3, 4, 1),
+            bias=(0.1, 0.2, 0.3, 0),
+        )
     )
     _, texture = _texture(scene)
     expected = PIXELS8[:, :, channel] / 255.0 * (2, 3, 4)[channel] + (0.1, 0.2, 0.3)[channel]
@@ -197,7 +207,9 @@ def test_st_of_every_interpolation(tmp_path, interpolation):
 
 def test_transform2d_applies_scale_rotation_translation(tmp_path):
     write_png(tmp_path / "tex.png")
-    mesh, _ = _texture(load_usd(textured_stage(tmp_path / "s.usda", "tex.png", transform=((2.0, 0.5), 90.0, (0.25, -1.0)))))
+    mesh, _ = _texture(
+        load_usd(textured_stage(tmp_path / "s.usda", "tex.png", transform=((2.0, 0.5), 90.0, (0.25, -1.0))))
+    )
     plain, _ = _texture(load_usd(textured_stage(tmp_path / "p.usda", "tex.png")))
     st = plain.uvs * (2.0, 0.5)
     expected = np.column_stack([-st[:, 1], st[:, 0]]) + (0.25, -1.0)  # 90° counter-clockwise
@@ -240,7 +252,9 @@ def test_native_matches_oracle_in_every_wrap_mode(wrap_s, wrap_t):
     # uvs from -2.3 to 3.1: every wrap rule is exercised beyond both edges of both axes.
     scene = calibration.point_light()
     quad = calibration.textured_quad(calibration.checker_texture(wrap_s, wrap_t), -2.3, 3.1)
-    scene = check(dataclasses.replace(scene, meshes=(quad,), settings=dataclasses.replace(scene.settings, width=40, height=30)))
+    scene = check(
+        dataclasses.replace(scene, meshes=(quad,), settings=dataclasses.replace(scene.settings, width=40, height=30))
+    )
     image = native.render(scene)
     ref = oracle.render(scene)
     np.testing.assert_allclose(image, ref, rtol=NATIVE_REL, atol=1e-7)
@@ -304,7 +318,10 @@ mesh2 {{ vertex_vectors {{ 4, <0, 0, 0>, <1, 0, 0>, <1, 1, 0>, <0, 1, 0> }}
     (tmp_path / "quad.pov").write_text(sdl)
     subprocess.run(
         ["povray", "+Iquad.pov", "+Oquad.exr", "+FE", f"+W{n}", f"+H{n}", "-D", "-V", "-GA", "-A", "+WT1"],
-        cwd=tmp_path, check=True, capture_output=True, env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"},
+        cwd=tmp_path,
+        check=True,
+        capture_output=True,
+        env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"},
     )
     s = (np.arange(n) + 0.5) / n
     u, v = np.meshgrid(uv_lo + (uv_hi - uv_lo) * s, uv_lo + (uv_hi - uv_lo) * (1 - s))
@@ -386,14 +403,18 @@ def test_compile_writes_the_texture_beside_the_sdl_and_povray_renders_it(tmp_pat
 
     out = tmp_path / "out"
     out.mkdir()
-    assert main(["compile", str(BLENDER_TEXTURED), "-o", str(out / "scene.pov"), "--width", "40", "--height", "30"]) == 0
+    assert (
+        main(["compile", str(BLENDER_TEXTURED), "-o", str(out / "scene.pov"), "--width", "40", "--height", "30"]) == 0
+    )
     (texture,) = out.glob("phongscene-texture-*.exr")
     assert texture.name in (out / "scene.pov").read_text() and texture.name in capsys.readouterr().out
     # The half EXR holds the texture's texels rounded to half.
     model = load_usd(str(BLENDER_TEXTURED)).meshes[0].material.diffuse_texture
     np.testing.assert_array_equal(read_image(texture), model.image.astype(np.float16).astype(np.float32))
     # povray with the written .ini renders in that folder, as the command printed says.
-    run = subprocess.run(["povray", "scene.ini"], cwd=out, capture_output=True, env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"})
+    run = subprocess.run(
+        ["povray", "scene.ini"], cwd=out, capture_output=True, env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"}
+    )
     assert run.returncode == 0, run.stderr[-500:]
     frames = sorted(out.glob("scene*.exr"))
     assert len(frames) == 2  # exact mapping: one frame per light
@@ -427,7 +448,9 @@ def test_write_usd_round_trips_textures(tmp_path, name):
 
 def test_phong_specular_color_texture(tmp_path):
     write_png(tmp_path / "tex.png")
-    scene = load_usd(textured_stage(tmp_path / "s.usda", "tex.png", phong=True, inputs=("specularColor",), color_space="raw"))
+    scene = load_usd(
+        textured_stage(tmp_path / "s.usda", "tex.png", phong=True, inputs=("specularColor",), color_space="raw")
+    )
     mesh, texture = _texture(scene, "specular_texture")
     assert mesh.material.diffuse_texture is None
     np.testing.assert_allclose(texture.image, PIXELS8 / 255.0, rtol=1e-7)
@@ -437,7 +460,9 @@ def test_preview_specular_workflow_texture_keeps_the_highlight_strength_per_texe
     from phongscene.usd import preview_to_phong
 
     write_png(tmp_path / "tex.png")
-    path = textured_stage(tmp_path / "s.usda", "tex.png", inputs=("specularColor",), color_space="raw", specular_workflow=True)
+    path = textured_stage(
+        tmp_path / "s.usda", "tex.png", inputs=("specularColor",), color_space="raw", specular_workflow=True
+    )
     mesh, texture = _texture(load_usd(path), "specular_texture")
     m = mesh.material
     f0 = (PIXELS8 / 255.0).reshape(-1, 3)
@@ -450,18 +475,24 @@ def test_preview_specular_workflow_texture_keeps_the_highlight_strength_per_texe
 
 def test_a_specular_texture_changes_only_the_highlight():
     scene = check(calibration.texture_specular())
-    plain_mesh = dataclasses.replace(scene.meshes[0], material=dataclasses.replace(scene.meshes[0].material, specular_texture=None))
+    plain_mesh = dataclasses.replace(
+        scene.meshes[0], material=dataclasses.replace(scene.meshes[0].material, specular_texture=None)
+    )
     plain = dataclasses.replace(scene, meshes=(plain_mesh,))
     textured, untextured = native.render(scene), native.render(plain)
     assert np.abs(textured - untextured).max() > 0.05
-    no_highlight = lambda s: dataclasses.replace(s, meshes=tuple(dataclasses.replace(m, material=dataclasses.replace(m.material, ks=0.0)) for m in s.meshes))  # noqa: E731
+    no_highlight = lambda s: dataclasses.replace(
+        s, meshes=tuple(dataclasses.replace(m, material=dataclasses.replace(m.material, ks=0.0)) for m in s.meshes)
+    )  # noqa: E731
     np.testing.assert_array_equal(native.render(no_highlight(scene)), native.render(no_highlight(plain)))
 
 
 def _wrap_scene(wrap_s, wrap_t, uv_lo=-2.3, uv_hi=3.1):
     scene = calibration.point_light()
     quad = calibration.textured_quad(calibration.checker_texture(wrap_s, wrap_t), uv_lo, uv_hi)
-    return check(dataclasses.replace(scene, meshes=(quad,), settings=dataclasses.replace(scene.settings, width=40, height=30)))
+    return check(
+        dataclasses.replace(scene, meshes=(quad,), settings=dataclasses.replace(scene.settings, width=40, height=30))
+    )
 
 
 def _edge_scene(wrap_s, wrap_t):
@@ -469,12 +500,21 @@ def _edge_scene(wrap_s, wrap_t):
 
     corners = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
     material = dataclasses.replace(calibration.GROUND, diffuse_texture=calibration.checker_texture(wrap_s, wrap_t))
-    quad = TriangleMesh(corners, [(0, 1, 2), (0, 2, 3)], material=material, uvs=[c[:2] for c in corners], uv_indices=[(0, 1, 2), (0, 2, 3)])
+    quad = TriangleMesh(
+        corners,
+        [(0, 1, 2), (0, 2, 3)],
+        material=material,
+        uvs=[c[:2] for c in corners],
+        uv_indices=[(0, 1, 2), (0, 2, 3)],
+    )
     camera = Camera(position=(0.5, 0.5, 2.0), projection="orthographic", ortho_width=1.3)
     return check(
         Scene(
-            camera=camera, ambient=AmbientLight((0.2, 0.2, 0.2)), lights=(PointLight((0.3, 0.6, 3.0), (3.0, 3.0, 3.0)),),
-            meshes=(quad,), settings=dataclasses.replace(calibration.point_light().settings, width=40, height=40),
+            camera=camera,
+            ambient=AmbientLight((0.2, 0.2, 0.2)),
+            lights=(PointLight((0.3, 0.6, 3.0), (3.0, 3.0, 3.0)),),
+            meshes=(quad,),
+            settings=dataclasses.replace(calibration.point_light().settings, width=40, height=40),
         )
     )
 
@@ -558,7 +598,9 @@ def test_unreadable_image_is_a_warning_and_non_finite_texels_an_error(tmp_path):
     values = np.ones((2, 2, 3), np.float32)
     values[0, 1, 2] = np.nan
     assert oiio.ImageBuf(values).write(str(tmp_path / "nan.exr"), "float")
-    with pytest.raises(SceneError, match=r"/World/Looks/Mat/Texture\.inputs:file: .*nan\.exr: 1 texel values are not finite"):
+    with pytest.raises(
+        SceneError, match=r"/World/Looks/Mat/Texture\.inputs:file: .*nan\.exr: 1 texel values are not finite"
+    ):
         load_usd(textured_stage(tmp_path / "n.usda", "nan.exr"))
 
 
@@ -607,5 +649,7 @@ def test_texels_beyond_half_range_are_an_error_naming_the_file_input(tmp_path):
     values = np.ones((2, 2, 3), np.float32)
     values[0, 0, 1] = 1e5  # POV-Ray holds image maps as half floats (max 65504)
     assert oiio.ImageBuf(values).write(str(tmp_path / "big.exr"), "float")
-    with pytest.raises(SceneError, match=r"/World/Looks/Mat/Texture\.inputs:file: texel values must be in \[0, 65504\]"):
+    with pytest.raises(
+        SceneError, match=r"/World/Looks/Mat/Texture\.inputs:file: texel values must be in \[0, 65504\]"
+    ):
         load_usd(textured_stage(tmp_path / "s.usda", "big.exr"))  # it validates

@@ -9,9 +9,9 @@ import math
 import pytest
 from pxr import Usd, UsdGeom
 
-from support.paths import SHARED_ASSETS
 from phongscene.usd import read_usd
 from phongscene.usd.materials import PREVIEW_MAX_EXPONENT
+from support.paths import SHARED_ASSETS
 
 pytestmark = pytest.mark.shared_assets
 
@@ -46,7 +46,10 @@ def test_all_primitives():
     # Intrinsic prims are exact surfaces (not tessellated), in traversal order.
     assert not s.meshes
     assert [(i.source, i.kind) for i in s.intrinsics] == [
-        ("/World/Capsule", "capsule"), ("/World/Cone", "cylinder"), ("/World/Cube", "cube"), ("/World/Cylinder", "cylinder")
+        ("/World/Capsule", "capsule"),
+        ("/World/Cone", "cylinder"),
+        ("/World/Cube", "cube"),
+        ("/World/Cylinder", "cylinder"),
     ]
     assert len(s.spheres) == 1 and s.spheres[0].world_from_object[0, 3] == 8.0  # translate (8, 0, 0), radius 1
     lo, hi = s.intrinsics[2].world_bounds()
@@ -86,4 +89,6 @@ def test_roughness_usdz_preview_surfaces():
     assert by_name["Const033"].exponent == pytest.approx(1 / (2 * 0.33**4) - 2, rel=1e-5)
     assert by_name["Const066"].exponent == pytest.approx(max(1 / (2 * 0.66**4) - 2, 0.0), rel=1e-5)
     # The roughness textures have no per-point form (an exponent per point): their mean is used.
-    assert any("the texture's mean is used" in w and "Tex033/Principled_BSDF.inputs:roughness" in w for w in result.warnings)
+    assert any(
+        "the texture's mean is used" in w and "Tex033/Principled_BSDF.inputs:roughness" in w for w in result.warnings
+    )

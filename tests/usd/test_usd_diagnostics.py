@@ -11,11 +11,13 @@ import sys
 import pytest
 from pxr import Sdf, UsdUtils
 
-from support.paths import REPO
 from phongscene.usd.diagnostics import MAX_USD_WARNINGS, as_warnings
+from support.paths import REPO
 
-USD_LINE = ("Warning: in _ReadPaths at line 2261 of /opt/USD/pxr/usd/sdf/crateFile.cpp -- "
-            "Corrupt path index in crate file ({i} repeated)")
+USD_LINE = (
+    "Warning: in _ReadPaths at line 2261 of /opt/USD/pxr/usd/sdf/crateFile.cpp -- "
+    "Corrupt path index in crate file ({i} repeated)"
+)
 
 
 def test_repeated_diagnostics_are_one_warning_each_at_most_ten():
@@ -32,10 +34,13 @@ def test_a_usdz_with_a_missing_reference_prints_only_phongscene_lines(tmp_path):
     Sdf.Layer.FindOrOpen(str(REPO / "tests" / "scenes" / "warned" / "missing_reference.usda")).Export(str(crate))
     package = tmp_path / "scene.usdz"
     assert UsdUtils.CreateNewUsdzPackage(str(crate), str(package))
-    result = subprocess.run([sys.executable, "-m", "phongscene", "validate", "--no-sandbox", str(package)],
-                            capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [sys.executable, "-m", "phongscene", "validate", "--no-sandbox", str(package)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 0
     lines = result.stderr.splitlines()
     assert lines and all(line.startswith("warning: ") for line in lines), result.stderr
     assert any("references" in line and "not composed" in line for line in lines)
-

@@ -26,23 +26,24 @@ pytestmark = pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs POSIX F
 
 SCENE_END = 'def Sphere "Ball" {\n}\n'
 ARCS = {
-    "subLayers": ('#usda 1.0\n(\n    subLayers = [@./pipe.usda@]\n)\n' + SCENE_END, "", "subLayers"),
+    "subLayers": ("#usda 1.0\n(\n    subLayers = [@./pipe.usda@]\n)\n" + SCENE_END, "", "subLayers"),
     "references": ('#usda 1.0\ndef Xform "A" (references = @./pipe.usda@) {\n}\n' + SCENE_END, "/A", "references"),
     "payload_in_variant": (
         '#usda 1.0\ndef Xform "A" (\n    variants = { string v = "x" }\n    prepend variantSets = "v"\n) {\n'
         '    variantSet "v" = {\n        "x" (prepend payload = @./pipe.usda@) {\n        }\n    }\n}\n' + SCENE_END,
-        "/A{v=x}", "payload",
+        "/A{v=x}",
+        "payload",
     ),
     "dome_texture": (
         '#usda 1.0\ndef DomeLight "D" {\n    asset inputs:texture:file = @./pipe.usda@\n}\n' + SCENE_END,
-        "/D", "inputs:texture:file",
+        "/D",
+        "inputs:texture:file",
     ),
 }
 
 
 def _cli(*args, timeout: float) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "phongscene", *args], capture_output=True, text=True,
-                          timeout=timeout)
+    return subprocess.run([sys.executable, "-m", "phongscene", *args], capture_output=True, text=True, timeout=timeout)
 
 
 @pytest.mark.subprocess
@@ -65,7 +66,7 @@ def test_a_fifo_two_layers_down_is_found(tmp_path):
     os.mkfifo(tmp_path / "pipe.usda")
     (tmp_path / "middle.usda").write_text('#usda 1.0\ndef Xform "M" (references = @./pipe.usda@) {\n}\n')
     scene = tmp_path / "scene.usda"
-    scene.write_text('#usda 1.0\n(\n    subLayers = [@./middle.usda@]\n)\n' + SCENE_END)
+    scene.write_text("#usda 1.0\n(\n    subLayers = [@./middle.usda@]\n)\n" + SCENE_END)
     result = _cli("validate", str(scene), timeout=FIFO_TIMEOUT_S)
     assert result.returncode == 2
     assert f"{tmp_path / 'middle.usda'}: /M.references: " in result.stderr and "is a FIFO" in result.stderr
@@ -75,8 +76,10 @@ def test_a_fifo_two_layers_down_is_found(tmp_path):
 def test_deep_nesting_reads_in_linear_time(tmp_path):
     path = tmp_path / "deep.usda"
     path.write_text(
-        "#usda 1.0\n" + "".join(f'def Xform "x{i}" {{\n' for i in range(NESTING_LEVELS))
-        + 'def Sphere "Ball" {\n}\n' + "}\n" * NESTING_LEVELS
+        "#usda 1.0\n"
+        + "".join(f'def Xform "x{i}" {{\n' for i in range(NESTING_LEVELS))
+        + 'def Sphere "Ball" {\n}\n'
+        + "}\n" * NESTING_LEVELS
     )
     result = _cli("validate", "-q", str(path), timeout=NESTING_TIMEOUT_S)
     assert result.returncode == 0, result.stderr[-500:]

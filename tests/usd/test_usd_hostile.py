@@ -14,26 +14,34 @@ CASES = {
     "xform_op_typo": (
         '#usda 1.0\ndef Sphere "Ball" {\n    double3 xformOp:translate = (1, 0, 0)\n'
         '    uniform token[] xformOpOrder = ["xformOp:tranlate"]\n}\n',
-        "/Ball", "xformOpOrder", "Invalid xform opType token 'tranlate'",
+        "/Ball",
+        "xformOpOrder",
+        "Invalid xform opType token 'tranlate'",
     ),
     "instancer_is_its_own_prototype": (
         '#usda 1.0\ndef PointInstancer "I" {\n    rel prototypes = </I>\n    int[] protoIndices = [0]\n'
-        '    point3f[] positions = [(0, 0, 0)]\n}\n',
-        "/I", "prototypes", "contains this instancer (a cycle)",
+        "    point3f[] positions = [(0, 0, 0)]\n}\n",
+        "/I",
+        "prototypes",
+        "contains this instancer (a cycle)",
     ),
     "preview_string_roughness": (
         '#usda 1.0\ndef Material "M" {\n    token outputs:surface.connect = </M/S.outputs:surface>\n'
         '    def Shader "S" {\n        uniform token info:id = "UsdPreviewSurface"\n'
         '        string inputs:roughness = "rough"\n        token outputs:surface\n    }\n}\n'
         'def Sphere "B" (prepend apiSchemas = ["MaterialBindingAPI"]) {\n    rel material:binding = </M>\n}\n',
-        "/M/S", "inputs:roughness", "must be a number, got 'rough'",
+        "/M/S",
+        "inputs:roughness",
+        "must be a number, got 'rough'",
     ),
     "preview_negative_ior": (
         '#usda 1.0\ndef Material "M" {\n    token outputs:surface.connect = </M/S.outputs:surface>\n'
         '    def Shader "S" {\n        uniform token info:id = "UsdPreviewSurface"\n'
-        '        float inputs:ior = -1\n        token outputs:surface\n    }\n}\n'
+        "        float inputs:ior = -1\n        token outputs:surface\n    }\n}\n"
         'def Sphere "B" (prepend apiSchemas = ["MaterialBindingAPI"]) {\n    rel material:binding = </M>\n}\n',
-        "/M/S", "inputs:ior", "must be > 0, got -1.0",
+        "/M/S",
+        "inputs:ior",
+        "must be > 0, got -1.0",
     ),
 }
 
@@ -67,7 +75,9 @@ def test_a_file_that_is_not_utf8_is_a_clear_error(tmp_path, capsys):
 def test_a_sphere_transform_fault_names_the_xform_ops(tmp_path, op, message):
     kind = op.split()[1].split(":")[1]
     path = tmp_path / "ball.usda"
-    path.write_text(f'#usda 1.0\ndef Sphere "Ball" {{\n    {op}\n    uniform token[] xformOpOrder = ["xformOp:{kind}"]\n}}\n')
+    path.write_text(
+        f'#usda 1.0\ndef Sphere "Ball" {{\n    {op}\n    uniform token[] xformOpOrder = ["xformOp:{kind}"]\n}}\n'
+    )
     with pytest.raises(SceneError) as info:
         read_usd(path)
     (problem,) = info.value.problems

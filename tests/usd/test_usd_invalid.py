@@ -11,10 +11,10 @@ import sys
 
 import pytest
 
-from support.paths import REPO
 from phongscene.cli import main
 from phongscene.errors import SceneError
 from phongscene.usd import load_usd
+from support.paths import REPO
 
 INVALID = sorted((REPO / "tests" / "scenes" / "invalid").glob("*.usda"))
 

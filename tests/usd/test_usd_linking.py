@@ -7,7 +7,6 @@ ShadowAPI / ShapingAPI input the model cannot render. Expected values come from 
 from __future__ import annotations
 
 import pytest
-
 from usda import read
 
 GEOMETRY = """
@@ -22,8 +21,10 @@ def Xform "World" {
 
 
 def light(body: str, schemas: str = "") -> str:
-    api = f'(\n    prepend apiSchemas = [{schemas}]\n)' if schemas else ""
-    return GEOMETRY + f"""
+    api = f"(\n    prepend apiSchemas = [{schemas}]\n)" if schemas else ""
+    return (
+        GEOMETRY
+        + f"""
 def SphereLight "Key" {api}
 {{
     uniform token phong:lightModel = "seed"
@@ -33,6 +34,7 @@ def SphereLight "Key" {api}
 {body}
 }}
 """
+    )
 
 
 def linking_of(tmp_path, body: str, schemas: str = ""):
@@ -101,8 +103,9 @@ def test_inputs_the_model_cannot_render_are_a_warning_naming_prim_and_attribute(
 
 
 def test_their_fallback_values_are_no_warning(tmp_path):
-    _, warnings = linking_of(tmp_path, "    color3f inputs:shadow:color = (0, 0, 0)\n    float inputs:shadow:distance = -1",
-                             '"ShadowAPI"')
+    _, warnings = linking_of(
+        tmp_path, "    color3f inputs:shadow:color = (0, 0, 0)\n    float inputs:shadow:distance = -1", '"ShadowAPI"'
+    )
     assert not [w for w in warnings if "shadow" in w]
 
 
@@ -122,8 +125,11 @@ def test_write_usd_round_trips_linking_intrinsics_and_emission(tmp_path):
         Intrinsic("capsule", np.eye(4), radius=0.5, half_height=0.75, source="/World/Geometry/Pill"),
         Intrinsic("plane", np.eye(4), glow, infinite=True, source="/World/Geometry/Ground"),
     )
-    linking = Linking(shadows=False, illuminates=frozenset({"/World/Geometry/Ball", "/World/Geometry/Box"}),
-                      shadowed_by=frozenset({"/World/Geometry/Cone"}))
+    linking = Linking(
+        shadows=False,
+        illuminates=frozenset({"/World/Geometry/Ball", "/World/Geometry/Box"}),
+        shadowed_by=frozenset({"/World/Geometry/Cone"}),
+    )
     scene = Scene(
         lights=(PointLight((0, 5, 0), (1, 1, 1), source="/World/Lights/Key", linking=linking),),
         spheres=(Sphere.at((0, 0, 0), 1.0, glow, "/World/Geometry/Ball"),),
@@ -131,8 +137,11 @@ def test_write_usd_round_trips_linking_intrinsics_and_emission(tmp_path):
     )
     back = read_usd_scene(write_usd(scene, tmp_path / "out.usda"))
     assert back.lights[0].linking == linking
-    assert [dataclasses.replace(i, material=scene.intrinsics[0].material) == dataclasses.replace(j, material=scene.intrinsics[0].material)
-            for i, j in zip(back.intrinsics, shapes)] == [True] * len(shapes)
+    assert [
+        dataclasses.replace(i, material=scene.intrinsics[0].material)
+        == dataclasses.replace(j, material=scene.intrinsics[0].material)
+        for i, j in zip(back.intrinsics, shapes)
+    ] == [True] * len(shapes)
     assert back.spheres[0].material.emission == (0.5, 0.25, 0.0)
 
 

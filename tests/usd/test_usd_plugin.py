@@ -38,8 +38,9 @@ print(json.dumps({
 
 
 def _plugin_folder() -> Path:
-    out = subprocess.run([sys.executable, "-m", "phongscene", "info", "--usd-plugin-path"], capture_output=True,
-                         text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-m", "phongscene", "info", "--usd-plugin-path"], capture_output=True, text=True, check=True
+    )
     return Path(out.stdout.strip())
 
 
@@ -47,8 +48,9 @@ def _validate(files: list[Path], folder: Path | None) -> dict:
     env = {k: v for k, v in os.environ.items() if not k.startswith("PXR_SDR_FS_PLUGIN")}
     if folder is not None:
         env.update(PXR_SDR_FS_PLUGIN_SEARCH_PATHS=str(folder), PXR_SDR_FS_PLUGIN_ALLOWED_EXTS="usda")
-    out = subprocess.run([sys.executable, "-c", VALIDATE, *map(str, files)], capture_output=True, text=True,
-                         env=env, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", VALIDATE, *map(str, files)], capture_output=True, text=True, env=env, check=True
+    )
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -58,8 +60,11 @@ def usd_files(tmp_path_factory) -> list[Path]:
 
     tmp = tmp_path_factory.mktemp("plugin")
     trimesh.creation.box().export(tmp / "box.stl")
-    subprocess.run([sys.executable, "-m", "phongscene", "import", str(tmp / "box.stl"), "-o", str(tmp / "box.usda")],
-                   check=True, capture_output=True)
+    subprocess.run(
+        [sys.executable, "-m", "phongscene", "import", str(tmp / "box.stl"), "-o", str(tmp / "box.usda")],
+        check=True,
+        capture_output=True,
+    )
     return [*sorted(EXAMPLES.glob("*.usda")), tmp / "box.usda"]
 
 
@@ -75,8 +80,21 @@ def test_usd_validators_report_nothing_with_the_plugin_folder(usd_files):
     result = _validate(usd_files, _plugin_folder())
     assert not result["loaded_phongscene"]
     assert result["known"]
-    assert result["inputs"] == ["diffuseColor", "emissiveColor", "exponent", "fresnel", "interiorFilter", "ior", "ka", "kd",
-                                "kr", "ks", "kt", "reflectiveColor", "specularColor"]
+    assert result["inputs"] == [
+        "diffuseColor",
+        "emissiveColor",
+        "exponent",
+        "fresnel",
+        "interiorFilter",
+        "ior",
+        "ka",
+        "kd",
+        "kr",
+        "ks",
+        "kt",
+        "reflectiveColor",
+        "specularColor",
+    ]
     assert result["errors"] == {str(p): [] for p in usd_files}
 
 

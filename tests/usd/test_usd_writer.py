@@ -45,7 +45,9 @@ def scene() -> Scene:
         ambient=AmbientLight((0.1, 0.2, 0.3)),
         lights=(
             PointLight((1, 2, 3), (math.pi,) * 3, 2.0, 1.0),
-            PointLight((0, 4, 1), (5.0, 6.0, 7.0), falloff="inverse-square", cone=Cone((0.6, -0.8, 0.0), 0.8, 0.9, 4.0)),
+            PointLight(
+                (0, 4, 1), (5.0, 6.0, 7.0), falloff="inverse-square", cone=Cone((0.6, -0.8, 0.0), 0.8, 0.9, 4.0)
+            ),
             DirectionalLight((0.0, -0.6, -0.8), (1.0, 0.5, 0.2), diffuse=0.5, specular=2.0),
             RectAreaLight((0, 5, 0), (1, 0, 0), (0, 0.5, 2), (2, 2, 2), 5),
             SphereAreaLight((3, 3, 3), 0.3, (1, 1, 1), 17),
@@ -55,8 +57,16 @@ def scene() -> Scene:
             Sphere(np.array([[2, 0, 0, 1], [0, 1, 0.5, 0], [0, 0, 0.5, 0], [0, 0, 0, 1.0]]), PhongMaterial()),
         ),
         meshes=(
-            TriangleMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.3]], [[0, 1, 2], [1, 3, 2]], normals, [[0, 1, 2], [2, 1, 0]], red),
-            TriangleMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], [[0, 0, 1]] * 3, [[0, 1, 2]], PhongMaterial(ks=0.0)),
+            TriangleMesh(
+                [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.3]],
+                [[0, 1, 2], [1, 3, 2]],
+                normals,
+                [[0, 1, 2], [2, 1, 0]],
+                red,
+            ),
+            TriangleMesh(
+                [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], [[0, 0, 1]] * 3, [[0, 1, 2]], PhongMaterial(ks=0.0)
+            ),
             TriangleMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 2, 1]]),
         ),
         settings=RenderSettings(96, 72, 3, "povray-am1", background=(0.1, 0.2, 0.3), specular="povray-classic"),
@@ -159,7 +169,9 @@ def test_import_mesh_gives_every_vertex_a_unit_normal(tmp_path):
     points = [(0, 0, 0), (1, 0, 0), (0, 0, 1), (2, 0, 0)]
     faces = [(0, 1, 2), (0, 2, 1), (0, 1, 3)]
     source = tmp_path / "sheet.obj"
-    source.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in points) + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces))
+    source.write_text(
+        "".join(f"v {x} {y} {z}\n" for x, y, z in points) + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces)
+    )
     out = tmp_path / "sheet.usda"
     assert main(["import", str(source), "-o", str(out)]) == 0
     (mesh,) = read_usd(out).scene.meshes  # raised SceneError (zero-length normals) before

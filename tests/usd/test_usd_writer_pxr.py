@@ -46,13 +46,19 @@ def scene() -> Scene:
             PointLight((1.0, 2.0, 3.0), (0.5, 0.5, 0.5), 2.0, 1.0, source="/World/Lights/Seed"),
             PointLight((0.0, 4.0, 0.0), (1.0, 2.0, 3.0), falloff="inverse-square", source="/World/Lights/Bulb"),
             DirectionalLight((0.0, -1.0, 0.0), (0.75, 0.75, 0.75), specular=0.5),
-            RectAreaLight((0.0, 5.0, 0.0), (2.0, 0.0, 0.0), (0.0, 0.0, 1.0), (1.0, 1.0, 1.0), 5, source="/World/Lights/Panel"),
-            SphereAreaLight((3.0, 3.0, 3.0), 0.25, (1.0, 1.0, 1.0), 9, falloff="inverse-square", source="/World/Lights/Globe"),
+            RectAreaLight(
+                (0.0, 5.0, 0.0), (2.0, 0.0, 0.0), (0.0, 0.0, 1.0), (1.0, 1.0, 1.0), 5, source="/World/Lights/Panel"
+            ),
+            SphereAreaLight(
+                (3.0, 3.0, 3.0), 0.25, (1.0, 1.0, 1.0), 9, falloff="inverse-square", source="/World/Lights/Globe"
+            ),
         ),
         spheres=(Sphere.at((0.0, 1.0, 0.0), 1.5, RED, source="/World/Geometry/Ball"),),
         meshes=(
             TriangleMesh(
-                [[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], [[0, 2, 1], [0, 3, 2]], material=RED,
+                [[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]],
+                [[0, 2, 1], [0, 3, 2]],
+                material=RED,
                 source="/World/Geometry/Floor",
             ),
         ),
@@ -187,7 +193,9 @@ def test_preview_surface_fallback(stage):
     assert shader.GetInput("diffuseColor").Get() == Gf.Vec3f(0.5, 0.25, 0.125)
     assert shader.GetInput("useSpecularWorkflow").Get() == 1
     f0 = 0.125 * 2 * math.pi / 18.0
-    assert np.allclose(shader.GetInput("specularColor").Get(), (0.75 * f0, 0.75 * f0, f0), rtol=FLOAT32_ROUNDING, atol=0)
+    assert np.allclose(
+        shader.GetInput("specularColor").Get(), (0.75 * f0, 0.75 * f0, f0), rtol=FLOAT32_ROUNDING, atol=0
+    )
     assert shader.GetInput("roughness").Get() == pytest.approx((1 / 36) ** 0.25, rel=FLOAT32_ROUNDING)
 
 

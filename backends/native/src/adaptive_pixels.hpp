@@ -33,8 +33,7 @@ constexpr double kAdaptiveSideExponent = 1.5;
 // The lattice lives per thread and is reused tile after tile (stamps, not clearing, say which
 // points this tile traced).
 template <class Trace, class Store>
-void render_adaptive_tile(int x0, int y0, int x1, int y1, int finest, double threshold, Trace&& trace,
-                          Store&& store) {
+void render_adaptive_tile(int x0, int y0, int x1, int y1, int finest, double threshold, Trace&& trace, Store&& store) {
     const int side = (std::max(x1 - x0, y1 - y0)) * finest + 1;
     thread_local std::vector<RGB> value;
     thread_local std::vector<uint32_t> stamp;

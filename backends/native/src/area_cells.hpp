@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 // The native "cells" shadow estimator of an area light: its samples x samples grid cut into
 // (samples - 1)^2 cells. Every grid point is traced once (the cells' corners; with POV-Ray's
-// `adaptive n` only those its recursion reaches, lights.hpp); a cell whose 4 corners agree (all visible or all shadowed) counts as wholly so, and only a cell whose corners
-// disagree, where the shadow is partial, traces cell_samples^2 points of the (0,2)-sequence
-// inside it, digitally shifted per shaded point and cell (each point uniform over the cell).
-// The fraction is the mean over the cells. Bias: none on the cells whose corners disagree (each
+// `adaptive n` only those its recursion reaches, lights.hpp); a cell whose 4 corners agree (all visible or all
+// shadowed) counts as wholly so, and only a cell whose corners disagree, where the shadow is partial, traces
+// cell_samples^2 points of the (0,2)-sequence inside it, digitally shifted per shaded point and cell (each point
+// uniform over the cell). The fraction is the mean over the cells. Bias: none on the cells whose corners disagree (each
 // one's estimate is unbiased for its visible area); a cell whose corners agree but whose inside
 // is not uniform (an occluder edge that enters and leaves between two corners, or a small
 // occluder inside it) is missed, as by POV-Ray's `adaptive` regions; the study measures it.

@@ -269,8 +269,9 @@ nb::tuple count_hits(const phong::Scene& scene, const Rows3& origins, const Rows
 
 NB_MODULE(_native, m) {
     m.doc() = "phongscene native ray tracer (C++17)";
-    m.def("hardware_threads", [] { return std::thread::hardware_concurrency(); },
-          "Number of hardware threads the tracer uses when threads=0.");
+    m.def(
+        "hardware_threads", [] { return std::thread::hardware_concurrency(); },
+        "Number of hardware threads the tracer uses when threads=0.");
     m.attr("SHADOW_WINDOW") = phong::kShadowWindow;
     m.attr("PRIMARY_NEAR") = phong::kPrimaryNear;
     m.attr("SELF_HIT_WINDOW") = phong::kSelfHitWindow;
@@ -296,8 +297,8 @@ NB_MODULE(_native, m) {
 
     using phong::Material;
     nb::class_<Material>(m, "Material", "Suffern's Phong material (materials.hpp).")
-        .def(nb::init<double, double, double, double, phong::RGB, phong::RGB>(), "ka"_a, "kd"_a, "ks"_a,
-             "exponent"_a, "diffuse_color"_a, "specular_color"_a)
+        .def(nb::init<double, double, double, double, phong::RGB, phong::RGB>(), "ka"_a, "kd"_a, "ks"_a, "exponent"_a,
+             "diffuse_color"_a, "specular_color"_a)
         .def_rw("ka", &Material::ka)
         .def_rw("kd", &Material::kd)
         .def_rw("ks", &Material::ks)
@@ -343,11 +344,12 @@ NB_MODULE(_native, m) {
 
     using phong::DirectionalLight;
     nb::class_<DirectionalLight>(m, "DirectionalLight", "A light at infinity; made from the direction it travels.")
-        .def("__init__",
-             [](DirectionalLight* self, const phong::Vec3& direction, const phong::RGB& color) {
-                 new (self) DirectionalLight(DirectionalLight::travelling(direction, color));
-             },
-             "direction"_a, "color"_a)
+        .def(
+            "__init__",
+            [](DirectionalLight* self, const phong::Vec3& direction, const phong::RGB& color) {
+                new (self) DirectionalLight(DirectionalLight::travelling(direction, color));
+            },
+            "direction"_a, "color"_a)
         .def_rw("to_light", &DirectionalLight::to_light)
         .def_rw("color", &DirectionalLight::color)
         .def_rw("terms", &DirectionalLight::terms);
@@ -364,7 +366,8 @@ NB_MODULE(_native, m) {
         .def_rw("samples", &RectAreaLight::samples)
         .def_rw("terms", &RectAreaLight::terms)
         .def_rw("adaptive", &RectAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)")
-        .def_rw("cell_samples", &RectAreaLight::cell_samples, "> 0: the native cells estimator, cell_samples^2 points per partial cell");
+        .def_rw("cell_samples", &RectAreaLight::cell_samples,
+                "> 0: the native cells estimator, cell_samples^2 points per partial cell");
 
     using phong::SphereAreaLight;
     nb::class_<SphereAreaLight>(m, "SphereAreaLight", "A spherical light: POV-Ray's circular, oriented area light.")
@@ -377,32 +380,37 @@ NB_MODULE(_native, m) {
         .def_rw("samples", &SphereAreaLight::samples)
         .def_rw("terms", &SphereAreaLight::terms)
         .def_rw("adaptive", &SphereAreaLight::adaptive, "POV-Ray's `adaptive n`; -1: every grid point (its default)")
-        .def_rw("cell_samples", &SphereAreaLight::cell_samples, "> 0: the native cells estimator, cell_samples^2 points per partial cell");
+        .def_rw("cell_samples", &SphereAreaLight::cell_samples,
+                "> 0: the native cells estimator, cell_samples^2 points per partial cell");
 
     using phong::IntrinsicShape;
-    nb::class_<IntrinsicShape>(m, "IntrinsicShape", "A part of an intrinsic prim (intrinsics.hpp), in its object space.")
-        .def("__init__",
-             [](IntrinsicShape* self, int kind, const std::array<double, 12>& object_from_world, const phong::Vec3& bounds_lo,
-                const phong::Vec3& bounds_hi, double r0, double r1, double z0, int32_t material, int32_t object) {
-                 new (self) IntrinsicShape();
-                 self->kind = phong::IntrinsicKind(kind);
-                 for (int k = 0; k < 12; ++k) self->object_from_world.m[k] = object_from_world[size_t(k)];
-                 self->bounds_lo = bounds_lo;
-                 self->bounds_hi = bounds_hi;
-                 self->r0 = r0;
-                 self->r1 = r1;
-                 self->z0 = z0;
-                 self->material = material;
-                 self->object = object;
-             },
-             "kind"_a, "object_from_world"_a, "bounds_lo"_a, "bounds_hi"_a, "r0"_a, "r1"_a, "z0"_a, "material"_a, "object"_a,
-             "kind: 0 box, 1 frustum, 2 disk, 3 square, 4 unbounded plane, 5 sphere; object_from_world: the 3x4 rows; "
-             "bounds: its world AABB; object: the model node (light linking's numbering).");
+    nb::class_<IntrinsicShape>(m, "IntrinsicShape",
+                               "A part of an intrinsic prim (intrinsics.hpp), in its object space.")
+        .def(
+            "__init__",
+            [](IntrinsicShape* self, int kind, const std::array<double, 12>& object_from_world,
+               const phong::Vec3& bounds_lo, const phong::Vec3& bounds_hi, double r0, double r1, double z0,
+               int32_t material, int32_t object) {
+                new (self) IntrinsicShape();
+                self->kind = phong::IntrinsicKind(kind);
+                for (int k = 0; k < 12; ++k) self->object_from_world.m[k] = object_from_world[size_t(k)];
+                self->bounds_lo = bounds_lo;
+                self->bounds_hi = bounds_hi;
+                self->r0 = r0;
+                self->r1 = r1;
+                self->z0 = z0;
+                self->material = material;
+                self->object = object;
+            },
+            "kind"_a, "object_from_world"_a, "bounds_lo"_a, "bounds_hi"_a, "r0"_a, "r1"_a, "z0"_a, "material"_a,
+            "object"_a,
+            "kind: 0 box, 1 frustum, 2 disk, 3 square, 4 unbounded plane, 5 sphere; object_from_world: the 3x4 rows; "
+            "bounds: its world AABB; object: the model node (light linking's numbering).");
 
     using phong::CameraDescription;
     nb::class_<CameraDescription>(m, "CameraDescription", "The model's camera (camera.hpp).")
-        .def(nb::init<phong::Vec3, phong::Vec3, phong::Vec3, bool, double, double>(), "position"_a, "forward"_a,
-             "up"_a, "orthographic"_a, "horizontal_fov_deg"_a, "ortho_width"_a)
+        .def(nb::init<phong::Vec3, phong::Vec3, phong::Vec3, bool, double, double>(), "position"_a, "forward"_a, "up"_a,
+             "orthographic"_a, "horizontal_fov_deg"_a, "ortho_width"_a)
         .def_rw("position", &CameraDescription::position)
         .def_rw("forward", &CameraDescription::forward)
         .def_rw("up", &CameraDescription::up)
@@ -412,9 +420,10 @@ NB_MODULE(_native, m) {
 
     using phong::RenderSettings;
     nb::class_<RenderSettings>(m, "RenderSettings", "Image size, sampling, threads, background, convention.")
-        .def(nb::init<int, int, int, phong::SamplePattern, int, phong::RGB, phong::SpecularConvention, phong::Numerics>(), "width"_a,
-             "height"_a, "samples"_a, "sample_pattern"_a, "threads"_a, "background"_a, "specular_convention"_a,
-             "numerics"_a = phong::Numerics::kScaleInvariant)
+        .def(nb::init<int, int, int, phong::SamplePattern, int, phong::RGB, phong::SpecularConvention,
+                      phong::Numerics>(),
+             "width"_a, "height"_a, "samples"_a, "sample_pattern"_a, "threads"_a, "background"_a,
+             "specular_convention"_a, "numerics"_a = phong::Numerics::kScaleInvariant)
         .def_rw("numerics", &RenderSettings::numerics)
         .def_rw("width", &RenderSettings::width)
         .def_rw("height", &RenderSettings::height)
@@ -428,36 +437,41 @@ NB_MODULE(_native, m) {
         .def_rw("specular_convention", &RenderSettings::specular_convention);
 
     nb::class_<phong::Scene>(m, "Scene", "Geometry from flat arrays, materials and lights, with the BVH.")
-        .def("__init__",
-             [](phong::Scene* self, const Matrices& swo, const Matrices& sow, const Index1& smat,
-                const std::vector<Rows3>& points, const std::vector<Index3>& triangles, const std::vector<Rows3>& normals,
-                const std::vector<Index3>& normal_indices, const Index1& mesh_material, const Rows3& mesh_origins,
-                std::vector<phong::Material> materials, std::vector<phong::Light> lights, const phong::RGB& ambient,
-                bool povray_triangles, std::vector<phong::IntrinsicShape> intrinsics) {
-                 std::unique_ptr<phong::Scene> built =
-                     make_scene(swo, sow, smat, points, triangles, normals, normal_indices, mesh_material, mesh_origins,
-                                std::move(materials), std::move(lights), ambient, povray_triangles, std::move(intrinsics));
-                 new (self) phong::Scene(std::move(*built));
-             },
-             "sphere_world_from_object"_a, "sphere_object_from_world"_a, "sphere_material"_a, "points"_a,
-             "triangles"_a, "normals"_a, "normal_indices"_a, "mesh_material"_a, "mesh_origins"_a, "materials"_a,
-             "lights"_a, "ambient"_a, "povray_triangles"_a = false, "intrinsics"_a = std::vector<phong::IntrinsicShape>(),
-             "points, triangles, normals and normal_indices are lists with one array per mesh (normal_indices "
-             "(T, 3) or empty: flat; -1 rows: flat), read in place; triangles are numbered across the meshes in "
-             "order. Materials are indexed by sphere_material and mesh_material; lights are summed in list order. "
-             "Each mesh is one POV-Ray object with its frame's origin in mesh_origins; with povray_triangles, "
-             "triangles are tested as POV-Ray's mesh2 tests them.")
+        .def(
+            "__init__",
+            [](phong::Scene* self, const Matrices& swo, const Matrices& sow, const Index1& smat,
+               const std::vector<Rows3>& points, const std::vector<Index3>& triangles,
+               const std::vector<Rows3>& normals, const std::vector<Index3>& normal_indices,
+               const Index1& mesh_material, const Rows3& mesh_origins, std::vector<phong::Material> materials,
+               std::vector<phong::Light> lights, const phong::RGB& ambient, bool povray_triangles,
+               std::vector<phong::IntrinsicShape> intrinsics) {
+                std::unique_ptr<phong::Scene> built = make_scene(
+                    swo, sow, smat, points, triangles, normals, normal_indices, mesh_material, mesh_origins,
+                    std::move(materials), std::move(lights), ambient, povray_triangles, std::move(intrinsics));
+                new (self) phong::Scene(std::move(*built));
+            },
+            "sphere_world_from_object"_a, "sphere_object_from_world"_a, "sphere_material"_a, "points"_a, "triangles"_a,
+            "normals"_a, "normal_indices"_a, "mesh_material"_a, "mesh_origins"_a, "materials"_a, "lights"_a,
+            "ambient"_a, "povray_triangles"_a = false, "intrinsics"_a = std::vector<phong::IntrinsicShape>(),
+            "points, triangles, normals and normal_indices are lists with one array per mesh (normal_indices "
+            "(T, 3) or empty: flat; -1 rows: flat), read in place; triangles are numbered across the meshes in "
+            "order. Materials are indexed by sphere_material and mesh_material; lights are summed in list order. "
+            "Each mesh is one POV-Ray object with its frame's origin in mesh_origins; with povray_triangles, "
+            "triangles are tested as POV-Ray's mesh2 tests them.")
         .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
-             "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and specular_texture, and the (u, v) "
+             "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and "
+             "specular_texture, and the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order.")
         .def("set_light_links", &set_light_links, "shadows"_a, "lit"_a, "casts"_a,
              "Per light (one entry each): whether it casts shadow rays, and the objects (spheres 0..S-1, then meshes "
              "S + m) it illuminates and that cast its shadows, as uint8 arrays of one flag per object (empty: all).")
         .def_prop_ro("magnitude", [](const phong::Scene& s) { return s.magnitude; })
-        .def_prop_ro("single_precision_triangles", [](const phong::Scene& s) { return s.triangles.single_precision(); },
-                     "Whether the triangles' corners are held as floats (every vertex a float: the same doubles).")
-        .def_prop_ro("single_precision_normals", [](const phong::Scene& s) { return s.normals.single_precision(); },
-                     "Whether the meshes' normals are held as floats (every coordinate a float: the same doubles).")
+        .def_prop_ro(
+            "single_precision_triangles", [](const phong::Scene& s) { return s.triangles.single_precision(); },
+            "Whether the triangles' corners are held as floats (every vertex a float: the same doubles).")
+        .def_prop_ro(
+            "single_precision_normals", [](const phong::Scene& s) { return s.normals.single_precision(); },
+            "Whether the meshes' normals are held as floats (every coordinate a float: the same doubles).")
         .def("render", &render, "camera"_a, "settings"_a, "progress"_a = nb::none(),
              "The image, float32 (height, width, 3), row 0 at the top. progress(done, total) is called from this "
              "thread while rendering; an exception it raises (or Ctrl-C) stops the render.")

@@ -192,7 +192,8 @@ struct Builder {
     void bin(Bins& bins, uint32_t begin, uint32_t end, const BinGrid& grid, bool parallel) const {
         const uint32_t n = end - begin;
         // hardware_concurrency() reads sysfs: asked only of the few nodes large enough.
-        const unsigned threads = parallel && n >= kParallelBinningMinPrimitives ? std::thread::hardware_concurrency() : 1;
+        const unsigned threads =
+            parallel && n >= kParallelBinningMinPrimitives ? std::thread::hardware_concurrency() : 1;
         if (threads < 2) {
             bins.add(prims.data(), begin, end, grid);
             return;
@@ -214,15 +215,18 @@ struct Builder {
     // Builds the subtree of prims[begin, end) into nodes[index] (already allocated), appending
     // its descendants depth-first. `bounds` and `centres` are those of the primitives (centres:
     // doubled centroids). `alone`: no other thread is building now.
-    void build(std::vector<BvhNode>& nodes, int32_t index, uint32_t begin, uint32_t end, int depth,
-               const Box4& bounds, const Box4& centres, int parallel_splits, bool alone) {
+    void build(std::vector<BvhNode>& nodes, int32_t index, uint32_t begin, uint32_t end, int depth, const Box4& bounds,
+               const Box4& centres, int parallel_splits, bool alone) {
         BvhNode& node = nodes[size_t(index)];
         for (int k = 0; k < 3; ++k) {
             node.lo[k] = bounds.lo[k];
             node.hi[k] = bounds.hi[k];
         }
         const uint32_t n = end - begin;
-        if (n <= 1) { make_leaf(node, begin, end); return; }
+        if (n <= 1) {
+            make_leaf(node, begin, end);
+            return;
+        }
 
         if (n <= kExactSahMaxPrimitives) {
             build_small(nodes, index, begin, end, depth, bounds, parallel_splits, alone);
@@ -273,7 +277,11 @@ struct Builder {
                     acc.grow(box[filled[j]].lo, box[filled[j]].hi);
                     sum += count[filled[j]];
                     const float cost = float(sum) * acc.half_area() + float(right_count[j + 1]) * right_area[j + 1];
-                    if (cost < best_cost) { best_cost = cost; best_axis = axis; best_split = filled[j] + 1; }
+                    if (cost < best_cost) {
+                        best_cost = cost;
+                        best_axis = axis;
+                        best_split = filled[j] + 1;
+                    }
                 }
             }
         }
@@ -283,13 +291,20 @@ struct Builder {
         bool measured = false;
         if (!any_binned) {
             // All centroids coincide: split by count when too many for one leaf.
-            if (n <= kMaxLeafSize) { make_leaf(node, begin, end); return; }
+            if (n <= kMaxLeafSize) {
+                make_leaf(node, begin, end);
+                return;
+            }
             mid = begin + n / 2;
             best_axis = 0;
         } else if (depth >= kMaxSahDepth || best_axis < 0) {
             // (best_axis < 0: every split's cost overflowed float, on boxes beyond ~1e19.)
-            if (n <= kMaxLeafSize) { make_leaf(node, begin, end); return; }
-            const int axis = extent[0] >= extent[1] ? (extent[0] >= extent[2] ? 0 : 2) : (extent[1] >= extent[2] ? 1 : 2);
+            if (n <= kMaxLeafSize) {
+                make_leaf(node, begin, end);
+                return;
+            }
+            const int axis =
+                extent[0] >= extent[1] ? (extent[0] >= extent[2] ? 0 : 2) : (extent[1] >= extent[2] ? 1 : 2);
             mid = begin + n / 2;
             std::nth_element(prims.begin() + begin, prims.begin() + mid, prims.begin() + end,
                              [axis](const PrimRef& p, const PrimRef& q) {
@@ -300,14 +315,18 @@ struct Builder {
             const float area = bounds.half_area();
             const float leaf_cost = kIntersectionCost * float(n);
             const float split_cost = area > 0.0f ? kTraversalCost + kIntersectionCost * best_cost / area : kHugeF;
-            if (n <= kMaxLeafSize && leaf_cost <= split_cost) { make_leaf(node, begin, end); return; }
+            if (n <= kMaxLeafSize && leaf_cost <= split_cost) {
+                make_leaf(node, begin, end);
+                return;
+            }
             mid = partition(begin, end, grid, best_axis, best_split, left_centres, right_centres);
             if (mid == begin || mid == end) {
                 mid = begin + n / 2;  // cannot happen (both sides' bins are non-empty); stay safe
                 left_centres = right_centres = Box4();
             } else {
                 for (int b = 0; b < kBins; ++b)
-                    (b < best_split ? left_bounds : right_bounds).grow(bins.box[best_axis][b].lo, bins.box[best_axis][b].hi);
+                    (b < best_split ? left_bounds : right_bounds)
+                        .grow(bins.box[best_axis][b].lo, bins.box[best_axis][b].hi);
                 measured = true;
             }
         }
@@ -363,7 +382,11 @@ struct Builder {
             for (uint32_t j = 0; j + 1 < n; ++j) {
                 acc.grow(load_lo(p[j]), load_hi(p[j]));
                 const float cost = float(j + 1) * acc.half_area() + float(n - j - 1) * right_area[j + 1];
-                if (cost < best_cost) { best_cost = cost; best_axis = axis; best_count = j + 1; }
+                if (cost < best_cost) {
+                    best_cost = cost;
+                    best_axis = axis;
+                    best_count = j + 1;
+                }
             }
         }
         const float area = bounds.half_area();
@@ -372,7 +395,7 @@ struct Builder {
             make_leaf(nodes[size_t(index)], begin, end);
             return;
         }
-        if (best_axis < 0) best_axis = 0, best_count = n / 2;  // costs overflowed float: by count
+        if (best_axis < 0) best_axis = 0, best_count = n / 2;   // costs overflowed float: by count
         if (best_axis != 2) sort_by_centroid(p, n, best_axis);  // (the last sort was along axis 2)
         const uint32_t mid = begin + best_count;
         Box4 left_bounds, left_centres, right_bounds, right_centres;
@@ -413,8 +436,14 @@ struct Builder {
         uint32_t i = begin, j = end;
         Float4 c;
         while (true) {
-            while (i < j && goes_left(prims[i], c)) { left_centres.grow(c, c); ++i; }
-            while (i < j && !goes_left(prims[j - 1], c)) { right_centres.grow(c, c); --j; }
+            while (i < j && goes_left(prims[i], c)) {
+                left_centres.grow(c, c);
+                ++i;
+            }
+            while (i < j && !goes_left(prims[j - 1], c)) {
+                right_centres.grow(c, c);
+                --j;
+            }
             if (i >= j) return i;
             // prims[i] goes right and prims[j - 1] left: swap them into place.
             std::swap(prims[i], prims[j - 1]);

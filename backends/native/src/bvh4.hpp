@@ -107,7 +107,7 @@ struct FloatSlabRay {
             origin_far[k] = _mm_set1_ps(negative ? origin.up[k] : origin.down[k]);
             const float inv_k = std::fabs(r[k]) <= double(FLT_MAX) ? float(r[k])
                                 : d[k] == 0.0                      ? float(r[k])  // ±inf, as the double test
-                                                                   : NAN;  // see above: no culling on k
+                                                                   : NAN;         // see above: no culling on k
             inv[k] = _mm_set1_ps(inv_k);
         }
         t_min = _mm_set1_ps(round_down(t_min_));

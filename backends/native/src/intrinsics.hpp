@@ -107,8 +107,14 @@ inline bool box_hit(const Vec3& o, const Vec3& d, double t_min, double t_max, do
         far = std::fmin(far, t1);
     }
     if (!(near <= far)) return false;
-    if (near > t_min && near < t_max) { t_hit = near; return true; }
-    if (far > t_min && far < t_max) { t_hit = far; return true; }
+    if (near > t_min && near < t_max) {
+        t_hit = near;
+        return true;
+    }
+    if (far > t_min && far < t_max) {
+        t_hit = far;
+        return true;
+    }
     return false;
 }
 
@@ -131,10 +137,14 @@ inline bool planar_hit(const IntrinsicShape& s, const Vec3& o, const Vec3& d, do
 inline bool intersect_intrinsic(const IntrinsicShape& s, const Ray& ray, double t_min, double t_max, double& t_hit) {
     const Vec3 o = s.object_from_world.point(ray.origin), d = s.object_from_world.vector(ray.dir);
     switch (s.kind) {
-        case IntrinsicKind::kBox: return detail::box_hit(o, d, t_min, t_max, t_hit);
-        case IntrinsicKind::kFrustum: return detail::frustum_hit(s, o, d, t_min, t_max, t_hit);
-        case IntrinsicKind::kSphere: return detail::sphere_roots(o, dot(o, o) - 1.0, d, dot(d, d), dot(o, d), t_min, t_max, t_hit);
-        default: return detail::planar_hit(s, o, d, t_min, t_max, t_hit);
+        case IntrinsicKind::kBox:
+            return detail::box_hit(o, d, t_min, t_max, t_hit);
+        case IntrinsicKind::kFrustum:
+            return detail::frustum_hit(s, o, d, t_min, t_max, t_hit);
+        case IntrinsicKind::kSphere:
+            return detail::sphere_roots(o, dot(o, o) - 1.0, d, dot(d, d), dot(o, d), t_min, t_max, t_hit);
+        default:
+            return detail::planar_hit(s, o, d, t_min, t_max, t_hit);
     }
 }
 
@@ -146,9 +156,12 @@ inline Vec3 intrinsic_normal(const IntrinsicShape& s, const Vec3& p) {
         case IntrinsicKind::kBox: {
             // The face whose coordinate is the largest in magnitude.
             const double ax = std::fabs(q.x), ay = std::fabs(q.y), az = std::fabs(q.z);
-            if (ax >= ay && ax >= az) n = {std::copysign(1.0, q.x), 0, 0};
-            else if (ay >= az) n = {0, std::copysign(1.0, q.y), 0};
-            else n = {0, 0, std::copysign(1.0, q.z)};
+            if (ax >= ay && ax >= az)
+                n = {std::copysign(1.0, q.x), 0, 0};
+            else if (ay >= az)
+                n = {0, std::copysign(1.0, q.y), 0};
+            else
+                n = {0, 0, std::copysign(1.0, q.z)};
             break;
         }
         case IntrinsicKind::kFrustum: {
@@ -156,8 +169,12 @@ inline Vec3 intrinsic_normal(const IntrinsicShape& s, const Vec3& p) {
             n = {q.x, q.y, -b * (a + b * q.z)};
             break;
         }
-        case IntrinsicKind::kSphere: n = q; break;
-        default: n = {0, 0, 1}; break;
+        case IntrinsicKind::kSphere:
+            n = q;
+            break;
+        default:
+            n = {0, 0, 1};
+            break;
     }
     return normalize(s.object_from_world.transposed_vector(n));
 }

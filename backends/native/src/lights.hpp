@@ -114,7 +114,9 @@ double adaptive_fraction(int u1, int v1, int u2, int v2, int level, int adaptive
         corner[k] = g;
     }
     if (u2 - u1 > 1 || v2 - v1 > 1) {
-        auto differ = [&](int a, int b) { return std::fabs(corner[a] - corner[b]) * colour_sum > kAdaptiveAreaLightThreshold; };
+        auto differ = [&](int a, int b) {
+            return std::fabs(corner[a] - corner[b]) * colour_sum > kAdaptiveAreaLightThreshold;
+        };
         if (level < adaptive || differ(0, 1) || differ(1, 3) || differ(3, 2) || differ(2, 0)) {
             const int ul = int(std::floor((u1 + u2) / 2.0)), uh = int(std::ceil((u1 + u2) / 2.0));
             const int vl = int(std::floor((v1 + v2) / 2.0)), vh = int(std::ceil((v1 + v2) / 2.0));
@@ -181,8 +183,10 @@ inline AreaLightGrid area_light_grid(const Light& light) {
                 for (size_t k = 0; k < grid.weight.size(); ++k)
                     grid.targets.push_back(L.center + L.axis_u * grid.ju[k] + L.axis_v * grid.jv[k]);
                 return grid;
-            } else if constexpr (std::is_same_v<T, SphereAreaLight>) return AreaLightGrid(L.samples, true);
-            else return AreaLightGrid();
+            } else if constexpr (std::is_same_v<T, SphereAreaLight>)
+                return AreaLightGrid(L.samples, true);
+            else
+                return AreaLightGrid();
         },
         light);
 }
@@ -314,10 +318,10 @@ template <class Shadow>
 // The unshadowed fraction of the light at p, in [0, 1]. `grid` is area_light_grid(light).
 // `shadow(dir, distance)` traces one shadow ray from p (unit dir; distance to the light sample,
 // inf for directional lights); `shadow.each(dirs, distances, count, blocked)` traces the rays of
-// a full grid at once (blocked[k] = shadow(dirs[k], distances[k])). Before an area light's grid, `shadow.begin_grid(corners)` is told
-// the four corners of a parallelogram that holds every sample of the grid; it returns false when
-// no sample can be shadowed (then no ray is traced, and the fraction is the weights' sum in the
-// same order, so it is bit-identical).
+// a full grid at once (blocked[k] = shadow(dirs[k], distances[k])). Before an area light's grid,
+// `shadow.begin_grid(corners)` is told the four corners of a parallelogram that holds every sample of the grid; it
+// returns false when no sample can be shadowed (then no ray is traced, and the fraction is the weights' sum in the same
+// order, so it is bit-identical).
 template <class T, class Shadow>
 double visible_fraction(const T& L, const AreaLightGrid& grid, const Vec3& p, const LightSample& centre,
                         Shadow&& shadow) {
@@ -330,8 +334,7 @@ double visible_fraction(const T& L, const AreaLightGrid& grid, const Vec3& p, co
         // `orient`: the disc faces p. Axis 1 is perpendicular to l and a helper axis
         // (z, or y when l is nearly vertical), axis 2 to l and axis 1; both of length 2r.
         const Vec3& l = centre.l;
-        const Vec3 helper =
-            std::fabs(std::fabs(l.z) - 1.0) < kOrientVerticalTolerance ? Vec3{0, 1, 0} : Vec3{0, 0, 1};
+        const Vec3 helper = std::fabs(std::fabs(l.z) - 1.0) < kOrientVerticalTolerance ? Vec3{0, 1, 0} : Vec3{0, 0, 1};
         const Vec3 a1 = normalize(cross(l, helper));
         const Vec3 a2 = normalize(cross(l, a1));
         const double size = 2.0 * L.radius;

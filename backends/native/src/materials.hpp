@@ -22,8 +22,8 @@ namespace phong {
 
 struct Material {
     double ka, kd, ks, exponent;
-    RGB diffuse_color;   // cd
-    RGB specular_color;  // cs
+    RGB diffuse_color;              // cd
+    RGB specular_color;             // cs
     int32_t diffuse_texture = -1;   // index into Scene::textures replacing cd, or -1
     int32_t specular_texture = -1;  // ... replacing cs, or -1
     RGB emission{};                 // Le, added where the surface is seen (0: none; x + 0 is exact)
@@ -63,9 +63,8 @@ inline RGB ambient_term(const Material& m, const RGB& ambient_light) {
 // direction l, at a point with viewer-facing unit normal n seen from unit direction wo; the
 // light's diffuse and specular terms scaled by its multipliers (x · 1 is exact: with both 1
 // the result is bit for bit the seed's).
-inline RGB shade_phong(const Material& m, SpecularConvention convention, const Vec3& n, const Vec3& wo,
-                       const Vec3& l, double n_dot_l, const RGB& light, double diffuse_scale = 1.0,
-                       double specular_scale = 1.0) {
+inline RGB shade_phong(const Material& m, SpecularConvention convention, const Vec3& n, const Vec3& wo, const Vec3& l,
+                       double n_dot_l, const RGB& light, double diffuse_scale = 1.0, double specular_scale = 1.0) {
     const RGB diffuse = m.diffuse_color * (m.kd / kPi) * diffuse_scale;
     if (convention == SpecularConvention::kSeed) {
         const Vec3 r = n * (2.0 * n_dot_l) - l;

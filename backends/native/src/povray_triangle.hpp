@@ -5,12 +5,11 @@
 // local coordinates and a translate) and precomputes per triangle, in float64 from those
 // vertices: the unit plane normal n = normalize((P3 − P1) × (P2 − P1)) and d = −n·P1, the
 // dominant axis of n, and an order of P1, P2 that makes the projected triangle's winding
-// positive. Only then are n and d stored, both as float32 (mesh.h: SNGL_VECT, SNGL). A ray (in mesh space, direction renormalised)
-// hits at depth −(d + n·O)/(n·D) when |n·D| ≥ 1e-10 and depth ≥ 1e-6 (DEPTH_TOLERANCE) and
-// ≤ 1e7, if the point, projected along the dominant axis, is on the inner side of all three
-// edges. The rounded plane is slightly off the vertices' plane, so the depth, and with it the
-// projected point, moves by up to ~1e-7 relative / cos: at grazing angles two triangles
-// sharing an edge can both miss a ray near it, or both hit it (the test is not watertight).
+// positive. Only then are n and d stored, both as float32 (mesh.h: SNGL_VECT, SNGL). A ray (in mesh space, direction
+// renormalised) hits at depth −(d + n·O)/(n·D) when |n·D| ≥ 1e-10 and depth ≥ 1e-6 (DEPTH_TOLERANCE) and ≤ 1e7, if the
+// point, projected along the dominant axis, is on the inner side of all three edges. The rounded plane is slightly off
+// the vertices' plane, so the depth, and with it the projected point, moves by up to ~1e-7 relative / cos: at grazing
+// angles two triangles sharing an edge can both miss a ray near it, or both hit it (the test is not watertight).
 // Blender's Suzanne lit one area-light sample through such a crack. The
 // native watertight test (shapes.hpp) stays the default; this one replaces it for triangles
 // when the scene is built in POV-Ray's numerics.
@@ -37,13 +36,13 @@ inline double round_to_float(double x) {
 }
 
 struct PovrayTriangle {
-    double p[3][3];       // P1, P2, P3 in mesh space (float32 values), after POV-Ray's reordering
-    double normal[3];     // float32-rounded unit plane normal
-    double distance;      // float32-rounded −n·P1, with the unrounded normal
-    double origin[3];     // the mesh's frame: world = mesh + origin
-    int a, b;             // the two axes other than the dominant one, in POV-Ray's order
-    bool swapped;         // P1 and P2 exchanged (to map barycentrics back to v0, v1, v2)
-    bool degenerate;      // zero normal: POV-Ray drops the triangle
+    double p[3][3];    // P1, P2, P3 in mesh space (float32 values), after POV-Ray's reordering
+    double normal[3];  // float32-rounded unit plane normal
+    double distance;   // float32-rounded −n·P1, with the unrounded normal
+    double origin[3];  // the mesh's frame: world = mesh + origin
+    int a, b;          // the two axes other than the dominant one, in POV-Ray's order
+    bool swapped;      // P1 and P2 exchanged (to map barycentrics back to v0, v1, v2)
+    bool degenerate;   // zero normal: POV-Ray drops the triangle
 };
 
 // `world` holds float32 mesh-space vertices plus `origin` (rounded to float64); subtracting the

@@ -109,8 +109,8 @@ RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std:
 
 const Material& material_of(const Scene& scene, const Hit& hit) {
     const int32_t m = scene.is_sphere(hit.ref) ? scene.spheres[size_t(~hit.ref)].material
-                      : hit.ref < 0              ? scene.intrinsic(hit.ref).material
-                                                 : scene.triangle_shading[size_t(hit.ref)].material;
+                      : hit.ref < 0            ? scene.intrinsic(hit.ref).material
+                                               : scene.triangle_shading[size_t(hit.ref)].material;
     return scene.materials[size_t(m)];
 }
 
@@ -218,7 +218,8 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                 using T = std::decay_t<decltype(light)>;
                 if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
                     if (context.transmissive) {  // filtered by transmissive occluders
-                        centre.color = hadamard(centre.color, shadow_filter(context, p, centre.l, centre.distance, medium));
+                        centre.color =
+                            hadamard(centre.color, shadow_filter(context, p, centre.l, centre.distance, medium));
                         fraction = 1.0;
                         return;
                     }
@@ -254,7 +255,8 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     const RGB carried = book ? RGB{1.0, 1.0, 1.0} : medium_transmittance(medium, hit.t);
     if (material->kt > 0.0 && !refracts)
         return color + hadamard(trace_secondary(context, Ray{p, mirror_direction(ray.dir, n)}, depth + 1, candidates,
-                                                reflected_medium), carried);
+                                                reflected_medium),
+                                carried);
     // The dielectric's Fresnel split. An opaque fresnel material reflects as the surface of an ior
     // interior (as POV-Ray); where Snell has no solution cos θt = 0, so F = 1.
     double reflectance = 1.0;
@@ -272,7 +274,9 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     if (refracts) {
         const double kt = material->fresnel ? material->kt * (1.0 - reflectance) : material->kt;
         const double weight = book ? kt / (eta * eta) : kt;
-        color += hadamard(trace_secondary(context, Ray{p, refracted}, depth + 1, candidates, refracted_medium), carried) * weight;
+        color +=
+            hadamard(trace_secondary(context, Ray{p, refracted}, depth + 1, candidates, refracted_medium), carried) *
+            weight;
     }
     return color;
 }
@@ -283,7 +287,8 @@ RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std:
     Hit hit;
     const bool book = context.settings.transmission_convention == TransmissionConvention::kBook;
     if (!context.scene.closest_hit(ray, context.tolerances.secondary_near, HUGE_VAL, hit))
-        return book ? hadamard(context.settings.background, medium_transmittance(medium, HUGE_VAL)) : context.settings.background;
+        return book ? hadamard(context.settings.background, medium_transmittance(medium, HUGE_VAL))
+                    : context.settings.background;
     const RGB seen = shade_hit(context, ray, hit, candidates, depth, medium);
     return medium == nullptr || !book ? seen : hadamard(seen, medium_transmittance(medium, hit.t));
 }
@@ -313,10 +318,11 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     Bounds box = scene.bounds;
     box.grow(camera.position);
     const RayTolerances tolerances =
-        settings.numerics == Numerics::kPovray ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowWindow, kPovrayPrimaryNear}
+        settings.numerics == Numerics::kPovray
+            ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowWindow, kPovrayPrimaryNear}
         : settings.numerics == Numerics::kPovrayShadowCache
             ? RayTolerances{kPovrayPrimaryNear, kPovrayShadowCacheWindow, kPovrayPrimaryNear}
-                                                            : ray_tolerances(box.lo, box.hi);
+            : ray_tolerances(box.lo, box.hi);
     const TraceContext context(scene, settings, tolerances);
 
     auto store = [&](int i, int j, const RGB& c) {
@@ -505,7 +511,8 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         if (settle > 0.0) {
             corners.resize(size_t(stride) * size_t(y1 - y0 + 1));
             for (int j = y0; j <= y1; ++j)
-                for (int i = x0; i <= x1; ++i) corners[size_t(j - y0) * stride + size_t(i - x0)] = trace_at(i, j, scratch);
+                for (int i = x0; i <= x1; ++i)
+                    corners[size_t(j - y0) * stride + size_t(i - x0)] = trace_at(i, j, scratch);
         }
         for (int j = y0; j < y1; ++j)
             for (int i = x0; i < x1; ++i) {
@@ -527,8 +534,8 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         if (adaptive_am1) return render_block_am1(x0, y0, x1, y1, scratch);
         if (adaptive)
             return render_adaptive_tile(
-                x0, y0, x1, y1, n, settings.aa_threshold, [&](double sx, double sy) { return trace_at(sx, sy, scratch); },
-                store);
+                x0, y0, x1, y1, n, settings.aa_threshold,
+                [&](double sx, double sy) { return trace_at(sx, sy, scratch); }, store);
         if (am2) return render_block_am2(x0, y0, x1, y1, scratch);
         if (stratified) return render_block_stratified(x0, y0, x1, y1, scratch);
         for (int j = y0; j < y1; ++j)

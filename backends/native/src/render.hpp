@@ -14,9 +14,9 @@
 namespace phong {
 
 enum class SamplePattern {
-    kGrid,       // n x n cell-centred grid, plain mean
-    kPovrayAm1,  // POV-Ray +AM1 +A t +R n -J: (centre + n x n grid) / (n^2 + 1) where supersampled
-    kPovrayAm2,  // POV-Ray +AM2 +A t +R n -J: corners, recursive 4-corner subdivision to depth n - 1
+    kGrid,        // n x n cell-centred grid, plain mean
+    kPovrayAm1,   // POV-Ray +AM1 +A t +R n -J: (centre + n x n grid) / (n^2 + 1) where supersampled
+    kPovrayAm2,   // POV-Ray +AM2 +A t +R n -J: corners, recursive 4-corner subdivision to depth n - 1
     kStratified,  // native only: pixel corners, then where they differ by >= the threshold a scrambled
                   // (0,2)-sequence, 16, 64, 256 points up to n^2 (render.cpp: stratified_pixel)
     kAdaptive,    // native only: error-driven quadtree on a tile-wide lattice, cells down to 1/n pixel

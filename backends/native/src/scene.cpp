@@ -58,7 +58,8 @@ void for_chunks(size_t n, Fn&& fn) {
     const size_t chunks = n >= kParallelCopyMinItems ? std::max(1u, std::thread::hardware_concurrency()) : 1;
     std::vector<std::future<void>> rest;
     for (size_t c = 1; c < chunks; ++c)
-        rest.push_back(std::async(std::launch::async, [&fn, c, chunks, n] { fn(n * c / chunks, n * (c + 1) / chunks); }));
+        rest.push_back(
+            std::async(std::launch::async, [&fn, c, chunks, n] { fn(n * c / chunks, n * (c + 1) / chunks); }));
     std::exception_ptr error;
     try {
         fn(size_t(0), n / chunks);
@@ -110,7 +111,8 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     // The mesh of triangle i (global number): looked up once per chunk (then stepped) in the
     // pass below, per triangle in the leaf-order pass.
     auto mesh_of = [&](size_t i) {
-        return size_t(std::upper_bound(first_triangle.begin() + 1, first_triangle.end(), i) - first_triangle.begin() - 1);
+        return size_t(std::upper_bound(first_triangle.begin() + 1, first_triangle.end(), i) - first_triangle.begin() -
+                      1);
     };
 
     const size_t n_spheres = in.sphere_count, n_triangles = first_triangle[n_meshes];
@@ -207,9 +209,9 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     triangle_source.resize(n_triangles);
     if (in.povray_triangles) povray_triangles.resize(n_triangles);
     for_chunks(order.size(), [&](size_t begin, size_t end) {
-        size_t spheres_before = size_t(
-            std::lower_bound(sphere_positions.begin(), sphere_positions.end(), uint32_t(begin)) -
-            sphere_positions.begin());
+        size_t spheres_before =
+            size_t(std::lower_bound(sphere_positions.begin(), sphere_positions.end(), uint32_t(begin)) -
+                   sphere_positions.begin());
         for (size_t k = begin; k < end; ++k) {
             const uint32_t id = order[k];
             if (id < n_spheres) {
@@ -251,7 +253,8 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
 
 int32_t Scene::triangle_mesh(size_t slot) const {
     const size_t i = triangle_source[slot];
-    return int32_t(std::upper_bound(first_triangle_.begin() + 1, first_triangle_.end(), i) - first_triangle_.begin() - 1);
+    return int32_t(std::upper_bound(first_triangle_.begin() + 1, first_triangle_.end(), i) - first_triangle_.begin() -
+                   1);
 }
 
 int64_t Scene::primitive_id(int32_t ref) const {
@@ -340,17 +343,26 @@ int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_clos
     t_closest = HUGE_VAL;
     for (const SphereShape& s : spheres) {
         double t;
-        if (intersect_sphere(s, ray, t_min, t_max, t)) { ++count; t_closest = std::fmin(t_closest, t); }
+        if (intersect_sphere(s, ray, t_min, t_max, t)) {
+            ++count;
+            t_closest = std::fmin(t_closest, t);
+        }
     }
     for (size_t k = 0; k < triangles.size(); ++k) {
         double t;
         Barycentric bary;
-        if (intersect_triangle(triangles[k], ray, wr, t_min, t_max, t, bary)) { ++count; t_closest = std::fmin(t_closest, t); }
+        if (intersect_triangle(triangles[k], ray, wr, t_min, t_max, t, bary)) {
+            ++count;
+            t_closest = std::fmin(t_closest, t);
+        }
     }
     for (const std::vector<IntrinsicShape>* parts : {&intrinsics, &planes})
         for (const IntrinsicShape& part : *parts) {
             double t;
-            if (intersect_intrinsic(part, ray, t_min, t_max, t)) { ++count; t_closest = std::fmin(t_closest, t); }
+            if (intersect_intrinsic(part, ray, t_min, t_max, t)) {
+                ++count;
+                t_closest = std::fmin(t_closest, t);
+            }
         }
     return count;
 }

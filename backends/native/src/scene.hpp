@@ -105,7 +105,8 @@ class Scene {
     // its box, as the BVH relies on for every node) with the same primitive tests: the same
     // answer, as any-hit does not depend on the order. The occluder moves to the front, where
     // the next ray tries it first.
-    bool shadow_candidates(const Vec3* hull, int hull_count, double t_min, std::vector<BundleCandidate>& candidates) const;
+    bool shadow_candidates(const Vec3* hull, int hull_count, double t_min,
+                           std::vector<BundleCandidate>& candidates) const;
     bool occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray, double t_min, double t_max) const;
     // occluded_by() for every ray of a bundle at once (an area light's full grid): ray k leaves
     // `origin` along dirs[k] and counts hits in (t_min, distances[k] − t_min); blocked[k] is
@@ -157,13 +158,13 @@ class Scene {
     int32_t triangle_mesh(size_t slot) const;
 
     std::vector<SphereShape> spheres;
-    std::vector<IntrinsicShape> intrinsics;  // parts in the BVH
-    std::vector<IntrinsicShape> planes;      // unbounded planes: outside the BVH and `bounds`
-    TriangleStore triangles;                      // leaf order; float when that is exact
+    std::vector<IntrinsicShape> intrinsics;         // parts in the BVH
+    std::vector<IntrinsicShape> planes;             // unbounded planes: outside the BVH and `bounds`
+    TriangleStore triangles;                        // leaf order; float when that is exact
     std::vector<TriangleShading> triangle_shading;  // leaf order
-    std::vector<uint32_t> triangle_source;        // leaf order -> input row
-    std::vector<PovrayTriangle> povray_triangles;  // leaf order; empty unless built in POV-Ray numerics
-    Vec3Store normals;  // float when that is exact
+    std::vector<uint32_t> triangle_source;          // leaf order -> input row
+    std::vector<PovrayTriangle> povray_triangles;   // leaf order; empty unless built in POV-Ray numerics
+    Vec3Store normals;                              // float when that is exact
     std::vector<Material> materials;
     std::vector<Light> lights;
     std::vector<LightLinking> light_links;  // empty (every light default), or one per light
@@ -204,9 +205,9 @@ class Scene {
         return intersect_triangle(triangles[size_t(ref)], ray, *wr, t_min, t_max, t, bary);
     }
 
-    Bvh bvh_;                      // the binary tree; its nodes are freed once collapsed
-    std::vector<Bvh4Node> bvh4_;   // what the rays walk
-    std::vector<int32_t> refs_;  // BVH leaf order
+    Bvh bvh_;                             // the binary tree; its nodes are freed once collapsed
+    std::vector<Bvh4Node> bvh4_;          // what the rays walk
+    std::vector<int32_t> refs_;           // BVH leaf order
     std::vector<size_t> first_triangle_;  // mesh m's input rows start at first_triangle_[m]
 };
 

@@ -60,7 +60,7 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
     // level cannot hold one: the shaded surface itself (a floor under the point) drops out.
     // Skipped when a corner is closer than t_min (then the directions' rounding is not small).
     const Vec3& apex = hull[0];
-    double rise[3][2] = {};  // [axis][0: +e, 1: −e], 0 = not climbing
+    double rise[3][2] = {};         // [axis][0: +e, 1: −e], 0 = not climbing
     double corner_distance[kAxes];  // |hull[i] − apex|, once per corner rather than per use
     bool corners_far = hull_count > 1;
     for (int i = 1; i < hull_count; ++i) {
@@ -251,7 +251,7 @@ void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, con
     }
     const __m128d widening = _mm_set1_pd(kSlabFarWidening), t_min_lanes = _mm_set1_pd(t_min);
     const double o[3] = {origin.x, origin.y, origin.z};
-    size_t open = count;  // rays not yet blocked: none left, no candidate need be tested
+    size_t open = count;                        // rays not yet blocked: none left, no candidate need be tested
     auto block = [&](size_t first, int hits) {  // lanes of the pair at `first` that hit
         for (; hits != 0; hits &= hits - 1) {
             blocked[first + size_t(__builtin_ctz(unsigned(hits)))] = 1;
@@ -269,9 +269,10 @@ void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, con
             for (size_t first = 0; first < count; first += 2) {
                 const int open_lanes = (blocked[first] ? 0 : 1) | (first + 1 < count && !blocked[first + 1] ? 2 : 0);
                 if (open_lanes == 0) continue;
-                const int hits = open_lanes & intersect_sphere_pair(sphere, box.sphere_origin, _mm_loadu_pd(dir[0] + first),
-                                                                    _mm_loadu_pd(dir[1] + first), _mm_loadu_pd(dir[2] + first),
-                                                                    t_min, _mm_loadu_pd(t_max + first));
+                const int hits =
+                    open_lanes & intersect_sphere_pair(sphere, box.sphere_origin, _mm_loadu_pd(dir[0] + first),
+                                                       _mm_loadu_pd(dir[1] + first), _mm_loadu_pd(dir[2] + first),
+                                                       t_min, _mm_loadu_pd(t_max + first));
                 if (block(first, hits)) return;
             }
             continue;
@@ -301,9 +302,10 @@ void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, con
                 const Ray ray{origin, dirs[k]};
                 double t;
                 Barycentric bary;
-                const bool hit = watertight
-                                     ? intersect_triangle(triangles[size_t(box.ref)], ray, sheared[k], t_min, t_max[k], t, bary)
-                                     : intersect_povray_triangle(povray_triangles[size_t(box.ref)], ray, t_min, t_max[k], t, bary);
+                const bool hit =
+                    watertight
+                        ? intersect_triangle(triangles[size_t(box.ref)], ray, sheared[k], t_min, t_max[k], t, bary)
+                        : intersect_povray_triangle(povray_triangles[size_t(box.ref)], ray, t_min, t_max[k], t, bary);
                 if (hit) hits |= 1 << lane;
             }
             if (block(first, hits)) return;

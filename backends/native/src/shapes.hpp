@@ -32,7 +32,9 @@ struct Affine {
     // when its diagonal product and its translation are both zero, and then only in sign.
     Vec3 axis_aligned_point(const Vec3& p) const { return {m[0] * p.x + m[3], m[5] * p.y + m[7], m[10] * p.z + m[11]}; }
     Vec3 axis_aligned_vector(const Vec3& v) const { return {m[0] * v.x, m[5] * v.y, m[10] * v.z}; }
-    bool axis_aligned() const { return m[1] == 0.0 && m[2] == 0.0 && m[4] == 0.0 && m[6] == 0.0 && m[8] == 0.0 && m[9] == 0.0; }
+    bool axis_aligned() const {
+        return m[1] == 0.0 && m[2] == 0.0 && m[4] == 0.0 && m[6] == 0.0 && m[8] == 0.0 && m[9] == 0.0;
+    }
 
     // The linear part transposed times v: maps an object-space normal to world space when
     // this matrix is object_from_world.
@@ -83,8 +85,14 @@ inline bool sphere_roots(const Vec3& o, double c, const Vec3& d, double a, doubl
         t1 = c / q;
         if (t0 > t1) std::swap(t0, t1);
     }
-    if (t0 > t_min && t0 < t_max) { t_hit = t0; return true; }
-    if (t1 > t_min && t1 < t_max) { t_hit = t1; return true; }
+    if (t0 > t_min && t0 < t_max) {
+        t_hit = t0;
+        return true;
+    }
+    if (t1 > t_min && t1 < t_max) {
+        t_hit = t1;
+        return true;
+    }
     return false;
 }
 }  // namespace detail
@@ -126,10 +134,11 @@ inline int intersect_sphere_pair(const SphereShape& s, const SphereOrigin& origi
         d[2] = _mm_mul_pd(_mm_set1_pd(m[10]), dz);
     } else {
         for (int r = 0; r < 3; ++r)
-            d[r] = _mm_add_pd(_mm_add_pd(_mm_mul_pd(_mm_set1_pd(m[4 * r]), dx), _mm_mul_pd(_mm_set1_pd(m[4 * r + 1]), dy)),
-                              _mm_mul_pd(_mm_set1_pd(m[4 * r + 2]), dz));
+            d[r] =
+                _mm_add_pd(_mm_add_pd(_mm_mul_pd(_mm_set1_pd(m[4 * r]), dx), _mm_mul_pd(_mm_set1_pd(m[4 * r + 1]), dy)),
+                           _mm_mul_pd(_mm_set1_pd(m[4 * r + 2]), dz));
     }
-    auto dot = [](const __m128d (&u)[3], const __m128d (&v)[3]) {
+    auto dot = [](const __m128d(&u)[3], const __m128d(&v)[3]) {
         return _mm_add_pd(_mm_add_pd(_mm_mul_pd(u[0], v[0]), _mm_mul_pd(u[1], v[1])), _mm_mul_pd(u[2], v[2]));
     };
     const __m128d o[3] = {_mm_set1_pd(origin.o.x), _mm_set1_pd(origin.o.y), _mm_set1_pd(origin.o.z)};
@@ -165,7 +174,7 @@ inline int intersect_sphere_pair(const SphereShape& s, const SphereOrigin& origi
             if (!(scalar_lanes & (1 << i))) continue;
             double t;
             hits = intersect_sphere(s, origin, Vec3{x[i], y[i], z[i]}, t_min, limit[i], t) ? hits | (1 << i)
-                                                                                          : hits & ~(1 << i);
+                                                                                           : hits & ~(1 << i);
         }
     }
     return hits;
@@ -238,7 +247,10 @@ namespace detail {
 // in floating point, not only in exact arithmetic.
 inline bool owns_edge(double px, double py, double qx, double qy, double det) {
     double dx = qx - px, dy = qy - py;
-    if (det < 0.0) { dx = -dx; dy = -dy; }
+    if (det < 0.0) {
+        dx = -dx;
+        dy = -dy;
+    }
     return dy > 0.0 || (dy == 0.0 && dx < 0.0);
 }
 }  // namespace detail

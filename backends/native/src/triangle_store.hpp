@@ -24,9 +24,7 @@ struct FloatTriangleShape {
         : v{float(t.v0.x), float(t.v0.y), float(t.v0.z), float(t.v1.x), float(t.v1.y),
             float(t.v1.z), float(t.v2.x), float(t.v2.y), float(t.v2.z)} {}
 
-    TriangleShape widen() const {
-        return {{v[0], v[1], v[2]}, {v[3], v[4], v[5]}, {v[6], v[7], v[8]}};
-    }
+    TriangleShape widen() const { return {{v[0], v[1], v[2]}, {v[3], v[4], v[5]}, {v[6], v[7], v[8]}}; }
 };
 
 // Whether double(float(x)) == x: a coordinate that float storage keeps exactly. NaN is not (it
