@@ -7,7 +7,7 @@ PY       := $(VENV)/bin/python
 PIP      := $(PY) -m pip --disable-pip-version-check -q
 BUILDDEPS := $(VENV)/.builddeps
 
-.PHONY: test test-fast demo docs install povray chromium venv clean
+.PHONY: test test-fast demo docs lint format install povray chromium venv clean
 
 venv: $(PY)
 $(PY):
@@ -24,7 +24,7 @@ $(BUILDDEPS): pyproject.toml | $(PY)
 # The bench extra (matplotlib) too, so the benchmark scripts the docs name run in this venv, and
 # the docs extra (MkDocs) for `make docs`.
 install: $(BUILDDEPS)
-	$(PIP) install --no-build-isolation -e '.[test,bench,docs]'
+	$(PIP) install --no-build-isolation -e '.[test,bench,docs,lint]'
 
 povray:
 	@if command -v povray >/dev/null 2>&1; then :; \
@@ -46,17 +46,31 @@ chromium:
 	  echo "Chromium missing and not root: run 'sudo apt-get install chromium' (the report screenshot test will skip)"; \
 	fi
 
+# Style, checked by `make test` (CI fails on a violation); `make format` applies it. The tools
+# are pinned in the lint extra, so the same code gives the same verdict on every machine.
+CXX_SOURCES = $(wildcard backends/native/src/*.cpp backends/native/src/*.hpp)
+
+lint: install
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+	$(VENV)/bin/clang-format --dry-run -Werror $(CXX_SOURCES)
+
+format: install
+	$(VENV)/bin/ruff check --fix .
+	$(VENV)/bin/ruff format .
+	$(VENV)/bin/clang-format -i $(CXX_SOURCES)
+
 # The documentation site, warnings as errors (a broken link fails), into out/site (seconds).
 docs: install
 	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict --quiet
 
-test: install povray chromium docs
+test: install povray chromium lint docs
 	$(PY) -m pytest
 
 # The quick loop while editing: every test but the heavy ones (markers in pyproject.toml: slow,
 # dask, subprocess), in under a minute on 2 cores. No Chromium: its screenshot tests are slow.
 FAST := not slow and not dask and not subprocess
-test-fast: install povray
+test-fast: install povray lint
 	$(PY) -m pytest -m "$(FAST)"
 
 demo: install povray

@@ -25,25 +25,10 @@ import subprocess
 import sys
 
 import numpy as np
-from peer_rays import primary_rays, shadow_targets
+from peer_rays import SHADOW_OFFSET, agreement, primary_rays, shadow_targets, sphere_centre_radius
 from timing import best_time
 
 VARIANT = "llvm_ad_rgb"  # the CPU JIT variant the PyPI wheel ships
-# Shadow rays start this far from the hit point toward the light and stop as far before it (as
-# the Embree peer's): a timing needs no more than a plausible offset.
-SHADOW_OFFSET = 1e-4
-# Mitsuba traces in float32, the native tracer in double: rays grazing a silhouette or a shadow
-# edge may go either way (at 1280×720 a sphere's outline is a few thousand of 0.9M rays). More
-# disagreement than this fraction means the peer is not tracing the same scene.
-MIN_AGREEMENT = 0.995
-# Mitsuba's float32 hit distances against native's double ones, relative (or absolute below 1):
-# float32 carries ~6e-8 relative; its ray set-up and intersection tests lose a few hundred ulps.
-HIT_DISTANCE_TOLERANCE = 1e-4
-# Spheres are passed to Mitsuba as centre and radius: a world_from_object whose linear part is
-# a rotation times r, to this relative precision, is one.
-SIMILARITY_TOLERANCE = 1e-9
-
-
 # Started in a child process first: with an LLVM it cannot use (Debian's 14/15), Dr.Jit's LLVM
 # backend aborts the whole process (issue 15) instead of raising.
 PROBE = f"""
@@ -73,14 +58,6 @@ def unavailable() -> str | None:
     return None
 
 
-def _sphere(sphere) -> dict | None:
-    m = np.asarray(sphere.world_from_object)
-    s = np.linalg.svd(m[:3, :3], compute_uv=False)
-    if s.max() - s.min() > SIMILARITY_TOLERANCE * s.max():
-        return None  # an ellipsoid: Mitsuba's sphere cannot stand in for it
-    return {"type": "sphere", "center": m[:3, 3].tolist(), "radius": float(s[0])}
-
-
 def _mesh(mi, mesh, name: str):
     shape = mi.Mesh(name, len(mesh.points), len(mesh.triangles))
     params = mi.traverse(shape)
@@ -97,7 +74,7 @@ def _targets(scene) -> list[np.ndarray] | None:
 
 def why_not(scene) -> str | None:
     """None when the peer can stand in for ``scene``, else why not."""
-    if any(_sphere(s) is None for s in scene.spheres):
+    if any(sphere_centre_radius(s) is None for s in scene.spheres):
         return "a non-uniformly scaled sphere"
     if _targets(scene) is None:
         return "a light other than point and rectangular area lights"
@@ -117,7 +94,10 @@ def times(scene, settings, native_scene, repeat: int, threads: int) -> dict:
     targets = _targets(scene)
 
     def build():
-        shapes = {f"sphere{i}": _sphere(s) for i, s in enumerate(scene.spheres)}
+        shapes = {
+            f"sphere{i}": {"type": "sphere", "center": list(c), "radius": r}
+            for i, (c, r) in enumerate(map(sphere_centre_radius, scene.spheres))
+        }
         shapes.update({f"mesh{i}": _mesh(mi, m, f"mesh{i}") for i, m in enumerate(scene.meshes)})
         built = mi.load_dict({"type": "scene", **shapes})
         dr.sync_thread()
@@ -152,7 +132,7 @@ def times(scene, settings, native_scene, repeat: int, threads: int) -> dict:
         return count, hit.t, valid, points, first_occluded
 
     t_render, (count, t_hit, valid, points, occluded) = best_time(render, repeat)
-    agreement = _agreement(
+    agreement_ = agreement(
         native_scene,
         origins,
         dirs,
@@ -161,32 +141,6 @@ def times(scene, settings, native_scene, repeat: int, threads: int) -> dict:
         np.asarray(points).T.astype(np.float64),
         targets,
         occluded,
+        who="Mitsuba",
     )
-    return {"build": t_build, "render": t_render, "rays": count, "agreement": agreement}
-
-
-def _agreement(native_scene, origins, dirs, valid, t_hit, points, targets, occluded) -> float:
-    """The smallest fraction of rays on which Mitsuba and the native tracer agree: primary rays
-    (hit or miss, and where both hit, the distance to float precision), then each point light's
-    shadow rays from Mitsuba's hit points (occluded or not)."""
-    t_native, _ = native_scene.intersect(origins.astype(np.float64), dirs.astype(np.float64))
-    hit_native = np.isfinite(t_native)
-    both = valid & hit_native
-    same_t = np.ones_like(both)
-    same_t[both] = np.abs(t_hit[both] - t_native[both]) <= HIT_DISTANCE_TOLERANCE * np.maximum(1.0, t_native[both])
-    fractions = [float(np.mean((valid == hit_native) & same_t))]
-    for target, mi_occluded in zip(targets, occluded):
-        if mi_occluded is None:
-            continue
-        to_light = target[0].astype(np.float64) - points
-        dist = np.linalg.norm(to_light, axis=1)
-        to_light /= dist[:, None]
-        t, _ = native_scene.intersect(points + to_light * SHADOW_OFFSET, to_light)
-        fractions.append(float(np.mean((t < dist - 2 * SHADOW_OFFSET) == np.asarray(mi_occluded))))
-    worst = min(fractions)
-    if worst < MIN_AGREEMENT:
-        raise SystemExit(
-            f"Mitsuba and the native tracer agree on only {worst:.4f} of the rays "
-            f"(fractions {fractions}; at least {MIN_AGREEMENT} expected): not the same scene"
-        )
-    return worst
+    return {"build": t_build, "render": t_render, "rays": count, "agreement": agreement_}

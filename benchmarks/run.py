@@ -2,24 +2,29 @@
 """Time the native tracer, POV-Ray and the peers found installed side by side on the benchmark
 scenes (same machine, same moment, same thread counts) and print the speed ratios.
 
-Four tables, in one run:
+Five tables, in one run:
 
 1. **In process**, from the loaded Scene to the image in memory, at each ``--threads`` count:
    native = build (flatten + C++ scene + BVH) and render; POV-Ray = compile SDL + write + parse +
-   render + read the EXR back (``phongscene.backends.povray.render``); Embree (``embreex``, when
-   installed; triangle scenes only) = build, and the same camera's primary rays plus one shadow
-   ray per hit and light, single-ray queries on one thread; Mitsuba 3 (``mitsuba``'s LLVM
-   variant, when installed and a child process finds that it starts and traces a ray: with
-   Debian's LLVM 14/15 it aborts; benchmarks/mitsuba_peer.py) = build, and the same primary rays plus the native tracer's shadow
-   rays (one per hit and point light, S3's 9×9 per hit for its area light), at each thread count,
-   checked against the native tracer's hits on the same rays. The max |native − POV-Ray|
-   relative to the image's max is printed too, so a fast wrong answer shows.
-2. **Whole process**: ``phongscene render SCENE -o x.exr`` against ``povray`` on the compiled
+   render + read the EXR back (``phongscene.backends.povray.render``); Mitsuba 3 (``mitsuba``'s
+   LLVM variant, when installed and a child process finds that it starts and traces a ray: with
+   Debian's LLVM 14/15 it aborts; benchmarks/mitsuba_peer.py) = build, and the same primary rays
+   plus the native tracer's shadow rays (one per hit and point light, S3's 9×9 per hit for its
+   area light), at each thread count, checked against the native tracer's hits on the same rays.
+   The max |native − POV-Ray| relative to the image's max is printed too, so a fast wrong answer
+   shows.
+2. **Compiled peers** on the same rays (benchmarks/compiled_peers.py, built at run time into a
+   cache folder): Embree through its C API (Debian's ``libembree-dev``), single rays and 8/16-ray
+   packets, its build timed by ``rtcCommitScene``, ``threads=N`` as labelled; the naive scalar C
+   loop (brute force, small scenes), for the x86-64 baseline and ``-march=native``. Each peer's
+   hits are checked against the native BVH's before its time is printed; ratios are peer / native.
+3. **Whole process**: ``phongscene render SCENE -o x.exr`` against ``povray`` on the compiled
    scene (``phongscene compile``'s job, written before timing), wall time and peak RSS of the
-   child; the "tiny" row is S1 at 32×18, i.e. the start-up costs. The children cache compiled
-   bytecode as an installation does (the best of --repeat runs is a cached one).
-3. **Threads**: the native render's speed-up from 1 thread to the most asked for.
-4. **Triangles**: S2's native render (without build) at 10k, 100k and 1M triangles.
+   child, and POV-Ray's own reported trace time; the "tiny" row is S1 at 32×18, i.e. the
+   start-up costs. The children cache compiled bytecode as an installation does (the best of
+   --repeat runs is a cached one).
+4. **Threads**: the native render's speed-up from 1 thread to the most asked for.
+5. **Triangles**: S2's native render (without build) at 10k, 100k and 1M triangles.
 
 Each figure is the best of --repeat runs (the least disturbed on a shared machine). A peer not
 installed is skipped with the reason printed.
@@ -45,6 +50,7 @@ import dataclasses
 import importlib.util
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -55,8 +61,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-import mitsuba_peer  # noqa: E402  (benchmarks/ is not a package)
-from peer_rays import primary_rays  # noqa: E402
+import compiled_peers  # noqa: E402  (benchmarks/ is not a package)
+import mitsuba_peer  # noqa: E402
 from timing import best_time  # noqa: E402
 
 NATIVE_EXTENSION_MODULE = "phongscene.backends.native._native"
@@ -64,9 +70,6 @@ NATIVE_EXTENSION_MODULE = "phongscene.backends.native._native"
 SCALING_SCENES = ("S2-10k", "S2-100k", "S2")
 # The "tiny" whole-process row: S1 at this size (start-up costs only).
 TINY_SIZE = (32, 18)
-# Embree's shadow rays start this far from the hit point, toward the light (and stop as far
-# before it): a peer's timing needs no more than a plausible offset, it is not compared.
-EMBREE_SHADOW_OFFSET = 1e-4
 GNU_TIME = "/usr/bin/time"  # Debian package "time"
 
 
@@ -129,8 +132,8 @@ def time_baseline(args: argparse.Namespace, name: str, threads: int) -> tuple[fl
         return json.loads(out.splitlines()[-1])["native"], np.load(image_path)
 
 
-def run_process(cmd: list[str], cwd: Path | None = None, env: dict | None = None) -> tuple[float, float]:
-    """(wall seconds, peak RSS in MiB) of one child process, which must succeed. The peak comes
+def run_process(cmd: list[str], cwd: Path | None = None, env: dict | None = None) -> tuple[float, float, str]:
+    """(wall seconds, peak RSS in MiB, its standard error) of one child process, which must succeed. The peak comes
     from GNU time, whose own child is measured: a child forked from this (large) process would
     report this process's size, which ru_maxrss keeps across exec."""
     with tempfile.NamedTemporaryFile("r", suffix=".time") as report:
@@ -146,12 +149,29 @@ def run_process(cmd: list[str], cwd: Path | None = None, env: dict | None = None
         wall = time.perf_counter() - start
         if done.returncode != 0:
             raise SystemExit(f"{cmd[0]} failed ({done.returncode}): {done.stderr.strip()[-500:]}")
-        return wall, int(report.read().split()[-1]) / 1024.0  # KiB
+        return wall, int(report.read().split()[-1]) / 1024.0, done.stderr  # KiB
 
 
 def best_process(cmd: list[str], repeat: int, cwd: Path | None = None, env: dict | None = None) -> tuple[float, float]:
     runs = [run_process(cmd, cwd, env) for _ in range(repeat)]
     return min(r[0] for r in runs), max(r[1] for r in runs)
+
+
+# POV-Ray's own statistics (on standard error): "Trace Time:  0 hours  0 minutes  1 seconds (1.027 seconds)"
+POVRAY_TRACE_TIME = re.compile(r"Trace Time:.*\(\s*([0-9.]+) seconds\)")
+
+
+def best_povray_process(cmd: list[str], repeat: int, cwd: Path) -> tuple[float, float, float]:
+    """(best wall s, peak RSS MiB, best of POV-Ray's own reported trace times, summed over its
+    passes) of ``povray`` runs."""
+    runs = [run_process(cmd, cwd) for _ in range(repeat)]
+    traces = []
+    for _, _, stderr in runs:
+        found = [float(x) for x in POVRAY_TRACE_TIME.findall(stderr)]
+        if not found:
+            raise SystemExit(f"povray printed no trace time: {stderr.strip()[-300:]}")
+        traces.append(sum(found))
+    return min(r[0] for r in runs), max(r[1] for r in runs), min(traces)
 
 
 def cached_bytecode_env(cache: Path) -> dict:
@@ -162,55 +182,6 @@ def cached_bytecode_env(cache: Path) -> dict:
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     env["PYTHONPYCACHEPREFIX"] = str(cache)
     return env
-
-
-# -- Embree (embreex), a peer for triangle scenes ------------------------------------------------
-
-
-def embree_available() -> bool:
-    return importlib.util.find_spec("embreex") is not None
-
-
-def embree_times(scene, settings, repeat: int) -> tuple[float, float, int] | None:
-    """(build s, render s, rays) of Embree on a triangle-only scene with point lights, or None."""
-    from embreex import rtcore_scene
-    from embreex.mesh_construction import TriangleMesh as EmbreeMesh
-
-    from phongscene.scene import PointLight
-
-    if scene.spheres or not all(isinstance(light, PointLight) for light in scene.lights):
-        return None
-    corners = np.concatenate([m.points[m.triangles] for m in scene.meshes]).astype(np.float32)
-    origins, dirs = primary_rays(scene, settings)
-
-    def build():
-        embree_scene = rtcore_scene.EmbreeScene()
-        EmbreeMesh(embree_scene, corners)
-        embree_scene.run(origins[:1], dirs[:1])  # commits the scene (builds its BVH)
-        return embree_scene
-
-    t_build, embree_scene = best_time(build, repeat)
-
-    def render():
-        hit = embree_scene.run(origins, dirs, output=1)
-        found = hit["geomID"] >= 0
-        points = origins[found] + dirs[found] * hit["tfar"][found, None]
-        rays = len(origins)
-        for light in scene.lights:
-            to_light = np.asarray(light.position, np.float32) - points
-            dist = np.linalg.norm(to_light, axis=1)
-            to_light /= dist[:, None]
-            embree_scene.run(
-                points + to_light * EMBREE_SHADOW_OFFSET,
-                to_light,
-                dists=dist - 2 * EMBREE_SHADOW_OFFSET,
-                query="OCCLUDED",
-            )
-            rays += len(points)
-        return rays
-
-    t_render, rays = best_time(render, repeat)
-    return t_build, t_render, rays
 
 
 def mitsuba_cell(scene, settings, built, repeat: int, threads: int) -> str:
@@ -224,7 +195,10 @@ def mitsuba_cell(scene, settings, built, repeat: int, threads: int) -> str:
 
 def peers_line() -> str:
     peers = ["POV-Ray"]
-    peers.append("Embree (embreex)" if embree_available() else "no Embree (embreex not installed)")
+    embree = compiled_peers.embree_binary()
+    peers.append(f"no Embree ({embree})" if isinstance(embree, str) else "Embree (C API, compiled peer)")
+    naive = compiled_peers.naive_binary(False)
+    peers.append(f"no naive C loop ({naive})" if isinstance(naive, str) else "naive C loop (compiled peer)")
     reason = mitsuba_peer.unavailable()
     peers.append(f"no Mitsuba 3 ({reason})" if reason else f"Mitsuba 3 ({mitsuba_peer.VARIANT})")
     return ", ".join(peers)
@@ -238,14 +212,11 @@ def in_process_table(args, names, thread_counts) -> dict:
     from phongscene.backends.povray import SPECULAR_OF_MAPPING
     from phongscene.usd import load_usd
 
-    with_embree = embree_available() and not args.native_only
     with_mitsuba = mitsuba_peer.unavailable() is None and not args.native_only
     print(f"\n1. In process (loaded Scene -> image), mapping {args.mapping}, best of {args.repeat}")
     header = f"{'scene':<8}{'threads':>8}{'triangles':>10}{'build s':>9}{'render s':>9}{'native s':>9}"
     if not args.native_only:
         header += f"{'povray s':>9}{'ratio':>7}{'max rel diff':>13}"
-    if with_embree:
-        header += f"{'embree build/render s (1 thread)':>34}"
     if with_mitsuba:
         header += f"  {'mitsuba build/render s (rays, agreeing with native)'}"
     print(header)
@@ -264,23 +235,64 @@ def in_process_table(args, names, thread_counts) -> dict:
                 t_pov, img_pov = best_time(lambda: povray.render(scene, settings, mapping=args.mapping), args.repeat)
                 diff = float(np.abs(image - img_pov).max() / max(float(np.abs(img_pov).max()), 1e-30))
                 row += f"{t_pov:>9.3f}{t_pov / t_native:>6.1f}x{diff:>13.2e}"
-            if with_embree:
-                peer = embree_times(scene, settings, args.repeat) if threads == thread_counts[0] else None
-                row += f"{f'{peer[0]:.3f} / {peer[1]:.3f} ({peer[2] / 1e6:.1f}M rays)' if peer else '-':>34}"
             if with_mitsuba:
                 row += "  " + mitsuba_cell(scene, settings, built, args.repeat, threads)
             print(row, flush=True)
     return render_times
 
 
+def compiled_peers_table(args, names, thread_counts) -> None:
+    """The compiled peers (compiled_peers.py) on the same rays, each scene and thread count with
+    native's build and render timed again just before its peers (side by side on a shared machine;
+    native's render shades every pixel, the peers trace the rays only)."""
+    from phongscene.backends import native
+    from phongscene.backends.povray import SPECULAR_OF_MAPPING
+    from phongscene.usd import load_usd
+
+    print(
+        f"\n2. Compiled peers on the same rays (primary + a shadow ray per hit and target), best of {args.repeat};"
+        "\n   ratio = peer / native, timed side by side (below 1: the peer is faster); native render shades too"
+    )
+    print(
+        f"{'scene':<8}{'threads':>8}  {'peer':<22}{'rays':>8}{'build s':>9}{'ratio':>7}{'render s':>10}{'ratio':>7}"
+        f"{'agreeing':>10}"
+    )
+    for name in names:
+        scene = load_usd(scene_path(name))
+        for threads in thread_counts:
+            settings = dataclasses.replace(scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping])
+            camera, native_settings = native._camera(scene.camera), native._settings(settings)
+            t_build, built = best_time(lambda: native.build(scene), args.repeat)
+            t_render, _ = best_time(lambda: built.render(camera=camera, settings=native_settings), args.repeat)
+            print(
+                f"{name:<8}{threads:>8}  {'native (' + str(built.walk_width) + '-wide walk)':<22}{'':>8}{t_build:>9.3f}"
+                f"{'':>7}{t_render:>10.3f}",
+                flush=True,
+            )
+            for peer, figures in compiled_peers.run_peers(scene, settings, built, threads, args.repeat).items():
+                if isinstance(figures, str):
+                    print(f"{name:<8}{threads:>8}  {peer:<22}- ({figures})")
+                    continue
+                build = (
+                    f"{figures['build']:>9.3f}{figures['build'] / max(t_build, 1e-9):>6.2f}x"
+                    if "build" in figures
+                    else f"{'-':>9}{'':>7}"
+                )
+                print(
+                    f"{name:<8}{threads:>8}  {peer:<22}{figures['rays'] / 1e6:>7.1f}M{build}{figures['render']:>10.3f}"
+                    f"{figures['render'] / t_render:>6.2f}x{100 * figures['agreement']:>9.3f}%",
+                    flush=True,
+                )
+
+
 def whole_process_table(args, names, threads: int) -> None:
     from phongscene.backends.povray import SPECULAR_OF_MAPPING, prepare
     from phongscene.usd import load_usd
 
-    print(f"\n2. Whole process ({threads} threads, wall s and peak RSS MiB of the child, best of {args.repeat})")
+    print(f"\n3. Whole process ({threads} threads, wall s and peak RSS MiB of the child, best of {args.repeat})")
     header = f"{'scene':<8}{'phongscene render':>20}"
     if not args.native_only:
-        header += f"{'povray':>18}{'ratio':>8}"
+        header += f"{'povray':>18}{'ratio':>8}{'povray trace s':>16}"
     print(header)
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
@@ -312,8 +324,10 @@ def whole_process_table(args, names, threads: int) -> None:
                     settings = dataclasses.replace(settings, width=TINY_SIZE[0], height=TINY_SIZE[1])
                 job = prepare(scene, settings, args.mapping)
                 (work / "scene.pov").write_text(job.sdl, encoding="ascii")
-                t_pov, rss_pov = best_process(job.command("scene.pov", "scene.exr"), args.repeat, cwd=work)
-                row += f"{t_pov:>9.3f} s {rss_pov:>4.0f} M{t_pov / t_native:>7.2f}x"
+                # +GS: the statistics stream on (the compiler's -GS silences it), for the trace time
+                cmd_pov = ["+GS" if s == "-GS" else s for s in job.command("scene.pov", "scene.exr")]
+                t_pov, rss_pov, t_trace = best_povray_process(cmd_pov, args.repeat, work)
+                row += f"{t_pov:>9.3f} s {rss_pov:>4.0f} M{t_pov / t_native:>7.2f}x{t_trace:>16.3f}"
             print(row, flush=True)
 
 
@@ -329,6 +343,8 @@ def main() -> None:
         help="POV-Ray mapping (classic = one idiomatic pass; exact = one pass per light)",
     )
     parser.add_argument("--native-only", action="store_true", help="time the native tracer only")
+    parser.add_argument("--peers-only", action="store_true", help="only table 2 (native against the compiled peers)")
+    parser.add_argument("--processes-only", action="store_true", help="only table 3 (whole processes)")
     parser.add_argument("--no-scaling", action="store_true", help="skip the S2 triangle-count table")
     parser.add_argument(
         "--baseline-extension",
@@ -394,16 +410,24 @@ def main() -> None:
         return
 
     print(f"{cores} cores; peers: {peers_line()}")
+    if args.peers_only:
+        compiled_peers_table(args, names, thread_counts)
+        return
+    if args.processes_only:
+        whole_process_table(args, names, thread_counts[-1])
+        return
     render_times = in_process_table(args, names, thread_counts)
+    if not args.native_only:
+        compiled_peers_table(args, names, thread_counts)
     whole_process_table(args, names, thread_counts[-1])
     if len(thread_counts) > 1:
         lo, hi = thread_counts[0], thread_counts[-1]
-        print(f"\n3. Native render speed-up, {lo} -> {hi} threads")
+        print(f"\n4. Native render speed-up, {lo} -> {hi} threads")
         for name in names:
             print(f"{name:<8}{render_times[name, lo] / render_times[name, hi]:>6.2f}x")
     if not args.no_scaling:
         threads = thread_counts[-1]
-        print(f"\n4. S2's native render (no build) by triangle count, {threads} threads, best of {args.repeat}")
+        print(f"\n5. S2's native render (no build) by triangle count, {threads} threads, best of {args.repeat}")
         previous = None
         for name in SCALING_SCENES:
             scene = load_usd(scene_path(name))

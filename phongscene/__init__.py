@@ -5,7 +5,15 @@ and diff the two backends."""
 import importlib as _importlib
 from typing import TYPE_CHECKING
 
-from .errors import BackendError, PhongSceneError, Problem, SceneError, SceneFileNotFoundError, SceneWarning
+from .errors import (
+    BackendError,
+    ImageWarning,
+    PhongSceneError,
+    Problem,
+    SceneError,
+    SceneFileNotFoundError,
+    SceneWarning,
+)
 
 __version__ = "0.1.0"
 
@@ -28,6 +36,9 @@ _LAZY_EXPORTS = {
     "Sphere": (".scene", "Sphere"),
     "SphereAreaLight": (".scene", "SphereAreaLight"),
     "TriangleMesh": (".scene", "TriangleMesh"),
+    # Instancing: a prototype read once, placed by many transforms.
+    "Prototype": (".scene", "Prototype"),
+    "Instances": (".scene", "Instances"),
     # A perspective camera at an eye point looking at a target.
     "look_at": (".scene", "Camera.look_at"),
     "Image": (".images", "Image"),
@@ -35,6 +46,8 @@ _LAZY_EXPORTS = {
     "compare": (".comparison", "compare"),
     "compile_pov": (".rendering", "compile_pov"),
     "diff": (".crossvalidation", "diff"),
+    # The warnings for a rendered image: nothing in view, no light, too dark, with their causes.
+    "explain_image": (".diagnostics", "explain_image"),
     "load_usd": (".usd", "load_usd"),
     "open_stage": (".usd", "open_stage"),
     "read_usd": (".usd", "read_usd"),
@@ -50,8 +63,10 @@ if TYPE_CHECKING:  # the lazy names, for type checkers and IDEs
         Camera,
         Cone,
         DirectionalLight,
+        Instances,
         PhongMaterial,
         PointLight,
+        Prototype,
         RectAreaLight,
         RenderSettings,
         Scene,
@@ -63,6 +78,7 @@ if TYPE_CHECKING:  # the lazy names, for type checkers and IDEs
     look_at = Camera.look_at
     from .comparison import Thresholds, compare
     from .crossvalidation import diff
+    from .diagnostics import explain_image
     from .images import Image, read_image, write_image
     from .overrides import RenderOverrides
     from .rendering import compile_pov, render
@@ -87,10 +103,13 @@ __all__ = [
     "Cone",
     "DirectionalLight",
     "Image",
+    "ImageWarning",
+    "Instances",
     "PhongMaterial",
     "PhongSceneError",
     "PointLight",
     "Problem",
+    "Prototype",
     "RectAreaLight",
     "RenderOverrides",
     "RenderSettings",
@@ -105,6 +124,7 @@ __all__ = [
     "compare",
     "compile_pov",
     "diff",
+    "explain_image",
     "load_usd",
     "open_stage",
     "look_at",

@@ -33,22 +33,41 @@ FRAME_FOLDER = "frame.####"
 
 
 def parse_frames(text: str) -> tuple[int, ...]:
-    """``START:END[:STEP]`` → the frame numbers START, START+STEP, ..., up to END inclusive.
+    """A frame spec → the frame numbers, in order, each once.
 
-    Whole numbers only (a frame is a whole time code); STEP >= 1 and START <= END. ValueError
+    usdrecord's syntax (UsdAppUtils.framesArgs, UsdUtils.TimeCodeRange): specs separated by
+    commas, each a frame ``N``, a range ``START:END`` or a strided range ``START:ENDxSTRIDE``
+    (``1:9x4`` is 1, 5, 9); phongscene's own ``START:END:STEP`` is kept. END is included.
+    Whole numbers only (a frame is a whole time code); STRIDE >= 1 and START <= END. ValueError
     with a one-line message otherwise."""
-    parts = text.split(":")
-    if len(parts) not in (2, 3):
-        raise ValueError(f"expected START:END or START:END:STEP, got {text!r}")
+    frames: list[int] = []
+    for spec in text.split(","):
+        for frame in _frame_spec(spec.strip(), text):
+            if frame not in frames:
+                frames.append(frame)
+    return tuple(frames)
+
+
+def _frame_spec(spec: str, text: str) -> range:
+    """One spec of ``parse_frames`` (``text``, the whole of it, for the messages)."""
+    expected = f"expected N, START:END, START:ENDxSTRIDE (usdrecord's) or START:END:STEP, got {text!r}"
+    parts = spec.split(":")
+    if len(parts) == 2 and "x" in parts[1]:
+        parts = [parts[0], *parts[1].split("x", 1)]
+    if not spec or len(parts) > 3:
+        raise ValueError(expected)
     try:
-        start, end, step = int(parts[0]), int(parts[1]), int(parts[2]) if len(parts) == 3 else 1
+        numbers = [int(p) for p in parts]
     except ValueError:
-        raise ValueError(f"frames are whole numbers (USD time codes), got {text!r}") from None
+        raise ValueError(f"frames are whole numbers (USD time codes): {expected}") from None
+    start, end, step = (
+        (numbers[0], numbers[0], 1) if len(numbers) == 1 else (*numbers[:2], numbers[2] if len(numbers) == 3 else 1)
+    )
     if step < 1:
         raise ValueError(f"the step must be >= 1, got {step} in {text!r}")
     if end < start:
         raise ValueError(f"the end frame must not be before the start frame, got {text!r}")
-    return tuple(range(start, end + 1, step))
+    return range(start, end + 1, step)
 
 
 def has_frame_pattern(name: str | os.PathLike) -> bool:
@@ -78,15 +97,16 @@ def _load(scene: str, frame: int, overrides: RenderOverrides):
     if not isinstance(overrides, RenderOverrides):
         raise TypeError(f"overrides: expected a RenderOverrides, got {type(overrides).__name__}")
     start = _time.perf_counter()
-    loaded, warnings = load_scene(open_stage(scene), time=float(frame))
+    loaded, warnings = load_scene(open_stage(scene), time=float(frame), camera=overrides.camera)
     loaded, settings = overrides.apply(loaded)
     return loaded, settings, warnings, _time.perf_counter() - start
 
 
 def render_frame(scene: str, frame: int, output: str, backend: str, overrides: RenderOverrides) -> dict:
     """Render ``scene`` at time ``frame`` and write ``output`` (atomically)."""
+    from .diagnostics import ImageChecks
     from .images import write_image
-    from .rendering import render
+    from .rendering import prepare_render
 
     # CPU seconds of this process beside the wall clock: on a shared machine the wall clock of
     # each part says as much about the other jobs as about the part (benchmarks/animation.py).
@@ -94,7 +114,9 @@ def render_frame(scene: str, frame: int, output: str, backend: str, overrides: R
     loaded, settings, warnings, load_seconds = _load(scene, frame, overrides)
     cpu.append(_time.process_time())
     start = _time.perf_counter()
-    image = render(loaded, backend, settings)
+    checks = ImageChecks.of(loaded, settings, warnings)
+    image = prepare_render(loaded, backend, settings)()
+    warnings = [*warnings, *checks.warnings(image)]
     render_seconds = _time.perf_counter() - start
     cpu.append(_time.process_time())
     write_image(output, image)
@@ -167,6 +189,6 @@ def diff_frame(scene: str, frame: int, outdir: str, overrides: RenderOverrides, 
         "width": result.settings.width,
         "height": result.settings.height,
         "seconds": _time.perf_counter() - start,
-        "warnings": result.warnings,
+        "warnings": [*result.warnings, *result.image_warnings],
         "pid": os.getpid(),
     }

@@ -342,7 +342,7 @@ def run(
 def render_native(scene: Scene, settings: RenderSettings) -> np.ndarray:
     from .rendering import render
 
-    return render(scene, "native", settings)
+    return render(scene, "native", settings, explain=False)  # timed: no image checks
 
 
 def families_of(chosen: list[Estimator], families: Sequence[str] | None) -> list[str]:
@@ -357,7 +357,7 @@ def measure(scene: Scene, settings: RenderSettings, est: Estimator, backend: str
     from .rendering import render as render_backend
 
     s_scene, s_settings = est.apply(scene, settings)
-    wall, cpu, image = timed(lambda: render_backend(s_scene, backend, s_settings), repeat)
+    wall, cpu, image = timed(lambda: render_backend(s_scene, backend, s_settings, explain=False), repeat)
     row = {
         "family": est.family,
         "label": est.label,

@@ -135,7 +135,7 @@ def _workers_to_use(client, threads: int, most: int | None) -> list[str]:
     for address in sorted(info):
         by_host.setdefault(info[address]["host"], []).append(address)
     used = []
-    for host, addresses in sorted(by_host.items()):
+    for _host, addresses in sorted(by_host.items()):
         used += addresses[: slots_per_host(cores.get(addresses[0]) or 1, threads)]
     if not used:
         raise BackendError("the Dask cluster has no workers")

@@ -232,6 +232,22 @@ class Report:
     def pixels(self) -> int:
         return self.width * self.height
 
+    def _repr_html_(self) -> str:
+        """Jupyter's display: the verdict, coloured, over the summary's facts."""
+        import html
+
+        colour = "#1a7f37" if self.ok else "#cf222e"
+        verdict = "PASS" if self.ok else "FAIL"
+        rows = "".join(
+            f"<tr><td style='text-align:left'>{html.escape(line.strip())}</td></tr>"
+            for line in self.summary().splitlines()
+            if line.strip() not in ("PASS", "FAILURE")
+        )
+        return (
+            f"<div class='phongscene-report'><b style='color:{colour}'>{verdict}</b>: {self.failing_pixels} of "
+            f"{self.pixels} pixels fail, max error {self.max_error:.3g}<table>{rows}</table></div>"
+        )
+
     def summary(self) -> str:
         """idiff-style text block, one fact per line."""
         t = self.thresholds
@@ -302,6 +318,14 @@ def load(image) -> np.ndarray:
 
 def compare(a, b, thresholds: Thresholds | None = None) -> Report:
     """Compare two linear images pixel by pixel.
+
+    Two images only: how they were rendered is not known here, so ``compare`` applies none of
+    what ``phongscene.diff`` does for a POV-Ray mapping (diff renders the native image in
+    POV-Ray's numerics, ``numerics="povray"``; widens the floor for the exact mapping's one
+    half-float pass per light, ``for_povray_passes``; and explains the pixels POV-Ray's shadow
+    cache decides, which needs the scene). ``compare(povray_image, ps.render(scene))`` therefore
+    fails pixels that ``diff`` passes: compare the backends with ``diff(scene)``, or pass
+    ``thresholds=for_povray_passes(n)`` and render the native image with ``numerics="povray"``.
 
     Args:
         a: the reference image: a float array (H, W, 3) or a path OpenImageIO can read.

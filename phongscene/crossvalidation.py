@@ -61,6 +61,9 @@ class DiffResult:
     # Pixels where the native tracer's scale-invariant tolerances give another image than
     # POV-Ray's absolute ones (what a plain native render of this scene differs in).
     numerics_differ: int = 0
+    # What the native image shows that its author should hear of: nothing in view, no light, too
+    # dark, with the causes found in the scene (phongscene.diagnostics).
+    image_warnings: tuple[str, ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -68,6 +71,32 @@ class DiffResult:
             return True
         allowed = POVRAY_SHADOW_CACHE.fail_percent / 100 * self.report.pixels
         return not self.report.hard_fail and not self.unexplained and 0 < len(self.explained) <= allowed
+
+    def _repr_html_(self) -> str:
+        """Jupyter's display: the verdict and the report's facts, both images side by side (sRGB
+        PNGs, as ``Image`` shows them), the explanation and the image warnings."""
+        import base64
+        import html
+
+        from .images import Image
+
+        def png(image, label) -> str:
+            data = np.asarray(image, dtype=np.float32).view(Image)._repr_png_()
+            return (
+                f"<figure style='display:inline-block;margin:4px'><img src='data:image/png;base64,"
+                f"{base64.b64encode(data).decode('ascii')}' alt='{label}'><figcaption>{label}</figcaption></figure>"
+            )
+
+        s = self.settings
+        verdict = "PASS" if self.ok else "FAIL"
+        notes = "".join(f"<li>{html.escape(line.strip())}</li>" for line in self.explanation().splitlines())
+        notes += "".join(f"<li>warning: {html.escape(w)}</li>" for w in self.image_warnings)
+        return (
+            f"<div class='phongscene-diff'><b>{verdict}</b>: {s.width} x {s.height}, mapping {self.mapping} (native "
+            f"{s.specular}){' &rarr; ' + html.escape(str(self.outdir)) if self.outdir else ''}<br>"
+            f"{png(self.povray, 'povray')}{png(self.native, 'native')}{self.report._repr_html_()}"
+            f"{'<ul>' + notes + '</ul>' if notes else ''}</div>"
+        )
 
     def explanation(self) -> str:
         """Lines for the summary: the explained pixels and the numerics difference."""
@@ -162,7 +191,7 @@ def diff(
         reading = ProgressBar("scene", progress)
         reading.phase(f"reading {Path(scene_or_path).name}")  # a big USD file takes seconds
     start = perf_counter()
-    scene, warnings = load_scene(scene_or_path, overrides.time, sandbox=sandbox)
+    scene, warnings = load_scene(scene_or_path, overrides.time, sandbox=sandbox, camera=overrides.camera)
     if reading is not None:
         reading.done(perf_counter() - start, "read")
     if progress is not None:
@@ -182,7 +211,7 @@ def diff(
         if backend == "native":
             images[backend] = render_native_as_povray(scene, settings, mapping, progress=bar)
         else:
-            images[backend] = render(scene, backend, settings, progress=bar, timeout=timeout)
+            images[backend] = render(scene, backend, settings, progress=bar, timeout=timeout, explain=False)
         timings[backend] = perf_counter() - start
         if bar is not None:
             bar.done(timings[backend])
@@ -194,6 +223,9 @@ def diff(
     plain = render_native_as_povray(scene, replace(settings, numerics="scale-invariant"), mapping)
     numerics_differ = int(failing_mask(images["native"], plain, thresholds).sum())
 
+    from .diagnostics import ImageChecks
+
+    image_warnings = tuple(ImageChecks.of(scene, settings, warnings).warnings(images["native"]))
     result = DiffResult(
         report,
         None,
@@ -206,6 +238,7 @@ def diff(
         explained,
         unexplained,
         numerics_differ,
+        image_warnings,
     )
     if outdir is not None:
         from .files import atomic_folder
@@ -228,10 +261,12 @@ def diff(
                 meta={
                     "scene": source,
                     "time": overrides.time,
+                    "camera": scene.camera.source,
                     "mapping": mapping,
                     "native_specular": settings.specular,
                     "settings": _settings_dict(settings),
                     "scene_warnings": warnings,
+                    "image_warnings": list(image_warnings),
                     "explained_by_povray_shadow_cache": [list(p) for p in explained],
                     "unexplained_failing_pixels": [list(p) for p in unexplained],
                     "native_numerics_differ_pixels": numerics_differ,
@@ -251,11 +286,11 @@ def render_native_as_povray(scene: Scene, settings: RenderSettings, mapping: str
     adaptive_aa = settings.aa_threshold > 0 and settings.sample_pattern in ("povray-am1", "povray-am2")
     passes = pass_scenes(scene, mapping) if adaptive_aa else (scene,)
     if len(passes) == 1:
-        return render(scene, "native", settings, progress=progress)
+        return render(scene, "native", settings, progress=progress, explain=False)
     total = np.zeros((settings.height, settings.width, 3), np.float64)
     for i, one in enumerate(passes):
         background = settings.background if i == 0 else (0.0, 0.0, 0.0)
-        total += render(one, "native", replace(settings, background=background), progress=progress)
+        total += render(one, "native", replace(settings, background=background), progress=progress, explain=False)
     return total.astype(np.float32)
 
 

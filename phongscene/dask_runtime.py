@@ -76,9 +76,24 @@ def dask_client(scheduler: str | None, local_workers: Callable[[], int]):
             # Each worker imports what the tasks need now (and any that joins later, when it joins).
             client.register_plugin(warm_plugin())
             yield client, "LocalCluster" if cluster is not None else address
+    except KeyboardInterrupt:
+        # Ctrl-C: the scheduler (in this process, for a LocalCluster) and the client log each
+        # message they could not deliver, with a traceback, while the cluster closes; the CLI
+        # says one line instead.
+        _silence_dask_logs()
+        raise
     finally:
         if cluster is not None:
             cluster.close()
+
+
+def _silence_dask_logs() -> None:
+    import logging
+
+    # Every logger of theirs: Dask sets levels on its child loggers too (distributed.scheduler, ...).
+    names = [n for n in logging.root.manager.loggerDict if n.split(".")[0] in ("distributed", "tornado", "asyncio")]
+    for name in ("distributed", "tornado", "asyncio", *names):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 def run_frames(
@@ -145,12 +160,28 @@ def local_cluster(workers: int):
     /health routes; no dashboard without bokeh) takes a free port: Dask's default, 8787, is
     taken by any other cluster on the machine, and falling back from it is a warning."""
     import logging
+    import signal
+    import threading
 
     from distributed import LocalCluster
 
-    return LocalCluster(
-        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.CRITICAL
-    )
+    # Ctrl-C goes to the terminal's whole process group: each worker would print its own
+    # KeyboardInterrupt traceback (~40 lines). The workers start with SIGINT ignored (an ignored
+    # signal stays ignored across exec, and Python installs no KeyboardInterrupt handler then),
+    # so only this process hears it: it stops, closes the cluster, and says one line.
+    quiet = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if quiet else None
+    try:
+        return LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.CRITICAL,
+        )
+    finally:
+        if quiet:
+            signal.signal(signal.SIGINT, previous)
 
 
 def run_serially(

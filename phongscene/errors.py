@@ -55,6 +55,11 @@ class SceneWarning(UserWarning):
     """Something in a scene file that the model cannot represent (issued by ``render(path)``)."""
 
 
+class ImageWarning(SceneWarning):
+    """A rendered image that shows nothing, no light or too little of it, with the cause found in
+    the scene (``phongscene.diagnostics``; issued by ``render``)."""
+
+
 class BackendError(PhongSceneError):
     """A renderer failed. ``detail`` holds the tail of its output, ``kept`` a path kept for
     inspection (e.g. the .pov file)."""

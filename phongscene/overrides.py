@@ -63,6 +63,8 @@ class RenderOverrides:
     shadow_cells: int | None = _area_light("cell_samples")
     # The USD time code to read the stage at (--time; None: the reader's choice).
     time: float | None = None
+    # The Camera prim to render through (--camera; None: the RenderSettings' camera, else the first).
+    camera: str | None = None
 
     def given(self) -> dict:
         """The fields that are set (not None), by name."""

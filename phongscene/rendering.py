@@ -65,22 +65,28 @@ def settings_with(
 
 
 def load_scene(
-    scene_or_path: Scene | str | os.PathLike, time: float | None = None, *, sandbox: bool = False
+    scene_or_path: Scene | str | os.PathLike,
+    time: float | None = None,
+    *,
+    sandbox: bool = False,
+    camera: str | None = None,
 ) -> tuple[Scene, list[str]]:
     """A Scene as given, or read from a USD file (or a ``phongscene.usd.OpenStage`` of one) at USD
     time code ``time`` (None: the reader's choice, ``phongscene.usd.read_usd``), with the reader's
     warnings (raises SceneError for a bad file). ``sandbox``: read the file in a child process
-    with a memory limit (``phongscene.sandbox``), so a crash inside USD is a SceneError."""
+    with a memory limit (``phongscene.sandbox``), so a crash inside USD is a SceneError.
+    ``camera``: the path of the Camera prim to render through (None: the reader's choice); a
+    Scene given keeps its camera."""
     if isinstance(scene_or_path, Scene):
         return scene_or_path, []
     if sandbox:
         from .sandbox import read_usd_sandboxed
 
-        result = read_usd_sandboxed(scene_or_path, time=time)
+        result = read_usd_sandboxed(scene_or_path, time=time, camera=camera)
         return result.scene, list(result.warnings)
     from .usd import read_usd  # lazily: the USD reader imports pxr
 
-    result = read_usd(scene_or_path, time=time)  # a path, or an OpenStage
+    result = read_usd(scene_or_path, time=time, camera=camera)  # a path, or an OpenStage
     return result.scene, list(result.warnings)
 
 
@@ -131,6 +137,7 @@ def render(
     overrides: RenderOverrides | None = None,
     progress: Callable | None = None,
     timeout: float | None = None,
+    explain: bool = True,
 ) -> Image:
     """Render a scene with one backend.
 
@@ -154,10 +161,13 @@ def render(
             ``time`` reads a USD file at that time code, its shadow fields change the area lights).
         progress: called with the backend's progress reports.
         timeout: POV-Ray only: seconds before the render is abandoned.
+        explain: check the image (``phongscene.diagnostics``): a ``phongscene.ImageWarning``
+            for one that shows nothing, no light or too little, naming the cause.
 
     Returns:
         An ``Image``: a numpy array, linear float32 (H, W, 3), row 0 at the top, that Jupyter
-        shows as an sRGB PNG.
+        shows as an sRGB PNG. An image that shows nothing, no light or too little of it comes
+        with a ``phongscene.ImageWarning`` naming the cause (``phongscene.diagnostics``).
 
     Raises:
         FileNotFoundError: the USD file does not exist (a ``SceneError`` too).
@@ -171,18 +181,28 @@ def render(
         overrides = RenderOverrides(**named)
     elif any(v is not None for v in named.values()):
         raise TypeError("render: give overrides= or the separate width, height, spp, threads, mapping, not both")
+    import warnings
+
+    from .diagnostics import ImageChecks
+    from .errors import ImageWarning, SceneWarning
+
+    reader_warnings: list[str] = []
     if not isinstance(scene, Scene):
-        import warnings
-
-        from .errors import SceneWarning
-
-        scene, reader_warnings = load_scene(scene, overrides.time)
+        scene, reader_warnings = load_scene(scene, overrides.time, camera=overrides.camera)
         for text in reader_warnings:
             warnings.warn(f"{scene.source_file}: {text}", SceneWarning, stacklevel=2)
     scene = overrides.scene(scene)
     if overrides.given():
         settings = overrides.settings(scene, settings)
-    return prepare_render(scene, backend, settings, progress=progress, timeout=timeout)()
+    prepared = prepare_render(scene, backend, settings, progress=progress, timeout=timeout)
+    if not explain:
+        return prepared()
+    checks = ImageChecks.of(scene, settings, reader_warnings)  # validated: the scene's numbers are finite
+    image = prepared()
+    where = f"{scene.source_file}: " if scene.source_file else ""
+    for text in checks.warnings(image):
+        warnings.warn(f"{where}{text}", ImageWarning, stacklevel=2)
+    return image
 
 
 def prepare_render(

@@ -91,8 +91,10 @@ def memory_limit_for(path: str | os.PathLike) -> int:
     return min(BASE_MEMORY + MEMORY_PER_FILE_BYTE * size, default_memory_limit())
 
 
-def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None, time: float | None = None):
-    """``phongscene.usd.read_usd(path, time)`` in a child process (see the module's doc).
+def read_usd_sandboxed(
+    path: str | os.PathLike, memory_limit: int | None = None, time: float | None = None, camera: str | None = None
+):
+    """``phongscene.usd.read_usd(path, time, camera)`` in a child process (see the module's doc).
 
     Args:
         memory_limit: a fixed address-space limit for the child in bytes; default: the model
@@ -106,7 +108,16 @@ def read_usd_sandboxed(path: str | os.PathLike, memory_limit: int | None = None,
     env = dict(os.environ, MALLOC_ARENA_MAX=str(MALLOC_ARENAS))
     with tempfile.TemporaryFile() as stderr:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "phongscene.sandbox", path, mode, repr(time), str(os.getpid())],
+            [
+                sys.executable,
+                "-m",
+                "phongscene.sandbox",
+                path,
+                mode,
+                repr(time),
+                str(os.getpid()),
+                *([] if camera is None else [camera]),
+            ],
             stdin=subprocess.DEVNULL,
             stdout=subprocess.PIPE,
             stderr=stderr,
@@ -243,7 +254,7 @@ class _Limit:
         return f"{min(self.soft, self.cap) / 2**30:.1f} GiB{capped}"
 
 
-def _child(path: str, mode: str, time: float | None, parent: int) -> int:
+def _child(path: str, mode: str, time: float | None, parent: int, camera: str | None = None) -> int:
     import resource
 
     _die_with_parent(parent)
@@ -262,7 +273,7 @@ def _child(path: str, mode: str, time: float | None, parent: int) -> int:
             limit = _Limit(resource, cap, (BASE_MEMORY if base is None else base) + READ_HEADROOM + threads)
             listen(limit.grow)
             shown = limit.describe
-        payload = ("ok", read_usd(path, time=time))
+        payload = ("ok", read_usd(path, time=time, camera=camera))
     except SceneError as e:
         payload = ("error", e.problems)
     except MemoryError:
@@ -293,5 +304,11 @@ def _out_of_memory(shown) -> int:
 if __name__ == "__main__":
     # The time code travels as its repr (None, or a float's shortest exact text).
     raise SystemExit(
-        _child(sys.argv[1], sys.argv[2], None if sys.argv[3] == "None" else float(sys.argv[3]), int(sys.argv[4]))
-    )
+        _child(
+            sys.argv[1],
+            sys.argv[2],
+            None if sys.argv[3] == "None" else float(sys.argv[3]),
+            int(sys.argv[4]),
+            sys.argv[5] if len(sys.argv) > 5 else None,
+        )
+    )  # the camera, if chosen

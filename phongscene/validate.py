@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -40,10 +41,12 @@ from .scene import (
     AmbientLight,
     Camera,
     DirectionalLight,
+    Instances,
     Intrinsic,
     Linking,
     PhongMaterial,
     PointLight,
+    Prototype,
     RectAreaLight,
     RenderSettings,
     Scene,
@@ -170,6 +173,7 @@ _ITEM_TYPES = {
     "spheres": (Sphere,),
     "meshes": (TriangleMesh,),
     "intrinsics": (Intrinsic,),
+    "instances": (Instances,),
 }
 
 
@@ -199,6 +203,18 @@ def _wrong_types(scene: Scene) -> list[Problem]:
                         file=scene.source_file,
                     )
                 )
+            elif name == "instances":
+                if not isinstance(item.prototype, Prototype) or not all(
+                    isinstance(m, TriangleMesh) for m in item.prototype.meshes
+                ):
+                    out.append(
+                        Problem(
+                            "must be a Prototype of TriangleMeshes",
+                            prim=item.source,
+                            attribute=f"{name}[{i}]",
+                            file=scene.source_file,
+                        )
+                    )
             elif name != "lights" and not isinstance(item.material, PhongMaterial):
                 out.append(
                     Problem(
@@ -252,7 +268,10 @@ def validate(scene: Scene) -> list[Problem]:
         materials.append(sphere.material)
         if sphere.material.textures:
             c.add(sphere, "material", "a textured material needs texture coordinates, which only meshes carry")
-    for mesh in scene.meshes:
+    for group in scene.instances:
+        _check_instances(c, group)
+    prototype_meshes = [m for p in scene.prototypes for m in p.meshes]
+    for mesh in (*scene.meshes, *prototype_meshes):
         _check_mesh(c, mesh)
         materials.append(mesh.material)
         if mesh.material.textures and mesh.uvs is None:
@@ -527,6 +546,42 @@ def _check_intrinsic(c: _Collector, i: Intrinsic) -> None:
         c.add(i, "material", "a transmissive capsule is not supported (tessellate it: phong:tessellate)")
     if i.infinite and i.kind != "plane":
         c.add(i, "infinite", f"only a plane can be infinite, not a {i.kind}")
+
+
+def _check_instances(c: _Collector, group: Instances) -> None:
+    """Each copy's transform: finite, affine (last row 0 0 0 1) and invertible (a ray is
+    carried into the prototype's space by its inverse); one problem per group, counting them."""
+    m = group.world_from_prototype
+    if not m.size:
+        return
+    finite = np.isfinite(m).all(axis=(1, 2))
+    affine = np.all(m[:, 3, :] == (0.0, 0.0, 0.0, 1.0), axis=1)
+    a = np.where(finite[:, None, None], m[:, :3, :3], 1.0)
+    # is_singular, for all copies at once (the same scale-invariant test).
+    scale = np.prod(np.linalg.norm(a, axis=1), axis=1)
+    singular = (scale == 0) | (np.abs(np.linalg.det(a)) <= SINGULAR_RELATIVE_DET * scale)
+    bad = ~finite | ~affine | singular
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        what = (
+            "not finite"
+            if not finite[k]
+            else "not affine"
+            if not affine[k]
+            else "singular (a zero or degenerate scale)"
+        )
+        c.add(
+            _Copy(group.source_of(k)),
+            "world_from_prototype",
+            f"{int(bad.sum())} of {len(m)} instance transforms are invalid, e.g. copy {k}: {what}",
+        )
+
+
+@dataclass(frozen=True)
+class _Copy:
+    """An instance as a node problems can name (its prim)."""
+
+    source: str
 
 
 def _check_mesh(c: _Collector, mesh: TriangleMesh) -> None:

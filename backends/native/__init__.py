@@ -337,9 +337,44 @@ def _finish(native: _native.Scene, scene: Scene, *, half_texels: bool = False) -
     return native
 
 
+def linkable(scene: Scene) -> Scene:
+    """``scene``, flattened when a light's lightLink or shadowLink names geometry and the scene
+    has instances: the C++ links number world objects only (the USD reader already flattens the
+    instances a link tells apart, docs/instancing.md; this covers scenes built in Python)."""
+    if scene.instances and any(
+        light.linking.illuminates is not None or light.linking.shadowed_by is not None for light in scene.lights
+    ):
+        return scene.flattened()
+    return scene
+
+
 def build(scene: Scene) -> _native.Scene:
     """The C++ scene (geometry, materials, lights and BVH) of a validated ``scene``."""
-    return _finish(_native.Scene(**scene_arrays(scene)), scene)
+    scene = linkable(scene)
+    native = _finish(_native.Scene(**scene_arrays(scene)), scene)
+    add_instances(native, scene, "scale-invariant")
+    return native
+
+
+def add_instances(native: _native.Scene, scene: Scene, numerics: str) -> None:
+    """Give ``native`` the scene's instances: each prototype built once as a C++ scene of its
+    own (its meshes in prototype space, with its BVH, in the same numerics as the world's) and
+    placed by every transform that refers to it (the two-level BVH: src/instances.hpp)."""
+    groups: dict[int, list] = {}
+    for group in scene.instances:
+        groups.setdefault(id(group.prototype), []).append(group)
+    for n, same in enumerate(groups.values()):
+        prototype = same[0].prototype
+        part = Scene(meshes=prototype.meshes, source_file=scene.source_file)
+        arrays = scene_arrays(part)
+        if numerics != "scale-invariant":
+            arrays = _as_povray_stores(arrays, part)
+        built = _native.Scene(**arrays)
+        textures = texture_arrays(part, half_texels=numerics != "scale-invariant")
+        if textures is not None:
+            built.set_textures(**textures)
+        transforms = np.ascontiguousarray(np.concatenate([g.world_from_prototype for g in same]), dtype=np.float64)
+        native.add_instances(built, transforms, rebuild=n == len(groups) - 1)  # the top level once, at the end
 
 
 def render(
@@ -395,15 +430,23 @@ def prepare(
     """``render``'s first half: the C++ scene of ``scene`` in the numerics of ``settings``
     (default ``scene.settings``), built now; the returned object renders when called."""
     s = scene.settings if settings is None else settings
+    scene = linkable(scene)
     # Building the BVH of a big mesh takes seconds and reports no fraction: say so
     # (phongscene.progress.report_phase: a progress callable may have a phase method).
     phase = getattr(progress, "phase", None)
     if callable(phase):
-        phase(f"building the BVH ({scene.triangle_count} triangles)" if scene.meshes else "building the BVH")
+        phase(
+            f"building the BVH ({scene.triangle_count} triangles"
+            + (f", {scene.instance_count} instances" if scene.instances else "")
+            + ")"
+            if scene.meshes or scene.instances
+            else "building the BVH"
+        )
     arrays = scene_arrays(scene)
     if s.numerics != "scale-invariant":
         arrays = _as_povray_stores(arrays, scene)
     native = _finish(_native.Scene(**arrays), scene, half_texels=s.numerics != "scale-invariant")
+    add_instances(native, scene, s.numerics)
     return PreparedRender(native, _camera(scene.camera), _settings(s), progress)
 
 

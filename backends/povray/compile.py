@@ -162,13 +162,18 @@ class UvFrame:
         return np.pad(image, ((0, 0), cols, (0, 0)), mode=PAD_MODES[texture.wrap_s])
 
 
+def all_meshes(scene: Scene) -> tuple[TriangleMesh, ...]:
+    """The world's meshes, then each prototype's (once, however many copies it has)."""
+    return (*scene.meshes, *(m for p in scene.prototypes for m in p.meshes))
+
+
 def uv_frame(scene: Scene) -> UvFrame:
     """The scene's UvFrame: identity if every texture repeats (or none is used), else the box
     around every textured mesh's uvs and [0, 1]², widened by 1/g on each side (beyond the half
     texel a bilinear lookup reaches), unless an extended image would exceed MAX_TILED_TEXELS
     (then identity: POV-Ray's ``once`` is exact for clamp and mirror inside [0, 1]² only)."""
-    textured = [m for m in scene.meshes if m.material.textures and m.uvs is not None and len(m.triangles)]
-    textures = {id(t): t for m in (*scene.spheres, *scene.meshes) for t in m.material.textures}
+    textured = [m for m in all_meshes(scene) if m.material.textures and m.uvs is not None and len(m.triangles)]
+    textures = {id(t): t for m in (*scene.spheres, *all_meshes(scene)) for t in m.material.textures}
     if all((t.wrap_s, t.wrap_t) == ("repeat", "repeat") for t in textures.values()) or not textured:
         return UvFrame()
     used = np.concatenate([m.uvs[np.unique(m.uv_indices)] for m in textured])
@@ -198,7 +203,7 @@ def pov_images(scene: Scene) -> tuple[UvFrame, dict[int, tuple[str, np.ndarray]]
     each texture (tiled over the frame)."""
     frame = uv_frame(scene)
     out: dict[int, tuple[str, np.ndarray]] = {}
-    for obj in (*scene.spheres, *scene.meshes):
+    for obj in (*scene.spheres, *all_meshes(scene)):
         for t in obj.material.textures:
             if id(t) not in out:
                 image = t.image if frame.identity else frame.tile(t)
@@ -240,6 +245,8 @@ def pass_scenes(scene: Scene, mapping: str) -> tuple[Scene, ...]:
     if pass_count(scene, mapping) == 1:
         return (scene,)
     dark = AmbientLight((0.0, 0.0, 0.0), scene.ambient.source)
+    if any(any(m.material.emission) for m in all_meshes(scene)[len(scene.meshes) :]):
+        scene = scene.flattened()  # emissive prototype meshes: darkened below as world meshes
     # Emission, like the ambient term, is drawn once, in pass 0.
     unlit = {}
     for obj in scene.objects:
@@ -459,6 +466,7 @@ class _Compiler:
         for i, intrinsic in enumerate(self.scene.intrinsics):
             self.comment(intrinsic, intrinsic.kind, i)
             self.lines.append(self.intrinsic(intrinsic))
+        self.instances()
         return "\n".join(self.lines) + "\n"
 
     def camera(self) -> None:
@@ -630,7 +638,7 @@ class _Compiler:
     # -- materials -----------------------------------------------------------------------------
 
     def declare_materials(self) -> None:
-        for obj in self.scene.objects:
+        for obj in (*self.scene.objects, *(m for p in self.scene.prototypes for m in p.meshes)):
             m = obj.material
             if m in self.materials:
                 continue
@@ -698,7 +706,7 @@ class _Compiler:
         self.rgb(m.emission, m, "emission")
         pigment = self.diffuse_pigment(m)
         e = self.coef(m.exponent, m, "exponent")
-        ks = self.coef(m.ks, m, "ks")  # checked even where no highlight is written
+        self.coef(m.ks, m, "ks")  # checked even where no highlight is written
         emissive = any(m.emission)
         # With emission, every entry of the average carries twice its share (see emissive_entry).
         k = 2 if emissive else 1
@@ -854,7 +862,48 @@ class _Compiler:
         except NonFiniteNumber as e:
             raise self._error(mesh, attribute, f"cannot be written to mesh2: {e}") from None
 
-    def mesh(self, mesh: TriangleMesh) -> None:
+    def instances(self) -> None:
+        """Each prototype's meshes ``#declare``d once (without a texture), then one ``object``
+        per copy and mesh with the copy's ``matrix`` and the mesh's texture after it (so the
+        texture is not transformed: the exact mapping's slope pigment is in world space, as on
+        every other object; a uv-mapped image follows the mesh's uvs either way)."""
+        declared: dict[int, list[tuple[str, TriangleMesh]]] = {}
+        for p, prototype in enumerate(self.scene.prototypes):
+            names = []
+            for j, mesh in enumerate(prototype.meshes):
+                if not len(mesh.triangles):
+                    continue
+                name = f"Prototype_{p}_{j}"
+                self.comment(mesh, "prototype mesh", j)
+                self.mesh(mesh, declare=name)
+                names.append((name, mesh))
+            declared[id(prototype)] = names
+        for group in self.scene.instances:
+            names = declared[id(group.prototype)]
+            if not names:
+                continue
+            self.lines.append(
+                f"// {len(group)} instances of {sanitize_comment(group.prototype.source) or '(a prototype)'}"
+            )
+            m = group.world_from_prototype
+            # POV's matrix is row-vector (see sphere): the columns of the 3×3 part, then the translation.
+            rows = np.concatenate([m[:, :3, :3].transpose(0, 2, 1).reshape(-1, 9), m[:, :3, 3]], axis=1)
+            if not np.all(np.isfinite(rows)):
+                k = int(np.flatnonzero(~np.isfinite(rows).all(axis=1))[0])
+                raise self._error(group, "world_from_prototype", f"copy {k} is not finite in the SDL")
+            for k in range(len(group)):
+                matrix = ", ".join(map(sdl_float, rows[k]))
+                for name, mesh in names:
+                    # Linking cannot tell the copies apart here (the reader flattens those it would).
+                    texture, modifiers = self.linked(mesh)
+                    self.lines.append(
+                        f"object {{ {name} matrix <{matrix}> texture {{ {texture} }}"
+                        f"{self.interior(mesh.material)}{modifiers} }}"
+                    )
+
+    def mesh(self, mesh: TriangleMesh, declare: str | None = None) -> None:
+        """A mesh2 with its texture, or with ``declare``: ``#declare declare = mesh2 {...}``
+        without one (its instances add it)."""
         if len(mesh.triangles) == 0:
             self.lines.append("// (no triangles)")
             return
@@ -862,7 +911,7 @@ class _Compiler:
         vertices = self.float32_block(mesh, "points", mesh.points - origin if origin.any() else mesh.points)
         normals = self.float32_block(mesh, "normals", mesh.normals) if mesh.normals is not None else None
         out = self.lines
-        out.append("mesh2 {")
+        out.append(f"#declare {declare} = mesh2 {{" if declare else "mesh2 {")
         out.append(f"  vertex_vectors {{ {len(mesh.points)},\n{vertices}\n  }}")
         same_indices = (
             normals is not None
@@ -891,6 +940,7 @@ class _Compiler:
             # A mesh has an inside (for its interior's refraction) only with an inside_vector;
             # any direction does for a closed mesh (POV-Ray counts crossings along it).
             out.append("  inside_vector <0.2718281828, 0.5772156649, 0.7853981634>")
-        texture, modifiers = self.linked(mesh)
-        out.append(f"  texture {{ {texture} }}{self.interior(mesh.material)}{modifiers}")
+        if not declare:
+            texture, modifiers = self.linked(mesh)
+            out.append(f"  texture {{ {texture} }}{self.interior(mesh.material)}{modifiers}")
         out.append("}")

@@ -58,7 +58,7 @@ for i, name in enumerate(names):
     )
 for r in rows:
     print(
-        "%-9s px %4d  median native/cycles %.3f  below 0.25x %.0f%%   without mirror: median %.3f below 0.25x %.0f%%"
+        "%-9s px %4d  median native/cycles %.3f  below 0.25x %.0f%%   without mirror: median %.3f below 0.25x %.0f%%"  # noqa: UP031
         % (r[0], r[1], r[2], 100 * r[3], r[4], 100 * r[5])
     )
 write_image(

@@ -3,7 +3,7 @@
 and the tests call) and ``build_parser``. Each command group has its module, with its parser and
 a thin ``run_<command>`` that calls the public API and prints the result: ``render`` (render,
 compile), ``diff`` (diff, compare), ``info`` (info, validate), ``mesh_import`` (import),
-``bench``; ``frames`` runs --frames for render, compile and diff. The options more than one
+``bench``, ``preview``; ``frames`` runs --frames for render, compile and diff. The options more than one
 command takes, the render overrides among them, are in ``options``; the exit statuses, signals
 and deferred imports in ``process``.
 
@@ -27,6 +27,7 @@ from .diff import add_compare_command, add_diff_command
 from .info import add_info_command, add_validate_command
 from .mesh_import import add_import_command
 from .options import BACKEND_CHOICES, MAPPING_CHOICES, UsageError, check_estimator_options
+from .preview import add_preview_command
 from .process import (
     EXIT_BACKEND,
     EXIT_DIFFERENT,
@@ -70,6 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
         add_render_command,
         add_compile_command,
         add_bench_command,
+        add_preview_command,
     ):
         add_command(sub)
     return parser

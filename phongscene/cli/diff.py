@@ -19,6 +19,7 @@ from .options import (
     add_time_options,
     add_timeout_option,
     overrides_from_args,
+    print_warnings,
     thresholds,
 )
 from .process import EXIT_BACKEND, EXIT_DIFFERENT, EXIT_OK, EXIT_SCENE
@@ -59,9 +60,10 @@ def run_diff(args) -> int:
 
     limits = thresholds(args)
     check_cluster_needs_frames(args)
+    # Before the renders (and before any frame's task): OUTDIR may be new, its parent must exist.
+    check_output_folder(args.outdir)
     if args.frames:
         return _diff_frames(args, limits)
-    check_output_folder(args.outdir)  # before the renders; OUTDIR may be new, its parent must exist
     result = diff(
         args.scene,
         args.outdir,
@@ -71,6 +73,7 @@ def run_diff(args) -> int:
         timeout=args.timeout,
         sandbox=args.sandbox,
     )
+    print_warnings(result.image_warnings)
     s = result.settings
     print(f"{args.scene}: {s.width} x {s.height}, mapping {result.mapping} (native {s.specular})")
     print(f"  povray {result.timings['povray']:.3f} s, native {result.timings['native']:.3f} s")
@@ -122,6 +125,14 @@ def add_compare_command(sub) -> None:
     p.add_argument("a", metavar="A", help="reference image")
     p.add_argument("b", metavar="B", help="image under test")
     p.add_argument("-o", "--outdir", metavar="OUTDIR", help="write the report folder here")
+    p.add_argument(
+        "--metric",
+        choices=("pixel", "flip"),
+        default="pixel",
+        help="pixel: every pixel within the thresholds (default; for two phongscene renders); flip: NVIDIA's "
+        "perceptual FLIP (pip install flip-evaluator), for another renderer's image, whose noise fails "
+        "every pixel test. Both list the failing regions, the worst first",
+    )
     add_threshold_options(p, by_format=True)
     p.set_defaults(func=run_compare)
 
@@ -137,6 +148,8 @@ def run_compare(args) -> int:
     except (PhongSceneError, ValueError) as e:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_SCENE
+    if args.metric == "flip":
+        return _compare_flip(args, a, b, ldr=limits.space.lower() == "srgb")
     try:
         report = compare(a, b, limits)
     except ImageMismatchError as e:
@@ -145,6 +158,8 @@ def run_compare(args) -> int:
     print(f"comparing {args.a} and {args.b}")
     print(f"  thresholds: {why}" + (" (with the options given)" if limits != base else ""))
     print(report.summary())
+    if not report.ok:
+        _print_regions(a, b, limits)
     if args.outdir:
         from ..files import atomic_folder
         from ..report import write_report
@@ -160,4 +175,47 @@ def run_compare(args) -> int:
                 meta={"a": os.path.abspath(args.a), "b": os.path.abspath(args.b)},
             )
         print(f"report: {Path(args.outdir) / index.name}")
+    return EXIT_OK if report.ok else EXIT_DIFFERENT
+
+
+def _print_regions(a, b, limits) -> None:
+    """The failing regions of a pixel comparison, ranked by their total error (a region where an
+    object is wrong before scattered near-black pixels whose relative error is large)."""
+    import numpy as np
+
+    from ..comparison import failing_mask, in_space
+    from ..perceptual import REGION_SIZE, REGIONS_LISTED, failing_regions
+
+    failing = failing_mask(a, b, limits)
+    a_s, b_s = (np.nan_to_num(in_space(x, limits.space).astype(np.float64)) for x in (a, b))
+    regions = failing_regions(np.abs(a_s - b_s).max(axis=2), failing)
+    print(f"  worst regions ({REGION_SIZE} x {REGION_SIZE} tiles, by total absolute error of their failing pixels):")
+    for region in regions[:REGIONS_LISTED]:
+        print(f"    {region}")
+
+
+def _compare_flip(args, a, b, ldr: bool) -> int:
+    from ..comparison import ImageMismatchError
+    from ..perceptual import FLIP_FAIL_PERCENT, flip_compare
+
+    allowed = FLIP_FAIL_PERCENT if args.fail_percent is None else args.fail_percent  # --fail-percent applies
+    try:
+        report = flip_compare(a, b, ldr=ldr, fail_percent=allowed)
+    except ImportError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return EXIT_SCENE
+    except ImageMismatchError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return EXIT_DIFFERENT
+    print(f"comparing {args.a} and {args.b}")
+    print(report.summary())
+    if args.outdir:
+        from ..files import atomic_folder
+        from ..images import write_image
+
+        with atomic_folder(args.outdir) as tmp:
+            import numpy as np
+
+            write_image(tmp / "flip.exr", np.repeat(report.error_map[:, :, None], 3, axis=2).astype(np.float32))
+        print(f"FLIP error map: {Path(args.outdir) / 'flip.exr'}")
     return EXIT_OK if report.ok else EXIT_DIFFERENT

@@ -26,15 +26,31 @@ def frame_overrides(args) -> RenderOverrides:
     return replace(overrides_from_args(args), threads=threads)
 
 
-def run_frames(args, task, arguments, label: str):
-    """Run ``task`` for every frame of ``args.frames``: one frame in this process, more on Dask.
-    The stage is read once here first (at the first frame), so a bad file is one error before
-    any cluster starts, and its warnings are printed once."""
+def frames_to_run(args, output_of) -> tuple[int, ...]:
+    """``args.frames``, less those whose output (``output_of(frame)``) exists when
+    --skip-existing is given (outputs are written atomically: one that exists is whole), with how
+    many were skipped said."""
+    if not getattr(args, "skip_existing", False):
+        return args.frames
+    todo = tuple(f for f in args.frames if not os.path.exists(output_of(f)))
+    if len(todo) < len(args.frames):
+        print(
+            f"{args.scene}: {len(args.frames) - len(todo)} of {len(args.frames)} frames skipped, their outputs "
+            f"exist (--skip-existing){'' if todo else ': nothing to do'}"
+        )
+    return todo
+
+
+def run_frames(args, task, arguments, label: str, frames: tuple[int, ...] | None = None):
+    """Run ``task`` for every frame of ``frames`` (default ``args.frames``): one frame in this
+    process, more on Dask. The stage is read once here first (at the first frame), so a bad file
+    is one error before any cluster starts, and its warnings are printed once."""
     from ..dask_runtime import TASK_RETRIES, run_frames, run_serially
     from ..progress import ProgressBar
     from ..rendering import load_scene
 
-    _, warnings = load_scene(args.scene, time=float(args.frames[0]))
+    frames = args.frames if frames is None else frames
+    _, warnings = load_scene(args.scene, time=float(frames[0]), camera=getattr(args, "camera", None))
     print_warnings(warnings)
     bar = ProgressBar("frames")
 
@@ -43,17 +59,11 @@ def run_frames(args, task, arguments, label: str):
             print(f"error: frame {frame}: {error}", file=sys.stderr)
 
     # One frame, no cluster asked for: this process (a cluster's start-up would cost more).
-    if len(args.frames) == 1 and not (args.scheduler or args.workers):
-        run = run_serially(task, args.frames, arguments, progress=bar, on_frame=on_frame)
+    if len(frames) == 1 and not (args.scheduler or args.workers):
+        run = run_serially(task, frames, arguments, progress=bar, on_frame=on_frame)
     else:
         run = run_frames(
-            task,
-            args.frames,
-            arguments,
-            scheduler=args.scheduler,
-            workers=args.workers,
-            progress=bar,
-            on_frame=on_frame,
+            task, frames, arguments, scheduler=args.scheduler, workers=args.workers, progress=bar, on_frame=on_frame
         )
     bar.done(run.seconds)
     # Warnings the first frame did not have (a light that clips only later, ...), once each.
@@ -68,7 +78,7 @@ def run_frames(args, task, arguments, label: str):
         if run.cluster
         else "in this process"
     )
-    print(f"{args.scene}: {len(run.results)} of {len(args.frames)} {label} {where} in {run.seconds:.2f} s")
+    print(f"{args.scene}: {len(run.results)} of {len(frames)} {label} {where} in {run.seconds:.2f} s")
     if run.failures:
         print(
             f"error: frames failed (each tried {1 + TASK_RETRIES} times): {', '.join(map(str, sorted(run.failures)))}",

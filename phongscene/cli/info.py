@@ -20,6 +20,7 @@ def add_info_command(sub) -> None:
         epilog="Exit codes: 0 ok, 2 the scene is invalid (one problem per line on stderr).",
     )
     p.add_argument("scene", metavar="SCENE", nargs="?", help=SCENE_HELP)
+    p.add_argument("--camera", metavar="PATH", help="show the scene as seen through this Camera prim")
     p.add_argument(
         "--usd-plugin-path",
         action="store_true",
@@ -39,13 +40,14 @@ def run_info(args) -> int:
         raise UsageError("info needs SCENE (or --usd-plugin-path)")
     from ..usd import read_usd
 
-    result = read_usd(args.scene)
+    result = read_usd(args.scene, camera=args.camera)
     scene = result.scene
     print(f"file: {scene.source_file}")
     print("prims -> model nodes:")
     for prim, node in result.nodes:
         print(f"  {prim} -> {node}")
-    materials = {m.material for m in (*scene.spheres, *scene.meshes)}  # equal materials count once
+    prototype_meshes = tuple(m for p in scene.prototypes for m in p.meshes)
+    materials = {m.material for m in (*scene.spheres, *scene.meshes, *prototype_meshes)}  # equal materials count once
     kinds: dict[str, int] = {}
     for light in scene.lights:
         kinds[type(light).__name__] = kinds.get(type(light).__name__, 0) + 1
@@ -54,6 +56,12 @@ def run_info(args) -> int:
         f"{len(scene.lights)} lights ({', '.join(f'{n} {k}' for k, n in sorted(kinds.items())) or 'none'}), "
         f"{len(materials)} materials"
     )
+    if scene.instances:
+        # Triangles above are stored ones (each prototype once); a flattened copy would hold these.
+        print(
+            f"instancing: {len(scene.prototypes)} prototypes, {scene.instance_count} instances, "
+            f"{scene.instanced_triangle_count} triangles drawn"
+        )
     textured = [m for m in materials if m.textures]
     if textured:
         print("textures:")
@@ -86,6 +94,9 @@ def run_info(args) -> int:
         f"camera: {cam.source or '(model default)'}: {cam.projection}, {extent}, position {_vector(cam.position)}, "
         f"forward {_vector(cam.forward)}, up {_vector(cam.up)}"
     )
+    print(f"cameras ({len(result.cameras)}; --camera PATH chooses one):" if result.cameras else "cameras: none")
+    for path in result.cameras:
+        print(f"  {path}{'  (used)' if path == cam.source else ''}")
     s = scene.settings
     print(
         f"settings: {s.source or '(defaults)'}: {s.width}x{s.height}, samples {s.samples} ({s.sample_pattern}"

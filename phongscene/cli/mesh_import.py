@@ -12,8 +12,10 @@ def add_import_command(sub) -> None:
     p = sub.add_parser(
         "import",
         help="convert a mesh file (OBJ, PLY, STL, GLB, ...) to a USD scene",
-        description="Read MESHFILE with trimesh and write a USD file with one Mesh (subdivisionScheme none) "
-        "bound to a default Phong material. Normals: the file's when it has them, else smooth across "
+        description="Read MESHFILE with trimesh and write a USD file with one Mesh (subdivisionScheme none) per "
+        "object of the file (a GLB's nodes, named after them), bound to a default Phong material; a part with its "
+        "own colours (PLY vertex or face colours, a GLB material's base colour) keeps them as displayColor "
+        "instead. Normals: the file's when it has them, else smooth across "
         "edges and split at creases (faces meeting at more than --crease-angle). The scene has no camera or "
         "lights, so renderers use the framing camera and the head light.",
         epilog="Exit codes: 0 ok, 2 unreadable input or bad output path.",

@@ -155,6 +155,12 @@ def add_override_options(
     from ..scene import SAMPLE_PATTERNS
 
     add_mapping_option(p, mapping_help, mapping_default)
+    p.add_argument(
+        "--camera",
+        metavar="PATH",
+        help="the Camera prim to render through, e.g. /World/Cam (default: the "
+        "RenderSettings' camera, else the stage's first; `phongscene info` lists them)",
+    )
     p.add_argument("--width", type=image_side, metavar="W", help="image width (alone: keeps the aspect ratio)")
     p.add_argument("--height", type=image_side, metavar="H", help="image height (alone: keeps the aspect ratio)")
     p.add_argument("--spp", dest="samples", type=_samples_per_axis, metavar="N", help=spp_help)
@@ -200,18 +206,39 @@ def add_timeout_option(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS", help=help)
 
 
-def add_time_options(p: argparse.ArgumentParser, output: str) -> None:
+def add_single_time_option(p: argparse.ArgumentParser) -> None:
+    """--time alone (a command with no --frames: preview)."""
+    p.add_argument("--time", type=_time_code, metavar="T", help="read the stage at USD time code T")
+
+
+def add_time_options(
+    p: argparse.ArgumentParser, output: str, *, skip_existing: bool = False, contact_sheet: bool = False
+) -> None:
     group = p.add_argument_group("time (an animated stage; default: its start time, with a warning)")
     when = group.add_mutually_exclusive_group()
     when.add_argument("--time", type=_time_code, metavar="T", help="read the stage at USD time code T")
     when.add_argument(
         "--frames",
         type=_frame_range,
-        metavar="START:END[:STEP]",
-        help=f"frames START, START+STEP, ... END (whole time codes): {output}. Frames run as Dask "
-        "tasks: a LocalCluster here, or --scheduler",
+        metavar="FRAMES",
+        help=f"whole time codes, usdrecord's way: N, START:END, START:ENDxSTRIDE (1:9x4 is 1, 5, 9) or "
+        f"START:END:STEP, several separated by commas: {output}. Frames run as Dask tasks: a "
+        "LocalCluster here, or --scheduler",
     )
     add_cluster_options(group, "with --frames: ", "one per core")
+    if skip_existing:
+        group.add_argument(
+            "--skip-existing",
+            action="store_true",
+            help="with --frames: do not redo a frame whose output exists (outputs are written "
+            "atomically, so one that exists is whole): resume an interrupted run",
+        )
+    if contact_sheet:
+        group.add_argument(
+            "--contact-sheet",
+            metavar="SHEET",
+            help="with --frames: also write a grid of the frames, each labelled, as one image (.png or .exr)",
+        )
 
 
 def add_cluster_options(group, which: str, default_workers: str) -> None:
@@ -317,12 +344,13 @@ def print_warnings(warnings, stream=None, *, every: bool = False) -> None:
         print(f"warning: {line}", file=sys.stderr if stream is None else stream)
 
 
-def scene_and_settings(args):
+def scene_and_settings(args, with_warnings: bool = False):
     """The scene of ``args.scene`` (its warnings printed) and its settings with the command's
-    overrides."""
+    overrides (and, ``with_warnings``, the reader's warnings: the image checks read them)."""
     from ..rendering import load_scene
 
     overrides = overrides_from_args(args)
-    scene, warnings = load_scene(args.scene, time=overrides.time)
+    scene, warnings = load_scene(args.scene, time=overrides.time, camera=overrides.camera)
     print_warnings(warnings)
-    return overrides.apply(scene)
+    scene, settings = overrides.apply(scene)
+    return (scene, settings, warnings) if with_warnings else (scene, settings)

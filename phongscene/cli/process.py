@@ -31,6 +31,7 @@ PREIMPORTS = {
     # OpenImageIO's libraries (~32 MiB resident) only once the C++ scene is freed, for the write
     # (cli/render.py): imported first, they sat under the BVH build's peak (benchmarks/README.md).
     "render": ("pxr.Usd",),
+    "preview": ("pxr.Usd", "OpenImageIO"),
 }
 
 

@@ -8,7 +8,14 @@ import os
 from pathlib import Path
 
 from ..errors import PhongSceneError
-from .frames import check_cluster_needs_frames, check_frame_pattern, frame_overrides, output_at_time, run_frames
+from .frames import (
+    check_cluster_needs_frames,
+    check_frame_pattern,
+    frame_overrides,
+    frames_to_run,
+    output_at_time,
+    run_frames,
+)
 from .options import (
     BACKEND_CHOICES,
     UsageError,
@@ -16,6 +23,7 @@ from .options import (
     add_scene_argument,
     add_time_options,
     add_timeout_option,
+    print_warnings,
     scene_and_settings,
 )
 from .process import EXIT_BACKEND, EXIT_OK, preimport
@@ -47,13 +55,16 @@ def add_render_command(sub) -> None:
         help="how a .png encodes the linear image: srgb (default: clip, sRGB), book (Suffern's display: "
         "max_to_one, gamma 1, truncation) or book-gamut (its out-of-gamut red instead of max_to_one)",
     )
-    add_time_options(p, "one image per frame, #### in IMAGE becomes the frame number")
+    add_time_options(
+        p, "one image per frame, #### in IMAGE becomes the frame number", skip_existing=True, contact_sheet=True
+    )
     p.set_defaults(func=run_render)
 
 
 def run_render(args) -> int:
     import time
 
+    from ..diagnostics import ImageChecks
     from ..files import check_output
     from ..images import WRITABLE, write_image
     from ..memory import release_free_heap
@@ -77,12 +88,13 @@ def run_render(args) -> int:
     bar = ProgressBar(args.backend)
     start = time.perf_counter()
     bar.phase(f"reading {Path(args.scene).name}")  # a big USD file takes seconds
-    scene, settings = scene_and_settings(args)
+    scene, settings, warnings = scene_and_settings(args, with_warnings=True)
     # Peak memory (benchmarks/memory_stages.py): what the reader freed, then the model once the
     # C++ scene holds its own copy, then the C++ scene before OpenImageIO's import and the write,
     # each handed back to the system as soon as it is garbage.
     release_free_heap()
     render = prepare_render(scene, args.backend, settings, progress=bar, timeout=args.timeout)
+    checks = ImageChecks.of(scene, settings, warnings)  # what the image checks need, before the scene is freed
     del scene
     release_free_heap()
     image = render()
@@ -91,26 +103,47 @@ def run_render(args) -> int:
     bar.done(time.perf_counter() - start)
     preimport(("OpenImageIO",))
     write_image(args.output, image, display=args.display)
+    print_warnings(checks.warnings(image))
     print(f"{args.output}: {settings.width} x {settings.height}, {args.backend}, specular {settings.specular}")
     return EXIT_OK
 
 
 def _render_frames(args) -> int:
     from ..animation import frame_name, render_frame
+    from ..files import check_output
+    from ..images import WRITABLE
 
     check_frame_pattern(args.output, "out.####.exr")
+    # One check of the folder every frame writes into, before any task (not one error per frame).
+    check_output(frame_name(args.output, args.frames[0]))
+    if args.contact_sheet is not None:
+        if not args.contact_sheet.lower().endswith(WRITABLE):
+            raise UsageError(f"{args.contact_sheet}: the contact sheet must end in one of {', '.join(WRITABLE)}")
+        check_output(args.contact_sheet)
     overrides = frame_overrides(args)
     scene = os.path.abspath(args.scene)
-    run = run_frames(
-        args,
-        render_frame,
-        lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), args.backend, overrides),
-        "frames rendered",
-    )
-    if run.results:
-        m = next(iter(run.results.values()))
-        print(f"{args.output}: {m['width']} x {m['height']}, {args.backend}, specular {m['specular']}")
-    return EXIT_BACKEND if run.failures else EXIT_OK
+    frames = frames_to_run(args, lambda f: frame_name(args.output, f))
+    failed = False
+    if frames:
+        run = run_frames(
+            args,
+            render_frame,
+            lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), args.backend, overrides),
+            "frames rendered",
+            frames,
+        )
+        if run.results:
+            m = next(iter(run.results.values()))
+            print(f"{args.output}: {m['width']} x {m['height']}, {args.backend}, specular {m['specular']}")
+        failed = bool(run.failures)
+    if args.contact_sheet is not None:
+        from ..contact_sheet import write_contact_sheet
+
+        present = [(f, frame_name(args.output, f)) for f in args.frames if os.path.exists(frame_name(args.output, f))]
+        if present:
+            sheet = write_contact_sheet(args.contact_sheet, present)
+            print(f"{sheet}: contact sheet of {len(present)} frames")
+    return EXIT_BACKEND if failed else EXIT_OK
 
 
 def add_compile_command(sub) -> None:
@@ -129,7 +162,7 @@ def add_compile_command(sub) -> None:
         mapping_help="exact (the seed model, one pass per light) or classic (one plain POV-Ray "
         "finish per material); default: the scene's specular convention",
     )
-    add_time_options(p, "a .pov and an .ini per frame, #### in OUT.pov becomes the frame number")
+    add_time_options(p, "a .pov and an .ini per frame, #### in OUT.pov becomes the frame number", skip_existing=True)
     p.set_defaults(func=run_compile)
 
 
@@ -137,6 +170,7 @@ def run_compile(args) -> int:
     import shlex
 
     from ..backends.povray import MAPPING_OF_SPECULAR, pov_quoted, prepare
+    from ..diagnostics import ImageChecks
     from ..files import atomic_files, check_output
     from ..rendering import check_settings
 
@@ -155,6 +189,7 @@ def run_compile(args) -> int:
     check_output(out)
     scene, settings = scene_and_settings(args)
     job = prepare(scene, check_settings(scene, settings), args.mapping)
+    print_warnings(ImageChecks.of(scene, settings).model_warnings())  # the image to come shows nothing
     with atomic_files(out, ini) as (tmp_pov, tmp_ini):  # both appear, or neither
         tmp_pov.write_text(job.sdl, encoding="ascii")
         tmp_ini.write_text(job.ini(out.name, image.name), encoding="ascii")
@@ -173,15 +208,21 @@ def run_compile(args) -> int:
 
 def _compile_frames(args) -> int:
     from ..animation import compile_frame, frame_name
+    from ..files import check_output
 
     check_frame_pattern(args.output, "out.####.pov")
+    check_output(frame_name(args.output, args.frames[0]))  # the one folder of every frame, before any task
     overrides = frame_overrides(args)
     scene = os.path.abspath(args.scene)
+    frames = frames_to_run(args, lambda f: frame_name(args.output, f))
+    if not frames:
+        return EXIT_OK
     run = run_frames(
         args,
         compile_frame,
         lambda f: (scene, f, os.path.abspath(frame_name(args.output, f)), overrides),
         "frames compiled",
+        frames,
     )
     for frame in sorted(run.results):
         print(f"  {run.results[frame]['output']}")

@@ -102,6 +102,18 @@ def conform_to_aperture(ctx: ReadContext, prim: Usd.Prim, settings: RenderSettin
     return settings
 
 
+def choose_camera(ctx: ReadContext, path: str, cameras: list[str]) -> Usd.Prim | None:
+    """The Camera prim at ``path`` (the CLI's --camera), or a problem naming it and the stage's
+    cameras (``cameras``, those the traversal found) and None."""
+    prim = ctx.stage.GetPrimAtPath(path) if isinstance(path, str) and path.startswith("/") else None
+    if prim and prim.IsA(UsdGeom.Camera):
+        return prim
+    found = ("the stage's cameras: " + ", ".join(cameras)) if cameras else "the stage has no camera"
+    what = f"is a {prim.GetTypeName() or 'typeless prim'}, not a Camera" if prim else "no such prim"
+    ctx.problem(path, "", f"the camera asked for (--camera): {what}; {found}")
+    return None
+
+
 def read_camera(ctx: ReadContext, prim: Usd.Prim) -> Camera | None:
     cam = UsdGeom.Camera(prim)
     world = ctx.world(prim)

@@ -52,7 +52,11 @@ class ReadContext:
     """Problems, warnings and transforms for one stage being read."""
 
     def __init__(
-        self, stage: Usd.Stage, file: str, time: Usd.TimeCode = Usd.TimeCode.Default(), types: dict | None = None
+        self,
+        stage: Usd.Stage,
+        file: str,
+        time: Usd.TimeCode = Usd.TimeCode.Default(),  # noqa: B008 (an immutable value)
+        types: dict | None = None,
     ):
         self.stage = stage
         self.file = file

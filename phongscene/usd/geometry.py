@@ -605,3 +605,44 @@ def primitive(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: Pho
     if _winding_flipped(world):
         triangles = triangles[:, [0, 2, 1]]
     return TriangleMesh(_to_world(np.asarray(tm.vertices), world), triangles, material=material, source=path)
+
+
+# A Points prim without ``widths`` (USD leaves the size to the renderer): spheres of this
+# diameter, in the prim's units, with a warning.
+DEFAULT_POINT_WIDTH = 1.0
+
+
+def points(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial) -> list[Sphere]:
+    """``UsdGeom.Points`` as analytic spheres: one per point, of diameter ``widths`` (constant:
+    one value; vertex or varying: one per point), ``world · translate(p) · scale(w/2)``."""
+    path = str(prim.GetPath())
+    p = ctx.get(prim, "points", ("point3f[]", "point3d[]", "float3[]", "double3[]"))
+    if p is None or not len(p):
+        return []
+    p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+    if not np.isfinite(p).all():
+        ctx.problem(prim, "points", f"{int(np.count_nonzero(~np.isfinite(p).all(axis=1)))} points are not finite")
+        return []
+    if not np.all(np.isfinite(world)) or is_singular(world[:3, :3]):
+        ctx.problem(prim, "xformOpOrder", "the transform is not finite or singular")
+        return []
+    widths = ctx.get(prim, "widths", ("float[]", "double[]", "half[]"))
+    if widths is None or not len(widths):
+        ctx.unsupported[f"Points without widths (spheres of diameter {DEFAULT_POINT_WIDTH:g})"].append(path)
+        w = np.full(len(p), DEFAULT_POINT_WIDTH)
+    else:
+        w = np.asarray(widths, dtype=np.float64)
+        if len(w) == 1:
+            w = np.full(len(p), w[0])
+        elif len(w) != len(p):
+            ctx.problem(prim, "widths", f"has {len(w)} values, expected 1 (constant) or {len(p)} (one per point)")
+            return []
+        if not (np.isfinite(w).all() and (w >= 0).all()):
+            ctx.problem(prim, "widths", "values must be finite and >= 0")
+            return []
+    out = []
+    for k in np.flatnonzero(w > 0):  # a zero width draws nothing
+        local = np.diag([w[k] / 2, w[k] / 2, w[k] / 2, 1.0])
+        local[:3, 3] = p[k]
+        out.append(Sphere(world @ local, material, path))
+    return out

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
 from pxr import Sdf, Usd, UsdLux
 
 from ..scene import Linking, Scene
@@ -34,7 +35,11 @@ UNSUPPORTED_INPUTS = {
 
 
 def link_lights(ctx: ReadContext, stage: Usd.Stage, scene: Scene) -> Scene:
-    """``scene`` with each light's ``Linking`` from its prim on ``stage``."""
+    """``scene`` with each light's ``Linking`` from its prim on ``stage``. Instances whose copies
+    a light or shadow link collection tells apart (it leaves some copy out) are flattened first,
+    each copy named by its own prim (docs/instancing.md): the backends link world geometry."""
+    if scene.instances and _links_tell_copies_apart(stage, scene):
+        scene = _flattened_per_copy(scene)
     sources = [obj.source for obj in scene.objects]
     paths = [Sdf.Path(s) if Sdf.Path.IsValidPathString(s) else None for s in sources]
     lights = []
@@ -51,6 +56,47 @@ def link_lights(ctx: ReadContext, stage: Usd.Stage, scene: Scene) -> Scene:
         )
         lights.append(light if linking.default else replace(light, linking=linking))
     return replace(scene, lights=tuple(lights))
+
+
+def _copy_meshes(scene: Scene):
+    """(group, k, mesh, source) for every mesh of every instance copy, ``source`` naming that
+    copy's prim: the copy's prim plus the mesh's path below the prototype's root."""
+    for group in scene.instances:
+        root = group.prototype.source
+        for mesh in group.prototype.meshes:
+            suffix = mesh.source[len(root) :] if root and mesh.source.startswith(root) else ""
+            for k in range(len(group)):
+                yield group, k, mesh, (group.source_of(k) + suffix if group.source_of(k) else mesh.source)
+
+
+def _links_tell_copies_apart(stage: Usd.Stage, scene: Scene) -> bool:
+    """Whether some light's lightLink or shadowLink leaves out some geometry (a world node or an
+    instance copy) while the scene has instances."""
+    sources = [obj.source for obj in scene.objects] + [source for *_, source in _copy_meshes(scene)]
+    paths = [Sdf.Path(s) for s in set(sources) if Sdf.Path.IsValidPathString(s)]
+    for light in scene.lights:
+        prim = stage.GetPrimAtPath(light.source) if Sdf.Path.IsValidPathString(light.source) else None
+        if not prim or not prim.HasAPI(UsdLux.LightAPI):
+            continue
+        api = UsdLux.LightAPI(prim)
+        for collection in (api.GetLightLinkCollectionAPI(), api.GetShadowLinkCollectionAPI()):
+            query = collection.ComputeMembershipQuery()
+            if not all(query.IsPathIncluded(p) for p in paths):
+                return True
+    return False
+
+
+def _flattened_per_copy(scene: Scene) -> Scene:
+    """``scene.flattened()`` with each copy's meshes named by the copy's prim."""
+    meshes = list(scene.meshes)
+    for group, k, mesh, source in _copy_meshes(scene):
+        a, t = group.world_from_prototype[k][:3, :3], group.world_from_prototype[k][:3, 3]
+        normals = mesh.normals
+        if normals is not None:
+            normals = normals @ np.linalg.inv(a)
+            normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+        meshes.append(replace(mesh, points=mesh.points @ a.T + t, normals=normals, source=source))
+    return replace(scene, meshes=tuple(meshes), instances=())
 
 
 def _shadows(ctx: ReadContext, prim: Usd.Prim) -> bool:

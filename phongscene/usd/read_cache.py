@@ -54,6 +54,7 @@ class KeptRead:
     nodes: tuple[tuple[str, str], ...]
     usd_text: str  # what USD printed while the stage was read (each read makes warnings of it)
     assets: tuple[tuple[str, tuple | None], ...]  # (file as the reader opens it, its state)
+    cameras: tuple[str, ...] = ()  # every camera prim of the stage (ReadResult.cameras)
 
 
 class ReadCache:

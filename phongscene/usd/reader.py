@@ -27,9 +27,10 @@ from ..errors import Problem, SceneError, SceneFileNotFoundError
 from ..scene import AmbientLight, Camera, Intrinsic, RenderSettings, Scene, framing_camera, head_light
 from ..validate import validate
 from . import geometry
-from .camera import conform_to_aperture, read_camera, read_render_settings
-from .context import ReadContext, gf_to_numpy, tf_error_text
+from .camera import choose_camera, conform_to_aperture, read_camera, read_render_settings
+from .context import ReadContext, tf_error_text
 from .diagnostics import as_warnings, usd_output
+from .instancing import Instancing
 from .layers import preflight
 from .lights import read_light
 from .linking import link_lights
@@ -40,7 +41,7 @@ from .read_parts import EveryPart, RecordParts, Redo
 from .scene_checks import warn_clipping_lights, warn_single_sided
 from .stage_checks import check_stage
 
-_GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cylinder_1", "Cone", "Capsule"}
+_GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Points"}
 
 
 @dataclass
@@ -50,9 +51,10 @@ class ReadResult:
     scene: Scene
     warnings: list[str] = field(default_factory=list)
     nodes: list[tuple[str, str]] = field(default_factory=list)  # (prim path, model node)
+    cameras: list[str] = field(default_factory=list)  # every Camera prim that renders, in stage order
 
 
-def load_usd(source, time: float | None = None) -> Scene:
+def load_usd(source, time: float | None = None, camera: str | None = None) -> Scene:
     """Read a USD file (.usda/.usdc/.usdz) or an open ``Usd.Stage`` into a validated Scene.
 
     Args:
@@ -60,11 +62,13 @@ def load_usd(source, time: float | None = None) -> Scene:
         time: the USD time code to read every value at (camera, lights, materials, visibility,
             transforms; USD interpolates between time samples). None: the stage's start time
             when it is animated (with a warning), else its default values.
+        camera: the path of the Camera prim to render through; None: the RenderSettings'
+            camera, else the stage's first (with a warning when it has more than one).
 
     Raises:
         SceneError: listing every problem found, each with file, prim path and attribute.
     """
-    return read_usd(source, time=time).scene
+    return read_usd(source, time=time, camera=camera).scene
 
 
 @dataclass(eq=False)
@@ -97,12 +101,14 @@ def open_stage(path) -> OpenStage:
     return OpenStage(stage, file, "".join(texts))
 
 
-def read_usd(source, time: float | None = None) -> ReadResult:
+def read_usd(source, time: float | None = None, camera: str | None = None) -> ReadResult:
     """Like ``load_usd`` but also returns the warnings and the prim → node mapping. ``source``
     may also be an ``OpenStage`` (``open_stage``): read at a time, a stage nothing of which
     varies in time gives its first read again (``read_cache``), and one where only lights' and
-    gprims' own inputs vary reads only those again (``read_parts``)."""
-    cache = source.reads if isinstance(source, OpenStage) else None
+    gprims' own inputs vary reads only those again (``read_parts``). ``camera``: the path of the
+    Camera prim to render through (the CLI's --camera; None: the RenderSettings' camera, else the
+    stage's first, with a warning when it has more than one); such reads are not cached."""
+    cache = source.reads if isinstance(source, OpenStage) and camera is None else None
     if cache is not None:
         cache.survey(source.stage)  # once per stage
     texts: list[str] = []
@@ -122,20 +128,25 @@ def read_usd(source, time: float | None = None) -> ReadResult:
         if kept is None:
             try:
                 try:
-                    result = _read(opened, code, parts or EveryPart())
+                    result = _read(opened, code, parts or EveryPart(), camera)
                 except Redo:
                     parts = None
-                    result = _read(opened, code, EveryPart())
+                    result = _read(opened, code, EveryPart(), camera)
             except Tf.ErrorException as e:
                 # A value USD itself cannot produce while we read it (where no prim-level check
                 # caught it first): one error naming the file, not a traceback.
                 raise SceneError(Problem(f"USD could not read a value: {tf_error_text(e)}", file=file)) from None
     read_text = "".join(texts)
     if kept is not None:
-        result = ReadResult(kept.scene, list(kept.warnings), list(kept.nodes))
+        result = ReadResult(kept.scene, list(kept.warnings), list(kept.nodes), list(kept.cameras))
         read_text = kept.usd_text + read_text
     elif assets is not None:
-        cache.keep(code, KeptRead(result.scene, tuple(result.warnings), tuple(result.nodes), read_text, assets))
+        cache.keep(
+            code,
+            KeptRead(
+                result.scene, tuple(result.warnings), tuple(result.nodes), read_text, assets, tuple(result.cameras)
+            ),
+        )
         if isinstance(parts, RecordParts):
             cache.keep_parts(code, parts, assets)
     # As a read of the file gives them: which time is read first, USD's diagnostics last.
@@ -144,7 +155,7 @@ def read_usd(source, time: float | None = None) -> ReadResult:
     return result
 
 
-def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult:
+def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart, chosen: str | None = None) -> ReadResult:
     stage, file = opened.stage, opened.file
     ctx = ReadContext(stage, file, code, opened.types)
     if opened.checks is None:
@@ -155,29 +166,48 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
         ctx.problems.extend(opened.checks[0])
         ctx.warnings.extend(opened.checks[1])
     settings, camera_prim = read_render_settings(ctx)
-    camera, lights, ambient, spheres, meshes = None, [], [], [], []
+    named_camera = camera_prim is not None  # the RenderSettings' camera
+    camera, lights, ambient, spheres, meshes, cameras = None, [], [], [], [], []
     # Each light and gprim is read through ``parts``: anew, or replayed from a stage's first read.
     materials = parts.materials(ctx)
     parts.start(ctx, (lights, ambient, spheres, meshes))
 
     it = iter(Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
     renderable = _Renderable(ctx)
+    instancing = Instancing(
+        ctx,
+        lambda prim, world, spheres, meshes: _gprim(ctx, prim, world, materials, spheres, meshes),
+        lambda: _Renderable(ctx),
+    )
     for prim in it:
         if not renderable(prim):
             it.PruneChildren()
             continue
         _warm_transform(ctx, prim)
-        if prim.IsA(UsdGeom.Camera):
+        if prim.IsInstance() and instancing.keeps_instanced(prim):
+            it.PruneChildren()  # the prototype is read once, for every instance
+            parts.read(prim, lambda: instancing.instance(prim, ctx.world(prim)), keep=False)
+        elif prim.IsA(UsdGeom.Camera):
+            cameras.append(str(prim.GetPath()))
             if camera_prim is None:
                 camera_prim = prim
         elif prim.HasAPI(UsdLux.LightAPI):
             parts.read(prim, lambda: read_light(ctx, prim, lights, ambient))
         elif prim.IsA(UsdGeom.PointInstancer):
             it.PruneChildren()  # its prototypes may be anywhere: read at every time
-            parts.read(prim, lambda: _instances(ctx, prim, ctx.world(prim), materials, spheres, meshes), keep=False)
+            parts.read(prim, lambda: instancing.instancer(prim, ctx.world(prim)), keep=False)
         elif prim.IsA(UsdGeom.Gprim):
             parts.read(prim, lambda: _gprim(ctx, prim, ctx.world(prim), materials, spheres, meshes))
 
+    if chosen is not None:
+        camera_prim = choose_camera(ctx, chosen, cameras)
+    elif len(cameras) > 1 and not named_camera:
+        ctx.warn(
+            f"the stage has {len(cameras)} cameras ({', '.join(cameras[:5])}{' ...' if len(cameras) > 5 else ''}) "
+            f"and none is chosen: using the first, {camera_prim.GetPath()} (choose one with --camera PATH, or "
+            "a RenderSettings camera)"
+        )
+    instances = instancing.build(spheres, meshes)
     if camera_prim is not None:
         camera = read_camera(ctx, camera_prim)
         if camera is not None:
@@ -201,6 +231,7 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
         intrinsics=tuple(m for m in meshes if isinstance(m, Intrinsic)),
         settings=settings,
         source_file=file,
+        instances=instances,
     )
     if camera is None:
         scene = replace(scene, camera=framing_camera(scene))
@@ -221,7 +252,7 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart) -> ReadResult
     problems = ctx.problems + [p for p in found if (p.prim, p.attribute) not in reported]
     if problems:
         raise SceneError(problems)
-    return ReadResult(scene, ctx.warnings, ctx.nodes)
+    return ReadResult(scene, ctx.warnings, ctx.nodes, cameras)
 
 
 def _time_to_read(stage: Usd.Stage, time: float | None) -> tuple[Usd.TimeCode, str]:
@@ -363,6 +394,11 @@ def _gprim(
         spheres.append(geometry.sphere(ctx, prim, world, material))
         ctx.nodes.append((path, "Sphere"))
         return
+    if type_name == "Points":
+        placed = geometry.points(ctx, prim, world, material)
+        spheres.extend(placed)
+        ctx.nodes.append((path, f"Points ({len(placed)} spheres)"))
+        return
     if type_name == "Mesh":
         subsets = materials.face_subsets(prim)
         textured = [m for m in (material, *(m for _, m, _ in subsets)) if m.textures]
@@ -384,53 +420,3 @@ def _gprim(
     for mesh in built:
         meshes.append(mesh)
         ctx.nodes.append((mesh.source, f"TriangleMesh ({len(mesh.triangles)} triangles)"))
-
-
-def _instances(
-    ctx: ReadContext, instancer_prim: Usd.Prim, instancer_world: np.ndarray, materials, spheres, meshes, expanding=()
-) -> None:
-    """Expand a PointInstancer: each instance's prototype subtree, placed by the instance's
-    transform (which includes the prototype root's own transform) and the instancer's.
-    ``expanding`` are the instancers being expanded around this one: a prototype that contains
-    one of them (or this one) would recurse forever, and is a problem."""
-    instancer = UsdGeom.PointInstancer(instancer_prim)
-    prototypes = instancer.GetPrototypesRel().GetForwardedTargets()
-    expanding = (*expanding, instancer_prim.GetPath())
-    for target in prototypes:
-        if any(path.HasPrefix(target) for path in expanding):
-            ctx.problem(instancer_prim, "prototypes", f"the prototype {target} contains this instancer (a cycle)")
-            return
-    proto_indices = instancer.GetProtoIndicesAttr().Get(ctx.time)
-    if proto_indices is None or not prototypes:
-        return
-    proto_indices = np.asarray(proto_indices, dtype=np.int64)
-    bad = (proto_indices < 0) | (proto_indices >= len(prototypes))
-    if bad.any():
-        ctx.problem(instancer_prim, "protoIndices", f"{int(bad.sum())} indices out of range [0, {len(prototypes)})")
-        return
-    transforms = instancer.ComputeInstanceTransformsAtTime(
-        ctx.time, ctx.time, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
-    )
-    mask = instancer.ComputeMaskAtTime(ctx.time)
-
-    for i, (proto_index, instance) in enumerate(zip(proto_indices, transforms)):
-        if mask and not mask[i]:
-            continue
-        proto = ctx.stage.GetPrimAtPath(prototypes[proto_index])
-        # instancer-world ← instance ← prototype-root-relative
-        placed = instancer_world @ gf_to_numpy(instance)
-        it = iter(Usd.PrimRange(proto, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
-        renderable = _Renderable(ctx)
-        for prim in it:
-            if not renderable(prim):
-                it.PruneChildren()
-                continue
-            relative, _ = ctx.xforms.ComputeRelativeTransform(prim, proto)
-            local = gf_to_numpy(relative) if prim != proto else np.eye(4)
-            if prim.IsA(UsdGeom.PointInstancer):
-                it.PruneChildren()
-                _instances(ctx, prim, placed @ local, materials, spheres, meshes, expanding)
-            elif prim.IsA(UsdGeom.Gprim):
-                _gprim(ctx, prim, placed @ local, materials, spheres, meshes)
-            elif prim.HasAPI(UsdLux.LightAPI):
-                ctx.unsupported["lights inside PointInstancer prototypes (ignored)"].append(str(prim.GetPath()))

@@ -31,14 +31,30 @@ def open_stage(path: str):
     if _last is not None and _last[0] == path:
         # USD keeps a layer that is still referenced (by the old stage, or a caller holding it) in
         # its registry and would hand it out again as it was: reread the old stage's layers.
-        from pxr import Sdf
+        from pxr import Sdf, Tf
 
-        Sdf.Layer.ReloadLayers(set(_last[3].stage.GetUsedLayers()), force=True)
+        from .diagnostics import usd_output
+
+        try:
+            # USD's "Unable to re-read" warning is held back: the open below says what is wrong.
+            with usd_output([]):
+                Sdf.Layer.ReloadLayers(set(_last[3].stage.GetUsedLayers()), force=True)
+        except Tf.ErrorException:
+            pass  # a layer that no longer parses: opening it anew below reports it (a SceneError naming it)
     _last = None  # release the old stage first
     opened = open_usd(path)
     files = _layer_files(path, opened.stage)
     _last = (path, files, _states(files), opened)
     return opened
+
+
+def used_files(path: str) -> tuple[str, ...]:
+    """The files the stage kept for ``path`` was composed from (its root and every layer it
+    used), or only the root when no stage of it is kept (none opened yet, or the last open
+    failed): what a live preview watches (``phongscene.preview``)."""
+    if _last is not None and _last[0] == path:
+        return _last[1]
+    return (os.path.abspath(path),)
 
 
 def _layer_files(path: str, stage) -> tuple[str, ...]:

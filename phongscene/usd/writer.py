@@ -535,6 +535,8 @@ def write_usd(scene: Scene, path) -> Path:
         SceneError: the scene is invalid (nothing is written: a file with a NaN would not read back).
     """
     check(scene)
+    # Instances are written out as world meshes (a PointInstancer writer is not built yet).
+    scene = scene.flattened()
     path = Path(path)
     texture_files: dict[int, str] = {}
     for t in (t for obj in scene.objects for t in obj.material.textures):
@@ -556,13 +558,21 @@ def import_mesh(
     mesh_file, output, material: PhongMaterial = DEFAULT_MATERIAL, *, crease_angle_deg: float = DEFAULT_CREASE_ANGLE_DEG
 ) -> Path:
     """Convert a mesh file (anything ``trimesh.load`` reads: OBJ, PLY, STL, OFF, GLB, ...) to a
-    USD file with one Mesh (subdivisionScheme none) and a Phong material. No camera or lights:
-    readers then use the framing camera and head light.
+    USD file: one Mesh (subdivisionScheme none, world space) per object of the file (a GLB's or
+    OBJ's scene nodes, each named after its node; a file of one object is named after the file).
+    No camera or lights: readers then use the framing camera and head light.
+
+    Colours: a part with vertex or face colours (PLY, OFF, GLB), or a material's base colour
+    (GLB), keeps them as ``primvars:displayColor`` (vertex, uniform or constant; 8-bit sRGB
+    decoded to linear) and is left unbound, so that USD tools show its colours (phongscene
+    renders a non-constant displayColor's mean, with a warning); a part without colours is bound
+    to the Phong ``material``.
 
     Normals: the file's own vertex normals when it has them; otherwise (STL, and most PLY and
     OFF files, have none) normals smoothed across edges where faces meet at less than
     ``crease_angle_deg`` and split where they meet at more (trimesh's ``smooth_shade``), so a
     box stays a box and a sphere stays smooth."""
+    import trimesh  # noqa: F401 - the file's reader; imported here, only when importing
 
     mesh_file = Path(mesh_file)
     if not mesh_file.exists():
@@ -572,29 +582,81 @@ def import_mesh(
     if not (isinstance(crease_angle_deg, (int, float)) and 0.0 <= crease_angle_deg <= 180.0):
         raise ValueError(f"crease angle must be in 0..180 degrees, got {crease_angle_deg!r}")
     try:
-        tm, file_normals = _load_trimesh(mesh_file)
+        parts = _load_trimesh_parts(mesh_file)
     except Exception as e:  # trimesh raises many types for unreadable files
         raise SceneError(f"{mesh_file}: trimesh cannot read it: {e}") from None
-    if tm is None or len(tm.faces) == 0:
+    if not parts:
         raise SceneError(f"{mesh_file}: no triangles found")
-    faces = np.asarray(tm.faces, dtype=np.int64)
-    if file_normals:
-        normals, normal_indices = _unit_vertex_normals(tm), faces
-    else:
-        normals, normal_indices = _crease_normals(tm, math.radians(crease_angle_deg))
-    model = TriangleMesh(np.asarray(tm.vertices), faces, normals, normal_indices, material)
     stage = new_stage()
-    usd_material = define_phong_material(stage, "/World/Looks/Default", material)
-    prim = define_mesh(stage, f"/World/{Tf.MakeValidIdentifier(mesh_file.stem)}", model)
-    bind_material(prim.GetPrim(), usd_material)
+    usd_material = None
+    names: set[str] = set()
+    for name, tm, file_normals in parts:
+        faces = np.asarray(tm.faces, dtype=np.int64)
+        if file_normals:
+            normals, normal_indices = _unit_vertex_normals(tm), faces
+        else:
+            normals, normal_indices = _crease_normals(tm, math.radians(crease_angle_deg))
+        model = TriangleMesh(np.asarray(tm.vertices), faces, normals, normal_indices, material)
+        prim_name = _unique_name(Tf.MakeValidIdentifier(mesh_file.stem if len(parts) == 1 else name), names)
+        prim = define_mesh(stage, f"/World/{prim_name}", model)
+        colours = _display_colours(tm)
+        if colours is not None:
+            values, interpolation = colours
+            primvar = UsdGeom.PrimvarsAPI(prim).CreatePrimvar(
+                "displayColor", Sdf.ValueTypeNames.Color3fArray, interpolation
+            )
+            primvar.Set(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(values, dtype=np.float32)))
+        else:
+            if usd_material is None:
+                usd_material = define_phong_material(stage, "/World/Looks/Default", material)
+            bind_material(prim.GetPrim(), usd_material)
     return save_stage(stage, output)
 
 
-def _load_trimesh(mesh_file: Path):
-    """(one Trimesh with every mesh of the file in world space, or None; whether the file gave
-    vertex normals). ``trimesh.load(force="mesh")`` would drop the file's normals (its scene
-    flattening copies meshes without their cache, where trimesh keeps given normals), so the
-    scene is flattened here with the cache kept; ``apply_transform`` then transforms the normals."""
+def _unique_name(name: str, taken: set[str]) -> str:
+    """``name``, or ``name_1``, ``name_2``, ... when it is taken (two nodes of one name)."""
+    unique, n = name, 0
+    while unique in taken:
+        n += 1
+        unique = f"{name}_{n}"
+    taken.add(unique)
+    return unique
+
+
+def _srgb_to_linear(codes: np.ndarray) -> np.ndarray:
+    """8-bit sRGB codes (a mesh file's colours) → linear values (displayColor is linear)."""
+    c = np.asarray(codes, dtype=np.float64) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def _display_colours(tm) -> tuple[np.ndarray, str] | None:
+    """(linear RGB colours, USD interpolation) of a trimesh part's own colours, or None: vertex
+    colours → vertex, face colours → uniform, a material's base colour (or one colour for all)
+    → constant."""
+    visual = tm.visual
+    kind = getattr(visual, "kind", None)
+    if kind == "vertex":
+        colours, interpolation = np.asarray(visual.vertex_colors)[:, :3], UsdGeom.Tokens.vertex
+    elif kind == "face":
+        colours, interpolation = np.asarray(visual.face_colors)[:, :3], UsdGeom.Tokens.uniform
+    elif kind == "texture" and getattr(visual, "material", None) is not None:
+        main = getattr(visual.material, "main_color", None)
+        if main is None:
+            return None
+        colours, interpolation = np.asarray(main, dtype=np.float64).reshape(1, -1)[:, :3], UsdGeom.Tokens.constant
+    else:
+        return None
+    if len(colours) > 1 and np.all(colours == colours[0]):
+        colours, interpolation = colours[:1], UsdGeom.Tokens.constant
+    return _srgb_to_linear(colours), interpolation
+
+
+def _load_trimesh_parts(mesh_file: Path) -> list[tuple[str, object, bool]]:
+    """(node name, Trimesh in world space, whether the file gave its vertex normals) for every
+    object of the file. ``trimesh.load(force="mesh")`` would merge them and drop the file's
+    normals (its scene flattening copies meshes without their cache, where trimesh keeps given
+    normals), so each node's geometry is copied with the cache kept; ``apply_transform`` then
+    transforms the normals."""
     import trimesh
 
     scene = trimesh.load_scene(mesh_file)
@@ -605,12 +667,9 @@ def _load_trimesh(mesh_file: Path):
         if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces):
             part = geometry.copy(include_cache=True)
             part.apply_transform(transform)
-            parts.append(part)
-    if not parts:
-        return None, False
-    # Given normals live in trimesh's cache (the test trimesh.util.concatenate makes too).
-    file_normals = all("vertex_normals" in part._cache for part in parts)
-    return (parts[0] if len(parts) == 1 else trimesh.util.concatenate(parts)), file_normals
+            # Given normals live in trimesh's cache (the test trimesh.util.concatenate makes too).
+            parts.append((str(node), part, "vertex_normals" in part._cache))
+    return parts
 
 
 def _crease_normals(tm, angle: float) -> tuple[np.ndarray, np.ndarray]:

@@ -386,6 +386,27 @@ def test_a_kept_stage_is_reused_until_its_file_or_a_layer_changes(tmp_path):
         workers.forget()
 
 
+def test_a_kept_stage_whose_layer_no_longer_parses_is_a_scene_error_then_recovers(tmp_path, capfd):
+    """A layer broken by an edit (the live preview, a worker): the reopen names the file; USD's
+    own re-read warning is held back; the fixed file opens again."""
+    from phongscene.errors import SceneError
+    from phongscene.usd import stage_reuse as workers
+
+    root = tmp_path / "shot.usda"
+    good = '#usda 1.0\ndef Sphere "Ball" {\n    double radius = 1\n}\n'
+    root.write_text(good)
+    try:
+        workers.open_stage(str(root))
+        root.write_text(good + "def Xform {{{\n")
+        with pytest.raises(SceneError, match="shot.usda"):
+            workers.open_stage(str(root))
+        assert "Unable to re-read" not in capfd.readouterr().err
+        root.write_text(good.replace("radius = 1", "radius = 3"))
+        assert load_scene(workers.open_stage(str(root)))[0].spheres[0].world_from_object[0, 0] == 3.0
+    finally:
+        workers.forget()
+
+
 def test_frames_read_from_the_kept_stage_are_bit_identical_to_render_time(tmp_path):
     from phongscene.overrides import RenderOverrides
     from phongscene.usd import stage_reuse as workers
@@ -432,7 +453,7 @@ def test_a_worker_has_made_its_imports_when_it_joins():
         client.register_plugin(warm_plugin())
         after = client.run(lambda: [m for m in WARM_IMPORTS if m in sys.modules])
     assert [set(v) for v in before.values()] != [set(WARM_IMPORTS)]  # a fresh worker had not
-    assert [v for v in after.values()] == [list(WARM_IMPORTS)]
+    assert list(after.values()) == [list(WARM_IMPORTS)]
 
 
 # -- frames: names and ranges ----------------------------------------------------------------
@@ -441,11 +462,26 @@ def test_a_worker_has_made_its_imports_when_it_joins():
 def test_frame_ranges_and_names():
     assert animation.parse_frames("1:24:8") == (1, 9, 17)
     assert animation.parse_frames("3:3") == (3,)
+    assert animation.parse_frames("7") == (7,)
+
+
+def test_usdrecords_frame_specs_read_as_usd_reads_them():
+    # usdrecord's --frames (UsdAppUtils.framesArgs): comma-separated specs, a stride after 'x';
+    # UsdUtils.TimeCodeRange is the oracle for each spec.
+    from pxr import UsdUtils
+
+    for spec in ("1:9x4", "1:10x4", "-3:3x2", "5", "2:6"):
+        expected = tuple(int(t.GetValue()) for t in UsdUtils.TimeCodeRange.CreateFromFrameSpec(spec))
+        assert animation.parse_frames(spec) == expected, spec
+    assert animation.parse_frames("1:9x4,2,5") == (1, 5, 9, 2)  # in order, each frame once
     for bad, message in (
         ("5:1", "before the start"),
         ("1:5:0", "step must be >= 1"),
         ("1:2.5", "whole numbers"),
-        ("7", "START:END"),
+        ("1:9x0", "step must be >= 1"),
+        ("1::2:3", "START:END"),
+        ("", "START:END"),
+        ("1,", "START:END"),
     ):
         with pytest.raises(ValueError, match=message):
             animation.parse_frames(bad)

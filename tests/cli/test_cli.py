@@ -9,7 +9,7 @@ import pytest
 from phongscene.cli import build_parser, main
 from support.paths import REPO
 
-COMMANDS = ("diff", "compare", "info", "validate", "import", "render", "compile", "bench")
+COMMANDS = ("diff", "compare", "info", "validate", "import", "render", "compile", "bench", "preview")
 
 
 def test_every_command_is_registered_with_help():

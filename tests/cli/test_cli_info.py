@@ -53,3 +53,13 @@ def test_info_lists_each_materials_textures(capsys):
 def test_info_has_no_texture_block_without_textures(capsys):
     assert main(["info", str(EXAMPLES / "seed_exponents.usda")]) == 0
     assert "textures:" not in capsys.readouterr().out
+
+
+def test_info_counts_prototypes_and_instances(tmp_path, capsys):
+    from support.instanced_stages import point_instancer_stage
+
+    assert main(["info", point_instancer_stage(tmp_path / "pi.usda", 40, rings=6, sides=4)]) == 0
+    out = capsys.readouterr().out
+    assert "counts: 0 meshes, 48 triangles" in out
+    assert "instancing: 1 prototypes, 40 instances, 1920 triangles drawn" in out
+    assert "Instances (40 copies of 48 triangles)" in out

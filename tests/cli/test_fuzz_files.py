@@ -260,7 +260,7 @@ def _validate_in_process(path: Path) -> subprocess.CompletedProcess:
 )
 def test_corrupt_texture_files_get_a_clear_answer(image_seeds, tmp_path_factory, files):
     paths = []
-    for i, (which, edits) in enumerate(files):
+    for which, edits in files:
         original = image_seeds[which % len(image_seeds)]
         folder = tmp_path_factory.mktemp("texture")
         (folder / original.name).write_bytes(mutate_image(original.read_bytes(), edits))

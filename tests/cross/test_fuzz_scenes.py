@@ -43,7 +43,9 @@ from phongscene.scene import (
 )
 from support.fuzz import SEED, fuzz_settings
 
-pytestmark = pytest.mark.povray
+# Random scenes may be empty or dark by construction: the image checks' ImageWarning is not what
+# this suite tests (tests/cross/test_image_diagnostics.py is).
+pytestmark = [pytest.mark.povray, pytest.mark.filterwarnings("ignore::phongscene.errors.ImageWarning")]
 
 SIZE = (24, 18)
 SCENES_PER_EXAMPLE = 8  # one render_many call (one POV-Ray process) per example

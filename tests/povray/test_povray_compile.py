@@ -410,9 +410,11 @@ def test_million_triangle_mesh_compiles_fast():
     scene = million_triangle_scene()
     best = math.inf
     for _ in range(2):
-        start = time.perf_counter()
+        # CPU time, not wall time: the compile is single-threaded, and a loaded machine (the
+        # suite shares 2 cores) stretched its wall time past the bound at 0.8 s of CPU.
+        start = time.process_time()
         sdl = compile_pov(scene)
-        best = min(best, time.perf_counter() - start)
+        best = min(best, time.process_time() - start)
     assert sdl.count("\n") > 1_000_000
     assert best < MILLION_TRIANGLE_COMPILE_SECONDS, f"1M-triangle compile took {best:.2f} s"
 

@@ -481,9 +481,9 @@ def test_a_specular_texture_changes_only_the_highlight():
     plain = dataclasses.replace(scene, meshes=(plain_mesh,))
     textured, untextured = native.render(scene), native.render(plain)
     assert np.abs(textured - untextured).max() > 0.05
-    no_highlight = lambda s: dataclasses.replace(
+    no_highlight = lambda s: dataclasses.replace(  # noqa: E731
         s, meshes=tuple(dataclasses.replace(m, material=dataclasses.replace(m.material, ks=0.0)) for m in s.meshes)
-    )  # noqa: E731
+    )
     np.testing.assert_array_equal(native.render(no_highlight(scene)), native.render(no_highlight(plain)))
 
 

@@ -193,6 +193,8 @@ Image render(const phong::Scene& scene, const phong::CameraDescription& camera_d
     if (!(settings.aa_threshold >= 0.0 && settings.aa_threshold <= 1.0))
         throw std::invalid_argument("aa_threshold must be in [0, 1]");
     check_textures(scene);
+    if (scene.instances && scene.instances->stale())
+        throw std::invalid_argument("instances were added with rebuild=False and the top level was never built");
     const phong::Camera camera = phong::Camera::make(camera_description, settings.width, settings.height);
 
     const size_t count = size_t(settings.width) * size_t(settings.height) * 3;
@@ -224,6 +226,8 @@ Image render(const phong::Scene& scene, const phong::CameraDescription& camera_d
 nb::tuple intersect(const phong::Scene& scene, const Rows3& origins, const Rows3& dirs, double t_min) {
     const size_t n = origins.shape(0);
     if (dirs.shape(0) != n) throw std::invalid_argument("origins and dirs differ in length");
+    if (scene.instances && scene.instances->stale())
+        throw std::invalid_argument("instances were added with rebuild=False and the top level was never built");
     double* t = new double[n];
     int64_t* id = new int64_t[n];
     nb::capsule t_owner(t, [](void* p) noexcept { delete[] static_cast<double*>(p); });
@@ -235,7 +239,9 @@ nb::tuple intersect(const phong::Scene& scene, const Rows3& origins, const Rows3
             phong::Hit hit;
             if (scene.closest_hit(ray, t_min, HUGE_VAL, hit)) {
                 t[i] = hit.t;
-                id[i] = scene.primitive_id(hit.ref);
+                // An instance's hit: -2 - the instance's number (its prototype's primitives are its own).
+                id[i] = hit.instance >= 0 ? -2 - int64_t(scene.instances->instance_id(hit.instance))
+                                          : scene.primitive_id(hit.ref);
             } else {
                 t[i] = HUGE_VAL;
                 id[i] = -1;
@@ -465,6 +471,24 @@ NB_MODULE(_native, m) {
         .def("set_light_links", &set_light_links, "shadows"_a, "lit"_a, "casts"_a,
              "Per light (one entry each): whether it casts shadow rays, and the objects (spheres 0..S-1, then meshes "
              "S + m) it illuminates and that cast its shadows, as uint8 arrays of one flag per object (empty: all).")
+        .def(
+            "add_instances",
+            [](phong::Scene& self, phong::Scene& prototype, const Matrices& world_from_prototype, bool rebuild) {
+                if (&prototype == &self) throw std::invalid_argument("a scene cannot be its own prototype");
+                if (!prototype.instances_empty()) throw std::invalid_argument("a prototype holds no instances");
+                auto taken = std::make_unique<phong::Scene>(std::move(prototype));
+                nb::gil_scoped_release release;
+                self.add_instances(std::move(taken), world_from_prototype.data(), world_from_prototype.shape(0),
+                                   rebuild);
+            },
+            "prototype"_a, "world_from_prototype"_a, "rebuild"_a = true,
+            "Adds copies of `prototype` (a Scene of its meshes in prototype space, taken over: it is empty "
+            "afterwards), copy k placed by world_from_prototype[k] (K, 4, 4), column vectors, affine and "
+            "invertible; the top-level BVH over every instance is rebuilt (rebuild=False: not yet, the scene cannot "
+            "be traced until an add with rebuild=True).")
+        .def_prop_ro("instance_count", [](const phong::Scene& s) { return s.instances ? s.instances->size() : 0; })
+        .def_prop_ro("prototype_count",
+                     [](const phong::Scene& s) { return s.instances ? s.instances->prototype_count() : 0; })
         .def_prop_ro("magnitude", [](const phong::Scene& s) { return s.magnitude; })
         .def_prop_ro(
             "single_precision_triangles", [](const phong::Scene& s) { return s.triangles.single_precision(); },
@@ -472,6 +496,10 @@ NB_MODULE(_native, m) {
         .def_prop_ro(
             "single_precision_normals", [](const phong::Scene& s) { return s.normals.single_precision(); },
             "Whether the meshes' normals are held as floats (every coordinate a float: the same doubles).")
+        .def_prop_ro(
+            "walk_width", [](const phong::Scene& s) { return s.walk_width(); },
+            "Children per BVH node of the rays' walk: 8 on the AVX2 path, 4 on the SSE2 one (chosen when "
+            "the scene is built; PHONGSCENE_NATIVE_SIMD=sse2 forces the portable path).")
         .def("render", &render, "camera"_a, "settings"_a, "progress"_a = nb::none(),
              "The image, float32 (height, width, 3), row 0 at the top. progress(done, total) is called from this "
              "thread while rendering; an exception it raises (or Ctrl-C) stops the render.")

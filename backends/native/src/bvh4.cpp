@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
-// Collapsing the binary SAH tree into the 4-wide BVH (bvh4.hpp): a pass of its own over the
-// built tree, so the binary build stays as it is.
+// Collapsing the binary SAH tree into the 4-wide BVH (bvh4.hpp) or the 8-wide one (bvh8.hpp): a
+// pass of its own over the built tree, so the binary build stays as it is.
 #include "bvh4.hpp"
+
+#include "bvh8.hpp"
 
 namespace phong {
 
@@ -12,14 +14,15 @@ double half_area(const BvhNode& n) {
     return x * y + y * z + z * x;
 }
 
+template <class Node, int W>
 struct Collapser {
     const std::vector<BvhNode>& binary;
-    std::vector<Bvh4Node>& wide;
+    std::vector<Node>& wide;
 
-    // The 4-wide node of binary node `index`'s subtree, appended depth-first; returns its index.
+    // The W-wide node of binary node `index`'s subtree, appended depth-first; returns its index.
     // A binary leaf (only the root can be one here) becomes a node with that single child.
     int32_t collapse(int32_t index) {
-        int32_t kids[4];
+        int32_t kids[W];
         int n = 0;
         if (binary[size_t(index)].count > 0) {
             kids[n++] = index;
@@ -28,8 +31,8 @@ struct Collapser {
             kids[n++] = binary[size_t(index)].offset;
         }
         // Open the interior child of largest area (the one rays enter most often, by the SAH's
-        // measure) until there are four.
-        while (n < 4) {
+        // measure) until there are W.
+        while (n < W) {
             int widest = -1;
             double widest_area = -1.0;
             for (int i = 0; i < n; ++i) {
@@ -46,8 +49,8 @@ struct Collapser {
         }
         const int32_t self = int32_t(wide.size());
         wide.emplace_back();
-        Bvh4Node& node = wide.back();
-        for (int i = 0; i < 4; ++i) {
+        Node& node = wide.back();
+        for (int i = 0; i < W; ++i) {
             for (int k = 0; k < 3; ++k) {
                 node.boxes[k][i] = INFINITY;
                 node.boxes[3 + k][i] = -INFINITY;
@@ -81,7 +84,16 @@ std::vector<Bvh4Node> collapse_to_bvh4(const std::vector<BvhNode>& binary) {
     // About a third as many 4-wide nodes as the binary tree's (binary.size() − 1) / 2 interior
     // ones; reserving a little more avoids reallocating.
     wide.reserve(binary.size() / 4 + 1);
-    Collapser{binary, wide}.collapse(0);
+    Collapser<Bvh4Node, 4>{binary, wide}.collapse(0);
+    return wide;
+}
+
+std::vector<Bvh8Node> collapse_to_bvh8(const std::vector<BvhNode>& binary) {
+    std::vector<Bvh8Node> wide;
+    if (binary.empty()) return wide;
+    // About a seventh as many 8-wide nodes as the binary tree's interior ones.
+    wide.reserve(binary.size() / 12 + 1);
+    Collapser<Bvh8Node, 8>{binary, wide}.collapse(0);
     return wide;
 }
 

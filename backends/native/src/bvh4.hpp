@@ -143,10 +143,11 @@ struct FloatSlabRay {
     }
 };
 
-// One child's box of a node, in the shape hit_node() and the bundle tests take.
+// One child's box of a node (4- or 8-wide), in the shape hit_node() and the bundle tests take.
 struct ChildBox {
     float lo[3], hi[3];
-    ChildBox(const Bvh4Node& node, int i)
+    template <class Node>  // Bvh4Node or Bvh8Node (bvh8.hpp)
+    ChildBox(const Node& node, int i)
         : lo{node.boxes[0][i], node.boxes[1][i], node.boxes[2][i]},
           hi{node.boxes[3][i], node.boxes[4][i], node.boxes[5][i]} {}
 };

@@ -13,7 +13,7 @@ bool Scene::occluded_linked(const Ray& ray, const FloatSlabOrigin& origin, doubl
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool blocked = false;
     double t_limit = t_max;
-    traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, [&](int32_t first, int count, double& t_best) {
+    auto leaf = [&](int32_t first, int count, double& t_best) {
         for (int k = 0; k < count; ++k) {
             const int32_t ref = refs_[size_t(first + k)];
             if (!casts[size_t(object_of(ref))]) continue;
@@ -31,12 +31,18 @@ bool Scene::occluded_linked(const Ray& ray, const FloatSlabOrigin& origin, doubl
             }
         }
         return false;
-    });
+    };
+    // The tree the rays walk (scene.hpp: the 8-wide one where the CPU has AVX2, else the 4-wide).
+    if (!bvh8_.empty())
+        traverse_bvh8<false>(bvh8_, magnitude, ray, origin, t_min, t_limit, leaf);
+    else
+        traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, leaf);
     for (size_t k = 0; k < planes.size() && !blocked; ++k) {
         double t;
         blocked = casts[size_t(planes[k].object)] && intersect_intrinsic(planes[k], ray, t_min, t_max, t);
     }
-    return blocked;
+    // Instances all cast: the native backend flattens those a link tells apart (__init__.py).
+    return blocked || (!instances_empty() && instances->occluded(ray, t_min, t_max));
 }
 
 }  // namespace phong

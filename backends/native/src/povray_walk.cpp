@@ -69,8 +69,10 @@ bool Scene::occluded_povray_walk(const Ray& ray, double t_min, double t_max) con
     double from = kPovrayMeshDepthTolerance;
     while (closest_hit(ray, from, HUGE_VAL, hit)) {
         if (int(hits.size()) == kMaxWalkHits) return true;
-        if (hit.ref < 0) {
-            if (hit.t > t_min && hit.t < t_max) return true;  // a sphere counts every hit
+        if (hit.ref < 0 || hit.instance >= 0) {
+            // A sphere counts every hit; so does an instance here (its mesh's walk is not
+            // reproduced: an instanced occluder behind a too-close hit of its own is not missed).
+            if (hit.t > t_min && hit.t < t_max) return true;
         } else {
             const size_t slot = size_t(hit.ref);
             hits.push_back({triangle_mesh(slot), box_entry(triangles[slot], ray), hit.t});

@@ -107,7 +107,8 @@ struct ShadowQuery {
 RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std::vector<BundleCandidate>& candidates,
                     const Material* medium);
 
-const Material& material_of(const Scene& scene, const Hit& hit) {
+const Material& material_of(const Scene& world, const Hit& hit) {
+    const Scene& scene = world.surface_of(hit);  // an instance's primitives are its prototype's
     const int32_t m = scene.is_sphere(hit.ref) ? scene.spheres[size_t(~hit.ref)].material
                       : hit.ref < 0            ? scene.intrinsic(hit.ref).material
                                                : scene.triangle_shading[size_t(hit.ref)].material;
@@ -149,42 +150,49 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     const double window = context.tolerances.shadow_window;
     const Vec3 p = ray.at(hit.t);
     // The object hit, for light linking (only looked up when a light links).
-    const int32_t object = scene.light_links.empty() ? -1 : scene.object_of(hit.ref);
+    // An instance's copies are not told apart by any link (the backend flattens those that are):
+    // its hits are lit by every light, with the light's shadow switch.
+    const bool linked = !scene.light_links.empty();
+    const int32_t object = !linked || hit.instance >= 0 ? -1 : scene.object_of(hit.ref);
     Vec3 n;
     const Material* material;
     Material textured;  // a textured material with this point's colours
-    if (scene.is_sphere(hit.ref)) {
-        const SphereShape& s = scene.spheres[size_t(~hit.ref)];
+    // The primitive's own scene: the world's, or the prototype of the instance hit (whose normal
+    // is then carried to the world below).
+    const Scene& surface = scene.surface_of(hit);
+    if (surface.is_sphere(hit.ref)) {
+        const SphereShape& s = surface.spheres[size_t(~hit.ref)];
         n = sphere_normal(s, p);
-        material = &scene.materials[size_t(s.material)];
+        material = &surface.materials[size_t(s.material)];
     } else if (hit.ref < 0) {
-        const IntrinsicShape& part = scene.intrinsic(hit.ref);
+        const IntrinsicShape& part = surface.intrinsic(hit.ref);
         n = intrinsic_normal(part, p);
-        material = &scene.materials[size_t(part.material)];
+        material = &surface.materials[size_t(part.material)];
     } else {
-        const TriangleShape& tri = scene.triangles[size_t(hit.ref)];
-        const TriangleShading& sh = scene.triangle_shading[size_t(hit.ref)];
+        const TriangleShape& tri = surface.triangles[size_t(hit.ref)];
+        const TriangleShading& sh = surface.triangle_shading[size_t(hit.ref)];
         if (sh.n0 >= 0) {
             // Smooth: barycentric interpolation of the vertex normals, renormalised (as POV-Ray).
-            n = normalize(scene.normals[size_t(sh.n0)] * hit.bary.b0 + scene.normals[size_t(sh.n1)] * hit.bary.b1 +
-                          scene.normals[size_t(sh.n2)] * hit.bary.b2);
+            n = normalize(surface.normals[size_t(sh.n0)] * hit.bary.b0 + surface.normals[size_t(sh.n1)] * hit.bary.b1 +
+                          surface.normals[size_t(sh.n2)] * hit.bary.b2);
         } else {
             n = normalize(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
         }
-        material = &scene.materials[size_t(sh.material)];
+        material = &surface.materials[size_t(sh.material)];
         if (material->diffuse_texture >= 0 || material->specular_texture >= 0) {
             // cd and cs from the textures at the hit's (u, v), interpolated like the normals.
-            const double* uv = scene.corner_uv.data() + 6 * size_t(scene.triangle_source[size_t(hit.ref)]);
+            const double* uv = surface.corner_uv.data() + 6 * size_t(surface.triangle_source[size_t(hit.ref)]);
             const double u = uv[0] * hit.bary.b0 + uv[2] * hit.bary.b1 + uv[4] * hit.bary.b2;
             const double v = uv[1] * hit.bary.b0 + uv[3] * hit.bary.b1 + uv[5] * hit.bary.b2;
             textured = *material;
             if (material->diffuse_texture >= 0)
-                textured.diffuse_color = scene.textures[size_t(material->diffuse_texture)].lookup(u, v);
+                textured.diffuse_color = surface.textures[size_t(material->diffuse_texture)].lookup(u, v);
             if (material->specular_texture >= 0)
-                textured.specular_color = scene.textures[size_t(material->specular_texture)].lookup(u, v);
+                textured.specular_color = surface.textures[size_t(material->specular_texture)].lookup(u, v);
             material = &textured;
         }
     }
+    if (hit.instance >= 0) n = normalize(scene.instances->normal_to_world(hit.instance, n));
     // Two-sided: the shading normal faces the viewer (as POV-Ray). The unflipped normal points
     // out of a closed object, so a ray meeting it from behind is leaving the interior.
     const bool leaving = dot(n, ray.dir) > 0.0;
@@ -196,8 +204,8 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     const bool povray_walk = settings.numerics != Numerics::kScaleInvariant;
     const FloatSlabOrigin p_rounded(p);
     for (size_t j = 0; j < scene.lights.size(); ++j) {
-        const LightLinking* link = object >= 0 ? &scene.light_links[j] : nullptr;
-        if (link != nullptr && !link->lit.empty() && !link->lit[size_t(object)]) continue;  // not in its light link
+        const LightLinking* link = linked ? &scene.light_links[j] : nullptr;
+        if (object >= 0 && !link->lit.empty() && !link->lit[size_t(object)]) continue;  // not in its light link
         // The light's alternative decides its centre and shadow; the shading is the same for all
         // (one inlined copy of it, not one per alternative).
         LightSample centre;
@@ -299,6 +307,9 @@ TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_,
     : scene(scene_), settings(settings_), tolerances(tolerances_) {
     for (const Light& light : scene.lights) grids.push_back(area_light_grid(light));
     for (const Material& m : scene.materials) transmissive = transmissive || m.kt > 0.0;
+    if (scene.instances)
+        for (size_t p = 0; p < scene.instances->prototype_count(); ++p)
+            for (const Material& m : scene.instances->prototype(p).materials) transmissive = transmissive || m.kt > 0.0;
 }
 
 RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch,

@@ -3,6 +3,8 @@
 // (shadow-ray bundles: shadow_bundles.cpp).
 #include "scene.hpp"
 
+#include "simd_dispatch.hpp"
+
 #include <emmintrin.h>
 
 #include <algorithm>
@@ -188,7 +190,11 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     malloc_trim(0);
 #endif
     // The rays walk the 4-wide tree; the binary one's nodes are freed once it is collapsed.
-    bvh4_ = collapse_to_bvh4(bvh_.nodes);
+    // (Or the 8-wide tree where the CPU has AVX2: every walk takes it then.)
+    if (use_avx2())
+        bvh8_ = collapse_to_bvh8(bvh_.nodes);
+    else
+        bvh4_ = collapse_to_bvh4(bvh_.nodes);
     std::vector<BvhNode>().swap(bvh_.nodes);
 
     // Primitive refs and triangle data in leaf order, so leaves read memory sequentially.
@@ -251,6 +257,13 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     first_triangle_ = std::move(first_triangle);
 }
 
+void Scene::add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
+                          bool rebuild) {
+    if (!instances) instances = std::make_unique<InstanceLayer>();
+    instances->add(std::move(prototype), world_from_prototype, count, rebuild);
+    bounds.grow(instances->bounds);
+}
+
 int32_t Scene::triangle_mesh(size_t slot) const {
     const size_t i = triangle_source[slot];
     return int32_t(std::upper_bound(first_triangle_.begin() + 1, first_triangle_.end(), i) - first_triangle_.begin() -
@@ -275,7 +288,7 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool found = false;
     double t_best = t_max, t_test = t_max, t_cull = t_max;
-    traverse_bvh4<true>(bvh4_, magnitude, ray, origin, t_min, t_cull, [&](int32_t first, int count, double& cull) {
+    auto leaf = [&](int32_t first, int count, double& cull) {
         for (int k = 0; k < count; ++k) {
             const int32_t ref = refs_[size_t(first + k)];
             double t;
@@ -295,12 +308,26 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
             cull = t_best + std::fabs(t_best) * kTieCullMargin;
         }
         return false;
-    });
+    };
+    if (!bvh8_.empty())
+        traverse_bvh8<true>(bvh8_, magnitude, ray, origin, t_min, t_cull, leaf);
+    else
+        traverse_bvh4<true>(bvh4_, magnitude, ray, origin, t_min, t_cull, leaf);
+    // Unbounded planes after the tree (outside it), with the same tie rule.
     double t_plane;
     int32_t plane;
     if (!planes.empty() && hit_planes(ray, t_min, found ? next_up(t_best) : t_max, t_plane, plane)) {
         if (!found || t_plane < t_best || primitive_id(plane) < primitive_id(hit.ref)) {
             hit = {t_plane, plane, Barycentric{}};
+            t_best = t_plane;
+            found = true;
+        }
+    }
+    // Instances after the world's own primitives: a copy wins only by being closer.
+    if (!instances_empty()) {
+        Hit instance_hit;
+        if (instances->closest_hit(ray, t_min, t_best, instance_hit) && (!found || instance_hit.t < t_best)) {
+            hit = instance_hit;
             found = true;
         }
     }
@@ -311,7 +338,7 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool blocked = false;
     double t_limit = t_max;
-    traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, [&](int32_t first, int count, double& t_best) {
+    auto leaf = [&](int32_t first, int count, double& t_best) {
         for (int k = 0; k < count; ++k) {
             const int32_t ref = refs_[size_t(first + k)];
             double t;
@@ -328,13 +355,17 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
             }
         }
         return false;
-    });
+    };
+    if (!bvh8_.empty())
+        traverse_bvh8<false>(bvh8_, magnitude, ray, origin, t_min, t_limit, leaf);
+    else
+        traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, leaf);
     if (!blocked && !planes.empty()) {
         double t;
         int32_t plane;
         blocked = hit_planes(ray, t_min, t_max, t, plane);
     }
-    return blocked;
+    return blocked || (!instances_empty() && instances->occluded(ray, t_min, t_max));
 }
 
 int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const {

@@ -12,6 +12,8 @@
 
 #include "bvh.hpp"
 #include "bvh4.hpp"
+#include "bvh8.hpp"
+#include "instances.hpp"
 #include "intrinsics.hpp"
 #include "lights.hpp"
 #include "materials.hpp"
@@ -57,6 +59,7 @@ struct Hit {
     double t;
     int32_t ref;
     Barycentric bary;
+    int32_t instance = -1;  // >= 0: the hit is on this instance (InstanceLayer), ref in its prototype
 };
 
 // A candidate occluder of a shadow-ray bundle (Scene::shadow_candidates): the primitive's
@@ -153,6 +156,9 @@ class Scene {
     // The primitive's id as Python numbers them: spheres 0..S-1, then triangles in mesh order.
     int64_t primitive_id(int32_t ref) const;
 
+    // Children per node of the walk closest_hit() and occluded() take: 8 (AVX2) or 4 (SSE2).
+    int walk_width() const { return bvh8_.empty() ? 4 : 8; }
+
     // The mesh of leaf-order triangle `slot` (from its input row: the POV-Ray walk's rare
     // question needs no per-triangle array).
     int32_t triangle_mesh(size_t slot) const;
@@ -173,7 +179,19 @@ class Scene {
     // triangle row (triangle_source): 6 numbers per triangle; empty without textures.
     std::vector<Texture> textures;
     std::vector<double> corner_uv;
-    Bounds bounds;           // of the geometry but unbounded planes (empty without primitives)
+    // Instanced geometry (instances.hpp): null without instances. The geometry above is the
+    // world's own; each instance's lies in its prototype's Scene.
+    std::unique_ptr<InstanceLayer> instances;
+    bool instances_empty() const { return !instances || instances->size() == 0; }
+    // The scene (this, or an instance's prototype) whose primitive `hit.ref` names.
+    const Scene& surface_of(const Hit& hit) const {
+        return hit.instance < 0 ? *this : instances->prototype_of(hit.instance);
+    }
+    // Adds copies of a prototype (instances.hpp) and grows `bounds` by their boxes.
+    void add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
+                       bool rebuild = true);
+
+    Bounds bounds;           // of the geometry but unbounded planes, instances included (empty without primitives)
     double magnitude = 0.0;  // largest absolute coordinate of the geometry bounds
 
   private:
@@ -205,8 +223,11 @@ class Scene {
         return intersect_triangle(triangles[size_t(ref)], ray, *wr, t_min, t_max, t, bary);
     }
 
-    Bvh bvh_;                             // the binary tree; its nodes are freed once collapsed
-    std::vector<Bvh4Node> bvh4_;          // what the rays walk
+    Bvh bvh_;  // the binary tree; its nodes are freed once collapsed
+    // What the rays and bundles walk: the 8-wide tree where the CPU has AVX2 (simd_dispatch.hpp),
+    // else the 4-wide one; the other is empty.
+    std::vector<Bvh4Node> bvh4_;
+    std::vector<Bvh8Node> bvh8_;
     std::vector<int32_t> refs_;           // BVH leaf order
     std::vector<size_t> first_triangle_;  // mesh m's input rows start at first_triangle_[m]
 };

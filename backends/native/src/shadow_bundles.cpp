@@ -23,7 +23,8 @@ constexpr size_t kMaxBundleCandidates = 32;
 bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
                               std::vector<BundleCandidate>& candidates) const {
     candidates.clear();
-    if (bvh4_.empty()) return true;
+    if (!instances_empty()) return false;  // instances are not candidates: each ray asks occluded()
+    if (bvh4_.empty() && bvh8_.empty()) return true;
     // Candidate separating axes: x, y, z, the parallelogram's normal and the four side faces of
     // the pyramid (apex hull[0]). Any vector is a valid axis: the hull's extent along it is
     // computed from the points, not assumed.
@@ -159,25 +160,36 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
         }
         return true;
     };
-    int32_t stack[kMaxBvh4Stack];
-    int sp = 0;
-    int32_t index = 0;
-    while (true) {
-        const Bvh4Node& node = bvh4_[size_t(index)];
-        for (int i = 0; i < 4; ++i) {
-            if (node.child[i] < 0) continue;  // empty slot
-            const ChildBox box(node, i);
-            // A child below the window holds only primitives below it, which add_leaf() drops.
-            if (below_the_window(box.lo, box.hi) || separated(box.lo, box.hi)) continue;
-            if (node.count[i] == 0) {
-                stack[sp++] = node.child[i];
-            } else if (!add_leaf(node.child[i], node.count[i])) {
-                return false;
+    // The same walk over either tree: a leaf's box is culled exactly when every box holding it
+    // would be (separation and the window are monotone in the box), so the candidates are the
+    // same set on both paths, only their order differs, which no any-hit answer depends on.
+    auto walk = [&](const auto& nodes, auto& stack) {
+        constexpr int width = int(sizeof(nodes[0].child) / sizeof(nodes[0].child[0]));
+        int sp = 0;
+        int32_t index = 0;
+        while (true) {
+            const auto& node = nodes[size_t(index)];
+            for (int i = 0; i < width; ++i) {
+                if (node.child[i] < 0) continue;  // empty slot
+                const ChildBox box(node, i);
+                // A child below the window holds only primitives below it, which add_leaf() drops.
+                if (below_the_window(box.lo, box.hi) || separated(box.lo, box.hi)) continue;
+                if (node.count[i] == 0) {
+                    stack[sp++] = node.child[i];
+                } else if (!add_leaf(node.child[i], node.count[i])) {
+                    return false;
+                }
             }
+            if (sp == 0) return true;
+            index = stack[--sp];
         }
-        if (sp == 0) return true;
-        index = stack[--sp];
+    };
+    if (!bvh8_.empty()) {
+        int32_t stack[kMaxBvh8Stack];
+        return walk(bvh8_, stack);
     }
+    int32_t stack[kMaxBvh4Stack];
+    return walk(bvh4_, stack);
 }
 
 bool Scene::occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray, double t_min, double t_max) const {

@@ -1,0 +1,174 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Compiled peers of the native tracer in benchmarks/run.py, built here at benchmark time (never
+at install or test time, never a dependency) and run as child processes on the same rays:
+
+* **Embree** through its C API (``peers/embree_peer.cpp``, Debian's ``libembree-dev``): single
+  rays (``rtcIntersect1`` / ``rtcOccluded1``) and 8- and 16-ray packets (``rtcIntersect8/16``
+  over 4×2 / 4×4 pixel blocks, then per block and shadow target one ``rtcOccluded8/16`` packet);
+  its build timed by ``rtcCommitScene`` alone; threads = Embree's device config ``threads=N``
+  (its build) and as many render threads.
+* **The naive scalar loop** (``peers/naive_peer.c``): every ray against every primitive in
+  double precision, spheres by centre and radius; small scenes only. Compiled twice: for the
+  x86-64 baseline (as the native extension is) and with ``-march=native``.
+
+The rays: the native camera's primary rays through the pixel centres, then per primary hit one
+shadow ray per shadow target (a point light's position, each point of an area light's full grid:
+``peer_rays.py``) from the peer's own hit point, as the Mitsuba peer traces. Each peer's answers
+(primary hit distance, and each point light's shadow rays) are checked against the native BVH's
+on the same rays before its time is printed (``peer_rays.agreement``).
+
+The binaries go to a cache folder under the system's temporary directory, keyed by a hash of the
+sources and flags (``PHONGSCENE_PEER_BUILD`` overrides the folder).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import os
+import shutil
+import struct
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from peer_rays import agreement, primary_rays, shadow_targets, sphere_centre_radius
+
+HERE = Path(__file__).resolve().parent / "peers"
+MAGIC = 0x52504850  # peer_input.h
+# The naive loop tests every ray against every primitive: beyond this many it is not a peer.
+NAIVE_MAX_PRIMITIVES = 64
+EMBREE_MODES = ("single", "packet8", "packet16")
+
+
+def _build_dir() -> Path:
+    return Path(os.environ.get("PHONGSCENE_PEER_BUILD") or Path(tempfile.gettempdir()) / "phongscene-peers")
+
+
+def _compile(compiler: str, source: str, flags: tuple[str, ...], libs: tuple[str, ...]) -> Path | str:
+    """The binary of ``peers/source`` built with ``flags`` (cached), or why it could not be built."""
+    if shutil.which(compiler) is None:
+        return f"{compiler} not found"
+    text = (HERE / source).read_bytes() + (HERE / "peer_input.h").read_bytes()
+    key = hashlib.sha256(text + repr((compiler, flags, libs)).encode()).hexdigest()[:16]
+    out = _build_dir() / f"{Path(source).stem}-{key}"
+    if out.exists():
+        return out
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.name + f".{os.getpid()}.tmp")
+    done = subprocess.run([compiler, *flags, str(HERE / source), "-o", str(tmp), *libs], capture_output=True, text=True)
+    if done.returncode != 0:
+        last = (done.stderr.strip().splitlines() or ["failed"])[-1]
+        return f"{source} does not build: {last[-200:]}"
+    tmp.replace(out)
+    return out
+
+
+COMMON = ("-O3", "-ffp-contract=off", "-Wall")
+
+
+@functools.cache
+def embree_binary() -> Path | str:
+    if not Path("/usr/include/embree3/rtcore.h").exists():
+        return "libembree-dev not installed (apt-get install libembree-dev)"
+    return _compile("c++", "embree_peer.cpp", (*COMMON, "-std=c++17"), ("-lembree3", "-lpthread"))
+
+
+@functools.cache
+def naive_binary(march_native: bool) -> Path | str:
+    flags = (*COMMON, "-std=c11", *(("-march=native",) if march_native else ()))
+    return _compile("cc", "naive_peer.c", flags, ("-lm", "-lpthread"))
+
+
+def why_not(scene) -> str | None:
+    """None when the compiled peers can stand in for ``scene``, else why not."""
+    if any(sphere_centre_radius(s) is None for s in scene.spheres):
+        return "a non-uniformly scaled sphere"
+    if any(shadow_targets(light) is None for light in scene.lights):
+        return "a light other than point and rectangular area lights"
+    if scene.camera.projection != "perspective":
+        return "an orthographic camera"
+    return None
+
+
+def write_rays(scene, settings, path: Path) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """Write peer_input.h's RAYS.bin for ``scene``; returns (origins, dirs, targets per light)."""
+    origins, dirs = primary_rays(scene, settings)
+    targets = [shadow_targets(light) for light in scene.lights]
+    offsets = np.cumsum([0] + [len(m.points) for m in scene.meshes])
+    points = np.concatenate([np.asarray(m.points, np.float32) for m in scene.meshes] or [np.zeros((0, 3), np.float32)])
+    triangles = np.concatenate(
+        [np.asarray(m.triangles, np.int64) + o for m, o in zip(scene.meshes, offsets)] or [np.zeros((0, 3), np.int64)]
+    ).astype(np.uint32)
+    spheres = np.asarray([[*c, r] for c, r in map(sphere_centre_radius, scene.spheres)], np.float32).reshape(-1, 4)
+    head = struct.pack(
+        "<7i", MAGIC, settings.width, settings.height, len(points), len(triangles), len(spheres), len(targets)
+    )
+    with open(path, "wb") as f:
+        f.write(head + struct.pack(f"<{len(targets)}i", *(len(t) for t in targets)))
+        for array in (points, triangles, spheres, origins, dirs, *targets):
+            f.write(np.ascontiguousarray(array).tobytes())
+    return origins, dirs, targets
+
+
+def _run(cmd: list[str]) -> dict:
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise SystemExit(f"{cmd[0]} failed ({done.returncode}): {done.stderr.strip()[-500:]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _answers(path: Path, origins, dirs, targets) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
+    """(valid, t, hit points, per light the shadow answers or None) from HITS.bin."""
+    n = len(origins)
+    data = path.read_bytes()
+    t = np.frombuffer(data, np.float32, n)
+    point_lights = [i for i, target in enumerate(targets) if len(target) == 1]
+    bytes_ = np.frombuffer(data, np.uint8, n * len(point_lights), offset=4 * n).reshape(len(point_lights), n)
+    valid = np.isfinite(t)
+    points = (origins[valid] + dirs[valid] * t[valid, None]).astype(np.float64)  # as peer_input.h's hit_point
+    occluded = [None] * len(targets)
+    for row, i in enumerate(point_lights):
+        occluded[i] = bytes_[row][valid] == 1
+    return valid, t, points, occluded
+
+
+def run_peers(scene, settings, native_scene, threads: int, repeat: int) -> dict[str, dict | str]:
+    """Each compiled peer's figures on ``scene`` at ``threads`` threads (best of ``repeat``):
+    name -> {"build" (Embree only), "render", "rays", "agreement"}, or the reason it was skipped."""
+    results: dict[str, dict | str] = {}
+    if reason := why_not(scene):
+        return {"peers": reason}
+    with tempfile.TemporaryDirectory() as tmp:
+        rays_path, hits_path = Path(tmp) / "rays.bin", Path(tmp) / "hits.bin"
+        origins, dirs, targets = write_rays(scene, settings, rays_path)
+
+        def checked(cmd: list[str]) -> dict:
+            figures = _run(cmd)
+            valid, t, points, occluded = _answers(hits_path, origins, dirs, targets)
+            figures["agreement"] = agreement(
+                native_scene, origins, dirs, valid, t, points, targets, occluded, who=Path(cmd[0]).name
+            )
+            return figures
+
+        primitives = len(scene.spheres) + scene.triangle_count
+        for march_native in (False, True):
+            name = "naive C" + (" -march=native" if march_native else "")
+            binary = naive_binary(march_native)
+            if isinstance(binary, str):
+                results[name] = binary
+            elif primitives > NAIVE_MAX_PRIMITIVES:
+                results[name] = f"{primitives} primitives (brute force beyond {NAIVE_MAX_PRIMITIVES})"
+            else:
+                results[name] = checked([str(binary), str(rays_path), str(hits_path), str(threads), str(repeat)])
+        binary = embree_binary()
+        for mode in EMBREE_MODES:
+            name = f"Embree {mode}"
+            results[name] = (
+                binary
+                if isinstance(binary, str)
+                else checked([str(binary), str(rays_path), str(hits_path), mode, str(threads), str(repeat)])
+            )
+    return results
