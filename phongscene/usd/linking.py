@@ -13,6 +13,7 @@ and attributes (``info --strict`` then fails)."""
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -22,6 +23,9 @@ from ..scene import Linking, Scene
 from .context import ReadContext
 
 SHADOW_ENABLE = "inputs:shadow:enable"
+# A PointInstancer copy's name (instancing.py): the instancer's path, [id], then the path below
+# its prototype.
+_INSTANCER_COPY = re.compile(r"\[-?\d+\].*$")
 # What the model does not render, with the value that changes nothing (UsdLux's fallbacks).
 UNSUPPORTED_INPUTS = {
     "inputs:shadow:color": (0.0, 0.0, 0.0),
@@ -41,7 +45,7 @@ def link_lights(ctx: ReadContext, stage: Usd.Stage, scene: Scene) -> Scene:
     if scene.instances and _links_tell_copies_apart(stage, scene):
         scene = _flattened_per_copy(scene)
     sources = [obj.source for obj in scene.objects]
-    paths = [Sdf.Path(s) if Sdf.Path.IsValidPathString(s) else None for s in sources]
+    paths = [_membership_path(s) for s in sources]
     lights = []
     for light in scene.lights:
         prim = stage.GetPrimAtPath(light.source) if Sdf.Path.IsValidPathString(light.source) else None
@@ -56,6 +60,15 @@ def link_lights(ctx: ReadContext, stage: Usd.Stage, scene: Scene) -> Scene:
         )
         lights.append(light if linking.default else replace(light, linking=linking))
     return replace(scene, lights=tuple(lights))
+
+
+def _membership_path(source: str) -> Sdf.Path | None:
+    """The prim path a collection's membership is asked about for a node named ``source``: a
+    PointInstancer copy (``/World/Scatter[3]``, the reader's name for it, and what follows) is
+    no prim, a collection can only name its instancer, so the instancer's path; None for a name
+    that is no path."""
+    path = _INSTANCER_COPY.sub("", source, count=1)
+    return Sdf.Path(path) if path and Sdf.Path.IsValidPathString(path) else None
 
 
 def _copy_meshes(scene: Scene):
@@ -73,7 +86,7 @@ def _links_tell_copies_apart(stage: Usd.Stage, scene: Scene) -> bool:
     """Whether some light's lightLink or shadowLink leaves out some geometry (a world node or an
     instance copy) while the scene has instances."""
     sources = [obj.source for obj in scene.objects] + [source for *_, source in _copy_meshes(scene)]
-    paths = [Sdf.Path(s) for s in set(sources) if Sdf.Path.IsValidPathString(s)]
+    paths = [p for p in map(_membership_path, set(sources)) if p is not None]
     for light in scene.lights:
         prim = stage.GetPrimAtPath(light.source) if Sdf.Path.IsValidPathString(light.source) else None
         if not prim or not prim.HasAPI(UsdLux.LightAPI):

@@ -11,7 +11,7 @@ from pxr import Gf, Usd, UsdGeom, UsdLux
 from phongscene import render
 from phongscene.usd import load_usd
 from support import oracle
-from support.instanced_stages import reference_stage
+from support.instanced_stages import point_instancer_stage, reference_stage
 
 COPIES = 4
 # As the other oracle comparisons of a few-pixel render (tests/cross/test_light_linking.py).
@@ -85,3 +85,14 @@ def test_instances_under_a_light_without_shadows_render_as_flattened(tmp_path):
         got, render(unshadowed.flattened(), "native"), rtol=ORACLE_RELATIVE_TOLERANCE, atol=ORACLE_ABSOLUTE_FLOOR
     )
     assert not np.allclose(got, render(scene, "native"), rtol=1e-3)  # the switch changes the picture
+
+
+def test_point_instancer_copies_are_in_the_default_light_link(tmp_path):
+    """A copy's name (/World/Scatter[3]) is no prim: membership is asked of its instancer, so the
+    default collection (includeRoot) includes every copy and no light is linked."""
+    from phongscene.backends.povray.compile import compile_pov
+
+    scene = load_usd(point_instancer_stage(tmp_path / "pi.usda", 10, rings=6, sides=4, with_sphere=True))
+    assert scene.instances and any("[" in s.source for s in scene.spheres)
+    assert all(light.linking.default for light in scene.lights)
+    assert "no_shadow" not in compile_pov(scene)
