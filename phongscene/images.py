@@ -91,16 +91,22 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     return np.ascontiguousarray(pixels[:, :, :3])
 
 
-def write_image(path: str | os.PathLike, pixels, *, half: bool = False) -> Path:
+def write_image(path: str | os.PathLike, pixels, *, half: bool = False, display: str = "srgb") -> Path:
     """Write ``pixels`` (linear float32 H×W×3) atomically. ``.exr``: float (or half) linear;
-    ``.png``: sRGB 8-bit, values clipped to [0, 1]."""
+    ``.png``: 8-bit by ``display`` (``phongscene.display``): "srgb", values clipped to [0, 1] and
+    sRGB-encoded, or the book's "book" / "book-gamut" codes (max_to_one or out-of-gamut red,
+    gamma 1, truncation)."""
     from OpenImageIO import ImageBuf, ImageBufAlgo
+
+    from .display import book_codes, check_display
 
     path = Path(path)
     ext = path.suffix.lower()
     if ext not in WRITABLE:
         raise PhongSceneError(f"{path}: cannot write '{ext}' images; use one of {', '.join(WRITABLE)}")
     img = as_image(pixels)
+    if ext == ".png" and check_display(display) != "srgb":
+        return write_imagebuf(path, ImageBuf(book_codes(img, out_of_gamut_red=display == "book-gamut")), "uint8")
     buf = ImageBuf(img)
     if ext == ".png":
         buf = ImageBufAlgo.colorconvert(buf, "linear", "sRGB")

@@ -15,8 +15,11 @@ Conventions:
   (flipped to face the viewer), viewer direction wo, and each light j with n·l_j > 0 and
   not in shadow::
 
-      L = ka·cd·La + Σ_j [ kd·cd/π + ks·cs·max(0, r_j·wo)^e ] · Lj · (n·l_j)
+      L = Le + ka·cd·La + Σ_j [ kd·cd/π + ks·cs·max(0, r_j·wo)^e ] · Lj · (n·l_j)
       r_j = −l_j + 2(n·l_j) n
+
+  Le is the material's emission (0 unless a scene asks); the sum runs over the lights whose
+  ``Linking`` illuminates the object, each unshadowed unless its linking says otherwise.
 
   The ``povray-classic`` convention is what a plain POV-Ray ``finish { phong ks phong_size e }``
   computes: the specular term has no n·l factor and is coloured by the light, not by cs::
@@ -248,6 +251,11 @@ class PhongMaterial:
     diffuse_texture: Texture | None = None
     # cs likewise (the seed convention's highlight colour; povray-classic ignores cs).
     specular_texture: Texture | None = None
+    # Le, emitted radiance added to the shaded colour wherever the surface is seen, lit or not
+    # (Suffern's Emissive material, ch. 14; USD: our shader's emissiveColor, UsdPreviewSurface's
+    # emissiveColor; POV-Ray's finish { emission }). Linear RGB, >= 0. An emissive surface lights
+    # nothing else: only lights do (a RectLight or SphereLight is the emitter that casts light).
+    emission: RGB = (0.0, 0.0, 0.0)
     # Mirror reflection (Suffern ch. 24): kr·cr times the radiance along the mirror direction,
     # added to the Phong terms. kr in [0, 1]; 0 (the default) traces no reflected ray.
     kr: float = 0.0
@@ -293,6 +301,7 @@ class PhongMaterial:
             self.diffuse_color,
             self.specular_color,
             self.source,
+            emission=self.emission,
             kr=self.kr,
             reflective_color=self.reflective_color,
             kt=self.kt,
@@ -393,6 +402,36 @@ class Cone:
 
 
 @dataclass(frozen=True, slots=True)
+class Linking:
+    """Which geometry a light reaches, as UsdLux says it: ``shadows`` is ShadowAPI's
+    ``inputs:shadow:enable`` (False: the light casts no shadow rays, everything it illuminates is
+    lit as if nothing were in the way); ``illuminates`` the light's ``collection:lightLink`` and
+    ``shadowed_by`` its ``collection:shadowLink``, each as the ``source`` paths of the geometry
+    the collection includes (None: all geometry, USD's default includeRoot). A node is in a set
+    when its ``source`` is; geometry built in Python names itself by its ``source`` too."""
+
+    shadows: bool = True
+    illuminates: frozenset[str] | None = None  # geometry the light illuminates; None: all
+    shadowed_by: frozenset[str] | None = None  # geometry that casts its shadows; None: all
+
+    def lights(self, source: str) -> bool:
+        """Whether the light illuminates the geometry whose prim is ``source``."""
+        return self.illuminates is None or source in self.illuminates
+
+    def shadows_from(self, source: str) -> bool:
+        """Whether the geometry whose prim is ``source`` casts this light's shadows."""
+        return self.shadows and (self.shadowed_by is None or source in self.shadowed_by)
+
+    @property
+    def default(self) -> bool:
+        """True for a light that lights everything and is shadowed by everything."""
+        return self.shadows and self.illuminates is None and self.shadowed_by is None
+
+
+NO_LINKING = Linking()
+
+
+@dataclass(frozen=True, slots=True)
 class PointLight:
     """A point light. No distance falloff unless ``fade_power > 0`` (POV-Ray's fade rule:
     ``color · 2 / (1 + (d / fade_distance)^fade_power)``)."""
@@ -408,6 +447,7 @@ class PointLight:
     # inputs:specular; >= 0, 1 = the seed's light).
     diffuse: float = 1.0
     specular: float = 1.0
+    linking: Linking = NO_LINKING  # shadows on or off, light and shadow linking
 
     def __post_init__(self) -> None:
         _as_triples(self, "position", "color")
@@ -422,6 +462,7 @@ class DirectionalLight:
     source: str = ""
     diffuse: float = 1.0  # multipliers of the two terms, as on PointLight
     specular: float = 1.0
+    linking: Linking = NO_LINKING  # as on PointLight
 
     def __post_init__(self) -> None:
         _as_triples(self, "direction", "color")
@@ -455,6 +496,7 @@ class RectAreaLight:
     # corners' mean; a cell whose corners agree counts as wholly lit or shadowed. None: POV-Ray's
     # estimators. A power of 2 in 2..16.
     cell_samples: int | None = None
+    linking: Linking = NO_LINKING  # as on PointLight
 
     def __post_init__(self) -> None:
         _as_triples(self, "center", "axis_u", "axis_v", "color")
@@ -476,6 +518,7 @@ class SphereAreaLight:
     specular: float = 1.0
     adaptive: int | None = None  # as RectAreaLight.adaptive
     cell_samples: int | None = None  # as RectAreaLight.cell_samples
+    linking: Linking = NO_LINKING  # as on PointLight
 
     def __post_init__(self) -> None:
         _as_triples(self, "center", "color")
@@ -587,6 +630,78 @@ class TriangleMesh:
             and _arrays_equal(self.normal_indices, other.normal_indices)
             and _arrays_equal(self.uvs, other.uvs)
             and _arrays_equal(self.uv_indices, other.uv_indices)
+            and self.material == other.material
+            and self.source == other.source
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+IntrinsicKind = Literal["cube", "cylinder", "capsule", "plane"]
+INTRINSIC_KINDS: tuple[str, ...] = ("cube", "cylinder", "capsule", "plane")
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Intrinsic:
+    """A UsdGeom intrinsic prim traced as its exact surface (not tessellated): a canonical shape
+    along the object's +Z axis, mapped to the world by an affine ``world_from_object`` (the prim's
+    transform, its axis and its size; the reader puts USD's X or Y axis onto Z):
+
+    * ``cube``: the cube [−1, 1]³ (POV-Ray ``box``).
+    * ``cylinder``: the side x² + y² = r(z)², |z| <= 1, r linear from ``radius_bottom`` at z = −1
+      to ``radius_top`` at z = +1, closed by discs of those radii (USD Cylinder, Cylinder_1;
+      a Cone is ``radius_top`` 0; POV-Ray ``cylinder`` or ``cone``).
+    * ``capsule``: a cylinder of ``radius`` over |z| <= ``half_height`` closed by spheres of that
+      radius centred at z = ±``half_height`` (USD Capsule; POV-Ray the union of the three).
+    * ``plane``: the square |x|, |y| <= 1 at z = 0, both sides (USD Plane; POV-Ray ``polygon``),
+      or with ``infinite`` the whole plane z = 0 (POV-Ray ``plane``), which no bounds include, so
+      the scale-aware tolerances stay those of the finite geometry.
+    """
+
+    kind: IntrinsicKind
+    world_from_object: np.ndarray  # (4, 4) float64, column vectors, invertible affine
+    material: PhongMaterial = DEFAULT_MATERIAL
+    source: str = ""
+    radius_bottom: float = 1.0  # cylinder: >= 0, not both radii 0
+    radius_top: float = 1.0
+    radius: float = 1.0  # capsule: > 0
+    half_height: float = 1.0  # capsule: >= 0
+    infinite: bool = False  # plane only
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "world_from_object", _matrix(self.world_from_object))
+
+    def object_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The object-space box that holds the shape (the unbounded plane: its unit square)."""
+        if self.kind == "cylinder":
+            r = max(self.radius_bottom, self.radius_top)
+            return np.array([-r, -r, -1.0]), np.array([r, r, 1.0])
+        if self.kind == "capsule":
+            r, h = self.radius, self.half_height + self.radius
+            return np.array([-r, -r, -h]), np.array([r, r, h])
+        if self.kind == "plane":
+            return np.array([-1.0, -1.0, 0.0]), np.array([1.0, 1.0, 0.0])
+        return -np.ones(3), np.ones(3)
+
+    def world_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """World AABB of the object box under the affine map (exact for a cube); None for an
+        infinite plane."""
+        if self.infinite:
+            return None
+        lo, hi = self.object_box()
+        m = self.world_from_object
+        centre = m[:3, :3] @ ((lo + hi) / 2) + m[:3, 3]
+        half = np.abs(m[:3, :3]) @ ((hi - lo) / 2)
+        return centre - half, centre + half
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Intrinsic):
+            return NotImplemented
+        return (
+            self.kind == other.kind
+            and _arrays_equal(self.world_from_object, other.world_from_object)
+            and (self.radius_bottom, self.radius_top, self.radius, self.half_height, self.infinite)
+            == (other.radius_bottom, other.radius_top, other.radius, other.half_height, other.infinite)
             and self.material == other.material
             and self.source == other.source
         )
@@ -723,6 +838,7 @@ class Scene:
     spheres: tuple[Sphere, ...] = ()
     meshes: tuple[TriangleMesh, ...] = ()
     settings: RenderSettings = field(default_factory=RenderSettings)
+    intrinsics: tuple[Intrinsic, ...] = ()  # Cube, Cylinder, Cone, Capsule, Plane: exact surfaces
     source_file: str = ""  # the file the scene was read from ("" when built in Python)
     # Prototypes placed by transforms (instancing): their meshes are in prototype space.
     instances: tuple[Instances, ...] = ()
@@ -803,9 +919,20 @@ class Scene:
             self, spheres=tuple(map(changed, self.spheres)), meshes=tuple(map(changed, self.meshes))
         )
 
+    @property
+    def objects(self) -> tuple:
+        """Every geometry node, in the order the backends number them: spheres, meshes, intrinsics."""
+        return (*self.spheres, *self.meshes, *self.intrinsics)
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """World-space axis-aligned bounds of all geometry, or None for an empty scene."""
+        """World-space axis-aligned bounds of all geometry but infinite planes, or None for an
+        empty scene."""
         lows, highs = [], []
+        for i in self.intrinsics:
+            b = i.world_bounds()
+            if b is not None:
+                lows.append(b[0])
+                highs.append(b[1])
         for m in self.meshes:
             if len(m.points):
                 lows.append(m.points.min(axis=0))

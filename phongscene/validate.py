@@ -35,6 +35,7 @@ from .limits import (
     MIN_ORTHO_WIDTH,
 )
 from .scene import (
+    INTRINSIC_KINDS,
     NUMERICS,
     SAMPLE_PATTERNS,
     TRANSMISSION_CONVENTIONS,
@@ -44,6 +45,8 @@ from .scene import (
     Cone,
     DirectionalLight,
     Instances,
+    Intrinsic,
+    Linking,
     PhongMaterial,
     PointLight,
     Prototype,
@@ -191,6 +194,7 @@ _ITEM_TYPES = {
     "lights": (PointLight, DirectionalLight, RectAreaLight, SphereAreaLight),
     "spheres": (Sphere,),
     "meshes": (TriangleMesh,),
+    "intrinsics": (Intrinsic,),
     "instances": (Instances,),
 }
 
@@ -320,6 +324,11 @@ def validate(scene: Scene) -> list[Problem]:
         materials.append(mesh.material)
         if mesh.material.textures and mesh.uvs is None:
             c.add(mesh, "uvs", "a mesh with a textured material needs texture coordinates (uvs)")
+    for intrinsic in scene.intrinsics:
+        _check_intrinsic(c, intrinsic)
+        materials.append(intrinsic.material)
+        if intrinsic.material.textures:
+            c.add(intrinsic, "material", "a textured material needs texture coordinates, which only meshes carry")
     for material in _unique(materials):
         _check_material(c, material)
     if any(_number(m.kt) and m.kt > 0 for m in materials):  # a kt that is not a number: reported above
@@ -370,6 +379,7 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
         c.add(m, "exponent", f"must be >= 0, got {_show(m.exponent)}")
     c.colour(m, "diffuse_color")
     c.colour(m, "specular_color")
+    c.colour(m, "emission")
     c.unit_interval(m, "kr")
     c.colour(m, "reflective_color")
     c.unit_interval(m, "kt")
@@ -465,7 +475,21 @@ def _check_settings(c: _Collector, s: RenderSettings) -> None:
 FALLOFFS = ("none", "inverse-square")
 
 
+def _check_linking(c: _Collector, light) -> None:
+    linking = getattr(light, "linking", None)
+    if not isinstance(linking, Linking):
+        c.add(light, "linking", f"must be a Linking, got {type(linking).__name__}")
+        return
+    if not isinstance(linking.shadows, (bool, np.bool_)):
+        c.add(light, "linking.shadows", f"must be True or False, got {_show(linking.shadows)}")
+    for field in ("illuminates", "shadowed_by"):
+        members = getattr(linking, field)
+        if members is not None and not (isinstance(members, frozenset) and all(isinstance(m, str) for m in members)):
+            c.add(light, f"linking.{field}", f"must be None or a frozenset of prim paths, got {type(members).__name__}")
+
+
 def _check_light(c: _Collector, light) -> None:
+    _check_linking(c, light)
     c.colour(light, "color")
     for term in ("diffuse", "specular"):
         value = getattr(light, term, 1.0)
@@ -555,6 +579,40 @@ def _check_sphere(c: _Collector, s: Sphere) -> None:
                 f"the sphere must lie within ±{MAX_COORDINATE:g} (so that distances and "
                 f"their squares stay finite), it reaches {reach:.3g}",
             )
+
+
+def _check_intrinsic(c: _Collector, i: Intrinsic) -> None:
+    if i.kind not in INTRINSIC_KINDS:
+        c.add(i, "kind", f"must be one of {', '.join(INTRINSIC_KINDS)}, got {_show(i.kind)}")
+        return
+    m = i.world_from_object
+    if c.finite(i, "world_from_object", m):
+        if not np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0]):
+            c.add(i, "world_from_object", f"must be affine (last row 0 0 0 1), got {_show(tuple(m[3]))}")
+        elif is_singular(m[:3, :3]):
+            c.add(i, "world_from_object", "is singular (a zero size or a zero/degenerate scale)")
+        elif not i.infinite:
+            with np.errstate(over="ignore", invalid="ignore"):
+                lo, hi = i.world_bounds()
+                reach = float(np.max(np.abs(np.concatenate([lo, hi]))))
+            if not reach <= MAX_COORDINATE:
+                c.add(
+                    i, "world_from_object", f"the {i.kind} must lie within ±{MAX_COORDINATE:g}, it reaches {reach:.3g}"
+                )
+    for field in ("radius_bottom", "radius_top", "radius", "half_height"):
+        value = getattr(i, field)
+        if c.finite(i, field, value) and value < 0:
+            c.add(i, field, f"must be >= 0, got {_show(value)}")
+    if i.kind == "cylinder" and i.radius_bottom == 0 and i.radius_top == 0:
+        c.add(i, "radius_bottom", "a cylinder needs a radius > 0 at one end at least")
+    if i.kind == "capsule" and i.radius == 0:
+        c.add(i, "radius", "must be > 0")
+    if i.kind == "capsule" and isinstance(i.material, PhongMaterial) and i.material.transmits:
+        # The native tracer's capsule is the union of a tube and two spheres, whose inner parts
+        # would refract a ray that crosses them.
+        c.add(i, "material", "a transmissive capsule is not supported (tessellate it: phong:tessellate)")
+    if i.infinite and i.kind != "plane":
+        c.add(i, "infinite", f"only a plane can be infinite, not a {i.kind}")
 
 
 def _check_instances(c: _Collector, group: Instances) -> None:

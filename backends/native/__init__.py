@@ -18,6 +18,7 @@ import numpy as np
 from phongscene.scene import (
     Camera,
     DirectionalLight,
+    Intrinsic,
     Light,
     PhongMaterial,
     PointLight,
@@ -55,6 +56,8 @@ def _material(m: PhongMaterial) -> _native.Material:
     native = _native.Material(
         ka=m.ka, kd=m.kd, ks=m.ks, exponent=m.exponent, diffuse_color=m.diffuse_color, specular_color=m.specular_color
     )
+    if any(m.emission):
+        native.emission = m.emission
     native.kr = m.kr
     native.reflective_color = m.reflective_color
     native.kt = m.kt
@@ -92,7 +95,7 @@ def texture_arrays(scene: Scene, *, half_texels: bool = False) -> dict | None:
     meshes), and each triangle's corner uvs (zeros for meshes without uvs). ``half_texels``:
     texels rounded to half floats, as POV-Ray holds an EXR image map (ref §16)."""
     models: dict[PhongMaterial, None] = {}
-    for obj in (*scene.spheres, *scene.meshes):
+    for obj in scene.objects:
         models.setdefault(obj.material, None)
     textures: dict[int, object] = {}
     for m in models:
@@ -192,6 +195,77 @@ def _settings(s: RenderSettings) -> _native.RenderSettings:
     return native
 
 
+# The C++ part kinds (intrinsics.hpp: IntrinsicKind).
+_BOX, _FRUSTUM, _DISK, _SQUARE, _PLANE, _SPHERE = range(6)
+
+
+def _parts(intrinsic: Intrinsic) -> list[tuple[int, np.ndarray, float, float, float]]:
+    """The parts the tracer intersects for one intrinsic prim: (kind, world_from_object of the
+    part, r0, r1, z0) in intrinsics.hpp's canonical shapes."""
+    m = intrinsic.world_from_object
+    if intrinsic.kind == "cube":
+        return [(_BOX, m, 1.0, 1.0, 0.0)]
+    if intrinsic.kind == "plane":
+        return [(_PLANE if intrinsic.infinite else _SQUARE, m, 1.0, 1.0, 0.0)]
+    if intrinsic.kind == "cylinder":
+        r0, r1 = intrinsic.radius_bottom, intrinsic.radius_top
+        parts = [(_FRUSTUM, m, r0, r1, 0.0)]
+        parts += [(_DISK, m, r, r, z) for r, z in ((r0, -1.0), (r1, 1.0)) if r > 0]
+        return parts
+    # A capsule: the side (unless of zero height) and the two end spheres.
+    r, h = intrinsic.radius, intrinsic.half_height
+    parts = [(_FRUSTUM, m @ np.diag([r, r, h, 1.0]), 1.0, 1.0, 0.0)] if h > 0 else []
+    for z in (-h, h):
+        end = np.diag([r, r, r, 1.0])
+        end[2, 3] = z
+        parts.append((_SPHERE, m @ end, 1.0, 1.0, 0.0))
+    return parts
+
+
+def _part_box(kind: int, r0: float, r1: float, z0: float) -> tuple[np.ndarray, np.ndarray]:
+    """A part's object-space box."""
+    if kind == _FRUSTUM:
+        r = max(r0, r1)
+        return np.array([-r, -r, -1.0]), np.array([r, r, 1.0])
+    if kind == _DISK:
+        return np.array([-r0, -r0, z0]), np.array([r0, r0, z0])
+    if kind in (_SQUARE, _PLANE):
+        return np.array([-1.0, -1.0, 0.0]), np.array([1.0, 1.0, 0.0])
+    return -np.ones(3), np.ones(3)
+
+
+def intrinsic_parts(scene: Scene, material_id) -> list:
+    """The scene's intrinsic prims as the C++ parts (``_native.IntrinsicShape``), each with its
+    world box (a sphere's exact: centre ± the row norms) and its object number (spheres, meshes,
+    then intrinsics: light linking's numbering)."""
+    out = []
+    first = len(scene.spheres) + len(scene.meshes)
+    for i, intrinsic in enumerate(scene.intrinsics):
+        material = material_id(intrinsic.material)
+        for kind, m, r0, r1, z0 in _parts(intrinsic):
+            if kind == _SPHERE:
+                centre, half = m[:3, 3], np.sqrt((m[:3, :3] ** 2).sum(axis=1))
+            else:
+                lo, hi = _part_box(kind, r0, r1, z0)
+                centre = m[:3, :3] @ ((lo + hi) / 2) + m[:3, 3]
+                half = np.abs(m[:3, :3]) @ ((hi - lo) / 2)
+            object_from_world = np.linalg.inv(m)[:3].reshape(-1)
+            out.append(
+                _native.IntrinsicShape(
+                    kind=kind,
+                    object_from_world=[float(x) for x in object_from_world],
+                    bounds_lo=tuple(map(float, centre - half)),
+                    bounds_hi=tuple(map(float, centre + half)),
+                    r0=float(r0),
+                    r1=float(r1),
+                    z0=float(z0),
+                    material=material,
+                    object=first + i,
+                )
+            )
+    return out
+
+
 def scene_arrays(scene: Scene) -> dict:
     """The arguments ``_native.Scene`` takes, by keyword: the spheres as numpy arrays, each mesh's
     own arrays (the model's, read in place by C++: lists with one entry per mesh), the materials
@@ -223,18 +297,61 @@ def scene_arrays(scene: Scene) -> dict:
         "mesh_material": np.array([material_id(m.material) for m in meshes], dtype=np.int32),
         # Each mesh is one POV-Ray object, whose shadow test the POV-Ray numerics reproduce.
         "mesh_origins": c(np.array([m.local_origin() for m in meshes]).reshape(-1, 3), np.float64),
+        "intrinsics": intrinsic_parts(scene, material_id),
         "materials": _materials(material_ids),
         "lights": [_light(light) for light in scene.lights],
         "ambient": scene.ambient.color,
     }
 
 
-def build(scene: Scene) -> _native.Scene:
-    """The C++ scene (geometry, materials, lights and BVH) of a validated ``scene``."""
-    native = _native.Scene(**scene_arrays(scene))
-    textures = texture_arrays(scene)
+def light_link_arrays(scene: Scene) -> dict | None:
+    """The arguments of ``_native.Scene.set_light_links``, or None when every light lights and is
+    shadowed by everything: per light its shadow switch and, over the objects (spheres, then
+    meshes, each named by its ``source``), which it illuminates and which cast its shadows
+    (empty arrays: all of them)."""
+    if all(light.linking.default for light in scene.lights):
+        return None
+    sources = [obj.source for obj in scene.objects]
+    everything = np.zeros(0, np.uint8)
+
+    def flags(members):
+        if members is None:
+            return everything
+        return np.array([source in members for source in sources], dtype=np.uint8)
+
+    return {
+        "shadows": np.array([light.linking.shadows for light in scene.lights], dtype=np.uint8),
+        "lit": [flags(light.linking.illuminates) for light in scene.lights],
+        "casts": [flags(light.linking.shadowed_by) for light in scene.lights],
+    }
+
+
+def _finish(native: _native.Scene, scene: Scene, *, half_texels: bool = False) -> _native.Scene:
+    """Textures and light links onto a built C++ scene."""
+    textures = texture_arrays(scene, half_texels=half_texels)
     if textures is not None:
         native.set_textures(**textures)
+    links = light_link_arrays(scene)
+    if links is not None:
+        native.set_light_links(**links)
+    return native
+
+
+def linkable(scene: Scene) -> Scene:
+    """``scene``, flattened when a light's lightLink or shadowLink names geometry and the scene
+    has instances: the C++ links number world objects only (the USD reader already flattens the
+    instances a link tells apart, docs/instancing.md; this covers scenes built in Python)."""
+    if scene.instances and any(
+        light.linking.illuminates is not None or light.linking.shadowed_by is not None for light in scene.lights
+    ):
+        return scene.flattened()
+    return scene
+
+
+def build(scene: Scene) -> _native.Scene:
+    """The C++ scene (geometry, materials, lights and BVH) of a validated ``scene``."""
+    scene = linkable(scene)
+    native = _finish(_native.Scene(**scene_arrays(scene)), scene)
     add_instances(native, scene, "scale-invariant")
     return native
 
@@ -313,6 +430,7 @@ def prepare(
     """``render``'s first half: the C++ scene of ``scene`` in the numerics of ``settings``
     (default ``scene.settings``), built now; the returned object renders when called."""
     s = scene.settings if settings is None else settings
+    scene = linkable(scene)
     # Building the BVH of a big mesh takes seconds and reports no fraction: say so
     # (phongscene.progress.report_phase: a progress callable may have a phase method).
     phase = getattr(progress, "phase", None)
@@ -327,10 +445,7 @@ def prepare(
     arrays = scene_arrays(scene)
     if s.numerics != "scale-invariant":
         arrays = _as_povray_stores(arrays, scene)
-    native = _native.Scene(**arrays)
-    textures = texture_arrays(scene, half_texels=s.numerics != "scale-invariant")
-    if textures is not None:
-        native.set_textures(**textures)
+    native = _finish(_native.Scene(**arrays), scene, half_texels=s.numerics != "scale-invariant")
     add_instances(native, scene, s.numerics)
     return PreparedRender(native, _camera(scene.camera), _settings(s), progress)
 

@@ -50,6 +50,7 @@ from phongscene.errors import Problem, SceneError
 from phongscene.scene import (
     AmbientLight,
     DirectionalLight,
+    Intrinsic,
     PhongMaterial,
     PointLight,
     RectAreaLight,
@@ -244,12 +245,25 @@ def pass_scenes(scene: Scene, mapping: str) -> tuple[Scene, ...]:
     if pass_count(scene, mapping) == 1:
         return (scene,)
     dark = AmbientLight((0.0, 0.0, 0.0), scene.ambient.source)
+    if any(any(m.material.emission) for m in all_meshes(scene)[len(scene.meshes) :]):
+        scene = scene.flattened()  # emissive prototype meshes: darkened below as world meshes
+    # Emission, like the ambient term, is drawn once, in pass 0.
+    unlit = {}
+    for obj in scene.objects:
+        if any(obj.material.emission):
+            unlit.setdefault(obj.material, replace(obj.material, emission=(0.0, 0.0, 0.0)))
+    dark_spheres = tuple(replace(s, material=unlit.get(s.material, s.material)) for s in scene.spheres)
+    dark_meshes = tuple(replace(m, material=unlit.get(m.material, m.material)) for m in scene.meshes)
+    dark_intrinsics = tuple(replace(m, material=unlit.get(m.material, m.material)) for m in scene.intrinsics)
     return tuple(
         replace(
             scene,
             lights=(light,),
             ambient=scene.ambient if i == 0 else dark,
             settings=scene.settings if i == 0 else replace(scene.settings, background=(0.0, 0.0, 0.0)),
+            spheres=scene.spheres if i == 0 or not unlit else dark_spheres,
+            meshes=scene.meshes if i == 0 or not unlit else dark_meshes,
+            intrinsics=scene.intrinsics if i == 0 or not unlit else dark_intrinsics,
         )
         for i, light in enumerate(scene.lights)
     )
@@ -316,10 +330,18 @@ class _Compiler:
         with np.errstate(over="ignore", invalid="ignore"):
             self.bounds = scene.bounds()
         self.uv_frame, self.images = pov_images(scene)
+        # Emissive materials: the exact mapping declares Emission per pass (1 in pass 0, else 0),
+        # as the emitted light, like the ambient term, is counted once.
+        self.emission = any(any(o.material.emission) for o in scene.objects)
+        # Materials some object wears where a light does not illuminate it (light linking): an
+        # ambient-and-emission-only texture, Material_k_Unlit, is declared beside them.
+        self.unlit_materials = {
+            o.material for o in scene.objects if any(not light.linking.lights(o.source) for light in scene.lights)
+        }
         # Secondary rays (ref §18): only a scene with a reflective material gets the depth limit
         # (max_trace_level = max_depth + 1) and adc_bailout 0 (no weight cut-off), so the SDL of
         # every other scene is unchanged.
-        self.reflective = any(o.material.reflects or o.material.transmits for o in (*scene.spheres, *scene.meshes))
+        self.reflective = any(o.material.reflects or o.material.transmits for o in scene.objects)
 
     def trace_settings(self) -> str:
         """The global_settings items of secondary rays ("" for a scene that traces none)."""
@@ -441,6 +463,9 @@ class _Compiler:
         for i, mesh in enumerate(self.scene.meshes):
             self.comment(mesh, "mesh", i)
             self.mesh(mesh)
+        for i, intrinsic in enumerate(self.scene.intrinsics):
+            self.comment(intrinsic, intrinsic.kind, i)
+            self.lines.append(self.intrinsic(intrinsic))
         self.instances()
         return "\n".join(self.lines) + "\n"
 
@@ -589,6 +614,8 @@ class _Compiler:
             first = i == 0
             self.lines.append(f"  global_settings {{ ambient_light rgb {ambient if first else '<0, 0, 0>'} }}")
             self.lines.append(f"  background {{ color rgb {background if first else '<0, 0, 0>'} }}")
+            if self.emission:
+                self.lines.append(f"  #declare Emission = {1 if first else 0};")
             if light is None:
                 self.lines.append("  // no lights: the ambient term only")
                 self.lines.append("  #declare NdotL = pigment { rgbf <0, 0, 0, 1> }")
@@ -611,7 +638,7 @@ class _Compiler:
     # -- materials -----------------------------------------------------------------------------
 
     def declare_materials(self) -> None:
-        for obj in (*self.scene.spheres, *all_meshes(self.scene)):
+        for obj in (*self.scene.objects, *(m for p in self.scene.prototypes for m in p.meshes)):
             m = obj.material
             if m in self.materials:
                 continue
@@ -620,6 +647,8 @@ class _Compiler:
             self.lines.append(self.comment_text(m, "material", len(self.materials) - 1))
             texture = self.texture(m, name)
             self.lines.append(f"#declare {name} = {texture}")
+            if m in self.unlit_materials:
+                self.lines.append(f"#declare {name}_Unlit = {self.unlit_texture(m)}")
 
     def diffuse_pigment(self, m: PhongMaterial) -> str:
         """cd as a pigment: a colour, or the texture as an ``image_map`` on the mesh's uvs. The
@@ -646,11 +675,48 @@ class _Compiler:
     def diffuse_term(self) -> str:
         return " * Light_Diffuse" if self.light_terms else ""
 
+    def emissive_entry(self, m: PhongMaterial, weight: int) -> str:
+        """The texture_map entry, of ``weight``, that adds Le to an ``average`` of total weight
+        2·``weight`` (it holds half of it): POV-Ray's emission is pigment·emission (ref §4), so the
+        pigment is 2·Le (a power of 2: exact in float, as are the other entries' doubled
+        coefficients). ``Emission`` is the exact mapping's per-pass switch."""
+        colour = self.rgb(tuple(2.0 * c for c in m.emission), m, "emission")
+        emission = "Emission" if self.exact else "1"
+        return f"[{weight} pigment {{ rgb {colour} }} finish {{ ambient 0 diffuse 0 emission {emission} }}]"
+
+    def with_emission(self, m: PhongMaterial, body: str, weight: int = 1) -> str:
+        """A one-texture body (without 'texture') with Le added: the average of it, doubled, and
+        the emissive entry; without emission the plain texture."""
+        if not any(m.emission):
+            return f"texture {{ {body} }}"
+        return f"texture {{ average texture_map {{\n  [{weight} {body}]\n  {self.emissive_entry(m, weight)}\n}} }}"
+
+    def unlit_texture(self, m: PhongMaterial) -> str:
+        """What an object shows where a light does not illuminate it (light linking): its
+        ambient term and emission only (the exact mapping's ambient, ka·cd·La, is the same float
+        as its doubled-and-averaged one: scaling by 2 is exact)."""
+        pigment = self.diffuse_pigment(m)
+        k = 2 if any(m.emission) else 1
+        ka = self.coef(k * m.ka / self.transparency(m), m, "ka")
+        # The mirror term stays: a light link removes the light's direct terms only.
+        return self.with_emission(m, f"{pigment} finish {{ ambient {ka} diffuse 0{self.reflection(m, k)} }}")
+
     def texture(self, m: PhongMaterial, name: str) -> str:
         self.rgb(m.diffuse_color, m, "diffuse_color")  # checked also when a texture replaces it
+        self.rgb(m.emission, m, "emission")
         pigment = self.diffuse_pigment(m)
         e = self.coef(m.exponent, m, "exponent")
-        ks = self.coef(m.ks, m, "ks")  # checked even where no highlight is written
+        self.coef(m.ks, m, "ks")  # checked even where no highlight is written
+        emissive = any(m.emission)
+        # With emission, every entry of the average carries twice its share (see emissive_entry).
+        k = 2 if emissive else 1
+        if emissive and m.transmits:
+            raise self._error(
+                m,
+                "emission",
+                "an emissive transmissive material: POV-Ray's average texture would "
+                "halve its transmission (set emission or kt to 0)",
+            )
         if self.exact and m.ks > 0 and m.transmits:
             raise self._error(
                 m,
@@ -660,15 +726,17 @@ class _Compiler:
             )
         if not self.exact or m.ks <= 0:
             # Classic: one idiomatic finish. Exact without a highlight: one plain texture is exact.
-            phong = f" phong {ks} phong_size {e}" if m.ks > 0 else ""
+            phong = f" phong {self.coef(k * m.ks, m, 'ks')} phong_size {e}" if m.ks > 0 else ""
             att = self.transparency(m)
-            return (
-                f"texture {{ {pigment} finish {{ ambient {self.coef(m.ka / att, m, 'ka')}"
-                f" diffuse {self.coef(m.kd / math.pi / att, m, 'kd')}{self.diffuse_term}{phong}{self.reflection(m)} }} }}"
+            return self.with_emission(
+                m,
+                f"{pigment} finish {{ ambient {self.coef(k * m.ka / att, m, 'ka')}"
+                f" diffuse {self.coef(k * m.kd / math.pi / att, m, 'kd')}{self.diffuse_term}{phong}{self.reflection(m, k)} }}",
             )
         # (A) the average of a diffuse texture and a layered specular texture, each doubled.
         # (A texture_map entry cannot hold a layered texture inline: it is declared first.)
-        phong = self.coef(2 * m.ks, m, "ks") + (" * Light_Specular" if self.light_terms else "")
+        # With emission, a third entry of weight 2 (Le): every share doubles again.
+        phong = self.coef(2 * k * m.ks, m, "ks") + (" * Light_Specular" if self.light_terms else "")
         layers = [f"texture {{ pigment {{ rgb 0 }} finish {{ ambient 0 diffuse 0 phong {phong} phong_size {e} }} }}"]
         cs = self.rgb(m.specular_color, m, "specular_color")
         if m.specular_texture is not None:
@@ -684,28 +752,109 @@ class _Compiler:
         # (A texture_map entry holds a texture body without the 'texture' keyword.)
         # The mirror term rides on the diffuse half, doubled like its other terms.
         diffuse = (
-            f"{pigment} finish {{ ambient {self.coef(2 * m.ka, m, 'ka')}"
-            f" diffuse {self.coef(2 * m.kd / math.pi, m, 'kd')}{self.diffuse_term}{self.reflection(m, 2.0)} }}"
+            f"{pigment} finish {{ ambient {self.coef(2 * k * m.ka, m, 'ka')}"
+            f" diffuse {self.coef(2 * k * m.kd / math.pi, m, 'kd')}{self.diffuse_term}{self.reflection(m, 2.0 * k)} }}"
         )
-        return f"texture {{ average texture_map {{\n  [1 {diffuse}]\n  [1 {name}_Specular]\n}} }}"
+        emitted = f"\n  {self.emissive_entry(m, 2)}" if emissive else ""
+        return f"texture {{ average texture_map {{\n  [1 {diffuse}]\n  [1 {name}_Specular]{emitted}\n}} }}"
+
+    # -- light and shadow linking ---------------------------------------------------------------
+
+    def linked(self, obj) -> tuple[str, str]:
+        """(the texture an object wears, the modifiers after it) under its lights' linking.
+
+        The exact mapping renders one light per pass, so linking is exact there: in a pass whose
+        light does not illuminate the object it wears its ambient-and-emission-only texture
+        (``_Unlit``), and in a pass whose light it does not shadow (inputs:shadow:enable off, or
+        not in the light's collection:shadowLink) it is ``no_shadow`` (ref §6: no_shadow keeps
+        the highlight; a ``shadowless`` light would drop it, ref §5). The classic mapping has all
+        lights in one pass: an object can only be ``no_shadow`` for all of them, and every light
+        must illuminate it; otherwise an error names the light and the collection."""
+        name = self.materials[obj.material]
+        lights = self.scene.lights
+        unlit = [i for i, light in enumerate(lights) if not light.linking.lights(obj.source)]
+        unshadowing = [i for i, light in enumerate(lights) if not light.linking.shadows_from(obj.source)]
+        if not self.exact:
+            if unlit:
+                raise self._error(
+                    lights[unlit[0]],
+                    "collection:lightLink",
+                    f"does not include {sanitize_comment(obj.source) or 'an object'}, which the other lights illuminate: "
+                    "the classic mapping (one POV-Ray pass, all lights) cannot express light linking; use the exact mapping",
+                )
+            if unshadowing and len(unshadowing) != len(lights):
+                light = lights[unshadowing[0]]
+                attribute = "inputs:shadow:enable" if not light.linking.shadows else "collection:shadowLink"
+                raise self._error(
+                    light,
+                    attribute,
+                    f"leaves {sanitize_comment(obj.source) or 'an object'} without this light's shadow but other lights "
+                    "keep it: the classic mapping (one POV-Ray pass, all lights) has only no_shadow for all lights; "
+                    "use the exact mapping",
+                )
+            return name, " no_shadow" if unshadowing else ""
+
+        def when(passes: list[int]) -> str:
+            return " | ".join(f"Pass = {i}" for i in passes)
+
+        texture = f"#if ({when(unlit)}) {name}_Unlit #else {name} #end" if unlit else name
+        if not unshadowing:
+            modifiers = ""
+        elif len(unshadowing) == len(lights):
+            modifiers = " no_shadow"
+        else:
+            modifiers = f" #if ({when(unshadowing)}) no_shadow #end"
+        return texture, modifiers
 
     # -- geometry ------------------------------------------------------------------------------
 
     def sphere(self, s: Sphere) -> str:
         m = s.world_from_object
-        texture = self.materials[s.material]
+        texture, modifiers = self.linked(s)
         a, t = m[:3, :3], m[:3, 3]
         r = float(a[0, 0])
         if r > 0 and np.array_equal(a, np.diag([r, r, r])):
             return (
                 f"sphere {{ {self.vec(t, s, 'world_from_object')}, {self.num(r, s, 'world_from_object')}"
-                f" texture {{ {texture} }}{self.interior(s.material)} }}"
+                f" texture {{ {texture} }}{self.interior(s.material)}{modifiers} }}"
             )
         # POV's matrix is row-vector: p' = p·M with M's first three rows the images of x, y, z
         # (the columns of our column-vector 3×3) and the translation as the fourth row.
         numbers = ", ".join(self.num(x, s, "world_from_object") for x in (*a.T.reshape(-1), *t))
         # The texture comes after the matrix, so it is not transformed (world-space slope).
-        return f"sphere {{ <0, 0, 0>, 1 matrix <{numbers}> texture {{ {texture} }}{self.interior(s.material)} }}"
+        return f"sphere {{ <0, 0, 0>, 1 matrix <{numbers}> texture {{ {texture} }}{self.interior(s.material)}{modifiers} }}"
+
+    def matrix(self, node, m: np.ndarray) -> str:
+        """POV's row-vector ``matrix`` of a column-vector affine map (the 3×3 part transposed,
+        then the translation)."""
+        a, t = m[:3, :3], m[:3, 3]
+        return "matrix <" + ", ".join(self.num(x, node, "world_from_object") for x in (*a.T.reshape(-1), *t)) + ">"
+
+    def intrinsic(self, i: Intrinsic) -> str:
+        """An intrinsic prim as POV-Ray's own shape in the canonical frame (model ``Intrinsic``)
+        under its ``matrix``; the texture after the matrix stays in world space (the exact
+        mapping's slope), as for spheres."""
+        texture, modifiers = self.linked(i)
+        tail = (
+            f" {self.matrix(i, i.world_from_object)} texture {{ {texture} }}{self.interior(i.material)}{modifiers} }}"
+        )
+        if i.kind == "cube":
+            return "box { <-1, -1, -1>, <1, 1, 1>" + tail
+        if i.kind == "plane":
+            if i.infinite:
+                return "plane { z, 0" + tail
+            return "polygon { 4, <-1, -1, 0>, <1, -1, 0>, <1, 1, 0>, <-1, 1, 0>" + tail
+        if i.kind == "cylinder":
+            r0, r1 = (
+                self.num(r, i, f"radius_{end}") for r, end in ((i.radius_bottom, "bottom"), (i.radius_top, "top"))
+            )
+            if i.radius_bottom == i.radius_top:
+                return f"cylinder {{ <0, 0, -1>, <0, 0, 1>, {r0}" + tail
+            return f"cone {{ <0, 0, -1>, {r0}, <0, 0, 1>, {r1}" + tail
+        # A capsule: the open side and the two end spheres, one object (union) for the texture.
+        r, h = self.num(i.radius, i, "radius"), self.num(i.half_height, i, "half_height")
+        side = f" cylinder {{ <0, 0, -{h}>, <0, 0, {h}>, {r} open }}" if i.half_height > 0 else ""
+        return f"union {{ sphere {{ <0, 0, -{h}>, {r} }} sphere {{ <0, 0, {h}>, {r} }}{side}" + tail
 
     def float32_block(self, mesh: TriangleMesh, attribute: str, values: np.ndarray) -> str:
         try:
@@ -745,9 +894,11 @@ class _Compiler:
             for k in range(len(group)):
                 matrix = ", ".join(map(sdl_float, rows[k]))
                 for name, mesh in names:
+                    # Linking cannot tell the copies apart here (the reader flattens those it would).
+                    texture, modifiers = self.linked(mesh)
                     self.lines.append(
-                        f"object {{ {name} matrix <{matrix}> texture {{ {self.materials[mesh.material]} }}"
-                        f"{self.interior(mesh.material)} }}"
+                        f"object {{ {name} matrix <{matrix}> texture {{ {texture} }}"
+                        f"{self.interior(mesh.material)}{modifiers} }}"
                     )
 
     def mesh(self, mesh: TriangleMesh, declare: str | None = None) -> None:
@@ -790,5 +941,6 @@ class _Compiler:
             # any direction does for a closed mesh (POV-Ray counts crossings along it).
             out.append("  inside_vector <0.2718281828, 0.5772156649, 0.7853981634>")
         if not declare:
-            out.append(f"  texture {{ {self.materials[mesh.material]} }}{self.interior(mesh.material)}")
+            texture, modifiers = self.linked(mesh)
+            out.append(f"  texture {{ {texture} }}{self.interior(mesh.material)}{modifiers}")
         out.append("}")

@@ -54,6 +54,10 @@ def _attribute_meanings() -> dict[str, str]:
         "deeper rays return black)",
         names.TRANSMISSION_CONVENTION: "`book` \\| `povray`: the radiance of refracted rays, kt/η²·L (the book) "
         "or kt·L (POV-Ray)",
+        names.TESSELLATE: "an intrinsic prim as triangles (64 segments around the axis) instead of its exact surface "
+        "(default false)",
+        names.INFINITE: "a Plane as the whole plane (POV-Ray `plane`), outside the scene's bounds (default false: "
+        "its width × length rectangle)",
     }
 
 

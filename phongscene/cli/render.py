@@ -49,6 +49,13 @@ def add_render_command(sub) -> None:
         threads_help="worker threads (0 = all cores)",
     )
     add_timeout_option(p, "--backend povray only: stop POV-Ray after SECONDS (exit 3)")
+    p.add_argument(
+        "--display",
+        choices=("srgb", "book", "book-gamut"),
+        default="srgb",
+        help="how a .png encodes the linear image: srgb (default: clip, sRGB), book (Suffern's display: "
+        "max_to_one, gamma 1, truncation) or book-gamut (its out-of-gamut red instead of max_to_one)",
+    )
     add_time_options(
         p, "one image per frame, #### in IMAGE becomes the frame number", skip_existing=True, contact_sheet=True
     )
@@ -70,8 +77,12 @@ def run_render(args) -> int:
         raise UsageError(f"{args.output}: the output must end in one of {', '.join(WRITABLE)}")
     if args.timeout is not None and args.backend != "povray":
         raise UsageError("--timeout applies to --backend povray only (the native tracer stops on Ctrl-C)")
+    if args.display != "srgb" and not args.output.lower().endswith(".png"):
+        raise UsageError(f"--display {args.display} applies to a .png output (an EXR stays linear)")
     check_cluster_needs_frames(args)
     if args.frames:
+        if args.display != "srgb":
+            raise UsageError("--display applies to single images, not --frames")
         preimport(("OpenImageIO",))
         return _render_frames(args)
     args.output = output_at_time(args, args.output)
@@ -93,7 +104,7 @@ def run_render(args) -> int:
     release_free_heap()
     bar.done(time.perf_counter() - start)
     preimport(("OpenImageIO",))
-    write_image(args.output, image)
+    write_image(args.output, image, display=args.display)
     print_warnings(checks.warnings(image))
     print(f"{args.output}: {settings.width} x {settings.height}, {args.backend}, specular {settings.specular}")
     return EXIT_OK

@@ -9,7 +9,10 @@
   zero-length ones are replaced by their triangles' geometric normals with a warning (one bad
   normal does not refuse a scene); of the wrong count or non-finite they are *problems* (errors).
   A mesh whose ``points`` have the wrong type is skipped with a warning, the rest is drawn.
-* ``Cube`` and ``Plane`` become flat triangles; ``Cylinder``, ``Cone`` and ``Capsule`` are
+* ``Cube``, ``Cylinder`` (and ``Cylinder_1``), ``Cone``, ``Capsule`` and ``Plane`` are exact
+  surfaces (``intrinsic``: the model's ``Intrinsic``), a Plane with ``phong:infinite = true``
+  the whole plane. Where a prim says ``phong:tessellate = true`` it becomes triangles instead
+  (``primitive``): ``Cube`` and ``Plane`` flat triangles; ``Cylinder``, ``Cone`` and ``Capsule``
   tessellated by ``trimesh.creation`` with ``SEGMENTS`` segments around the axis (capsule:
   ``SEGMENTS`` × ``SEGMENTS // 2`` rings) and analytic smooth normals on the curved surface
   (flat caps keep the face normal).
@@ -22,10 +25,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from pxr import Usd, UsdGeom
 
-from ..scene import PhongMaterial, Sphere, TriangleMesh
+from ..scene import Intrinsic, PhongMaterial, Sphere, TriangleMesh
 from ..tolerances import UNIT_TOLERANCE, is_singular
 from . import textures
 from .context import ReadContext
+from .names import BOOL_TYPES, INFINITE, TESSELLATE
 
 if TYPE_CHECKING:
     import trimesh
@@ -458,6 +462,75 @@ def _radial(points: np.ndarray, face_n: np.ndarray) -> np.ndarray:
     xy[length == 0] = (1.0, 0.0)
     length[length == 0] = 1.0
     return xy / length[:, None]
+
+
+# -- intrinsic prims as exact surfaces ----------------------------------------------------------
+
+INTRINSIC_TYPES = ("Cube", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Plane")
+
+
+def tessellated(ctx: ReadContext, prim: Usd.Prim) -> bool:
+    """Whether the scene asks for this intrinsic prim as a triangle mesh (phong:tessellate)."""
+    return bool(ctx.get(prim, TESSELLATE, BOOL_TYPES, False))
+
+
+def intrinsic(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial) -> Intrinsic | None:
+    """Cube, Cylinder, Cylinder_1, Cone, Capsule or Plane → an exact ``Intrinsic``: the prim's
+    transform times its axis (USD's X or Y onto the model's Z) times its size. A Plane with
+    ``phong:infinite = true`` is the whole plane. Per-prim normals and extents do not apply."""
+    type_name = prim.GetTypeName()
+    path = str(prim.GetPath())
+    n_problems = len(ctx.problems)
+    axis = ctx.get(prim, "axis", ("token",), "Z")
+    if axis not in AXIS_FROM_Z:
+        ctx.problem(prim, "axis", f"must be X, Y or Z, got {axis!r}")
+        return None
+    if not np.all(np.isfinite(world)):
+        ctx.problem(prim, "xformOpOrder", "the transform is not finite (a NaN or infinite xformOp value)")
+        return None
+    if is_singular(world[:3, :3]):
+        ctx.problem(prim, "xformOpOrder", "the world transform is singular (a zero or degenerate scale)")
+        return None
+    placed = np.eye(4)
+    placed[:3, :3] = AXIS_FROM_Z[axis]
+    fields: dict = {}
+    if type_name == "Cube":
+        half = ctx.number(prim, "size", 2.0, minimum=0.0, strict=True) / 2
+        kind, scale = "cube", (half, half, half)
+    elif type_name == "Plane":
+        width = ctx.number(prim, "width", 2.0, minimum=0.0, strict=True)
+        length = ctx.number(prim, "length", 2.0, minimum=0.0, strict=True)
+        # Width along X and length along Y for axis Z; (width z, length y) for X and
+        # (width x, length z) for Y (schema doc): object x is the width, y the length, z the normal.
+        columns = {
+            "Z": ((1, 0, 0), (0, 1, 0), (0, 0, 1)),
+            "X": ((0, 0, 1), (0, 1, 0), (1, 0, 0)),
+            "Y": ((1, 0, 0), (0, 0, 1), (0, 1, 0)),
+        }[axis]
+        placed[:3, :3] = np.array(columns, dtype=np.float64).T
+        infinite = bool(ctx.get(prim, INFINITE, BOOL_TYPES, False))
+        kind, scale = "plane", (1.0, 1.0, 1.0) if infinite else (width / 2, length / 2, 1.0)
+        fields["infinite"] = infinite
+    elif type_name == "Capsule":
+        radius = ctx.number(prim, "radius", 0.5, minimum=0.0, strict=True)
+        height = ctx.number(prim, "height", 1.0, minimum=0.0, strict=False)
+        kind, scale = "capsule", (1.0, 1.0, 1.0)
+        fields.update(radius=radius, half_height=height / 2)
+    else:
+        height = ctx.number(prim, "height", 2.0, minimum=0.0, strict=True)
+        if type_name == "Cylinder_1":
+            bottom = ctx.number(prim, "radiusBottom", 1.0, minimum=0.0, strict=False)
+            top = ctx.number(prim, "radiusTop", 1.0, minimum=0.0, strict=False)
+            if len(ctx.problems) == n_problems and bottom == 0 and top == 0:
+                ctx.problem(prim, "radiusBottom", "radiusBottom and radiusTop are both 0 (no surface)")
+        else:
+            bottom = ctx.number(prim, "radius", 1.0, minimum=0.0, strict=True)
+            top = 0.0 if type_name == "Cone" else bottom
+        kind, scale = "cylinder", (1.0, 1.0, height / 2)
+        fields.update(radius_bottom=bottom, radius_top=top)
+    if len(ctx.problems) > n_problems:
+        return None
+    return Intrinsic(kind, world @ placed @ np.diag([*scale, 1.0]), material, path, **fields)
 
 
 def primitive(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial) -> TriangleMesh | None:

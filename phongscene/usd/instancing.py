@@ -18,20 +18,22 @@
 
 Flattening stays where it is cheaper or needed: a prototype with a single instance on the
 stage, or one holding lights (which the model places in the world), is read as ordinary
-geometry through instance proxies. Spheres in prototypes are placed in the world per copy
-(an analytic sphere is already a transform of the unit sphere: flattening costs nothing).
+geometry through instance proxies. Spheres and intrinsic prims (Cube, Cylinder, Cone, Capsule,
+Plane) in prototypes are placed in the world per copy (each is already an affine map of a
+canonical shape: flattening costs nothing). Instances that a light's light or shadow link tells
+apart are flattened by ``linking.link_lights``.
 """
 
 from __future__ import annotations
 
 from collections import defaultdict
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from pxr import Usd, UsdGeom, UsdLux, UsdShade
 
-from ..scene import Instances, Prototype, Sphere
+from ..scene import Instances, Intrinsic, Prototype, Sphere
 from .context import ReadContext, gf_to_numpy
 
 # A prototype whose instances on the stage are fewer than this is flattened (one copy: the
@@ -226,10 +228,18 @@ class Instancing:
                     spheres.append(
                         Sphere(m @ s.world_from_object, s.material, sources[k] + suffix if sources else s.source)
                     )
-            if not read.meshes:
+            # Intrinsic prims (Cube, Cylinder, ...) are placed in the world per copy, as spheres:
+            # each is already an affine map of a canonical shape (docs/instancing.md).
+            for i in (i for i in read.meshes if isinstance(i, Intrinsic)):
+                suffix = i.source[len(read.source) :] if i.source.startswith(read.source) else ""
+                for k, m in enumerate(transforms):
+                    source = sources[k] + suffix if sources else i.source
+                    meshes.append(replace(i, world_from_object=m @ i.world_from_object, source=source))
+            triangle_meshes = [m for m in read.meshes if not isinstance(m, Intrinsic)]
+            if not triangle_meshes:
                 continue
             if read.prototype is None:
-                read.prototype = Prototype(tuple(read.meshes), read.source)
+                read.prototype = Prototype(tuple(triangle_meshes), read.source)
             group = Instances(read.prototype, transforms, sources[0] if sources else read.source, sources)
             if len(transforms) == 1:  # one copy: flattening costs nothing
                 meshes.extend(group.placed_meshes(0))

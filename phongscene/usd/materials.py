@@ -277,6 +277,27 @@ class MaterialReader:
                 specular = Connected(cs, material.specular_color, ks.st)
         return self._textured(material, connected["diffuseColor"], specular)
 
+    def _preview_emission(self, shader: UsdShade.Shader) -> tuple[float, float, float]:
+        """UsdPreviewSurface's emissiveColor: Le, added to the shaded colour (the model's
+        emission). A texture on it is not read: its fallback stands, with a warning."""
+        prim = shader.GetPrim()
+        inp = shader.GetInput("emissiveColor")
+        if not inp:
+            return (0.0, 0.0, 0.0)
+        if inp.HasConnectedSource():
+            self.ctx.unsupported[
+                "UsdPreviewSurface inputs:emissiveColor connected to a texture (its constant value is used)"
+            ].append(str(prim.GetPath()))
+        value = self._input_value(shader, "emissiveColor", (0.0, 0.0, 0.0))
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            arr = None
+        if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)) or arr.min() < 0:
+            self.ctx.problem(prim, "inputs:emissiveColor", f"must be 3 finite numbers >= 0 (a color3f), got {value!r}")
+            return (0.0, 0.0, 0.0)
+        return tuple(float(c) for c in arr)
+
     def _preview(self, shader: UsdShade.Shader) -> PhongMaterial:
         prim = shader.GetPrim()
         values = {}
@@ -318,12 +339,13 @@ class MaterialReader:
                 value = default
             values[name] = value
         # Inputs the classic model has no term for: say so instead of dropping them silently.
-        for name, neutral in (("opacity", 1.0), ("emissiveColor", (0.0, 0.0, 0.0))):
+        for name, neutral in (("opacity", 1.0),):
             inp = shader.GetInput(name)
             if inp and (inp.HasConnectedSource() or np.any(np.asarray(inp.Get(self.ctx.time)) != neutral)):
                 self.ctx.unsupported[f"UsdPreviewSurface inputs:{name} (not in the Phong model; ignored)"].append(
                     str(prim.GetPath())
                 )
+        emission = self._preview_emission(shader)
         level = shader.GetInput(BLENDER_SPECULAR_LEVEL)
         specular_level = 0.5
         if level and level.GetAttr().HasAuthoredValue():
@@ -351,6 +373,8 @@ class MaterialReader:
             source=str(prim.GetPath()),
             specular_level=specular_level,
         )
+        if any(emission):
+            material = dataclasses.replace(material, emission=emission)
         metal = None if metallic_texture is None else metallic_texture.texture
         if metal is not None and not int(values["useSpecularWorkflow"]):
             if diffuse_texture is None or diffuse_texture.texture is None:

@@ -26,6 +26,7 @@ PHONG_INPUTS: dict[str, tuple[str, str]] = {
     "exponent": ("exponent", "float"),
     "diffuseColor": ("diffuse_color", "color3f"),
     "specularColor": ("specular_color", "color3f"),
+    "emissiveColor": ("emission", "color3f"),
     # Beyond the Phong chapter (Suffern ch. 24, 27, 28): written only where they differ from their
     # defaults, which trace no secondary ray.
     "kr": ("kr", "float"),
@@ -65,6 +66,14 @@ LIGHT_MODEL = "phong:lightModel"
 LIGHT_MODEL_USDLUX, LIGHT_MODEL_SEED = "usdlux", "seed"
 LIGHT_MODELS = (LIGHT_MODEL_USDLUX, LIGHT_MODEL_SEED)
 
+# Intrinsic prims (Cube, Cylinder, Cone, Capsule, Plane) are traced as their exact surfaces;
+# phong:tessellate = true asks for the triangle mesh instead (SEGMENTS around the axis, as
+# before analytic intrinsics). phong:infinite = true on a Plane makes it the whole plane
+# (POV-Ray's plane), whose extent does not enter the scene's bounds.
+TESSELLATE = "phong:tessellate"
+INFINITE = "phong:infinite"
+BOOL_TYPES = ("bool",)
+
 # Our attributes, by the prim types that may carry them, with the value types accepted.
 # Anything else in `phong:` is an error (a typo must not be ignored).
 PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
@@ -91,6 +100,12 @@ PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
     "DistantLight": {LIGHT_MODEL: STRING_TYPES},
     "CylinderLight": {LIGHT_MODEL: STRING_TYPES},
     "DomeLight": {LIGHT_MODEL: STRING_TYPES},
+    "Cube": {TESSELLATE: BOOL_TYPES},
+    "Cylinder": {TESSELLATE: BOOL_TYPES},
+    "Cylinder_1": {TESSELLATE: BOOL_TYPES},
+    "Cone": {TESSELLATE: BOOL_TYPES},
+    "Capsule": {TESSELLATE: BOOL_TYPES},
+    "Plane": {TESSELLATE: BOOL_TYPES, INFINITE: BOOL_TYPES},
     "RenderSettings": {
         SAMPLES: INT_TYPES,
         SAMPLE_PATTERN: STRING_TYPES,

@@ -24,7 +24,7 @@ import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux
 
 from ..errors import Problem, SceneError, SceneFileNotFoundError
-from ..scene import AmbientLight, Camera, RenderSettings, Scene, framing_camera, head_light
+from ..scene import AmbientLight, Camera, Intrinsic, RenderSettings, Scene, framing_camera, head_light
 from ..validate import validate
 from . import geometry
 from .camera import choose_camera, conform_to_aperture, read_camera, read_render_settings
@@ -33,6 +33,7 @@ from .diagnostics import as_warnings, usd_output
 from .instancing import Instancing
 from .layers import preflight
 from .lights import read_light
+from .linking import link_lights
 from .materials import MaterialReader
 from .names import in_usd_terms
 from .read_cache import KeptRead, ReadCache
@@ -40,7 +41,7 @@ from .read_parts import EveryPart, RecordParts, Redo
 from .scene_checks import warn_clipping_lights, warn_single_sided
 from .stage_checks import check_stage
 
-_GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cone", "Capsule", "Points"}
+_GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Points"}
 
 
 @dataclass
@@ -232,7 +233,8 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart, chosen: str |
         ambient=AmbientLight(ambient_color, ambient[0].source if len(ambient) == 1 else ""),
         lights=tuple(lights),
         spheres=tuple(spheres),
-        meshes=tuple(meshes),
+        meshes=tuple(m for m in meshes if not isinstance(m, Intrinsic)),
+        intrinsics=tuple(m for m in meshes if isinstance(m, Intrinsic)),
         settings=settings,
         source_file=file,
         instances=instances,
@@ -243,6 +245,7 @@ def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart, chosen: str |
     if not lights:
         scene = replace(scene, lights=(head_light(scene.camera),))
         ctx.warn("no point, distant or area light: using a head light at the camera (phongscene.scene.head_light)")
+    scene = link_lights(ctx, stage, scene)
     warn_single_sided(ctx, stage, scene)
     warn_clipping_lights(ctx, scene)
     ctx.flush_unsupported()
@@ -428,6 +431,14 @@ def _gprim(
         if len({materials.st_of.get(m) for m in textured}) > 1:
             ctx.warn(f"{path}: its materials read different st primvars; all use {st.primvar!r}")
         built = geometry.mesh(ctx, prim, world, material, subsets, st)
+    elif type_name == "Cylinder_1" or not geometry.tessellated(ctx, prim):
+        # The exact surface (Intrinsic): it joins the meshes' list, in traversal order, and the
+        # scene takes it out of there (in _read).
+        shape = geometry.intrinsic(ctx, prim, world, material)
+        if shape is not None:
+            meshes.append(shape)
+            ctx.nodes.append((path, f"Intrinsic ({shape.kind}{', infinite' if shape.infinite else ''})"))
+        return
     else:
         built = geometry.primitive(ctx, prim, world, material)
         built = () if built is None else (built,)

@@ -29,6 +29,7 @@ from ..scene import (
     AmbientLight,
     Camera,
     DirectionalLight,
+    Intrinsic,
     PhongMaterial,
     PointLight,
     RectAreaLight,
@@ -174,6 +175,62 @@ def define_sphere(stage: Usd.Stage, path: str, sphere: Sphere) -> UsdGeom.Sphere
         prim.CreateRadiusAttr(1.0)
         _set_transform(prim, m)
     return prim
+
+
+def define_intrinsic(stage: Usd.Stage, path: str, intrinsic: Intrinsic) -> Usd.Prim:
+    """An intrinsic prim in the model's canonical frame (axis Z, unit sizes) under its matrix:
+    Cube of size 2; Cylinder, Cone or Cylinder_1 of height 2; Capsule; Plane of 2 × 2 (and
+    ``phong:infinite``). Read back, the same ``Intrinsic``."""
+    kind = intrinsic.kind
+    if kind == "cube":
+        prim = UsdGeom.Cube.Define(stage, path)
+        prim.CreateSizeAttr(2.0)
+    elif kind == "cylinder":
+        r0, r1 = float(intrinsic.radius_bottom), float(intrinsic.radius_top)
+        if r0 == r1:
+            prim = UsdGeom.Cylinder.Define(stage, path)
+            prim.CreateRadiusAttr(r0)
+        elif r1 == 0.0:
+            prim = UsdGeom.Cone.Define(stage, path)
+            prim.CreateRadiusAttr(r0)
+        else:
+            prim = UsdGeom.Cylinder_1.Define(stage, path)
+            prim.CreateRadiusBottomAttr(r0)
+            prim.CreateRadiusTopAttr(r1)
+        prim.CreateHeightAttr(2.0)
+        prim.CreateAxisAttr(UsdGeom.Tokens.z)
+    elif kind == "capsule":
+        prim = UsdGeom.Capsule.Define(stage, path)
+        prim.CreateRadiusAttr(float(intrinsic.radius))
+        prim.CreateHeightAttr(2.0 * float(intrinsic.half_height))
+        prim.CreateAxisAttr(UsdGeom.Tokens.z)
+    else:
+        prim = UsdGeom.Plane.Define(stage, path)
+        prim.CreateWidthAttr(2.0)
+        prim.CreateLengthAttr(2.0)
+        prim.CreateAxisAttr(UsdGeom.Tokens.z)
+        if intrinsic.infinite:
+            prim.GetPrim().CreateAttribute(names.INFINITE, Sdf.ValueTypeNames.Bool, custom=True).Set(True)
+    _set_transform(prim, intrinsic.world_from_object)
+    return prim.GetPrim()
+
+
+def define_linking(stage: Usd.Stage, light_path: str, linking, written: dict[str, list[str]]) -> None:
+    """A light's ``Linking`` as UsdLux says it: ShadowAPI's shadow:enable, and the light and
+    shadow link collections as explicit includes (includeRoot off) of the prims written for the
+    member sources (``written``: source -> paths)."""
+    prim = stage.GetPrimAtPath(light_path)
+    if not linking.shadows:
+        UsdLux.ShadowAPI.Apply(prim).CreateShadowEnableAttr(False)
+    api = UsdLux.LightAPI(prim)
+    for members, collection in (
+        (linking.illuminates, api.GetLightLinkCollectionAPI()),
+        (linking.shadowed_by, api.GetShadowLinkCollectionAPI()),
+    ):
+        if members is None:
+            continue
+        collection.CreateIncludeRootAttr(False)
+        collection.CreateIncludesRel().SetTargets([Sdf.Path(p) for s in sorted(members) for p in written.get(s, ())])
 
 
 def define_mesh(stage: Usd.Stage, path: str, mesh: TriangleMesh) -> UsdGeom.Mesh:
@@ -443,14 +500,28 @@ def scene_to_stage(scene: Scene, texture_files: dict[int, str] | None = None) ->
     define_render_settings(stage, paths.take(scene.settings.source, "/Render", "Settings"), scene.settings, camera_path)
     if any(scene.ambient.color):
         define_light(stage, paths.take(scene.ambient.source, "/World/Lights", "Ambient"), scene.ambient)
+    light_paths = []
     for light in scene.lights:
-        define_light(stage, paths.take(light.source, "/World/Lights", type(light).__name__), light)
+        light_paths.append(paths.take(light.source, "/World/Lights", type(light).__name__))
+        define_light(stage, light_paths[-1], light)
+    written: dict[str, list[str]] = {}  # each geometry source -> the prims written for it
     for sphere in scene.spheres:
-        prim = define_sphere(stage, paths.take(sphere.source, "/World/Geometry", "Sphere"), sphere)
+        path = paths.take(sphere.source, "/World/Geometry", "Sphere")
+        prim = define_sphere(stage, path, sphere)
         bind_material(prim.GetPrim(), material_for(sphere.material))
+        written.setdefault(sphere.source, []).append(path)
     for mesh in scene.meshes:
-        prim = define_mesh(stage, paths.take(mesh.source, "/World/Geometry", "Mesh"), mesh)
+        path = paths.take(mesh.source, "/World/Geometry", "Mesh")
+        prim = define_mesh(stage, path, mesh)
         bind_material(prim.GetPrim(), material_for(mesh.material))
+        written.setdefault(mesh.source, []).append(path)
+    for intrinsic in scene.intrinsics:
+        path = paths.take(intrinsic.source, "/World/Geometry", intrinsic.kind.capitalize())
+        bind_material(define_intrinsic(stage, path, intrinsic), material_for(intrinsic.material))
+        written.setdefault(intrinsic.source, []).append(path)
+    for light, path in zip(scene.lights, light_paths):
+        if not light.linking.default:
+            define_linking(stage, path, light.linking, written)
     return stage
 
 
@@ -468,7 +539,7 @@ def write_usd(scene: Scene, path) -> Path:
     scene = scene.flattened()
     path = Path(path)
     texture_files: dict[int, str] = {}
-    for t in (t for obj in (*scene.spheres, *scene.meshes) for t in obj.material.textures):
+    for t in (t for obj in scene.objects for t in obj.material.textures):
         if id(t) not in texture_files:
             # Beside the layer, named after it and the texels (float EXR: linear, exact).
             digest = hashlib.sha1(np.ascontiguousarray(t.image).tobytes()).hexdigest()[:12]

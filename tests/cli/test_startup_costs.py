@@ -38,6 +38,7 @@ CUBE_SCENE = """#usda 1.0
 def Cube "box"
 {
     double size = 1
+    custom bool phong:tessellate = 1
 }
 """
 
@@ -63,6 +64,14 @@ def test_a_cube_prim_imports_trimesh_when_it_is_tessellated(tmp_path):
     path.write_text(CUBE_SCENE)
     loaded = loaded_modules(f"from phongscene.usd import read_usd\nread_usd({str(path)!r})")
     assert "trimesh" in loaded
+
+
+@pytest.mark.subprocess
+def test_an_exact_cube_prim_imports_no_trimesh(tmp_path):
+    path = tmp_path / "cube.usda"
+    path.write_text(CUBE_SCENE.replace("    custom bool phong:tessellate = 1\n", ""))
+    loaded = loaded_modules(f"from phongscene.usd import read_usd\nread_usd({str(path)!r})")
+    assert not {"trimesh", "scipy"} & loaded
 
 
 @pytest.mark.subprocess

@@ -66,6 +66,10 @@ n·l ≥ EPSILON, scaled by its shadow fraction (0/1 for point and directional l
   r·l equals Suffern's r_j·wo (ref §4); the differences are the missing n·l on the highlight and
   the missing cs.
 
+Emission (Suffern's Emissive, ch. 14): L += Le wherever the surface is seen, lit or not. Linking
+(UsdLux, model ``Linking``): light j contributes to a hit only when the object hit is in its
+light link; with shadows off its fraction is 1 (no shadow ray); otherwise only the objects of its
+shadow link occlude it.
 Mirror reflection (Suffern ch. 24, PerfectSpecular; ref §18, where POV-Ray's ``reflection`` was
 measured to add the same way): at a hit of depth k (camera rays: 0) on a material with kr > 0 and
 k < max_depth, L += kr·cr·L(P, r) with r = d − 2(d·n)n, traced from exactly P with the primary
@@ -284,6 +288,7 @@ class _Mesh:
     corner_uv: np.ndarray | None = None  # (T, 3, 2) when the material is textured
     texture: object = None  # the material's diffuse Texture
     specular_texture: object = None  # ... and specular Texture
+    source: str = ""  # the mesh's prim (light and shadow linking)
 
 
 # numpy's pad mode for each wrap rule: the image extended beyond its edges is exactly what the
@@ -328,6 +333,10 @@ class _Geometry:
     exponent: np.ndarray
     cd: np.ndarray
     cs: np.ndarray
+    emission: np.ndarray  # (materials, 3) Le
+    sphere_source: list[str]  # each sphere's prim (light and shadow linking)
+    intrinsics: list  # the model's Intrinsic nodes
+    intrinsic_material: list[int]
     kr: np.ndarray  # mirror reflection, per material
     cr: np.ndarray
     kt: np.ndarray  # transparency, per material
@@ -393,8 +402,10 @@ def _prepare(scene: Scene) -> _Geometry:
                 corner_uv,
                 texture,
                 specular,
+                mesh.source,
             )
         )
+    intrinsic_materials = [material_index(i.material) for i in scene.intrinsics]
     return _Geometry(
         inverses,
         normal_matrices,
@@ -406,6 +417,10 @@ def _prepare(scene: Scene) -> _Geometry:
         exponent=np.array([m.exponent for m in materials], dtype=np.float64),
         cd=np.array([m.diffuse_color for m in materials], dtype=np.float64).reshape(-1, 3),
         cs=np.array([m.specular_color for m in materials], dtype=np.float64).reshape(-1, 3),
+        emission=np.array([m.emission for m in materials], dtype=np.float64).reshape(-1, 3),
+        sphere_source=[sphere.source for sphere in scene.spheres],
+        intrinsics=list(scene.intrinsics),
+        intrinsic_material=intrinsic_materials,
         kr=np.array([m.kr for m in materials], dtype=np.float64),
         cr=np.array([m.reflective_color for m in materials], dtype=np.float64).reshape(-1, 3),
         kt=np.array([m.kt for m in materials], dtype=np.float64),
@@ -486,11 +501,103 @@ def _mesh_hits(
     return best_t, best_tri, best_u, best_v
 
 
+def _first_accepted(candidates, accept) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest accepted (t, object-space normal) over a list of candidate (t, normal) pairs."""
+    n = len(candidates[0][0]) if candidates else 0
+    best = np.full(n, np.inf)
+    normal = np.zeros((n, 3))
+    for t, nrm in candidates:
+        t = np.where(np.isfinite(t), t, np.inf)
+        ok = accept(t, None) & (t < best)
+        best[ok] = t[ok]
+        normal[ok] = nrm[ok]
+    return best, normal
+
+
+def _intrinsic_candidates(intrinsic, o: np.ndarray, d: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Every root of the intrinsic prim's surfaces along object-space rays (o, d), d not unit so
+    that t is the world distance: (t or nan, the object-space normal there). Written from the
+    model's definitions (``Intrinsic``), with the textbook formulas."""
+    kind = intrinsic.kind
+    out = []
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if kind == "cube":
+            for axis in range(3):
+                for side in (-1.0, 1.0):
+                    t = (side - o[:, axis]) / d[:, axis]
+                    p = o + t[:, None] * d
+                    others = [k for k in range(3) if k != axis]
+                    inside = np.all(np.abs(p[:, others]) <= 1.0, axis=1)
+                    normal = np.zeros_like(o)
+                    normal[:, axis] = side
+                    out.append((np.where(inside, t, np.nan), normal))
+            return out
+        if kind == "plane":
+            t = -o[:, 2] / d[:, 2]
+            p = o + t[:, None] * d
+            inside = np.ones(len(o), bool) if intrinsic.infinite else (np.abs(p[:, 0]) <= 1) & (np.abs(p[:, 1]) <= 1)
+            return [(np.where(inside, t, np.nan), np.tile([0.0, 0.0, 1.0], (len(o), 1)))]
+
+        def side(r0, r1, z_lo, z_hi):
+            # x² + y² = (a + b z)², the radius r0 at z_lo and r1 at z_hi.
+            b = (r1 - r0) / (z_hi - z_lo)
+            a = r0 - b * z_lo
+            qa = d[:, 0] ** 2 + d[:, 1] ** 2 - (b * d[:, 2]) ** 2
+            qb = 2 * (o[:, 0] * d[:, 0] + o[:, 1] * d[:, 1] - b * d[:, 2] * (a + b * o[:, 2]))
+            qc = o[:, 0] ** 2 + o[:, 1] ** 2 - (a + b * o[:, 2]) ** 2
+            root = np.sqrt(qb * qb - 4 * qa * qc)
+            for t in ((-qb - root) / (2 * qa), (-qb + root) / (2 * qa)):
+                p = o + t[:, None] * d
+                ok = (p[:, 2] >= z_lo) & (p[:, 2] <= z_hi) & (a + b * p[:, 2] >= 0)
+                normal = np.stack([p[:, 0], p[:, 1], -b * (a + b * p[:, 2])], axis=1)
+                out.append((np.where(ok, t, np.nan), normal))
+
+        def disc(r, z):
+            t = (z - o[:, 2]) / d[:, 2]
+            p = o + t[:, None] * d
+            ok = p[:, 0] ** 2 + p[:, 1] ** 2 <= r * r
+            out.append((np.where(ok, t, np.nan), np.tile([0.0, 0.0, 1.0], (len(o), 1))))
+
+        def ball(centre_z, r):
+            c = o - np.array([0.0, 0.0, centre_z])
+            qa = np.einsum("ij,ij->i", d, d)
+            qb = 2 * np.einsum("ij,ij->i", c, d)
+            qc = np.einsum("ij,ij->i", c, c) - r * r
+            root = np.sqrt(qb * qb - 4 * qa * qc)
+            for t in ((-qb - root) / (2 * qa), (-qb + root) / (2 * qa)):
+                out.append((t, c + t[:, None] * d))
+
+        if kind == "cylinder":
+            side(intrinsic.radius_bottom, intrinsic.radius_top, -1.0, 1.0)
+            disc(intrinsic.radius_bottom, -1.0)
+            disc(intrinsic.radius_top, 1.0)
+        else:  # capsule
+            r, h = intrinsic.radius, intrinsic.half_height
+            if h > 0:
+                side(r, r, -h, h)
+            ball(-h, r)
+            ball(h, r)
+    return out
+
+
+def _intrinsic_hits(intrinsic, o: np.ndarray, d: np.ndarray, accept) -> tuple[np.ndarray, np.ndarray]:
+    """(nearest accepted world t, unit world normal) of world rays (o, unit d) against an intrinsic."""
+    inverse = np.linalg.inv(intrinsic.world_from_object)
+    oo = o @ inverse[:3, :3].T + inverse[:3, 3]
+    do = d @ inverse[:3, :3].T
+    t, normal = _first_accepted(_intrinsic_candidates(intrinsic, oo, do), accept)
+    nw = normal @ inverse[:3, :3]  # (M⁻¹)ᵀ n, row-wise
+    with np.errstate(invalid="ignore", divide="ignore"):
+        nw = nw / np.linalg.norm(nw, axis=1, keepdims=True)
+    return t, nw
+
+
 def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
     """Nearest hit with MIN_ISECT_DEPTH <= t < MAX_DISTANCE (or as ``accept(t, rows)`` says):
     (t, material, unflipped normal, cd and cs at the hit: the material's, or its textures' at the
-    hit's uv); t = inf on a miss."""
+    hit's uv, and the prim of the object hit); t = inf on a miss."""
     n = len(o)
+    source = np.full(n, "", dtype=object)
     best_t = np.full(n, np.inf)
     material = np.full(n, -1, dtype=np.int64)
     normal = np.zeros((n, 3))
@@ -502,7 +609,9 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
         def accept(t, _rows):
             return (t >= MIN_ISECT_DEPTH) & (t < MAX_DISTANCE)
 
-    for inverse, normal_matrix, mat in zip(geo.sphere_object_from_world, geo.sphere_normal_matrix, geo.sphere_material):
+    for inverse, normal_matrix, mat, sphere_source in zip(
+        geo.sphere_object_from_world, geo.sphere_normal_matrix, geo.sphere_material, geo.sphere_source
+    ):
         near, far, hit = _sphere_roots(inverse, o, d)
         t = np.where(hit & accept(near, None), near, np.where(hit & accept(far, None), far, np.inf))
         closer = t < best_t
@@ -510,6 +619,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
             continue
         best_t[closer] = t[closer]
         material[closer] = mat
+        source[closer] = sphere_source
         colour[closer] = geo.cd[mat]
         specular[closer] = geo.cs[mat]
         p_object = (o[closer] + t[closer, None] * d[closer]) @ inverse[:3, :3].T + inverse[:3, 3]
@@ -522,6 +632,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
             continue
         best_t[closer] = t[closer]
         material[closer] = mesh.material
+        source[closer] = mesh.source
         tri, u, v = tri[closer], u[closer], v[closer]
         colour[closer] = geo.cd[mesh.material]
         specular[closer] = geo.cs[mesh.material]
@@ -539,11 +650,21 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
             nw = (1.0 - u - v)[:, None] * c[:, 0] + u[:, None] * c[:, 1] + v[:, None] * c[:, 2]
             nw = nw / np.linalg.norm(nw, axis=1, keepdims=True)
         normal[closer] = nw
-    return best_t, material, normal, colour, specular
+    for intrinsic, mat in zip(geo.intrinsics, geo.intrinsic_material):
+        t, nw = _intrinsic_hits(intrinsic, o, d, accept)
+        closer = t < best_t
+        best_t[closer] = t[closer]
+        material[closer] = mat
+        colour[closer] = geo.cd[mat]
+        specular[closer] = geo.cs[mat]
+        source[closer] = intrinsic.source
+        normal[closer] = nw[closer]
+    return best_t, material, normal, colour, specular, source
 
 
-def _occluded(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray) -> np.ndarray:
-    """Shadow test from exactly P along unit l: any hit with SHADOW_TOLERANCE < t < dist − SHADOW_TOLERANCE (ref §6)."""
+def _occluded(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray, casts=None) -> np.ndarray:
+    """Shadow test from exactly P along unit l: any hit with SHADOW_TOLERANCE < t < dist − SHADOW_TOLERANCE (ref §6),
+    by the objects whose prim ``casts(source)`` accepts (a light's shadow link; None: all)."""
     upper = np.minimum(dist - SHADOW_TOLERANCE, MAX_DISTANCE)
     blocked = np.zeros(len(p), dtype=bool)
 
@@ -551,10 +672,19 @@ def _occluded(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray) ->
         hi = upper if rows is None else upper[rows]
         return (t > SHADOW_TOLERANCE) & (t < hi)
 
-    for inverse in geo.sphere_object_from_world:
+    for inverse, source in zip(geo.sphere_object_from_world, geo.sphere_source):
+        if casts is not None and not casts(source):
+            continue
         near, far, hit = _sphere_roots(inverse, p, l)
         blocked |= hit & (accept(near, None) | accept(far, None))
+    for intrinsic in geo.intrinsics:
+        if casts is not None and not casts(intrinsic.source):
+            continue
+        t, _ = _intrinsic_hits(intrinsic, p, l, accept)
+        blocked |= np.isfinite(t)
     for mesh in geo.meshes:
+        if casts is not None and not casts(mesh.source):
+            continue
         todo = np.nonzero(~blocked)[0]
         if len(todo) == 0:
             break
@@ -616,9 +746,15 @@ def _light_at_centre(light, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
 
 
 def _visible_fraction(geo: _Geometry, light, p: np.ndarray, l: np.ndarray, dist: np.ndarray) -> np.ndarray:
-    """Shadow factor in [0, 1]: 0/1 for point and directional lights, the weighted grid for area lights."""
+    """Shadow factor in [0, 1]: 0/1 for point and directional lights, the weighted grid for area lights;
+    1 where the light casts no shadows (UsdLux shadow:enable off), and only the objects of its
+    shadow link occlude."""
+    linking = light.linking
+    if not linking.shadows:
+        return np.ones(len(p))
+    casts = None if linking.shadowed_by is None else linking.shadowed_by.__contains__
     if isinstance(light, (PointLight, DirectionalLight)):
-        return (~_occluded(geo, p, l, dist)).astype(np.float64)
+        return (~_occluded(geo, p, l, dist, casts)).astype(np.float64)
     offsets, weights = area_light_offsets(light, l)
     centre = np.asarray(light.center, dtype=np.float64)
     targets = centre + offsets  # (N, K, 3)
@@ -627,7 +763,7 @@ def _visible_fraction(geo: _Geometry, light, p: np.ndarray, l: np.ndarray, dist:
     directions = to_sample / sample_dist[..., None]
     n, k = sample_dist.shape
     points = np.broadcast_to(p[:, None, :], (n, k, 3)).reshape(-1, 3)
-    blocked = _occluded(geo, points, directions.reshape(-1, 3), sample_dist.reshape(-1)).reshape(n, k)
+    blocked = _occluded(geo, points, directions.reshape(-1, 3), sample_dist.reshape(-1), casts).reshape(n, k)
     return (~blocked).astype(np.float64) @ weights
 
 
@@ -641,16 +777,19 @@ def _shade(
     material,
     cd,
     cs,
+    source,
     medium: np.ndarray | None = None,
 ) -> np.ndarray:
     n = np.where((np.einsum("ij,ij->i", normal, d) > 0.0)[:, None], -normal, normal)  # face the viewer
     wo = -d
     ka, kd, ks, e = geo.ka[material], geo.kd[material], geo.ks[material], geo.exponent[material]
-    radiance = ka[:, None] * cd * np.asarray(scene.ambient.color, dtype=np.float64)
+    radiance = ka[:, None] * cd * np.asarray(scene.ambient.color, dtype=np.float64) + geo.emission[material]
     for light in scene.lights:
         l, dist, lc = _light_at_centre(light, p)
         n_dot_l = np.einsum("ij,ij->i", n, l)
-        lit = np.nonzero(n_dot_l >= EPSILON)[0]  # below the gate: no shadow ray, no contribution
+        # Light linking: a light reaches only the objects of its collection:lightLink.
+        linked = np.array([light.linking.lights(s) for s in source], dtype=bool).reshape(len(p))
+        lit = np.nonzero((n_dot_l >= EPSILON) & linked)[0]  # below the gate: no shadow ray, no contribution
         if len(lit) == 0:
             continue
         nl = n_dot_l[lit]
@@ -695,14 +834,24 @@ def _trace(
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
     medium = np.full(len(o), -1, dtype=np.int64) if medium is None else medium
-    t, material, normal, colour, specular = _closest_hit(geo, o, d)
+    t, material, normal, colour, specular, source = _closest_hit(geo, o, d)
     radiance = np.empty((len(o), 3))
     radiance[:] = np.asarray(settings.background, dtype=np.float64)
     hit = np.isfinite(t)
     if hit.any():
         p = o[hit] + t[hit, None] * d[hit]
         radiance[hit] = _shade(
-            geo, scene, settings, p, d[hit], normal[hit], material[hit], colour[hit], specular[hit], medium[hit]
+            geo,
+            scene,
+            settings,
+            p,
+            d[hit],
+            normal[hit],
+            material[hit],
+            colour[hit],
+            specular[hit],
+            source[hit],
+            medium[hit],
         )
         if depth < settings.max_depth:
             radiance[hit] += _reflected(
@@ -779,7 +928,7 @@ def _shadow_filter(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarra
             hi = upper if rows is None else upper[rows]
             return (t > SHADOW_TOLERANCE) & (t < hi)
 
-        t, material, _, _, _ = _closest_hit(geo, origin[active], l[active], accept)
+        t, material, _, _, _, _ = _closest_hit(geo, origin[active], l[active], accept)
         hit = np.isfinite(t)
         # the segment to the hit (or, where none, to the light) inside the current medium
         filt[active] *= geo.medium_transmittance(medium[active], np.where(hit, t, remaining[active]))

@@ -151,7 +151,7 @@ def test_mirroring_transform_flips_winding(tmp_path):
     ],
 )
 def test_tessellated_primitives_match_their_schema_extent(tmp_path, prim, triangles_at_least, extent):
-    mesh = read(tmp_path, prim).scene.meshes[0]
+    mesh = read(tmp_path, prim.replace(" { ", " { custom bool phong:tessellate = 1\n ", 1)).scene.meshes[0]
     assert len(mesh.triangles) >= triangles_at_least
     size = mesh.points.max(axis=0) - mesh.points.min(axis=0)
     assert np.allclose(size, extent, rtol=2e-3)  # polygonal circles: within the chord error
@@ -159,7 +159,9 @@ def test_tessellated_primitives_match_their_schema_extent(tmp_path, prim, triang
 
 
 def test_curved_primitives_have_smooth_unit_normals(tmp_path):
-    mesh = read(tmp_path, 'def Capsule "P" { double radius = 1\n double height = 2 }').scene.meshes[0]
+    mesh = read(
+        tmp_path, 'def Capsule "P" { custom bool phong:tessellate = 1\n double radius = 1\n double height = 2 }'
+    ).scene.meshes[0]
     corners = mesh.points[mesh.triangles].reshape(-1, 3)
     spine = np.column_stack([np.zeros((len(corners), 2)), np.clip(corners[:, 2], -1, 1)])
     expected = (corners - spine) / np.linalg.norm(corners - spine, axis=1)[:, None]
@@ -288,11 +290,12 @@ def test_unreadable_and_missing_files(tmp_path):
         read_usd(tmp_path / "missing.usda")
 
 
-def test_preview_surface_opacity_and_emission_are_reported_not_dropped_silently(tmp_path):
+def test_preview_surface_opacity_is_reported_and_emission_is_read(tmp_path):
     inputs = "float inputs:opacity = 0.5\n color3f inputs:emissiveColor = (1, 0, 0)"
-    warnings = read(tmp_path, PREVIEW.format(inputs=inputs)).warnings
-    assert any("inputs:opacity" in w and "/M/S" in w for w in warnings)
-    assert any("inputs:emissiveColor" in w and "/M/S" in w for w in warnings)
+    result = read(tmp_path, PREVIEW.format(inputs=inputs))
+    assert any("inputs:opacity" in w and "/M/S" in w for w in result.warnings)
+    assert not any("inputs:emissiveColor" in w for w in result.warnings)
+    assert {o.material.emission for o in result.scene.objects} == {(1.0, 0.0, 0.0)}  # Le, the model's emission
     # the neutral values (opaque, no emission) are what the model renders: nothing to say
     neutral = "float inputs:opacity = 1\n color3f inputs:emissiveColor = (0, 0, 0)"
     assert not [w for w in read(tmp_path, PREVIEW.format(inputs=neutral)).warnings if "UsdPreviewSurface" in w]

@@ -43,11 +43,18 @@ def test_teapot():
 
 def test_all_primitives():
     s = read_usd(SHARED_ASSETS / "primitives" / "all_primitives.usda").scene
-    assert [m.source for m in s.meshes] == ["/World/Capsule", "/World/Cone", "/World/Cube", "/World/Cylinder"]
+    # Intrinsic prims are exact surfaces (not tessellated), in traversal order.
+    assert not s.meshes
+    assert [(i.source, i.kind) for i in s.intrinsics] == [
+        ("/World/Capsule", "capsule"),
+        ("/World/Cone", "cylinder"),
+        ("/World/Cube", "cube"),
+        ("/World/Cylinder", "cylinder"),
+    ]
     assert len(s.spheres) == 1 and s.spheres[0].world_from_object[0, 3] == 8.0  # translate (8, 0, 0), radius 1
-    cube = s.meshes[2]
-    assert len(cube.triangles) == 12
-    assert cube.points.min(axis=0).tolist() == [3.0, -1.0, -1.0] and cube.points.max(axis=0).tolist() == [5.0, 1.0, 1.0]
+    lo, hi = s.intrinsics[2].world_bounds()
+    assert lo.tolist() == [3.0, -1.0, -1.0] and hi.tolist() == [5.0, 1.0, 1.0]
+    assert s.intrinsics[1].radius_top == 0.0  # the cone
 
 
 def test_sphere_lights_z_up():

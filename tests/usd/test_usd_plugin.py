@@ -82,6 +82,7 @@ def test_usd_validators_report_nothing_with_the_plugin_folder(usd_files):
     assert result["known"]
     assert result["inputs"] == [
         "diffuseColor",
+        "emissiveColor",
         "exponent",
         "fresnel",
         "interiorFilter",

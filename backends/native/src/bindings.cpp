@@ -67,7 +67,8 @@ std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_objec
                                          const std::vector<Rows3>& normals, const std::vector<Index3>& normal_indices,
                                          const Index1& mesh_material, const Rows3& mesh_origins,
                                          std::vector<phong::Material> materials, std::vector<phong::Light> lights,
-                                         const phong::RGB& ambient, bool povray_triangles) {
+                                         const phong::RGB& ambient, bool povray_triangles,
+                                         std::vector<phong::IntrinsicShape> intrinsics) {
     const size_t n_spheres = sphere_world_from_object.shape(0), n_meshes = points.size();
     if (sphere_object_from_world.shape(0) != n_spheres || sphere_material.shape(0) != n_spheres)
         throw std::invalid_argument("sphere arrays differ in length");
@@ -80,6 +81,10 @@ std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_objec
     a.sphere_material = sphere_material.data();
     a.sphere_count = n_spheres;
     a.povray_triangles = povray_triangles;
+    for (const phong::IntrinsicShape& part : intrinsics)
+        if (int32_t(part.kind) < 0 || int32_t(part.kind) > int32_t(phong::IntrinsicKind::kSphere))
+            throw std::invalid_argument("unknown intrinsic kind");
+    a.intrinsics = std::move(intrinsics);
     size_t n_triangles = 0;
     for (size_t m = 0; m < n_meshes; ++m) {
         phong::MeshArrays mesh;
@@ -148,6 +153,26 @@ void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, 
     }
     scene.textures = std::move(textures);
     scene.corner_uv.assign(corner_uv.data(), corner_uv.data() + corner_uv.size());
+}
+
+using Flags = In<uint8_t, nb::shape<-1>>;
+
+// The lights' shadow switches and links (LightLinking), checked against the scene's counts.
+void set_light_links(phong::Scene& scene, const Flags& shadows, const std::vector<Flags>& lit,
+                     const std::vector<Flags>& casts) {
+    const size_t n = scene.lights.size();
+    if (shadows.shape(0) != n || lit.size() != n || casts.size() != n)
+        throw std::invalid_argument("one shadow switch, lit and casts array per light");
+    std::vector<phong::LightLinking> links(n);
+    for (size_t j = 0; j < n; ++j) {
+        links[j].shadows = shadows(j) != 0;
+        links[j].lit.assign(lit[j].data(), lit[j].data() + lit[j].size());
+        links[j].casts.assign(casts[j].data(), casts[j].data() + casts[j].size());
+        for (const std::vector<unsigned char>* flags : {&links[j].lit, &links[j].casts})
+            if (!flags->empty() && flags->size() != scene.object_count())
+                throw std::invalid_argument("a light link needs one flag per object (spheres, then meshes)");
+    }
+    scene.light_links = std::move(links);
 }
 
 Image render(const phong::Scene& scene, const phong::CameraDescription& camera_description,
@@ -288,6 +313,7 @@ NB_MODULE(_native, m) {
         .def_rw("specular_color", &Material::specular_color)
         .def_rw("diffuse_texture", &Material::diffuse_texture)
         .def_rw("specular_texture", &Material::specular_texture)
+        .def_rw("emission", &Material::emission)
         .def_rw("kr", &Material::kr)
         .def_rw("reflective_color", &Material::reflective_color)
         .def_rw("kt", &Material::kt)
@@ -363,6 +389,30 @@ NB_MODULE(_native, m) {
         .def_rw("cell_samples", &SphereAreaLight::cell_samples,
                 "> 0: the native cells estimator, cell_samples^2 points per partial cell");
 
+    using phong::IntrinsicShape;
+    nb::class_<IntrinsicShape>(m, "IntrinsicShape",
+                               "A part of an intrinsic prim (intrinsics.hpp), in its object space.")
+        .def(
+            "__init__",
+            [](IntrinsicShape* self, int kind, const std::array<double, 12>& object_from_world,
+               const phong::Vec3& bounds_lo, const phong::Vec3& bounds_hi, double r0, double r1, double z0,
+               int32_t material, int32_t object) {
+                new (self) IntrinsicShape();
+                self->kind = phong::IntrinsicKind(kind);
+                for (int k = 0; k < 12; ++k) self->object_from_world.m[k] = object_from_world[size_t(k)];
+                self->bounds_lo = bounds_lo;
+                self->bounds_hi = bounds_hi;
+                self->r0 = r0;
+                self->r1 = r1;
+                self->z0 = z0;
+                self->material = material;
+                self->object = object;
+            },
+            "kind"_a, "object_from_world"_a, "bounds_lo"_a, "bounds_hi"_a, "r0"_a, "r1"_a, "z0"_a, "material"_a,
+            "object"_a,
+            "kind: 0 box, 1 frustum, 2 disk, 3 square, 4 unbounded plane, 5 sphere; object_from_world: the 3x4 rows; "
+            "bounds: its world AABB; object: the model node (light linking's numbering).");
+
     using phong::CameraDescription;
     nb::class_<CameraDescription>(m, "CameraDescription", "The model's camera (camera.hpp).")
         .def(nb::init<phong::Vec3, phong::Vec3, phong::Vec3, bool, double, double>(), "position"_a, "forward"_a, "up"_a,
@@ -399,15 +449,16 @@ NB_MODULE(_native, m) {
                const std::vector<Rows3>& points, const std::vector<Index3>& triangles,
                const std::vector<Rows3>& normals, const std::vector<Index3>& normal_indices,
                const Index1& mesh_material, const Rows3& mesh_origins, std::vector<phong::Material> materials,
-               std::vector<phong::Light> lights, const phong::RGB& ambient, bool povray_triangles) {
-                std::unique_ptr<phong::Scene> built =
-                    make_scene(swo, sow, smat, points, triangles, normals, normal_indices, mesh_material, mesh_origins,
-                               std::move(materials), std::move(lights), ambient, povray_triangles);
+               std::vector<phong::Light> lights, const phong::RGB& ambient, bool povray_triangles,
+               std::vector<phong::IntrinsicShape> intrinsics) {
+                std::unique_ptr<phong::Scene> built = make_scene(
+                    swo, sow, smat, points, triangles, normals, normal_indices, mesh_material, mesh_origins,
+                    std::move(materials), std::move(lights), ambient, povray_triangles, std::move(intrinsics));
                 new (self) phong::Scene(std::move(*built));
             },
             "sphere_world_from_object"_a, "sphere_object_from_world"_a, "sphere_material"_a, "points"_a, "triangles"_a,
             "normals"_a, "normal_indices"_a, "mesh_material"_a, "mesh_origins"_a, "materials"_a, "lights"_a,
-            "ambient"_a, "povray_triangles"_a = false,
+            "ambient"_a, "povray_triangles"_a = false, "intrinsics"_a = std::vector<phong::IntrinsicShape>(),
             "points, triangles, normals and normal_indices are lists with one array per mesh (normal_indices "
             "(T, 3) or empty: flat; -1 rows: flat), read in place; triangles are numbered across the meshes in "
             "order. Materials are indexed by sphere_material and mesh_material; lights are summed in list order. "
@@ -417,6 +468,9 @@ NB_MODULE(_native, m) {
              "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and "
              "specular_texture, and the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order.")
+        .def("set_light_links", &set_light_links, "shadows"_a, "lit"_a, "casts"_a,
+             "Per light (one entry each): whether it casts shadow rays, and the objects (spheres 0..S-1, then meshes "
+             "S + m) it illuminates and that cast its shadows, as uint8 arrays of one flag per object (empty: all).")
         .def(
             "add_instances",
             [](phong::Scene& self, phong::Scene& prototype, const Matrices& world_from_prototype, bool rebuild) {

@@ -60,9 +60,16 @@ struct ShadowQuery {
     double window;
     std::vector<BundleCandidate>& candidates;  // of the current bundle (one per worker thread)
     bool povray_walk;                          // POV-Ray numerics: its mesh walk (povray_walk.cpp)
+    // The light's shadow link (LightLinking::casts), or nullptr: every object casts its shadows.
+    // A linked light's rays go one by one through occluded_linked() (no bundles, no mesh walk:
+    // the walk's quirk is POV-Ray's on a mesh that casts the shadow, and a shadow link's
+    // objects are written per pass with no_shadow, ref §6).
+    const unsigned char* casts = nullptr;
     bool bundle = false;
 
     bool begin_grid(const Vec3 (&corners)[4]) {
+        // Linked lights and unbounded planes (outside the BVH the bundle walks): ray by ray.
+        if (casts != nullptr || !scene.planes.empty()) return true;
         const Vec3 hull[5] = {p, corners[0], corners[1], corners[2], corners[3]};
         bundle = scene.shadow_candidates(hull, 5, window, candidates);
         return !bundle || !candidates.empty();
@@ -72,6 +79,7 @@ struct ShadowQuery {
     // also called it, it cost 3% of S1's instructions).
     [[gnu::always_inline]] bool operator()(const Vec3& dir, double distance) const {
         const Ray ray{p, dir};
+        if (casts != nullptr) return scene.occluded_linked(ray, p_rounded, window, distance - window, casts);
         const bool blocked = bundle ? scene.occluded_by(candidates, ray, window, distance - window)
                                     : scene.occluded(ray, p_rounded, window, distance - window);
         return blocked && (!povray_walk || scene.occluded_povray_walk(ray, window, distance - window));
@@ -79,6 +87,10 @@ struct ShadowQuery {
 
     // Every ray of a full grid at once (lights.hpp): blocked[k] is operator()(dirs[k], distances[k]).
     void each(const Vec3* dirs, const double* distances, size_t count, unsigned char* blocked) const {
+        if (casts != nullptr) {
+            for (size_t k = 0; k < count; ++k) blocked[k] = (*this)(dirs[k], distances[k]);
+            return;
+        }
         if (bundle) {
             scene.occluded_by_each(candidates, p, dirs, distances, count, window, blocked);
         } else {
@@ -97,8 +109,9 @@ RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std:
 
 const Material& material_of(const Scene& world, const Hit& hit) {
     const Scene& scene = world.surface_of(hit);  // an instance's primitives are its prototype's
-    const int32_t m =
-        hit.ref < 0 ? scene.spheres[size_t(~hit.ref)].material : scene.triangle_shading[size_t(hit.ref)].material;
+    const int32_t m = scene.is_sphere(hit.ref) ? scene.spheres[size_t(~hit.ref)].material
+                      : hit.ref < 0            ? scene.intrinsic(hit.ref).material
+                                               : scene.triangle_shading[size_t(hit.ref)].material;
     return scene.materials[size_t(m)];
 }
 
@@ -136,16 +149,25 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     const RenderSettings& settings = context.settings;
     const double window = context.tolerances.shadow_window;
     const Vec3 p = ray.at(hit.t);
+    // The object hit, for light linking (only looked up when a light links).
+    // An instance's copies are not told apart by any link (the backend flattens those that are):
+    // its hits are lit by every light, with the light's shadow switch.
+    const bool linked = !scene.light_links.empty();
+    const int32_t object = !linked || hit.instance >= 0 ? -1 : scene.object_of(hit.ref);
     Vec3 n;
     const Material* material;
     Material textured;  // a textured material with this point's colours
     // The primitive's own scene: the world's, or the prototype of the instance hit (whose normal
     // is then carried to the world below).
     const Scene& surface = scene.surface_of(hit);
-    if (hit.ref < 0) {
+    if (surface.is_sphere(hit.ref)) {
         const SphereShape& s = surface.spheres[size_t(~hit.ref)];
         n = sphere_normal(s, p);
         material = &surface.materials[size_t(s.material)];
+    } else if (hit.ref < 0) {
+        const IntrinsicShape& part = surface.intrinsic(hit.ref);
+        n = intrinsic_normal(part, p);
+        material = &surface.materials[size_t(part.material)];
     } else {
         const TriangleShape& tri = surface.triangles[size_t(hit.ref)];
         const TriangleShading& sh = surface.triangle_shading[size_t(hit.ref)];
@@ -178,9 +200,12 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     const Vec3 wo = -ray.dir;
 
     RGB color = ambient_term(*material, scene.ambient);
+    color += material->emission;  // Le: + 0 is exact, so unlit materials shade as before
     const bool povray_walk = settings.numerics != Numerics::kScaleInvariant;
     const FloatSlabOrigin p_rounded(p);
     for (size_t j = 0; j < scene.lights.size(); ++j) {
+        const LightLinking* link = linked ? &scene.light_links[j] : nullptr;
+        if (object >= 0 && !link->lit.empty() && !link->lit[size_t(object)]) continue;  // not in its light link
         // The light's alternative decides its centre and shadow; the shading is the same for all
         // (one inlined copy of it, not one per alternative).
         LightSample centre;
@@ -194,6 +219,10 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                 // the point (d = 0: the model's answer there is the ambient term only).
                 if (!(n_dot_l >= kMinCosineToLight)) return;
                 terms = &light.terms;
+                if (link != nullptr && !link->shadows) {
+                    fraction = 1.0;  // shadow:enable off: no shadow ray, the light arrives whole
+                    return;
+                }
                 using T = std::decay_t<decltype(light)>;
                 if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
                     if (context.transmissive) {  // filtered by transmissive occluders
@@ -203,8 +232,9 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                         return;
                     }
                 }
-                fraction = visible_fraction(light, context.grids[j], p, centre,
-                                            ShadowQuery{scene, p, p_rounded, window, candidates, povray_walk});
+                ShadowQuery query{scene, p, p_rounded, window, candidates, povray_walk};
+                if (link != nullptr && !link->casts.empty()) query.casts = link->casts.data();
+                fraction = visible_fraction(light, context.grids[j], p, centre, query);
             },
             scene.lights[j]);
         if (fraction == 0.0) continue;  // unlit, or wholly in shadow

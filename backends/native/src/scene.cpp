@@ -118,7 +118,22 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     };
 
     const size_t n_spheres = in.sphere_count, n_triangles = first_triangle[n_meshes];
-    std::vector<PrimRef> prims(n_spheres + n_triangles);
+    // Intrinsic parts: the bounded ones join the BVH after the triangles (ids S + T + q), the
+    // unbounded planes stay out of it and out of `bounds` (which the scale-aware tolerances come
+    // from: an infinite ground must not make them coarse).
+    for (const IntrinsicShape& part : in.intrinsics) {
+        check_index(part.material, materials.size(), "intrinsic material");
+        (part.kind == IntrinsicKind::kPlane ? planes : intrinsics).push_back(part);
+    }
+    const size_t n_intrinsics = intrinsics.size();
+    std::vector<PrimRef> prims(n_spheres + n_triangles + n_intrinsics);
+    for (size_t q = 0; q < n_intrinsics; ++q) {
+        Bounds b;
+        b.lo = intrinsics[q].bounds_lo;
+        b.hi = intrinsics[q].bounds_hi;
+        bounds.grow(b);
+        prims[n_spheres + n_triangles + q] = PrimRef(b, uint32_t(n_spheres + n_triangles + q));
+    }
     spheres.resize(n_spheres);
     for (size_t i = 0; i < n_spheres; ++i) {
         const double* w = in.sphere_world_from_object + 16 * i;
@@ -185,9 +200,10 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     // Primitive refs and triangle data in leaf order, so leaves read memory sequentially.
     // Leaf position k holds triangle slot k − (spheres before k).
     const std::vector<uint32_t>& order = bvh_.order;
+    // (Positions of every primitive that is not a triangle: spheres and intrinsic parts.)
     std::vector<uint32_t> sphere_positions;
     for (size_t k = 0; k < order.size(); ++k)
-        if (order[k] < n_spheres) sphere_positions.push_back(uint32_t(k));
+        if (order[k] < n_spheres || order[k] >= n_spheres + n_triangles) sphere_positions.push_back(uint32_t(k));
     refs_.resize(order.size());
     // Float corners when every vertex is a float (triangle_store.hpp): the same doubles.
     bool every_vertex_float = true;
@@ -206,6 +222,11 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
             const uint32_t id = order[k];
             if (id < n_spheres) {
                 refs_[k] = ~int32_t(id);
+                ++spheres_before;
+                continue;
+            }
+            if (id >= n_spheres + n_triangles) {  // an intrinsic part
+                refs_[k] = ~int32_t(n_spheres + (id - n_spheres - n_triangles));
                 ++spheres_before;
                 continue;
             }
@@ -250,7 +271,9 @@ int32_t Scene::triangle_mesh(size_t slot) const {
 }
 
 int64_t Scene::primitive_id(int32_t ref) const {
-    if (ref < 0) return int64_t(~ref);
+    // Python's numbering: spheres, triangles, then intrinsic parts (unbounded planes last).
+    if (is_sphere(ref)) return int64_t(~ref);
+    if (ref < 0) return int64_t(triangle_source.size()) + int64_t(~ref);
     return int64_t(spheres.size()) + triangle_source[size_t(ref)];
 }
 
@@ -274,7 +297,7 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
             if (ref >= 0) {
                 hit_here = hit_triangle(ref, ray, wr, t_min, t_test, t, bary);
             } else {
-                hit_here = intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_test, t);
+                hit_here = hit_solid(ref, ray, t_min, t_test, t);
             }
             if (!hit_here) continue;
             if (found && !(t < t_best || primitive_id(ref) < primitive_id(hit.ref))) continue;
@@ -290,6 +313,16 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
         traverse_bvh8<true>(bvh8_, magnitude, ray, origin, t_min, t_cull, leaf);
     else
         traverse_bvh4<true>(bvh4_, magnitude, ray, origin, t_min, t_cull, leaf);
+    // Unbounded planes after the tree (outside it), with the same tie rule.
+    double t_plane;
+    int32_t plane;
+    if (!planes.empty() && hit_planes(ray, t_min, found ? next_up(t_best) : t_max, t_plane, plane)) {
+        if (!found || t_plane < t_best || primitive_id(plane) < primitive_id(hit.ref)) {
+            hit = {t_plane, plane, Barycentric{}};
+            t_best = t_plane;
+            found = true;
+        }
+    }
     // Instances after the world's own primitives: a copy wins only by being closer.
     if (!instances_empty()) {
         Hit instance_hit;
@@ -314,7 +347,7 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
                 Barycentric bary;
                 hit = hit_triangle(ref, ray, wr, t_min, t_best, t, bary);
             } else {
-                hit = intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_best, t);
+                hit = hit_solid(ref, ray, t_min, t_best, t);
             }
             if (hit) {
                 blocked = true;
@@ -327,6 +360,11 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
         traverse_bvh8<false>(bvh8_, magnitude, ray, origin, t_min, t_limit, leaf);
     else
         traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, leaf);
+    if (!blocked && !planes.empty()) {
+        double t;
+        int32_t plane;
+        blocked = hit_planes(ray, t_min, t_max, t, plane);
+    }
     return blocked || (!instances_empty() && instances->occluded(ray, t_min, t_max));
 }
 
@@ -349,6 +387,14 @@ int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_clos
             t_closest = std::fmin(t_closest, t);
         }
     }
+    for (const std::vector<IntrinsicShape>* parts : {&intrinsics, &planes})
+        for (const IntrinsicShape& part : *parts) {
+            double t;
+            if (intersect_intrinsic(part, ray, t_min, t_max, t)) {
+                ++count;
+                t_closest = std::fmin(t_closest, t);
+            }
+        }
     return count;
 }
 

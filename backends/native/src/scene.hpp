@@ -4,6 +4,7 @@
 // and any-hit queries.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -13,6 +14,7 @@
 #include "bvh4.hpp"
 #include "bvh8.hpp"
 #include "instances.hpp"
+#include "intrinsics.hpp"
 #include "lights.hpp"
 #include "materials.hpp"
 #include "math.hpp"
@@ -45,9 +47,14 @@ struct GeometryArrays {
     size_t sphere_count = 0;
     std::vector<MeshArrays> meshes;  // each one POV-Ray object; triangles are numbered in this order
     bool povray_triangles = false;   // test triangles as POV-Ray does (povray_triangle.hpp)
+    // The intrinsic prims' parts (intrinsics.hpp), bounds filled in by the Scene; unbounded
+    // planes among them go to Scene::planes.
+    std::vector<IntrinsicShape> intrinsics;
 };
 
-// A ray's closest hit. ref >= 0: triangle index (leaf order); ref < 0: sphere ~ref.
+// A ray's closest hit. ref >= 0: triangle index (leaf order); ref < 0: sphere ~ref when
+// ~ref < S, else intrinsic part ~ref − S (Scene::intrinsics), or an unbounded plane
+// (Scene::plane_ref).
 struct Hit {
     double t;
     int32_t ref;
@@ -62,6 +69,14 @@ struct BundleCandidate {
     float lo[3], hi[3];
     int32_t ref;  // as Hit::ref
     SphereOrigin sphere_origin;
+};
+
+// A light's UsdLux shadow switch and linking (model: phongscene.scene.Linking), by object:
+// spheres 0..S-1, then meshes S + m. Empty vectors: every object.
+struct LightLinking {
+    bool shadows = true;               // inputs:shadow:enable: false traces no shadow ray
+    std::vector<unsigned char> lit;    // collection:lightLink: 1 = the light illuminates the object
+    std::vector<unsigned char> casts;  // collection:shadowLink: 1 = the object casts its shadows
 };
 
 class Scene {
@@ -109,6 +124,32 @@ class Scene {
     // of the same mesh behind it can be missed. Call only where occluded() said true.
     bool occluded_povray_walk(const Ray& ray, double t_min, double t_max) const;
 
+    // occluded() counting only the objects whose casts[object] is 1 (a light's shadow link;
+    // light_linking.cpp). The BVH holds every object, so an excluded one is skipped, not culled.
+    bool occluded_linked(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max,
+                         const unsigned char* casts) const;
+    // Objects in LightLinking's numbering: the spheres, then the meshes.
+    // Objects: the spheres, the meshes, then the intrinsic prims (numbered by their parts).
+    size_t object_count() const {
+        size_t count = spheres.size() + (first_triangle_.empty() ? 0 : first_triangle_.size() - 1);
+        for (const std::vector<IntrinsicShape>* parts : {&intrinsics, &planes})
+            for (const IntrinsicShape& part : *parts) count = std::max(count, size_t(part.object) + 1);
+        return count;
+    }
+    // The object (LightLinking's numbering) of a primitive ref (as Hit::ref).
+    int32_t object_of(int32_t ref) const {
+        if (ref >= 0) return int32_t(spheres.size()) + triangle_mesh(size_t(ref));
+        return is_sphere(ref) ? ~ref : intrinsic(ref).object;
+    }
+    // Refs of the non-triangle primitives: spheres, intrinsic parts in the BVH, then unbounded
+    // planes (ref = plane_ref(k), after every part).
+    bool is_sphere(int32_t ref) const { return ref < 0 && size_t(~ref) < spheres.size(); }
+    int32_t plane_ref(size_t k) const { return ~int32_t(spheres.size() + intrinsics.size() + k); }
+    const IntrinsicShape& intrinsic(int32_t ref) const {
+        const size_t k = size_t(~ref) - spheres.size();
+        return k < intrinsics.size() ? intrinsics[k] : planes[k - intrinsics.size()];
+    }
+
     // Every primitive the ray hits in (t_min, t_max), by brute force (tests only).
     int count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const;
 
@@ -123,6 +164,8 @@ class Scene {
     int32_t triangle_mesh(size_t slot) const;
 
     std::vector<SphereShape> spheres;
+    std::vector<IntrinsicShape> intrinsics;         // parts in the BVH
+    std::vector<IntrinsicShape> planes;             // unbounded planes: outside the BVH and `bounds`
     TriangleStore triangles;                        // leaf order; float when that is exact
     std::vector<TriangleShading> triangle_shading;  // leaf order
     std::vector<uint32_t> triangle_source;          // leaf order -> input row
@@ -130,6 +173,7 @@ class Scene {
     Vec3Store normals;                              // float when that is exact
     std::vector<Material> materials;
     std::vector<Light> lights;
+    std::vector<LightLinking> light_links;  // empty (every light default), or one per light
     RGB ambient;
     // Textures (Material::diffuse_texture) and the (u, v) of each triangle corner, by input
     // triangle row (triangle_source): 6 numbers per triangle; empty without textures.
@@ -147,10 +191,29 @@ class Scene {
     void add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
                        bool rebuild = true);
 
-    Bounds bounds;           // of the geometry, instances included (empty without primitives)
+    Bounds bounds;           // of the geometry but unbounded planes, instances included (empty without primitives)
     double magnitude = 0.0;  // largest absolute coordinate of the geometry bounds
 
   private:
+    // The nearest unbounded plane hit in (t_min, t_max) (closest_hit, occluded).
+    bool hit_planes(const Ray& ray, double t_min, double t_max, double& t, int32_t& ref) const {
+        bool found = false;
+        for (size_t k = 0; k < planes.size(); ++k) {
+            double tk;
+            if (intersect_intrinsic(planes[k], ray, t_min, t_max, tk)) {
+                t_max = tk;
+                t = tk;
+                ref = plane_ref(k);
+                found = true;
+            }
+        }
+        return found;
+    }
+    // A sphere's or intrinsic part's hit test (ref < 0).
+    bool hit_solid(int32_t ref, const Ray& ray, double t_min, double t_max, double& t) const {
+        if (is_sphere(ref)) return intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_max, t);
+        return intersect_intrinsic(intrinsic(ref), ray, t_min, t_max, t);
+    }
     // A triangle's hit test: POV-Ray's where the scene was built for it, else the watertight one.
     bool hit_triangle(int32_t ref, const Ray& ray, std::optional<WatertightRay>& wr, double t_min, double t_max,
                       double& t, Barycentric& bary) const {

@@ -139,9 +139,12 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
                 b.grow(tri.v0);
                 b.grow(tri.v1);
                 b.grow(tri.v2);
-            } else {
+            } else if (is_sphere(ref)) {
                 b.lo = spheres[size_t(~ref)].bounds_lo;
                 b.hi = spheres[size_t(~ref)].bounds_hi;
+            } else {
+                b.lo = intrinsic(ref).bounds_lo;
+                b.hi = intrinsic(ref).bounds_hi;
             }
             BundleCandidate box{{round_down(b.lo.x), round_down(b.lo.y), round_down(b.lo.z)},
                                 {round_up(b.hi.x), round_up(b.hi.y), round_up(b.hi.z)},
@@ -149,6 +152,9 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
                                 {}};
             if (below_the_window(box.lo, box.hi) || separated(box.lo, box.hi)) continue;  // the cheaper test first
             if (candidates.size() == kMaxBundleCandidates) return false;
+            // An intrinsic part (intrinsics.hpp) has no bundle test: the rays go one by one
+            // through occluded(), which tests every kind.
+            if (ref < 0 && !is_sphere(ref)) return false;
             if (ref < 0) box.sphere_origin = sphere_origin(spheres[size_t(~ref)], apex);
             candidates.push_back(box);
         }
