@@ -60,6 +60,7 @@ def test_the_pixel_metric_ranks_the_wrong_object_first_not_near_black_pixels(pai
     assert on_the_disc(Region(x, y, x2 - x + 1, y2 - y + 1, 0, 0.0, 0.0))
 
 
+@pytest.mark.slow
 def test_flip_fails_only_where_the_object_is_wrong(pair, capsys):
     assert main(["compare", *pair, "--metric", "flip"]) == 1
     out = capsys.readouterr().out

@@ -186,6 +186,7 @@ def test_cross_backend_calibration_scene_agrees(case, povray_images, tmp_path, m
 
 
 @pytest.mark.parametrize("case", [c for c in CASES if c[0] == "adaptive"], ids=_ids)
+@pytest.mark.slow
 def test_cross_backend_adaptive_estimator_agrees(case, povray_images, tmp_path, monkeypatch):
     _check(case, povray_images, tmp_path, monkeypatch)
 

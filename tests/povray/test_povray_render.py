@@ -94,6 +94,7 @@ def test_calibration_scene_matches_oracle(calibration_renders, name, mapping, mo
 
 
 @pytest.mark.povray
+@pytest.mark.slow
 def test_calibration_runs_one_process_per_image_format(calibration_renders):
     _, keep = calibration_renders
     formats = {run.render_switches(scene.settings) for scene, _ in calibration_renders[0].values()}

@@ -150,6 +150,7 @@ def _texture(scene, field="diffuse_texture"):
 
 
 @pytest.mark.parametrize("space", [None, "auto", "sRGB", "raw"])
+@pytest.mark.slow
 def test_colour_space_of_an_8bit_png(tmp_path, space):
     png = write_png(tmp_path / "tex.png")
     scene = load_usd(textured_stage(tmp_path / "s.usda", "tex.png", color_space=space))
@@ -169,6 +170,7 @@ def test_float_exr_is_raw_under_auto(tmp_path):
 
 
 @pytest.mark.parametrize("output,channel", [("r", 0), ("g", 1), ("b", 2)])
+@pytest.mark.slow
 def test_single_channel_output_scale_and_bias(tmp_path, output, channel):
     write_png(tmp_path / "tex.png")
     scene = load_usd(
@@ -193,6 +195,7 @@ def test_alpha_output_of_an_rgb_image_is_one(tmp_path):
 
 
 @pytest.mark.parametrize("interpolation", ["faceVarying", "vertex", "varying", "uniform", "constant"])
+@pytest.mark.slow
 def test_st_of_every_interpolation(tmp_path, interpolation):
     write_png(tmp_path / "tex.png")
     mesh, _ = _texture(load_usd(textured_stage(tmp_path / "s.usda", "tex.png", interpolation=interpolation)))
@@ -276,6 +279,7 @@ def test_validation_needs_uvs_for_a_textured_mesh():
 
 @pytest.mark.povray
 @pytest.mark.parametrize("mapping", ["exact", "classic"])
+@pytest.mark.slow
 def test_textured_usd_scene_agrees_on_both_backends(tmp_path, mapping):
     from phongscene import compare
     from phongscene.backends import povray
@@ -425,6 +429,7 @@ def test_compile_writes_the_texture_beside_the_sdl_and_povray_renders_it(tmp_pat
 
 
 @pytest.mark.parametrize("name", ["texture_repeat", "texture_clamp", "texture_specular"])
+@pytest.mark.slow
 def test_write_usd_round_trips_textures(tmp_path, name):
     from phongscene import write_usd
 
