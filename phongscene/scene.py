@@ -669,7 +669,9 @@ class Intrinsic:
     infinite: bool = False  # plane only
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "world_from_object", _matrix(self.world_from_object))
+        object.__setattr__(
+            self, "world_from_object", _matrix(self.world_from_object, "Intrinsic", "world_from_object", self.source)
+        )
 
     def object_box(self) -> tuple[np.ndarray, np.ndarray]:
         """The object-space box that holds the shape (the unbounded plane: its unit square)."""
