@@ -14,6 +14,13 @@ depend on what else the machine runs):
         .venv/bin/python benchmarks/render_cpu_time.py S1 --width 320 --height 180 --repeat 1 [--extension SO]
     callgrind_annotate --inclusive=yes cg.S1.out | grep 'phong::'
 
+Instructions of the render call alone (no interpreter, USD reading or build): start valgrind
+with --instr-atstart=no and pass --callgrind-render, which switches instrumentation on
+(callgrind_control -i on) just before Scene.render and off after it, in the last run only:
+
+    valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file=cg.S1.out \\
+        .venv/bin/python benchmarks/render_cpu_time.py S1 --width 320 --height 180 --repeat 1 --callgrind-render
+
 The installed extension is stripped; for function names, profile a build with symbols
 (benchmarks/README.md, "Profiling") through --extension.
 """
@@ -22,6 +29,8 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -38,6 +47,11 @@ def main() -> None:
     parser.add_argument("--width", type=int, help="image width (default: the scene's)")
     parser.add_argument("--height", type=int, help="image height (default: the scene's)")
     parser.add_argument("--extension", type=Path, metavar="SO", help="another build of the _native extension")
+    parser.add_argument(
+        "--callgrind-render",
+        action="store_true",
+        help="under valgrind --instr-atstart=no: count the last render call's instructions only",
+    )
     args = parser.parse_args()
     if args.extension:
         use_extension(args.extension)
@@ -55,15 +69,31 @@ def main() -> None:
     )
     camera, native_settings = native._camera(scene.camera), native._settings(settings)
     build, render = [], []
-    for _ in range(args.repeat):
+    for run in range(args.repeat):
         start = time.process_time()
         built = native.build(scene)
         build.append(time.process_time() - start)
+        counted = args.callgrind_render and run == args.repeat - 1
+        if counted:
+            _callgrind_instrumentation("on")
         start = time.process_time()
         built.render(camera=camera, settings=native_settings)
         render.append(time.process_time() - start)
+        if counted:
+            _callgrind_instrumentation("off")
     name = args.extension.name if args.extension else "installed"
     print(f"{args.scene} {name}: build {min(build):.3f} s CPU, render {min(render):.3f} s CPU")
+
+
+def _callgrind_instrumentation(state: str) -> None:
+    """Switches callgrind's instrumentation of this process on or off (callgrind_control waits
+    until valgrind has done it); a clear error when the process does not run under callgrind."""
+    result = subprocess.run(["callgrind_control", "-i", state, str(os.getpid())], capture_output=True, text=True)
+    if result.returncode != 0 or "Error" in result.stdout + result.stderr:
+        sys.exit(
+            f"--callgrind-render: callgrind_control -i {state} failed (run under valgrind --tool=callgrind): "
+            f"{(result.stdout + result.stderr).strip()}"
+        )
 
 
 if __name__ == "__main__":
