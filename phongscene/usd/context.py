@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import functools
 import re
 from collections import defaultdict
 
@@ -13,6 +14,7 @@ from pxr import Gf, Tf, Usd, UsdGeom
 from ..errors import Problem
 from ..tolerances import KEEP_UNIT
 from .names import COLOR_TYPES, FLOAT_TYPES
+from .skinning import Skinning
 
 # A Z-up stage is rotated −90° about X into the model's Y-up frame: (x, y, z) → (x, z, −y).
 Z_UP_TO_Y_UP = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
@@ -73,6 +75,11 @@ class ReadContext:
         # Attribute path -> the type its file authored (the same at every time: kept by a stage
         # read at many times, ``reader.OpenStage``).
         self.types = {} if types is None else types
+
+    @functools.cached_property
+    def skinning(self) -> Skinning:
+        """The stage's UsdSkel skinning at ``time``, made on first use."""
+        return Skinning(self)
 
     def problem(self, prim, attribute: str, message: str) -> None:
         path = str(prim.GetPath()) if hasattr(prim, "GetPath") else str(prim)

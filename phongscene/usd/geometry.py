@@ -23,7 +23,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from pxr import Usd, UsdGeom
+from pxr import Usd, UsdGeom, UsdSkel
 
 from ..scene import Intrinsic, PhongMaterial, Sphere, TriangleMesh
 from ..tolerances import UNIT_TOLERANCE, is_singular
@@ -264,6 +264,11 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     idx = np.asarray(indices, dtype=np.int32)
     if not np.all(np.isfinite(p)):
         ctx.problem(prim, "points", f"{int(np.count_nonzero(~np.isfinite(p).all(axis=1)))} points are not finite")
+    pose = ctx.skinning.pose(prim, p) if prim.HasAPI(UsdSkel.BindingAPI) and len(ctx.problems) == n_problems else None
+    if pose is not None:
+        # Posed in the skeleton's space, placed by the skeleton (UsdSkel: the mesh's transform
+        # does not apply to skinned points).
+        p, world = pose.points, pose.world
     if (counts < 0).any():
         ctx.problem(prim, "faceVertexCounts", f"must be >= 0, got {int(counts.min())}")
         return None
@@ -320,7 +325,11 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     if scheme != UsdGeom.Tokens.none:
         ctx.unsupported["subdivision surfaces (the control cage is rendered)"].append(path)
 
-    normals = _mesh_normals(ctx, prim, len(p), len(idx), len(counts), fv, triangles, face_of_tri, p)
+    if pose is not None and _has_authored_normals(prim):
+        ctx.unsupported["authored normals of skinned meshes (geometric normals are used)"].append(path)
+        normals = None
+    else:
+        normals = _mesh_normals(ctx, prim, len(p), len(idx), len(counts), fv, triangles, face_of_tri, p)
     if len(ctx.problems) > n_problems:
         return None
     uvs = (
@@ -349,6 +358,10 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
         face_of_tri,
         len(counts),
     )
+
+
+def _has_authored_normals(prim: Usd.Prim) -> bool:
+    return any(prim.GetAttribute(name).HasAuthoredValue() for name in ("normals", "primvars:normals"))
 
 
 def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_of_tri, points):

@@ -33,6 +33,13 @@ PREVIEW_INPUTS = ("diffuseColor", "roughness", "metallic", "specularColor", "use
 PREVIEW_MIRROR_MAX_ROUGHNESS = 0.35
 
 
+# UsdPreviewSurface inputs the Phong model has no term for, with the spec's neutral value: an
+# authored other value or a connection is warned (never dropped silently).
+# MaterialX standard_surface / OpenPBR / OmniPBR inputs that carry a normal map.
+NORMAL_MAP_INPUTS = ("normal", "geometry_normal", "normalmap_texture")
+PREVIEW_UNMODELLED = {"opacity": 1.0, "clearcoat": 0.0, "occlusion": 1.0, "normal": (0.0, 0.0, 1.0)}
+
+
 def preview_to_phong(
     diffuse_color,
     roughness: float,
@@ -339,7 +346,9 @@ class MaterialReader:
                 value = default
             values[name] = value
         # Inputs the classic model has no term for: say so instead of dropping them silently.
-        for name, neutral in (("opacity", 1.0),):
+        # (A connected input counts: an occlusion map, a normal map.) The neutral values are the
+        # UsdPreviewSurface spec's defaults, under which the input changes nothing.
+        for name, neutral in PREVIEW_UNMODELLED.items():
             inp = shader.GetInput(name)
             if inp and (inp.HasConnectedSource() or np.any(np.asarray(inp.Get(self.ctx.time)) != neutral)):
                 self.ctx.unsupported[f"UsdPreviewSurface inputs:{name} (not in the Phong model; ignored)"].append(
@@ -418,6 +427,14 @@ class MaterialReader:
             inp = shader.GetInput(name)
             if inp and (inp.HasConnectedSource() or np.any(np.asarray(inp.Get(self.ctx.time)) != neutral)):
                 self.ctx.unsupported[f"{network.label} inputs:{name} (not in the Phong model; ignored)"].append(source)
+        for name in NORMAL_MAP_INPUTS:
+            # No neutral constant: any authored value or connection (a normalmap node, an
+            # OmniPBR normal texture) perturbs the normal, which is not modelled.
+            inp = shader.GetInput(name)
+            if inp and (inp.HasConnectedSource() or inp.GetAttr().HasAuthoredValue()):
+                self.ctx.unsupported[f"{network.label} inputs:{name} (normal maps are not modelled; ignored)"].append(
+                    source
+                )
         diffuse, roughness, f0 = reduce(network, values)
         return preview_to_phong(
             tuple(diffuse), roughness, specular_color=tuple(f0), use_specular_workflow=1, source=source
@@ -465,6 +482,13 @@ class MaterialReader:
         return textured
 
     def _display_color(self, prim: Usd.Prim) -> PhongMaterial:
+        opacity = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayOpacity")
+        if opacity and opacity.HasAuthoredValue():
+            values = opacity.ComputeFlattened(self.ctx.time)
+            if values is not None and np.any(np.asarray(values, dtype=np.float64) < 1.0):
+                self.ctx.unsupported["primvars:displayOpacity below 1 (not modelled; drawn opaque)"].append(
+                    str(prim.GetPath())
+                )
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor")
         if not primvar or not primvar.HasAuthoredValue():
             return DEFAULT_MATERIAL
