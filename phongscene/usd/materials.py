@@ -37,7 +37,7 @@ PREVIEW_MIRROR_MAX_ROUGHNESS = 0.35
 # authored other value or a connection is warned (never dropped silently).
 # MaterialX standard_surface / OpenPBR / OmniPBR inputs that carry a normal map.
 NORMAL_MAP_INPUTS = ("normal", "geometry_normal", "normalmap_texture")
-PREVIEW_UNMODELLED = {"opacity": 1.0, "clearcoat": 0.0, "occlusion": 1.0, "normal": (0.0, 0.0, 1.0)}
+PREVIEW_UNMODELLED = {"clearcoat": 0.0, "occlusion": 1.0, "normal": (0.0, 0.0, 1.0)}
 
 
 def preview_to_phong(
@@ -103,6 +103,26 @@ def preview_to_phong(
     )
 
 
+def preview_glass(material: PhongMaterial, opacity: float, ior: float, roughness: float) -> PhongMaterial:
+    """A translucent UsdPreviewSurface (opacity < 1, opacityThreshold 0) as the book's dielectric
+    (Suffern ch. 28): the spec blends the opaque surface (weight opacity) with transmission
+    through an interior of index ``ior`` (weight 1 − opacity). So ka and kd are scaled by the
+    opacity, kt = 1 − opacity, and Fresnel splits each crossing between the refracted ray and the
+    mirror (kr = 1, cr white) where the surface is smooth enough to mirror (roughness at most
+    PREVIEW_MIRROR_MAX_ROUGHNESS; rougher glass refracts without its mirror image). The highlight
+    stays the mapping's (the GGX lobe of the lights). docs/reflection.md states the mapping."""
+    mirror = {"kr": 1.0, "reflective_color": (1.0, 1.0, 1.0)} if roughness <= PREVIEW_MIRROR_MAX_ROUGHNESS else {}
+    return dataclasses.replace(
+        material,
+        ka=material.ka * opacity,
+        kd=material.kd * opacity,
+        kt=1.0 - opacity,
+        ior=ior,
+        fresnel=True,
+        **mirror,
+    )
+
+
 # The render contexts whose surface outputs are read, most specific first: ours, then the
 # MaterialX and MDL networks files ship (the universal output, usually a UsdPreviewSurface
 # stand-in written for viewers, is read only where none of these is connected).
@@ -131,6 +151,9 @@ class MaterialReader:
         self.textures = TextureReader(ctx)
         # Where each textured material's st comes from (the mesh reader reads that primvar).
         self.st_of: dict[PhongMaterial, StSource] = {}
+        # The sources of materials whose constant opacity is below their opacityThreshold
+        # (UsdPreviewSurface's masked mode): gprims bound to them are not rendered.
+        self.cut_out: set[str] = set()
         self.phong_defaults = phong_input_defaults()
         preview = Sdr.Registry().GetShaderNodeByIdentifier(PREVIEW_SHADER_ID)
         self.preview_defaults = {n: preview.GetShaderInput(n).GetDefaultValue() for n in PREVIEW_INPUTS}
@@ -155,6 +178,10 @@ class MaterialReader:
             material, _ = UsdShade.MaterialBindingAPI(subset.GetPrim()).ComputeBoundMaterial()
             indices = subset.GetIndicesAttr().Get(self.ctx.time)
             if material and indices is not None and len(indices):
+                if self.for_material(material).source in self.cut_out:
+                    self.ctx.unsupported[
+                        "GeomSubsets bound to a cut-out material (opacity below opacityThreshold; rendered opaque)"
+                    ].append(str(subset.GetPath()))
                 parts.append((str(subset.GetPath()), self.for_material(material), np.asarray(indices, dtype=np.int64)))
         return parts
 
@@ -305,6 +332,27 @@ class MaterialReader:
             return (0.0, 0.0, 0.0)
         return tuple(float(c) for c in arr)
 
+    def _preview_scalar(self, shader: UsdShade.Shader, name: str, default: float) -> float:
+        """A UsdPreviewSurface input in [0, 1], read as a constant (a texture on it: its
+        fallback, with a warning)."""
+        prim = shader.GetPrim()
+        inp = shader.GetInput(name)
+        if not inp:
+            return default
+        if inp.HasConnectedSource():
+            self.ctx.unsupported[
+                f"UsdPreviewSurface inputs:{name} connected to a texture (its constant value is used)"
+            ].append(str(prim.GetPath()))
+        value = self._input_value(shader, name, default)
+        if not isinstance(value, (int, float)) or not np.isfinite(value) or not 0.0 <= value <= 1.0:
+            self.ctx.problem(prim, f"inputs:{name}", f"must be a number in [0, 1], got {value!r}")
+            return default
+        return float(value)
+
+    def _preview_opacity(self, shader: UsdShade.Shader) -> tuple[float, float]:
+        """UsdPreviewSurface's (opacity, opacityThreshold), constants in [0, 1]."""
+        return self._preview_scalar(shader, "opacity", 1.0), self._preview_scalar(shader, "opacityThreshold", 0.0)
+
     def _preview(self, shader: UsdShade.Shader) -> PhongMaterial:
         prim = shader.GetPrim()
         values = {}
@@ -354,6 +402,7 @@ class MaterialReader:
                 self.ctx.unsupported[f"UsdPreviewSurface inputs:{name} (not in the Phong model; ignored)"].append(
                     str(prim.GetPath())
                 )
+        opacity, threshold = self._preview_opacity(shader)
         emission = self._preview_emission(shader)
         level = shader.GetInput(BLENDER_SPECULAR_LEVEL)
         specular_level = 0.5
@@ -384,6 +433,13 @@ class MaterialReader:
         )
         if any(emission):
             material = dataclasses.replace(material, emission=emission)
+        if threshold > 0:
+            # The spec's masked mode: below the threshold the surface is absent, at or above it
+            # fully opaque (no translucency). Constant opacity only: the gprims are omitted.
+            if opacity < threshold:
+                self.cut_out.add(material.source)
+        elif opacity < 1:
+            material = preview_glass(material, opacity, float(values["ior"]), float(values["roughness"]))
         metal = None if metallic_texture is None else metallic_texture.texture
         if metal is not None and not int(values["useSpecularWorkflow"]):
             if diffuse_texture is None or diffuse_texture.texture is None:

@@ -411,6 +411,11 @@ def _gprim(
         )
         return
     material = materials.for_gprim(prim)
+    if material.source in materials.cut_out:
+        # UsdPreviewSurface's opacityThreshold above its constant opacity: nothing of it is hit,
+        # by any ray, so neither backend is given the surface.
+        ctx.nodes.append((path, "cut out (opacity below opacityThreshold)"))
+        return
     if type_name != "Mesh" and material.textures:
         # Only meshes carry st primvars here: the texture's fallback colour is used.
         ctx.unsupported["textures on prims without texture coordinates (the fallback colour is used)"].append(path)

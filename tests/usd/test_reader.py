@@ -290,15 +290,28 @@ def test_unreadable_and_missing_files(tmp_path):
         read_usd(tmp_path / "missing.usda")
 
 
-def test_preview_surface_opacity_is_reported_and_emission_is_read(tmp_path):
-    inputs = "float inputs:opacity = 0.5\n color3f inputs:emissiveColor = (1, 0, 0)"
+def test_preview_surface_opacity_is_a_dielectric_and_emission_is_read(tmp_path):
+    inputs = "float inputs:opacity = 0.25\n float inputs:ior = 1.33\n color3f inputs:emissiveColor = (1, 0, 0)"
     result = read(tmp_path, PREVIEW.format(inputs=inputs))
-    assert any("inputs:opacity" in w and "/M/S" in w for w in result.warnings)
-    assert not any("inputs:emissiveColor" in w for w in result.warnings)
-    assert {o.material.emission for o in result.scene.objects} == {(1.0, 0.0, 0.0)}  # Le, the model's emission
-    # the neutral values (opaque, no emission) are what the model renders: nothing to say
-    neutral = "float inputs:opacity = 1\n color3f inputs:emissiveColor = (0, 0, 0)"
-    assert not [w for w in read(tmp_path, PREVIEW.format(inputs=neutral)).warnings if "UsdPreviewSurface" in w]
+    assert not [w for w in result.warnings if "UsdPreviewSurface" in w]
+    (material,) = {o.material for o in result.scene.objects}
+    assert material.emission == (1.0, 0.0, 0.0)  # Le, the model's emission
+    # kt = 1 − opacity into an interior of the authored ior, split by Fresnel; the opaque part
+    # (ambient, diffuse) weighted by the opacity.
+    assert (material.kt, material.ior, material.fresnel) == (0.75, pytest.approx(1.33), True)
+    assert (material.ka, material.kd) == (0.25, 0.25)
+    opaque = read(tmp_path, PREVIEW.format(inputs="float inputs:opacity = 1")).scene.objects[0].material
+    assert (opaque.kt, opaque.fresnel, opaque.kd) == (0.0, False, 1.0)
+
+
+def test_preview_surface_opacity_threshold_cuts_out_or_keeps_opaque(tmp_path):
+    below = read(tmp_path, PREVIEW.format(inputs="float inputs:opacity = 0.2\n float inputs:opacityThreshold = 0.5"))
+    assert len(below.scene.objects) == 0  # the masked surface is absent
+    above = read(tmp_path, PREVIEW.format(inputs="float inputs:opacity = 0.6\n float inputs:opacityThreshold = 0.5"))
+    (material,) = {o.material for o in above.scene.objects}
+    assert (material.kt, material.kd) == (0.0, 1.0)  # masked mode: at or above the threshold, opaque
+    with pytest.raises(SceneError, match="inputs:opacity"):
+        read(tmp_path, PREVIEW.format(inputs="float inputs:opacity = 1.5"))
 
 
 def test_a_prim_with_a_type_problem_still_reports_its_range_problems(tmp_path):
