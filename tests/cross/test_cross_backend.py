@@ -115,15 +115,30 @@ def _thresholds(scene: Scene) -> tuple[str, Thresholds]:
     return " + ".join(allowances), allowances[name]
 
 
-@pytest.fixture(scope="module")
-def povray_images() -> dict[tuple[str, str, str], object]:
-    from phongscene.backends.povray import render_many
+class _PovrayImages:
+    """POV-Ray's image of each case, rendered a kind at a time on first use: one `render_many`
+    batch per kind keeps POV-Ray busy on both cores, and a run that deselects a kind (`make
+    test-fast` skips the slow calibration and adaptive cases) does not render it."""
 
-    items = []
-    for kind, name, mapping in CASES:
-        scene = _scene(kind, name)
-        items.append((scene, settings_for(scene, mapping=mapping), mapping))
-    return dict(zip(CASES, render_many(items)))
+    def __init__(self) -> None:
+        self._images: dict[tuple[str, str, str], object] = {}
+
+    def __getitem__(self, case: tuple[str, str, str]):
+        if case not in self._images:
+            from phongscene.backends.povray import render_many
+
+            batch = [c for c in CASES if c[0] == case[0]]
+            items = []
+            for kind, name, mapping in batch:
+                scene = _scene(kind, name)
+                items.append((scene, settings_for(scene, mapping=mapping), mapping))
+            self._images.update(zip(batch, render_many(items)))
+        return self._images[case]
+
+
+@pytest.fixture(scope="module")
+def povray_images() -> _PovrayImages:
+    return _PovrayImages()
 
 
 def _check(case: tuple[str, str, str], povray_images, tmp_path: Path, monkeypatch) -> None:
