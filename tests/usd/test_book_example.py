@@ -56,3 +56,21 @@ def test_it_renders_as_the_oracle(result):
     np.testing.assert_allclose(
         render(small, "native"), oracle.render(small), rtol=ORACLE_RELATIVE_TOLERANCE, atol=ORACLE_ABSOLUTE_FLOOR
     )
+
+
+def test_figure_15_8b_is_15_8a_lit_by_a_shadowless_point_light():
+    """examples/book_15_8b.usda: the book's Figure 15.8(b) build function swaps the directional light
+    for a PointLight at (15, 15, 2.5) of radiance 2; everything else is 15.8(a)'s."""
+    result = read_usd(EXAMPLES / "book_15_8b.usda")
+    scene = result.scene
+    assert result.warnings == []
+    (point,) = scene.lights
+    assert type(point).__name__ == "PointLight"
+    assert not point.linking.shadows and point.color == pytest.approx((2, 2, 2))
+    assert point.position == pytest.approx((15, 15, 2.5))
+    a = read_usd(EXAMPLES / "book_15_8a.usda").scene
+    assert scene.intrinsics == a.intrinsics and scene.camera == a.camera and scene.settings == a.settings
+    small = dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, width=60, height=40, samples=1))
+    np.testing.assert_allclose(
+        render(small, "native"), oracle.render(small), rtol=ORACLE_RELATIVE_TOLERANCE, atol=ORACLE_ABSOLUTE_FLOOR
+    )
