@@ -333,16 +333,19 @@ class MaterialReader:
         return tuple(float(c) for c in arr)
 
     def _preview_scalar(self, shader: UsdShade.Shader, name: str, default: float) -> float:
-        """A UsdPreviewSurface input in [0, 1], read as a constant (a texture on it: its
-        fallback, with a warning)."""
+        """A UsdPreviewSurface input in [0, 1], read as a constant. A texture on it is not read
+        (per-texel opacity needs a hit-skipping any-hit test neither backend has): the input's
+        default, with a warning. Not the texture's fallback: Blender connects opacity to an
+        image's alpha on opaque materials, and a fallback alpha of 0 would turn them to glass."""
         prim = shader.GetPrim()
         inp = shader.GetInput(name)
         if not inp:
             return default
         if inp.HasConnectedSource():
             self.ctx.unsupported[
-                f"UsdPreviewSurface inputs:{name} connected to a texture (its constant value is used)"
+                f"UsdPreviewSurface inputs:{name} connected to a texture (not read; {default:g} is used)"
             ].append(str(prim.GetPath()))
+            return default
         value = self._input_value(shader, name, default)
         if not isinstance(value, (int, float)) or not np.isfinite(value) or not 0.0 <= value <= 1.0:
             self.ctx.problem(prim, f"inputs:{name}", f"must be a number in [0, 1], got {value!r}")
