@@ -91,6 +91,10 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv: list[str] | None) -> int:
     args = None
     try:
+        # The parser's option types import the scene model and with it numpy (~0.1 s): a Ctrl-C
+        # there must wait for the import's end (one interrupted inside numpy's class set-up is
+        # re-raised as a RuntimeError, a traceback), as the command's own imports do.
+        preimport(("numpy",))
         parser = build_parser()
         args = parser.parse_args(argv)
         check_estimator_options(args)  # as argparse reports a bad option: before the scene is read
