@@ -651,8 +651,11 @@ class Intrinsic:
     * ``cylinder``: the side x² + y² = r(z)², |z| <= 1, r linear from ``radius_bottom`` at z = −1
       to ``radius_top`` at z = +1, closed by discs of those radii (USD Cylinder, Cylinder_1;
       a Cone is ``radius_top`` 0; POV-Ray ``cylinder`` or ``cone``).
-    * ``capsule``: a cylinder of ``radius`` over |z| <= ``half_height`` closed by spheres of that
-      radius centred at z = ±``half_height`` (USD Capsule; POV-Ray the union of the three).
+    * ``capsule``: the side of the cylinder above over |z| <= ``half_height`` (radii
+      ``radius_bottom`` at z = −``half_height``, ``radius_top`` at +``half_height``) closed by
+      the two spheres tangent to it there (``capsule_ends``): USD Capsule (one radius: spheres
+      of that radius centred at z = ±``half_height``) and Capsule_1 (two radii, the ends'
+      spheres as UsdGeom's capsule mesh generator places them); POV-Ray the union of the three.
     * ``plane``: the square |x|, |y| <= 1 at z = 0, both sides (USD Plane; POV-Ray ``polygon``),
       or with ``infinite`` the whole plane z = 0 (POV-Ray ``plane``), which no bounds include, so
       the scale-aware tolerances stay those of the finite geometry.
@@ -662,9 +665,8 @@ class Intrinsic:
     world_from_object: np.ndarray  # (4, 4) float64, column vectors, invertible affine
     material: PhongMaterial = DEFAULT_MATERIAL
     source: str = ""
-    radius_bottom: float = 1.0  # cylinder: >= 0, not both radii 0
+    radius_bottom: float = 1.0  # cylinder, capsule: >= 0, not both radii 0
     radius_top: float = 1.0
-    radius: float = 1.0  # capsule: > 0
     half_height: float = 1.0  # capsule: >= 0
     infinite: bool = False  # plane only
 
@@ -679,11 +681,31 @@ class Intrinsic:
             r = max(self.radius_bottom, self.radius_top)
             return np.array([-r, -r, -1.0]), np.array([r, r, 1.0])
         if self.kind == "capsule":
-            r, h = self.radius, self.half_height + self.radius
-            return np.array([-r, -r, -h]), np.array([r, r, h])
+            ends = self.capsule_ends() or [(0.0, 0.0)]  # no radius > 0: validation says so
+            r = max(radius for _, radius in ends)
+            lo, hi = min(z - radius for z, radius in ends), max(z + radius for z, radius in ends)
+            return np.array([-r, -r, lo]), np.array([r, r, hi])
         if self.kind == "plane":
             return np.array([-1.0, -1.0, 0.0]), np.array([1.0, 1.0, 0.0])
         return -np.ones(3), np.ones(3)
+
+    def capsule_ends(self) -> list[tuple[float, float]]:
+        """A capsule's end spheres, (centre z, radius) in object space, those of radius > 0.
+        The side's slope s = (r_b − r_t) / 2h; the sphere tangent to it along the circle of
+        radius r at z = z₀ has its centre at z₀ − s·r and radius r·√(1 + s²) (similar
+        triangles; UsdGeom's capsule generator places its caps so). With one radius (s = 0):
+        spheres of that radius at z = ±h. With h = 0 and two radii the shape is the larger
+        sphere (the side has no height to join them)."""
+        h, rb, rt = self.half_height, self.radius_bottom, self.radius_top
+        if rb == rt:
+            ends = [(-h, rb), (h, rt)]
+        elif h == 0:
+            ends = [(0.0, max(rb, rt))]
+        else:
+            s = (rb - rt) / (2.0 * h)
+            grow = math.sqrt(1.0 + s * s)
+            ends = [(-h - s * rb, rb * grow), (h - s * rt, rt * grow)]
+        return [(z, r) for z, r in ends if r > 0]
 
     def world_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
         """World AABB of the object box under the affine map (exact for a cube); None for an
@@ -702,8 +724,8 @@ class Intrinsic:
         return (
             self.kind == other.kind
             and _arrays_equal(self.world_from_object, other.world_from_object)
-            and (self.radius_bottom, self.radius_top, self.radius, self.half_height, self.infinite)
-            == (other.radius_bottom, other.radius_top, other.radius, other.half_height, other.infinite)
+            and (self.radius_bottom, self.radius_top, self.half_height, self.infinite)
+            == (other.radius_bottom, other.radius_top, other.half_height, other.infinite)
             and self.material == other.material
             and self.source == other.source
         )

@@ -599,14 +599,12 @@ def _check_intrinsic(c: _Collector, i: Intrinsic) -> None:
                 c.add(
                     i, "world_from_object", f"the {i.kind} must lie within ±{MAX_COORDINATE:g}, it reaches {reach:.3g}"
                 )
-    for field in ("radius_bottom", "radius_top", "radius", "half_height"):
+    for field in ("radius_bottom", "radius_top", "half_height"):
         value = getattr(i, field)
         if c.finite(i, field, value) and value < 0:
             c.add(i, field, f"must be >= 0, got {_show(value)}")
-    if i.kind == "cylinder" and i.radius_bottom == 0 and i.radius_top == 0:
-        c.add(i, "radius_bottom", "a cylinder needs a radius > 0 at one end at least")
-    if i.kind == "capsule" and i.radius == 0:
-        c.add(i, "radius", "must be > 0")
+    if i.kind in ("cylinder", "capsule") and i.radius_bottom == 0 and i.radius_top == 0:
+        c.add(i, "radius_bottom", f"a {i.kind} needs a radius > 0 at one end at least")
     if i.kind == "capsule" and isinstance(i.material, PhongMaterial) and i.material.transmits:
         # The native tracer's capsule is the union of a tube and two spheres, whose inner parts
         # would refract a ray that crosses them.

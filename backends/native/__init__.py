@@ -212,10 +212,14 @@ def _parts(intrinsic: Intrinsic) -> list[tuple[int, np.ndarray, float, float, fl
         parts = [(_FRUSTUM, m, r0, r1, 0.0)]
         parts += [(_DISK, m, r, r, z) for r, z in ((r0, -1.0), (r1, 1.0)) if r > 0]
         return parts
-    # A capsule: the side (unless of zero height) and the two end spheres.
-    r, h = intrinsic.radius, intrinsic.half_height
-    parts = [(_FRUSTUM, m @ np.diag([r, r, h, 1.0]), 1.0, 1.0, 0.0)] if h > 0 else []
-    for z in (-h, h):
+    # A capsule: the side (unless of zero height) and the end spheres (Intrinsic.capsule_ends).
+    rb, rt, h = intrinsic.radius_bottom, intrinsic.radius_top, intrinsic.half_height
+    parts = []
+    if h > 0 and rb == rt:  # one radius: a unit cylinder scaled to it
+        parts.append((_FRUSTUM, m @ np.diag([rb, rb, h, 1.0]), 1.0, 1.0, 0.0))
+    elif h > 0:
+        parts.append((_FRUSTUM, m @ np.diag([1.0, 1.0, h, 1.0]), rb, rt, 0.0))
+    for z, r in intrinsic.capsule_ends():
         end = np.diag([r, r, r, 1.0])
         end[2, 3] = z
         parts.append((_SPHERE, m @ end, 1.0, 1.0, 0.0))

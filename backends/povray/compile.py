@@ -851,10 +851,21 @@ class _Compiler:
             if i.radius_bottom == i.radius_top:
                 return f"cylinder {{ <0, 0, -1>, <0, 0, 1>, {r0}" + tail
             return f"cone {{ <0, 0, -1>, {r0}, <0, 0, 1>, {r1}" + tail
-        # A capsule: the open side and the two end spheres, one object (union) for the texture.
-        r, h = self.num(i.radius, i, "radius"), self.num(i.half_height, i, "half_height")
-        side = f" cylinder {{ <0, 0, -{h}>, <0, 0, {h}>, {r} open }}" if i.half_height > 0 else ""
-        return f"union {{ sphere {{ <0, 0, -{h}>, {r} }} sphere {{ <0, 0, {h}>, {r} }}{side}" + tail
+        # A capsule: the open side and the end spheres (Intrinsic.capsule_ends), one object
+        # (union) for the texture.
+        h = self.num(i.half_height, i, "half_height")
+        rb, rt = (self.num(r, i, f"radius_{end}") for r, end in ((i.radius_bottom, "bottom"), (i.radius_top, "top")))
+        ends = "".join(
+            f" sphere {{ <0, 0, {self.num(z, i, 'half_height')}>, {self.num(r, i, 'radius_bottom')} }}"
+            for z, r in i.capsule_ends()
+        )
+        if i.half_height == 0:
+            side = ""
+        elif i.radius_bottom == i.radius_top:
+            side = f" cylinder {{ <0, 0, -{h}>, <0, 0, {h}>, {rb} open }}"
+        else:
+            side = f" cone {{ <0, 0, -{h}>, {rb}, <0, 0, {h}>, {rt} open }}"
+        return f"union {{{ends}{side}" + tail
 
     def float32_block(self, mesh: TriangleMesh, attribute: str, values: np.ndarray) -> str:
         try:

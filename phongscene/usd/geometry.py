@@ -9,9 +9,10 @@
   zero-length ones are replaced by their triangles' geometric normals with a warning (one bad
   normal does not refuse a scene); of the wrong count or non-finite they are *problems* (errors).
   A mesh whose ``points`` have the wrong type is skipped with a warning, the rest is drawn.
-* ``Cube``, ``Cylinder`` (and ``Cylinder_1``), ``Cone``, ``Capsule`` and ``Plane`` are exact
-  surfaces (``intrinsic``: the model's ``Intrinsic``), a Plane with ``phong:infinite = true``
-  the whole plane. Where a prim says ``phong:tessellate = true`` it becomes triangles instead
+* ``Cube``, ``Cylinder`` (and ``Cylinder_1``), ``Cone``, ``Capsule`` (and ``Capsule_1``) and
+  ``Plane`` are exact surfaces (``intrinsic``: the model's ``Intrinsic``), a Plane with
+  ``phong:infinite = true`` the whole plane. Where a prim says ``phong:tessellate = true`` it
+  becomes triangles instead (not the two-radius ``_1`` prims: they stay exact, with a warning)
   (``primitive``): ``Cube`` and ``Plane`` flat triangles; ``Cylinder``, ``Cone`` and ``Capsule``
   tessellated by ``trimesh.creation`` with ``SEGMENTS`` segments around the axis (capsule:
   ``SEGMENTS`` × ``SEGMENTS // 2`` rings) and analytic smooth normals on the curved surface
@@ -479,7 +480,7 @@ def _radial(points: np.ndarray, face_n: np.ndarray) -> np.ndarray:
 
 # -- intrinsic prims as exact surfaces ----------------------------------------------------------
 
-INTRINSIC_TYPES = ("Cube", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Plane")
+INTRINSIC_TYPES = ("Cube", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Capsule_1", "Plane")
 
 
 def tessellated(ctx: ReadContext, prim: Usd.Prim) -> bool:
@@ -488,7 +489,7 @@ def tessellated(ctx: ReadContext, prim: Usd.Prim) -> bool:
 
 
 def intrinsic(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial) -> Intrinsic | None:
-    """Cube, Cylinder, Cylinder_1, Cone, Capsule or Plane → an exact ``Intrinsic``: the prim's
+    """Cube, Cylinder, Cylinder_1, Cone, Capsule, Capsule_1 or Plane → an exact ``Intrinsic``: the prim's
     transform times its axis (USD's X or Y onto the model's Z) times its size. A Plane with
     ``phong:infinite = true`` is the whole plane. Per-prim normals and extents do not apply."""
     type_name = prim.GetTypeName()
@@ -524,11 +525,17 @@ def intrinsic(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: Pho
         infinite = bool(ctx.get(prim, INFINITE, BOOL_TYPES, False))
         kind, scale = "plane", (1.0, 1.0, 1.0) if infinite else (width / 2, length / 2, 1.0)
         fields["infinite"] = infinite
-    elif type_name == "Capsule":
-        radius = ctx.number(prim, "radius", 0.5, minimum=0.0, strict=True)
+    elif type_name in ("Capsule", "Capsule_1"):
         height = ctx.number(prim, "height", 1.0, minimum=0.0, strict=False)
+        if type_name == "Capsule_1":
+            bottom = ctx.number(prim, "radiusBottom", 0.5, minimum=0.0, strict=False)
+            top = ctx.number(prim, "radiusTop", 0.5, minimum=0.0, strict=False)
+            if len(ctx.problems) == n_problems and bottom == 0 and top == 0:
+                ctx.problem(prim, "radiusBottom", "radiusBottom and radiusTop are both 0 (no surface)")
+        else:
+            bottom = top = ctx.number(prim, "radius", 0.5, minimum=0.0, strict=True)
         kind, scale = "capsule", (1.0, 1.0, 1.0)
-        fields.update(radius=radius, half_height=height / 2)
+        fields.update(radius_bottom=bottom, radius_top=top, half_height=height / 2)
     else:
         height = ctx.number(prim, "height", 2.0, minimum=0.0, strict=True)
         if type_name == "Cylinder_1":

@@ -105,6 +105,7 @@ PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
     "Cylinder_1": {TESSELLATE: BOOL_TYPES},
     "Cone": {TESSELLATE: BOOL_TYPES},
     "Capsule": {TESSELLATE: BOOL_TYPES},
+    "Capsule_1": {TESSELLATE: BOOL_TYPES},
     "Plane": {TESSELLATE: BOOL_TYPES, INFINITE: BOOL_TYPES},
     "RenderSettings": {
         SAMPLES: INT_TYPES,

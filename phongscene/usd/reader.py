@@ -35,13 +35,26 @@ from .layers import preflight
 from .lights import read_light
 from .linking import link_lights
 from .materials import MaterialReader
-from .names import in_usd_terms
+from .names import TESSELLATE, in_usd_terms
 from .read_cache import KeptRead, ReadCache
 from .read_parts import EveryPart, RecordParts, Redo
 from .scene_checks import warn_clipping_lights, warn_single_sided
 from .stage_checks import check_stage
 
-_GEOMETRY_TYPES = {"Sphere", "Mesh", "Cube", "Plane", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Points"}
+_GEOMETRY_TYPES = {
+    "Sphere",
+    "Mesh",
+    "Cube",
+    "Plane",
+    "Cylinder",
+    "Cylinder_1",
+    "Cone",
+    "Capsule",
+    "Capsule_1",
+    "Points",
+}
+# Intrinsic prims with two radii: always their exact surface (no tessellation is written for them).
+TWO_RADIUS_TYPES = ("Cylinder_1", "Capsule_1")
 
 
 @dataclass
@@ -436,7 +449,9 @@ def _gprim(
         if len({materials.st_of.get(m) for m in textured}) > 1:
             ctx.warn(f"{path}: its materials read different st primvars; all use {st.primvar!r}")
         built = geometry.mesh(ctx, prim, world, material, subsets, st)
-    elif type_name == "Cylinder_1" or not geometry.tessellated(ctx, prim):
+    elif type_name in TWO_RADIUS_TYPES or not geometry.tessellated(ctx, prim):
+        if type_name in TWO_RADIUS_TYPES and geometry.tessellated(ctx, prim):
+            ctx.unsupported[f"{TESSELLATE} on {type_name} (the exact surface is traced)"].append(path)
         # The exact surface (Intrinsic): it joins the meshes' list, in traversal order, and the
         # scene takes it out of there (in _read).
         shape = geometry.intrinsic(ctx, prim, world, material)

@@ -179,7 +179,7 @@ def define_sphere(stage: Usd.Stage, path: str, sphere: Sphere) -> UsdGeom.Sphere
 
 def define_intrinsic(stage: Usd.Stage, path: str, intrinsic: Intrinsic) -> Usd.Prim:
     """An intrinsic prim in the model's canonical frame (axis Z, unit sizes) under its matrix:
-    Cube of size 2; Cylinder, Cone or Cylinder_1 of height 2; Capsule; Plane of 2 × 2 (and
+    Cube of size 2; Cylinder, Cone or Cylinder_1 of height 2; Capsule or Capsule_1; Plane of 2 × 2 (and
     ``phong:infinite``). Read back, the same ``Intrinsic``."""
     kind = intrinsic.kind
     if kind == "cube":
@@ -200,8 +200,14 @@ def define_intrinsic(stage: Usd.Stage, path: str, intrinsic: Intrinsic) -> Usd.P
         prim.CreateHeightAttr(2.0)
         prim.CreateAxisAttr(UsdGeom.Tokens.z)
     elif kind == "capsule":
-        prim = UsdGeom.Capsule.Define(stage, path)
-        prim.CreateRadiusAttr(float(intrinsic.radius))
+        r0, r1 = float(intrinsic.radius_bottom), float(intrinsic.radius_top)
+        if r0 == r1:
+            prim = UsdGeom.Capsule.Define(stage, path)
+            prim.CreateRadiusAttr(r0)
+        else:
+            prim = UsdGeom.Capsule_1.Define(stage, path)
+            prim.CreateRadiusBottomAttr(r0)
+            prim.CreateRadiusTopAttr(r1)
         prim.CreateHeightAttr(2.0 * float(intrinsic.half_height))
         prim.CreateAxisAttr(UsdGeom.Tokens.z)
     else:

@@ -51,7 +51,8 @@ KINDS = {
     "cylinder": dict(kind="cylinder"),
     "cone": dict(kind="cylinder", radius_top=0.0),
     "cylinder_1": dict(kind="cylinder", radius_bottom=0.4, radius_top=1.0),
-    "capsule": dict(kind="capsule", radius=0.5, half_height=0.6),
+    "capsule": dict(kind="capsule", radius_bottom=0.5, radius_top=0.5, half_height=0.6),
+    "capsule_1": dict(kind="capsule", radius_bottom=0.7, radius_top=0.3, half_height=0.5),  # USD Capsule_1
     "plane": dict(kind="plane"),
 }
 
@@ -129,7 +130,7 @@ def test_grazing_rays_hit_inside_and_miss_outside(scale):
     capsule end."""
     cylinder = lone(Intrinsic("cylinder", np.diag([scale, scale, scale, 1.0])))
     cube = lone(Intrinsic("cube", np.diag([scale, scale, scale, 1.0])))
-    capsule = lone(Intrinsic("capsule", np.diag([scale, scale, scale, 1.0]), radius=1.0, half_height=1.0))
+    capsule = lone(Intrinsic("capsule", np.diag([scale, scale, scale, 1.0]), half_height=1.0))
     start, margin = -1000.0 * scale, 1e-9
     for scene, (y, z) in ((cylinder, (1.0, 0.0)), (cube, (1.0, 0.0)), (capsule, (0.0, 1.0 + 1.0))):
         inside = [[start, (y - margin) * scale if y else 0.0, (z - margin) * scale if z else 0.0]]
@@ -150,6 +151,29 @@ def test_a_ray_leaving_the_surface_sees_only_the_far_side(scale):
     assert hit[0] == -1
     t, hit = unit_ray_hits(scene, p, [[-math.cos(0.3), -math.sin(0.3), 0.0]], t_min=1e-9 * scale)
     assert abs(t[0] - 2 * scale) <= HIT_RELATIVE_TOLERANCE * 2 * scale
+
+
+@pytest.mark.parametrize("scale", [1e-6, 1.0, 1e6])
+def test_a_two_radius_capsule_is_the_hull_of_its_end_spheres(scale):
+    """Capsule_1 with radii 0.7 and 0.3 at the ends of a side of half-height 0.5: the slope is
+    s = 0.4, so the bottom sphere has its centre at −0.5 − 0.28 = −0.78 and radius 0.7·√1.16, the
+    the top one at 0.5 − 0.12 = 0.38, radius 0.3·√1.16 (similar triangles, worked by hand).
+    Along the axis a ray meets the spheres' poles; across it, at z = 0, the side's radius 0.5."""
+    shape = Intrinsic(
+        "capsule", np.diag([scale, scale, scale, 1.0]), radius_bottom=0.7, radius_top=0.3, half_height=0.5
+    )
+    grow = math.sqrt(1.16)
+    start = 1000.0 * scale
+    t, _ = unit_ray_hits(lone(shape), [[0.0, 0.0, -start]], [[0.0, 0.0, 1.0]])
+    assert abs(t[0] - (start - 0.78 * scale - 0.7 * grow * scale)) <= HIT_RELATIVE_TOLERANCE * start
+    t, _ = unit_ray_hits(lone(shape), [[0.0, 0.0, start]], [[0.0, 0.0, -1.0]])
+    assert abs(t[0] - (start - 0.38 * scale - 0.3 * grow * scale)) <= HIT_RELATIVE_TOLERANCE * start
+    t, _ = unit_ray_hits(lone(shape), [[-start, 0.0, 0.0]], [[1.0, 0.0, 0.0]])
+    assert abs(t[0] - (start - 0.5 * scale)) <= HIT_RELATIVE_TOLERANCE * start
+    # Just outside the side's silhouette at its bottom end (where it touches the sphere): a miss.
+    outside = 0.7 * (1 + 1e-9) * scale
+    _, hit = unit_ray_hits(lone(shape), [[-start, outside, -0.5 * scale]], [[1.0, 0.0, 0.0]])
+    assert hit[0] == -1
 
 
 def test_caps_close_the_cylinder_and_the_cone_has_no_mirror_image():
@@ -180,6 +204,7 @@ def test_the_sdl_uses_povrays_own_shapes():
         "cone": "cone {",
         "cylinder_1": "cone {",
         "capsule": "union { sphere",
+        "capsule_1": "open }",
         "plane": "polygon { 4",
     }
     for name, keyword in expected.items():
@@ -191,8 +216,13 @@ def test_validation_names_bad_intrinsics():
     bad = (
         Intrinsic("cylinder", np.eye(4), radius_bottom=0.0, radius_top=0.0, source="/A"),
         Intrinsic("cube", np.diag([1.0, 0.0, 1.0, 1.0]), source="/B"),
-        Intrinsic("capsule", np.eye(4), radius=-1.0, source="/C"),
+        Intrinsic("capsule", np.eye(4), radius_bottom=-1.0, radius_top=-1.0, source="/C"),
         Intrinsic("cube", np.eye(4), infinite=True, source="/D"),
     )
     problems = {(p.prim, p.attribute) for p in validate(Scene(intrinsics=bad))}
-    assert {("/A", "radius_bottom"), ("/B", "world_from_object"), ("/C", "radius"), ("/D", "infinite")} <= problems
+    assert {
+        ("/A", "radius_bottom"),
+        ("/B", "world_from_object"),
+        ("/C", "radius_bottom"),
+        ("/D", "infinite"),
+    } <= problems

@@ -571,12 +571,18 @@ def _intrinsic_candidates(intrinsic, o: np.ndarray, d: np.ndarray) -> list[tuple
             side(intrinsic.radius_bottom, intrinsic.radius_top, -1.0, 1.0)
             disc(intrinsic.radius_bottom, -1.0)
             disc(intrinsic.radius_top, 1.0)
-        else:  # capsule
-            r, h = intrinsic.radius, intrinsic.half_height
+        else:  # capsule: the side, and the spheres tangent to it at its ends
+            rb, rt, h = intrinsic.radius_bottom, intrinsic.radius_top, intrinsic.half_height
             if h > 0:
-                side(r, r, -h, h)
-            ball(-h, r)
-            ball(h, r)
+                side(rb, rt, -h, h)
+                # The side leans by α from the axis: a sphere touching it along the circle of
+                # radius r at z sits r·tan α further from the narrow end, radius r / cos α.
+                lean = math.atan2(rb - rt, 2 * h)
+                for r, z in ((rb, -h), (rt, h)):
+                    if r > 0:
+                        ball(z - r * math.tan(lean), r / math.cos(lean))
+            else:
+                ball(0.0, max(rb, rt))
     return out
 
 

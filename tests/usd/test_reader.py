@@ -168,6 +168,23 @@ def test_curved_primitives_have_smooth_unit_normals(tmp_path):
     assert np.allclose(mesh.normals[mesh.normal_indices].reshape(-1, 3), expected, atol=1e-9)
 
 
+def test_a_two_radius_capsule_is_read_as_its_exact_surface(tmp_path):
+    """Capsule_1: the radii at the side's ends and the spine length as USD writes them; no
+    tessellated mesh for it (phong:tessellate is reported, the exact surface is traced)."""
+    text = 'def Capsule_1 "P" { custom bool phong:tessellate = 1\n double radiusBottom = 0.7\n double radiusTop = 0.3\n double height = 1\n uniform token axis = "X" }'
+    result = read(tmp_path, text)
+    (capsule,) = result.scene.intrinsics
+    assert (capsule.kind, capsule.radius_bottom, capsule.radius_top, capsule.half_height) == ("capsule", 0.7, 0.3, 0.5)
+    assert capsule.world_from_object[:3, 2].tolist() == [1.0, 0.0, 0.0]  # its axis onto USD's X
+    assert not result.scene.meshes
+    assert any("phong:tessellate on Capsule_1" in w and "/P" in w for w in result.warnings)
+
+
+def test_a_capsule_without_radii_is_a_problem_naming_the_attribute(tmp_path):
+    with pytest.raises(SceneError, match=r"/P\.radiusBottom"):
+        read(tmp_path, 'def Capsule_1 "P" { double radiusBottom = 0\n double radiusTop = 0 }')
+
+
 def test_defaults_without_camera_or_lights_warn(tmp_path):
     result = read(tmp_path, 'def Sphere "B" {}')
     assert result.scene.camera.source == "(default framing camera)"

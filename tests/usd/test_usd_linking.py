@@ -122,7 +122,12 @@ def test_write_usd_round_trips_linking_intrinsics_and_emission(tmp_path):
         Intrinsic("cube", np.diag([1.0, 2.0, 0.5, 1.0]), source="/World/Geometry/Box"),
         Intrinsic("cylinder", np.eye(4), radius_bottom=0.5, radius_top=0.25, source="/World/Geometry/Frustum"),
         Intrinsic("cylinder", np.eye(4), radius_top=0.0, source="/World/Geometry/Cone"),
-        Intrinsic("capsule", np.eye(4), radius=0.5, half_height=0.75, source="/World/Geometry/Pill"),
+        Intrinsic(
+            "capsule", np.eye(4), radius_bottom=0.5, radius_top=0.5, half_height=0.75, source="/World/Geometry/Pill"
+        ),
+        Intrinsic(
+            "capsule", np.eye(4), radius_bottom=0.5, radius_top=0.2, half_height=0.75, source="/World/Geometry/Drop"
+        ),
         Intrinsic("plane", np.eye(4), glow, infinite=True, source="/World/Geometry/Ground"),
     )
     linking = Linking(
