@@ -799,9 +799,14 @@ def _shade(
         if len(lit) == 0:
             continue
         nl = n_dot_l[lit]
-        if geo.transmissive and isinstance(light, (PointLight, DirectionalLight)):
-            start = np.full(len(lit), -1, dtype=np.int64) if medium is None else medium[lit]
-            light_colour = lc[lit] * _shadow_filter(geo, p[lit], l[lit], dist[lit], start)
+        if geo.transmissive and light.linking.shadows and isinstance(light, (PointLight, DirectionalLight)):
+            start = np.full(len(lit), -1, dtype=np.int64) if medium is None else medium[lit].copy()
+            shadowed_by = light.linking.shadowed_by
+            casts = None if shadowed_by is None else shadowed_by.__contains__
+            if casts is not None:  # inside an object that casts none of its shadows: no filter from it
+                leaving = np.einsum("ij,ij->i", normal[lit], d[lit]) > 0.0
+                start[leaving & ~np.array([bool(casts(s)) for s in source[lit]], dtype=bool)] = -1
+            light_colour = lc[lit] * _shadow_filter(geo, p[lit], l[lit], dist[lit], start, casts)
         else:
             fraction = _visible_fraction(geo, light, p[lit], l[lit], dist[lit])
             light_colour = lc[lit] * fraction[:, None]
@@ -919,10 +924,13 @@ def _reflected(
     return out
 
 
-def _shadow_filter(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray, medium: np.ndarray) -> np.ndarray:
+def _shadow_filter(
+    geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray, medium: np.ndarray, casts=None
+) -> np.ndarray:
     """The light reaching each P along unit l from distance dist through transmissive objects:
     segment by segment, each hit in the shadow window (ref §6) from the last crossing; an opaque
-    one blocks, a transmissive one multiplies by kt (ref §18). (N, 3)."""
+    one blocks, a transmissive one multiplies by kt (ref §18). An object outside the light's
+    shadow link (``casts(prim)`` false) is crossed as if it were not there. (N, 3)."""
     filt = np.ones((len(p), 3))
     origin, remaining = p.copy(), dist.astype(np.float64).copy()
     medium = medium.copy()
@@ -934,16 +942,18 @@ def _shadow_filter(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarra
             hi = upper if rows is None else upper[rows]
             return (t > SHADOW_TOLERANCE) & (t < hi)
 
-        t, material, _, _, _, _ = _closest_hit(geo, origin[active], l[active], accept)
+        t, material, _, _, _, source = _closest_hit(geo, origin[active], l[active], accept)
         hit = np.isfinite(t)
         # the segment to the hit (or, where none, to the light) inside the current medium
         filt[active] *= geo.medium_transmittance(medium[active], np.where(hit, t, remaining[active]))
-        opaque = hit & ~(geo.kt[material] > 0.0)
+        casting = hit if casts is None else hit & np.array([bool(casts(s)) for s in source], dtype=bool)
+        opaque = casting & ~(geo.kt[material] > 0.0)
         filt[active[opaque]] = 0.0
+        filtering = casting & ~opaque
+        filt[active[filtering]] *= geo.kt[material[filtering], None]
+        crossed = material[filtering]
+        medium[active[filtering]] = np.where(medium[active[filtering]] == crossed, -1, crossed)
         through = hit & ~opaque
-        filt[active[through]] *= geo.kt[material[through], None]
-        crossed = material[through]
-        medium[active[through]] = np.where(medium[active[through]] == crossed, -1, crossed)
         origin[active[through]] += t[through, None] * l[active[through]]
         remaining[active[through]] -= t[through]
         active = active[through]

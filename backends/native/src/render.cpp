@@ -121,8 +121,12 @@ const Material& material_of(const Scene& world, const Hit& hit) {
 // counts hits in the shadow window, as an opaque shadow ray does, from the last crossing on.
 // Inside an interior the light is filtered by Beer-Lambert (POV-Ray's fade, ref §18); the ray
 // starts in `medium` and enters or leaves a transmissive object at each of its surfaces (closed,
-// not nested: the straight line alternates).
-RGB shadow_filter(const TraceContext& context, const Vec3& p, const Vec3& l, double distance, const Material* medium) {
+// not nested: the straight line alternates). With the light's shadow link (`casts`, or nullptr:
+// every object casts) an object outside it is passed through untouched, neither blocking nor
+// filtering nor entering its interior: POV-Ray's `no_shadow` in the exact mapping's pass.
+// (Instances all cast, as in Scene::occluded_linked.)
+RGB shadow_filter(const TraceContext& context, const Vec3& p, const Vec3& l, double distance, const Material* medium,
+                  const unsigned char* casts) {
     const double window = context.tolerances.shadow_window;
     RGB filter{1.0, 1.0, 1.0};
     Vec3 from = p;
@@ -133,9 +137,15 @@ RGB shadow_filter(const TraceContext& context, const Vec3& p, const Vec3& l, dou
         if (!context.scene.closest_hit(ray, window, remaining - window, hit))
             return medium == nullptr ? filter : hadamard(filter, medium_transmittance(medium, remaining));
         const Material& m = material_of(context.scene, hit);
-        if (!(m.kt > 0.0)) return RGB{};
-        filter = hadamard(filter, medium_transmittance(medium, hit.t)) * m.kt;
-        medium = medium == &m ? nullptr : &m;
+        const bool casts_shadow =
+            casts == nullptr || hit.instance >= 0 || casts[size_t(context.scene.object_of(hit.ref))];
+        if (casts_shadow) {
+            if (!(m.kt > 0.0)) return RGB{};
+            filter = hadamard(filter, medium_transmittance(medium, hit.t)) * m.kt;
+            medium = medium == &m ? nullptr : &m;
+        } else if (medium != nullptr) {
+            filter = hadamard(filter, medium_transmittance(medium, hit.t));  // still inside
+        }
         from = ray.at(hit.t);
         remaining -= hit.t;
     }
@@ -226,8 +236,15 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                 using T = std::decay_t<decltype(light)>;
                 if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
                     if (context.transmissive) {  // filtered by transmissive occluders
+                        const unsigned char* casts =
+                            link != nullptr && !link->casts.empty() ? link->casts.data() : nullptr;
+                        // From inside an object that casts none of this light's shadows its
+                        // interior does not filter the light either: the ray starts outside it.
+                        const bool inside_a_non_caster =
+                            casts != nullptr && leaving && object >= 0 && !casts[size_t(object)];
                         centre.color =
-                            hadamard(centre.color, shadow_filter(context, p, centre.l, centre.distance, medium));
+                            hadamard(centre.color, shadow_filter(context, p, centre.l, centre.distance,
+                                                                 inside_a_non_caster ? nullptr : medium, casts));
                         fraction = 1.0;
                         return;
                     }
