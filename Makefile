@@ -7,7 +7,7 @@ PY       := $(VENV)/bin/python
 PIP      := $(PY) -m pip --disable-pip-version-check -q
 BUILDDEPS := $(VENV)/.builddeps
 
-.PHONY: test test-fast demo docs lint format install povray chromium venv clean
+.PHONY: test test-fast demo docs lint format install povray chromium opensubdiv venv clean
 
 venv: $(PY)
 $(PY):
@@ -23,8 +23,18 @@ $(BUILDDEPS): pyproject.toml | $(PY)
 # nothing changed, and it is what picks up C++ edits.
 # The bench extra (matplotlib) too, so the benchmark scripts the docs name run in this venv, and
 # the docs extra (MkDocs) for `make docs`.
-install: $(BUILDDEPS)
+install: $(BUILDDEPS) opensubdiv
 	$(PIP) install --no-build-isolation -e '.[test,bench,docs,lint]'
+
+# The extension links OpenSubdiv (subdivision surfaces): the Debian package libosd-dev.
+opensubdiv:
+	@if [ -f /usr/include/opensubdiv/far/topologyRefiner.h ]; then :; \
+	elif [ "$$(id -u)" = 0 ]; then \
+	  echo "OpenSubdiv missing: installing the Debian package 'libosd-dev'"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosd-dev; \
+	else \
+	  echo "OpenSubdiv missing and not root: run 'sudo apt-get install libosd-dev' (the build needs it)"; exit 1; \
+	fi
 
 povray:
 	@if command -v povray >/dev/null 2>&1; then :; \

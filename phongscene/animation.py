@@ -97,7 +97,12 @@ def _load(scene: str, frame: int, overrides: RenderOverrides):
     if not isinstance(overrides, RenderOverrides):
         raise TypeError(f"overrides: expected a RenderOverrides, got {type(overrides).__name__}")
     start = _time.perf_counter()
-    loaded, warnings = load_scene(open_stage(scene), time=float(frame), camera=overrides.camera)
+    loaded, warnings = load_scene(
+        open_stage(scene),
+        time=float(frame),
+        camera=overrides.camera,
+        subdivision_level=overrides.subdivision_level,
+    )
     loaded, settings = overrides.apply(loaded)
     return loaded, settings, warnings, _time.perf_counter() - start
 

@@ -192,7 +192,13 @@ def diff(
         reading = ProgressBar("scene", progress)
         reading.phase(f"reading {Path(scene_or_path).name}")  # a big USD file takes seconds
     start = perf_counter()
-    scene, warnings = load_scene(scene_or_path, overrides.time, sandbox=sandbox, camera=overrides.camera)
+    scene, warnings = load_scene(
+        scene_or_path,
+        overrides.time,
+        sandbox=sandbox,
+        camera=overrides.camera,
+        subdivision_level=overrides.subdivision_level,
+    )
     if reading is not None:
         reading.done(perf_counter() - start, "read")
     if progress is not None:

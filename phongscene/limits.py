@@ -49,3 +49,7 @@ MAX_RADIANCE = 2.0**96
 # The deepest secondary ray (RenderSettings.max_depth): POV-Ray caps max_trace_level (= max_depth + 1)
 # at 256; the native tracer's recursion is as deep (a few hundred stack frames).
 MAX_DEPTH = 255
+
+# The deepest uniform refinement of a subdivision surface (phong:subdivisionLevel,
+# --subdivision-level): 4^level triangles per cage quad, level 8 already 131,072 (usd/subdivision.py).
+MAX_SUBDIVISION_LEVEL = 8

@@ -65,6 +65,8 @@ class RenderOverrides:
     time: float | None = None
     # The Camera prim to render through (--camera; None: the RenderSettings' camera, else the first).
     camera: str | None = None
+    # Every subdivision surface's refinement level (--subdivision-level; None: the scene's).
+    subdivision_level: int | None = None
 
     def given(self) -> dict:
         """The fields that are set (not None), by name."""

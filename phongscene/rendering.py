@@ -70,6 +70,7 @@ def load_scene(
     *,
     sandbox: bool | None = None,
     camera: str | None = None,
+    subdivision_level: int | None = None,
 ) -> tuple[Scene, list[str]]:
     """A Scene as given, or read from a USD file (or a ``phongscene.usd.OpenStage`` of one) at USD
     time code ``time`` (None: the reader's choice, ``phongscene.usd.read_usd``), with the reader's
@@ -77,12 +78,13 @@ def load_scene(
     in a child process with a memory limit (``phongscene.sandbox``) unless it is safe to read in
     process (``sandbox`` None: decided per file; True / False: always / never the child), so a
     crash inside USD is a SceneError. ``camera``: the path of the Camera prim to render through
-    (None: the reader's choice); a Scene given keeps its camera."""
+    (None: the reader's choice); a Scene given keeps its camera. ``subdivision_level``: every
+    subdivision surface's refinement level (None: the scene's, ``phongscene.usd.subdivision``)."""
     if isinstance(scene_or_path, Scene):
         return scene_or_path, []
     from .scene_files import read_scene_file
 
-    result = read_scene_file(scene_or_path, time, sandbox=sandbox, camera=camera)
+    result = read_scene_file(scene_or_path, time, sandbox=sandbox, camera=camera, subdivision_level=subdivision_level)
     return result.scene, list(result.warnings)
 
 
@@ -187,7 +189,9 @@ def render(
 
     reader_warnings: list[str] = []
     if not isinstance(scene, Scene):
-        scene, reader_warnings = load_scene(scene, overrides.time, camera=overrides.camera)
+        scene, reader_warnings = load_scene(
+            scene, overrides.time, camera=overrides.camera, subdivision_level=overrides.subdivision_level
+        )
         for text in reader_warnings:
             warnings.warn(f"{scene.source_file}: {text}", SceneWarning, stacklevel=2)
     scene = overrides.scene(scene)

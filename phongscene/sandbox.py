@@ -92,9 +92,14 @@ def memory_limit_for(path: str | os.PathLike) -> int:
 
 
 def read_usd_sandboxed(
-    path: str | os.PathLike, memory_limit: int | None = None, time: float | None = None, camera: str | None = None
+    path: str | os.PathLike,
+    memory_limit: int | None = None,
+    time: float | None = None,
+    camera: str | None = None,
+    subdivision_level: int | None = None,
 ):
-    """``phongscene.usd.read_usd(path, time, camera)`` in a child process (see the module's doc).
+    """``phongscene.usd.read_usd(path, time, camera, subdivision_level)`` in a child process (see
+    the module's doc).
 
     Args:
         memory_limit: a fixed address-space limit for the child in bytes; default: the model
@@ -116,6 +121,7 @@ def read_usd_sandboxed(
                 mode,
                 repr(time),
                 str(os.getpid()),
+                repr(subdivision_level),
                 *([] if camera is None else [camera]),
             ],
             stdin=subprocess.DEVNULL,
@@ -254,7 +260,9 @@ class _Limit:
         return f"{min(self.soft, self.cap) / 2**30:.1f} GiB{capped}"
 
 
-def _child(path: str, mode: str, time: float | None, parent: int, camera: str | None = None) -> int:
+def _child(
+    path: str, mode: str, time: float | None, parent: int, subdivision_level: int | None, camera: str | None = None
+) -> int:
     import resource
 
     _die_with_parent(parent)
@@ -273,7 +281,7 @@ def _child(path: str, mode: str, time: float | None, parent: int, camera: str | 
             limit = _Limit(resource, cap, (BASE_MEMORY if base is None else base) + READ_HEADROOM + threads)
             listen(limit.grow)
             shown = limit.describe
-        payload = ("ok", read_usd(path, time=time, camera=camera))
+        payload = ("ok", read_usd(path, time=time, camera=camera, subdivision_level=subdivision_level))
     except SceneError as e:
         payload = ("error", e.problems)
     except MemoryError:
@@ -309,6 +317,7 @@ if __name__ == "__main__":
             sys.argv[2],
             None if sys.argv[3] == "None" else float(sys.argv[3]),
             int(sys.argv[4]),
-            sys.argv[5] if len(sys.argv) > 5 else None,
+            None if sys.argv[5] == "None" else int(sys.argv[5]),
+            sys.argv[6] if len(sys.argv) > 6 else None,
         )
-    )  # the camera, if chosen
+    )  # the subdivision level (None: the scene's), the camera if chosen

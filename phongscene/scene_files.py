@@ -67,7 +67,14 @@ def remember_read(path: str | os.PathLike) -> None:
         _read_once[os.path.abspath(path)] = state
 
 
-def read_scene_file(path, time: float | None = None, *, sandbox: bool | None = None, camera: str | None = None):
+def read_scene_file(
+    path,
+    time: float | None = None,
+    *,
+    sandbox: bool | None = None,
+    camera: str | None = None,
+    subdivision_level: int | None = None,
+):
     """``phongscene.usd.read_usd(path, time)`` (a ``ReadResult``) by the safe path: ``sandbox``
     None decides by ``safe_in_process``; True always reads in the child, False never.
 
@@ -75,16 +82,16 @@ def read_scene_file(path, time: float | None = None, *, sandbox: bool | None = N
     if not isinstance(path, (str, PurePath)):
         from .usd import read_usd
 
-        return read_usd(path, time=time, camera=camera)
+        return read_usd(path, time=time, camera=camera, subdivision_level=subdivision_level)
     if sandbox is None:
         sandbox = not safe_in_process(path)
     if sandbox:
         from .sandbox import read_usd_sandboxed
 
-        result = read_usd_sandboxed(path, time=time, camera=camera)
+        result = read_usd_sandboxed(path, time=time, camera=camera, subdivision_level=subdivision_level)
     else:
         from .usd import read_usd  # lazily: the USD reader imports pxr
 
-        result = read_usd(path, time=time, camera=camera)
+        result = read_usd(path, time=time, camera=camera, subdivision_level=subdivision_level)
     remember_read(path)
     return result

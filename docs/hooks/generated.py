@@ -56,6 +56,8 @@ def _attribute_meanings() -> dict[str, str]:
         "or kt·L (POV-Ray)",
         names.TESSELLATE: "an intrinsic prim as triangles (64 segments around the axis) instead of its exact surface "
         "(default false)",
+        names.SUBDIVISION_LEVEL: "a subdivision surface's uniform refinement level by OpenSubdiv, 0…8 (default 2; "
+        "0: the control cage); `--subdivision-level` overrides it",
         names.INFINITE: "a Plane as the whole plane (POV-Ray `plane`), outside the scene's bounds (default false: "
         "its width × length rectangle)",
     }

@@ -52,7 +52,11 @@ def run_frames(args, task, arguments, label: str, frames: tuple[int, ...] | None
     frames = args.frames if frames is None else frames
     # The tasks then reopen the file in process: it was read once, here (sandboxed if need be).
     _, warnings = load_scene(
-        args.scene, time=float(frames[0]), sandbox=getattr(args, "sandbox", None), camera=getattr(args, "camera", None)
+        args.scene,
+        time=float(frames[0]),
+        sandbox=getattr(args, "sandbox", None),
+        camera=getattr(args, "camera", None),
+        subdivision_level=getattr(args, "subdivision_level", None),
     )
     print_warnings(warnings)
     bar = ProgressBar("frames")

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import sys
 
-from .options import SCENE_HELP, UsageError, add_sandbox_option, add_scene_argument, print_warnings
+from ..limits import MAX_SUBDIVISION_LEVEL
+from .options import SCENE_HELP, UsageError, add_sandbox_option, add_scene_argument, int_in, print_warnings
 from .process import EXIT_OK, EXIT_SCENE
 
 
@@ -21,6 +22,13 @@ def add_info_command(sub) -> None:
     )
     p.add_argument("scene", metavar="SCENE", nargs="?", help=SCENE_HELP)
     p.add_argument("--camera", metavar="PATH", help="show the scene as seen through this Camera prim")
+    p.add_argument(
+        "--subdivision-level",
+        type=int_in(0, MAX_SUBDIVISION_LEVEL),
+        metavar="N",
+        help="refine every subdivision surface N times (0: its control cage; default: each Mesh's "
+        "phong:subdivisionLevel, else 2)",
+    )
     p.add_argument(
         "--usd-plugin-path",
         action="store_true",
@@ -41,7 +49,9 @@ def run_info(args) -> int:
         raise UsageError("info needs SCENE (or --usd-plugin-path)")
     from ..scene_files import read_scene_file
 
-    result = read_scene_file(args.scene, sandbox=args.sandbox, camera=args.camera)
+    result = read_scene_file(
+        args.scene, sandbox=args.sandbox, camera=args.camera, subdivision_level=args.subdivision_level
+    )
     scene = result.scene
     print(f"file: {scene.source_file}")
     print("prims -> model nodes:")

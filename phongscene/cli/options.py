@@ -13,7 +13,14 @@ import argparse
 import sys
 from dataclasses import fields
 
-from ..limits import MAX_CELL_SAMPLES, MAX_IMAGE_SIDE, MAX_SAMPLES, MAX_STRATIFIED_SAMPLES, MAX_THREADS
+from ..limits import (
+    MAX_CELL_SAMPLES,
+    MAX_IMAGE_SIDE,
+    MAX_SAMPLES,
+    MAX_STRATIFIED_SAMPLES,
+    MAX_SUBDIVISION_LEVEL,
+    MAX_THREADS,
+)
 from ..overrides import RenderOverrides
 
 SCENE_HELP = "USD file (.usda, .usdc, .usd, .usdz)"
@@ -160,6 +167,13 @@ def add_override_options(
         metavar="PATH",
         help="the Camera prim to render through, e.g. /World/Cam (default: the "
         "RenderSettings' camera, else the stage's first; `phongscene info` lists them)",
+    )
+    p.add_argument(
+        "--subdivision-level",
+        type=int_in(0, MAX_SUBDIVISION_LEVEL),
+        metavar="N",
+        help="refine every subdivision surface N times (0: its control cage; default: each Mesh's "
+        "phong:subdivisionLevel, else 2)",
     )
     p.add_argument("--width", type=image_side, metavar="W", help="image width (alone: keeps the aspect ratio)")
     p.add_argument("--height", type=image_side, metavar="H", help="image height (alone: keeps the aspect ratio)")
@@ -354,7 +368,11 @@ def scene_and_settings(args, with_warnings: bool = False):
 
     overrides = overrides_from_args(args)
     scene, warnings = load_scene(
-        args.scene, time=overrides.time, sandbox=getattr(args, "sandbox", None), camera=overrides.camera
+        args.scene,
+        time=overrides.time,
+        sandbox=getattr(args, "sandbox", None),
+        camera=overrides.camera,
+        subdivision_level=overrides.subdivision_level,
     )
     print_warnings(warnings)
     scene, settings = overrides.apply(scene)

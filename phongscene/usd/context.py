@@ -62,6 +62,9 @@ class ReadContext:
     ):
         self.stage = stage
         self.file = file
+        # Every subdivision surface's refinement level when the reader is told one (the CLI's
+        # --subdivision-level); None: each prim's phong:subdivisionLevel or the default.
+        self.subdivision_level: int | None = None
         self.problems: list[Problem] = []
         self.warnings: list[str] = []
         # One warning per kind of unsupported thing, listing every prim.

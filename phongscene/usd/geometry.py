@@ -28,7 +28,7 @@ from pxr import Usd, UsdGeom, UsdSkel
 
 from ..scene import Intrinsic, PhongMaterial, Sphere, TriangleMesh
 from ..tolerances import UNIT_TOLERANCE, is_singular
-from . import textures
+from . import subdivision, textures
 from .context import ReadContext
 from .names import BOOL_TYPES, INFINITE, TESSELLATE
 
@@ -287,6 +287,21 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
         )
         return None
 
+    scheme = ctx.get(prim, "subdivisionScheme", ("token",), UsdGeom.Tokens.catmullClark)
+    if scheme != UsdGeom.Tokens.none:
+        if scheme not in subdivision.SCHEMES:
+            allowed = ", ".join([*subdivision.SCHEMES, UsdGeom.Tokens.none])
+            ctx.problem(prim, "subdivisionScheme", f"must be one of {allowed}, got {scheme!r}")
+            return None
+        level = subdivision.level_of(ctx, prim)
+        if level is None:
+            return None
+        if level > 0:
+            refined = _subdivided(ctx, prim, world, material, st, scheme, level, p, counts, idx)
+            if refined is not None or len(ctx.problems) > n_problems:
+                return refined
+            # else OpenSubdiv could not refine it (a warning says so): the cage, as before
+
     # Fan triangulation: face f with n vertices starting at s gives (s, s+k, s+k+1), k = 1..n−2.
     starts = np.cumsum(counts) - counts
     keep = counts >= 3
@@ -322,10 +337,6 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     # The identity fan's triangles are the indices themselves (a view, not a 1M-row gather).
     triangles = idx.reshape(-1, 3) if identity else idx[fv]
 
-    scheme = ctx.get(prim, "subdivisionScheme", ("token",), UsdGeom.Tokens.catmullClark)
-    if scheme != UsdGeom.Tokens.none:
-        ctx.unsupported["subdivision surfaces (the control cage is rendered)"].append(path)
-
     if pose is not None and _has_authored_normals(prim):
         ctx.unsupported["authored normals of skinned meshes (geometric normals are used)"].append(path)
         normals = None
@@ -359,6 +370,70 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
         face_of_tri,
         len(counts),
     )
+
+
+def _subdivided(ctx: ReadContext, prim: Usd.Prim, world, material, st, scheme, level, p, counts, idx):
+    """_mesh's answer for a subdivision surface refined ``level`` times (subdivision.py), or None:
+    after a problem, or where OpenSubdiv cannot refine it (the caller then draws the cage)."""
+    path = str(prim.GetPath())
+    n_problems = len(ctx.problems)
+    n_faces = len(counts)
+    keep = counts >= 3
+    if not keep.all():
+        ctx.unsupported["faces with fewer than 3 vertices (skipped)"].append(path)
+    holes = ctx.get(prim, "holeIndices", ("int[]",))
+    holes = np.zeros(0, dtype=np.int64) if holes is None else np.asarray(holes, dtype=np.int64)
+    if ((holes < 0) | (holes >= n_faces)).any():
+        ctx.problem(prim, "holeIndices", f"indices out of range [0, {n_faces})")
+        return None
+    kept = np.flatnonzero(keep)
+    corner_kept = np.repeat(keep, counts)
+    cage_face = np.full(n_faces, -1, dtype=np.int64)
+    cage_face[kept] = np.arange(len(kept))
+    cage_holes = cage_face[holes]
+    cage_holes = cage_holes[cage_holes >= 0]
+    uv_values = uv_of_corner = None
+    if st is not None:
+        # st as OpenSubdiv's face-varying channel: a value index for every face corner.
+        corners = np.arange(len(idx))
+        face_of_corner = np.repeat(np.arange(n_faces), counts)
+        uvs = textures.mesh_uvs(
+            ctx, prim, st, (len(p), len(idx), n_faces), corners[:, None], idx[:, None], face_of_corner
+        )
+        if len(ctx.problems) > n_problems:
+            return None
+        if uvs is not None:
+            uv_values, element = uvs
+            uv_of_corner = element[:, 0][corner_kept]
+    if _has_authored_normals(prim):
+        ctx.unsupported["authored normals of subdivision surfaces (the limit surface's normals are used)"].append(path)
+    refined = subdivision.refine(
+        ctx, prim, scheme, p, counts[keep], idx[corner_kept], cage_holes, level, uv_values, uv_of_corner
+    )
+    if refined is None:
+        return None
+    triangles, uv_triangles, normals = refined.triangles, refined.uv_triangles, refined.normals
+    # The limit normals point to the side the cage's counter-clockwise faces face; a leftHanded
+    # mesh faces the other way. Winding as the fan path winds it.
+    left = ctx.get(prim, "orientation", ("token",), UsdGeom.Tokens.rightHanded) == UsdGeom.Tokens.leftHanded
+    if left:
+        normals = -normals
+    if left != _winding_flipped(world):
+        triangles = triangles[:, [0, 2, 1]]
+        uv_triangles = None if uv_triangles is None else uv_triangles[:, [0, 2, 1]]
+    # A vertex no triangle uses may have no normal (OpenSubdiv's limit at an isolated point):
+    # any unit vector serves.
+    normals = np.where(np.linalg.norm(normals, axis=1)[:, None] > 0.0, normals, np.array([0.0, 0.0, 1.0]))
+    world_normals = _normals_to_world(ctx, prim, normals, world)
+    if world_normals is None:
+        return None
+    if uv_values is None and material.textures:
+        material = material.without_textures()  # no st: the fallback colours
+    uvs_out = None if uv_values is None else refined.uvs
+    mesh_ = TriangleMesh(
+        _to_world(refined.points, world), triangles, world_normals, triangles, material, path, uvs_out, uv_triangles
+    )
+    return mesh_, kept[refined.base_face], n_faces
 
 
 def _has_authored_normals(prim: Usd.Prim) -> bool:

@@ -71,6 +71,8 @@ LIGHT_MODELS = (LIGHT_MODEL_USDLUX, LIGHT_MODEL_SEED)
 # before analytic intrinsics). phong:infinite = true on a Plane makes it the whole plane
 # (POV-Ray's plane), whose extent does not enter the scene's bounds.
 TESSELLATE = "phong:tessellate"
+# A subdivision surface's refinement level (usd/subdivision.py: 0 is the control cage).
+SUBDIVISION_LEVEL = "phong:subdivisionLevel"
 INFINITE = "phong:infinite"
 BOOL_TYPES = ("bool",)
 
@@ -107,6 +109,7 @@ PHONG_ATTRIBUTES: dict[str, dict[str, tuple[str, ...]]] = {
     "Capsule": {TESSELLATE: BOOL_TYPES},
     "Capsule_1": {TESSELLATE: BOOL_TYPES},
     "Plane": {TESSELLATE: BOOL_TYPES, INFINITE: BOOL_TYPES},
+    "Mesh": {SUBDIVISION_LEVEL: INT_TYPES},
     "RenderSettings": {
         SAMPLES: INT_TYPES,
         SAMPLE_PATTERN: STRING_TYPES,

@@ -24,6 +24,7 @@ import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux
 
 from ..errors import Problem, SceneError, SceneFileNotFoundError
+from ..limits import MAX_SUBDIVISION_LEVEL
 from ..scene import AmbientLight, Camera, Intrinsic, RenderSettings, Scene, framing_camera, head_light
 from ..validate import validate
 from . import geometry
@@ -120,14 +121,23 @@ def open_stage(path) -> OpenStage:
     return OpenStage(stage, file, "".join(texts))
 
 
-def read_usd(source, time: float | None = None, camera: str | None = None) -> ReadResult:
+def read_usd(
+    source, time: float | None = None, camera: str | None = None, subdivision_level: int | None = None
+) -> ReadResult:
     """Like ``load_usd`` but also returns the warnings and the prim → node mapping. ``source``
     may also be an ``OpenStage`` (``open_stage``): read at a time, a stage nothing of which
     varies in time gives its first read again (``read_cache``), and one where only lights' and
     gprims' own inputs vary reads only those again (``read_parts``). ``camera``: the path of the
     Camera prim to render through (the CLI's --camera; None: the RenderSettings' camera, else the
-    stage's first, with a warning when it has more than one); such reads are not cached."""
-    cache = source.reads if isinstance(source, OpenStage) and camera is None else None
+    stage's first, with a warning when it has more than one); ``subdivision_level``: every
+    subdivision surface's refinement level (the CLI's --subdivision-level; None: each prim's
+    phong:subdivisionLevel or the default). Reads with either are not cached."""
+    if subdivision_level is not None and not (
+        isinstance(subdivision_level, int) and 0 <= subdivision_level <= MAX_SUBDIVISION_LEVEL
+    ):
+        raise ValueError(f"subdivision_level must be an int in 0..{MAX_SUBDIVISION_LEVEL}, got {subdivision_level!r}")
+    chosen = camera is None and subdivision_level is None
+    cache = source.reads if isinstance(source, OpenStage) and chosen else None
     if cache is not None:
         cache.survey(source.stage)  # once per stage
     texts: list[str] = []
@@ -147,10 +157,10 @@ def read_usd(source, time: float | None = None, camera: str | None = None) -> Re
         if kept is None:
             try:
                 try:
-                    result = _read(opened, code, parts or EveryPart(), camera)
+                    result = _read(opened, code, parts or EveryPart(), camera, subdivision_level)
                 except Redo:
                     parts = None
-                    result = _read(opened, code, EveryPart(), camera)
+                    result = _read(opened, code, EveryPart(), camera, subdivision_level)
             except Tf.ErrorException as e:
                 # A value USD itself cannot produce while we read it (where no prim-level check
                 # caught it first): one error naming the file, not a traceback.
@@ -174,9 +184,16 @@ def read_usd(source, time: float | None = None, camera: str | None = None) -> Re
     return result
 
 
-def _read(opened: OpenStage, code: Usd.TimeCode, parts: EveryPart, chosen: str | None = None) -> ReadResult:
+def _read(
+    opened: OpenStage,
+    code: Usd.TimeCode,
+    parts: EveryPart,
+    chosen: str | None = None,
+    subdivision_level: int | None = None,
+) -> ReadResult:
     stage, file = opened.stage, opened.file
     ctx = ReadContext(stage, file, code, opened.types)
+    ctx.subdivision_level = subdivision_level
     if opened.checks is None:
         problems, warnings = len(ctx.problems), len(ctx.warnings)
         check_stage(ctx)

@@ -202,7 +202,9 @@ def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
     rendering = importlib.import_module("phongscene.rendering")
     scene = _simple()
     monkeypatch.setattr(
-        rendering, "load_scene", lambda path, time=None, camera=None, sandbox=None: (scene, ["a warning"])
+        rendering,
+        "load_scene",
+        lambda path, time=None, camera=None, sandbox=None, subdivision_level=None: (scene, ["a warning"]),
     )
     out = tmp_path / "out.pov"
     assert cli.main(["compile", "scene.usda", "-o", str(out), "--mapping", "classic", "--width", "32"]) == 0
@@ -216,7 +218,9 @@ def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
     # A scene that fails to compile leaves the previous file untouched and no temporary files.
     before = sorted(tmp_path.iterdir())
     bad = _simple(lights=(PointLight((NAN, 0, 0), (1, 1, 1), source="/World/Key"),))
-    monkeypatch.setattr(rendering, "load_scene", lambda path, time=None, camera=None, sandbox=None: (bad, []))
+    monkeypatch.setattr(
+        rendering, "load_scene", lambda path, time=None, camera=None, sandbox=None, subdivision_level=None: (bad, [])
+    )
     assert cli.main(["compile", "scene.usda", "-o", str(out)]) == 2
     assert sorted(tmp_path.iterdir()) == before
     assert "/World/Key.xformOp" in capsys.readouterr().err

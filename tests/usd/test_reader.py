@@ -44,13 +44,16 @@ def test_hole_faces_are_skipped(tmp_path):
     assert mesh.triangles.tolist() == [[4, 5, 6], [4, 6, 7], [4, 7, 8]]
 
 
-def test_subdivision_mesh_renders_cage_with_one_warning(tmp_path):
+def test_a_subdivision_mesh_is_refined_unless_its_level_is_zero(tmp_path):
+    """The quad and the pentagon as Catmull-Clark (USD's fallback scheme): refined twice by
+    default (two triangles a refined quad), the cage at phong:subdivisionLevel 0;
+    no warning either way (tests/usd/test_subdivision.py tests the surfaces)."""
     body = QUAD_AND_PENTAGON.replace('uniform token subdivisionScheme = "none"', "")
-    body = body + body.replace('"M"', '"N"')
     result = read(tmp_path, body.format(extra=""))
-    assert len(result.scene.meshes) == 2 and result.scene.triangle_count == 10
-    subdiv = [w for w in result.warnings if "subdivision" in w]
-    assert len(subdiv) == 1 and "/M" in subdiv[0] and "/N" in subdiv[0]
+    assert result.scene.triangle_count == (16 + 5 * 4) * 2  # the pentagon: 5 quads, then 4 each
+    assert not [w for w in result.warnings if "subdivision" in w]
+    cage = read(tmp_path, body.format(extra="int phong:subdivisionLevel = 0"))
+    assert cage.scene.triangle_count == 5 and not [w for w in cage.warnings if "subdivision" in w]
 
 
 @pytest.mark.parametrize(

@@ -24,6 +24,7 @@
 #include "materials.hpp"
 #include "render.hpp"
 #include "scene.hpp"
+#include "subdivision.hpp"
 
 namespace nb = nanobind;
 using namespace nb::literals;
@@ -273,7 +274,87 @@ nb::tuple count_hits(const phong::Scene& scene, const Rows3& origins, const Rows
 
 }  // namespace
 
+// A vector's elements handed to numpy without a copy: the array owns the moved vector.
+template <class T>
+nb::ndarray<nb::numpy, T> to_numpy(std::vector<T>&& values, std::initializer_list<size_t> shape) {
+    auto* owned = new std::vector<T>(std::move(values));
+    nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<T>*>(p); });
+    return nb::ndarray<nb::numpy, T>(owned->data(), shape, owner);
+}
+
+using Rows2 = In<double, nb::shape<-1, 2>>;
+using Pairs = In<int32_t, nb::shape<-1, 2>>;
+using Weights = In<float, nb::shape<-1>>;
+
+// The USD reader's entry to OpenSubdiv (subdivision.hpp); phongscene/usd/subdivision.py has
+// checked every index and count, the C++ asserts.
+nb::dict refine_subdivision(const Rows3& points, const Index1& face_counts, const Index1& face_indices,
+                            phong::SubdivisionScheme scheme, phong::BoundaryInterpolation boundary,
+                            phong::FaceVaryingInterpolation face_varying, bool smooth_triangles,
+                            const Pairs& crease_pairs, const Weights& crease_sharpness, const Index1& corner_indices,
+                            const Weights& corner_sharpness, const Index1& holes, const Rows2& uvs,
+                            const Index1& uv_indices, int level) {
+    if (level < 1 || level > 10) throw std::invalid_argument("level must be in 1..10");
+    if (crease_pairs.shape(0) != crease_sharpness.shape(0) || corner_indices.shape(0) != corner_sharpness.shape(0))
+        throw std::invalid_argument("one sharpness per crease edge and per corner");
+    if (uvs.shape(0) != 0 && uv_indices.shape(0) != face_indices.shape(0))
+        throw std::invalid_argument("one uv index per face corner");
+    phong::SubdivisionCage cage;
+    cage.scheme = scheme;
+    cage.boundary = boundary;
+    cage.face_varying = face_varying;
+    cage.smooth_triangles = smooth_triangles;
+    cage.points = points.data();
+    cage.point_count = int32_t(points.shape(0));
+    cage.face_counts = face_counts.data();
+    cage.face_count = int32_t(face_counts.shape(0));
+    cage.face_indices = face_indices.data();
+    cage.crease_pairs.assign(crease_pairs.data(), crease_pairs.data() + 2 * crease_pairs.shape(0));
+    cage.crease_sharpness.assign(crease_sharpness.data(), crease_sharpness.data() + crease_sharpness.shape(0));
+    cage.corner_indices.assign(corner_indices.data(), corner_indices.data() + corner_indices.shape(0));
+    cage.corner_sharpness.assign(corner_sharpness.data(), corner_sharpness.data() + corner_sharpness.shape(0));
+    cage.holes.assign(holes.data(), holes.data() + holes.shape(0));
+    cage.uvs = uvs.data();
+    cage.uv_count = int32_t(uvs.shape(0));
+    cage.uv_indices = uv_indices.data();
+    phong::RefinedSurface refined;
+    {
+        nb::gil_scoped_release release;
+        refined = phong::refine_subdivision(cage, level);
+    }
+    const size_t v = refined.points.size() / 3, t = refined.base_face.size(), u = refined.uvs.size() / 2;
+    nb::dict out;
+    out["points"] = to_numpy(std::move(refined.points), {v, 3});
+    out["normals"] = to_numpy(std::move(refined.normals), {v, 3});
+    out["triangles"] = to_numpy(std::move(refined.triangles), {t, 3});
+    out["base_face"] = to_numpy(std::move(refined.base_face), {t});
+    out["uvs"] = to_numpy(std::move(refined.uvs), {u, 2});
+    out["uv_triangles"] = to_numpy(std::move(refined.uv_triangles), {refined.uv_triangles.empty() ? 0 : t, 3});
+    return out;
+}
+
 NB_MODULE(_native, m) {
+    nb::enum_<phong::SubdivisionScheme>(m, "SubdivisionScheme")
+        .value("catmull_clark", phong::SubdivisionScheme::kCatmullClark)
+        .value("loop", phong::SubdivisionScheme::kLoop)
+        .value("bilinear", phong::SubdivisionScheme::kBilinear);
+    nb::enum_<phong::BoundaryInterpolation>(m, "BoundaryInterpolation")
+        .value("none", phong::BoundaryInterpolation::kNone)
+        .value("edge_only", phong::BoundaryInterpolation::kEdgeOnly)
+        .value("edge_and_corner", phong::BoundaryInterpolation::kEdgeAndCorner);
+    nb::enum_<phong::FaceVaryingInterpolation>(m, "FaceVaryingInterpolation")
+        .value("none", phong::FaceVaryingInterpolation::kNone)
+        .value("corners_only", phong::FaceVaryingInterpolation::kCornersOnly)
+        .value("corners_plus1", phong::FaceVaryingInterpolation::kCornersPlus1)
+        .value("corners_plus2", phong::FaceVaryingInterpolation::kCornersPlus2)
+        .value("boundaries", phong::FaceVaryingInterpolation::kBoundaries)
+        .value("all", phong::FaceVaryingInterpolation::kAll);
+    m.def("refine_subdivision", &refine_subdivision, "points"_a, "face_counts"_a, "face_indices"_a, "scheme"_a,
+          "boundary"_a, "face_varying"_a, "smooth_triangles"_a, "crease_pairs"_a, "crease_sharpness"_a,
+          "corner_indices"_a, "corner_sharpness"_a, "holes"_a, "uvs"_a, "uv_indices"_a, "level"_a,
+          "A subdivision surface's cage refined `level` times by OpenSubdiv: a dict of points (V, 3) on the "
+          "limit surface, their limit normals (V, 3), triangles (T, 3), base_face (T) (the cage face of each), "
+          "uvs (U, 2) and uv_triangles (T, 3) (empty without uvs). Hole faces give no triangles.");
     m.doc() = "phongscene native ray tracer (C++17)";
     m.def(
         "hardware_threads", [] { return std::thread::hardware_concurrency(); },
