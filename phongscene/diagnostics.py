@@ -197,6 +197,13 @@ def _object_bounds(scene: Scene, spheres: _Spheres) -> tuple[np.ndarray, np.ndar
         lows.append(centres - radii)
         highs.append(centres + radii)
     names = [m.source for m in meshes] + list(spheres.names)
+    # Exact surfaces (Cube, Cylinder, Capsule, tubes of curves, ...); an infinite plane has none.
+    finite = [(shape, shape.world_bounds()) for shape in scene.intrinsics]
+    finite = [(shape, b) for shape, b in finite if b is not None]
+    if finite:
+        lows.append(np.array([b[0] for _, b in finite]))
+        highs.append(np.array([b[1] for _, b in finite]))
+        names.extend(shape.source for shape, _ in finite)
     for group in getattr(scene, "instances", ()):
         boxes = _copy_boxes(group)
         if boxes is not None:
@@ -233,7 +240,8 @@ def _nothing_in_view(scene: Scene, settings: RenderSettings, boxes) -> str:
     reason given is certain); the objects in view must together span a pixel."""
     lows, highs, _ = boxes
     if not len(lows):
-        return "the scene has no geometry"
+        # An infinite plane has no bounds but is in view of nearly any camera: no verdict.
+        return "" if any(shape.infinite for shape in scene.intrinsics) else "the scene has no geometry"
     cam = scene.camera
     eye = np.asarray(cam.position, dtype=np.float64)
     forward, up, right = (np.asarray(v, dtype=np.float64) for v in (cam.forward, cam.up, cam.right))

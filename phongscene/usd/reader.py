@@ -27,7 +27,7 @@ from ..errors import Problem, SceneError, SceneFileNotFoundError
 from ..limits import MAX_SUBDIVISION_LEVEL
 from ..scene import AmbientLight, Camera, Intrinsic, RenderSettings, Scene, framing_camera, head_light
 from ..validate import validate
-from . import geometry
+from . import curves, geometry
 from .camera import choose_camera, conform_to_aperture, read_camera, read_render_settings
 from .context import ReadContext, tf_error_text
 from .diagnostics import as_warnings, usd_output
@@ -53,6 +53,7 @@ _GEOMETRY_TYPES = {
     "Capsule",
     "Capsule_1",
     "Points",
+    "BasisCurves",
 }
 # Intrinsic prims with two radii: always their exact surface (no tessellation is written for them).
 TWO_RADIUS_TYPES = ("Cylinder_1", "Capsule_1")
@@ -458,6 +459,11 @@ def _gprim(
         placed = geometry.points(ctx, prim, world, material)
         spheres.extend(placed)
         ctx.nodes.append((path, f"Points ({len(placed)} spheres)"))
+        return
+    if type_name == "BasisCurves":
+        tubes = curves.basis_curves(ctx, prim, world, material)
+        meshes.extend(tubes)  # Intrinsics join the meshes' list, as below
+        ctx.nodes.append((path, f"BasisCurves ({len(tubes)} tube segments)"))
         return
     if type_name == "Mesh":
         subsets = materials.face_subsets(prim)
