@@ -28,6 +28,7 @@ _LAZY_EXPORTS = {
     "DirectionalLight": (".scene", "DirectionalLight"),
     "PhongMaterial": (".scene", "PhongMaterial"),
     "PointLight": (".scene", "PointLight"),
+    "Points": (".scene", "Points"),
     "RectAreaLight": (".scene", "RectAreaLight"),
     "RenderSettings": (".scene", "RenderSettings"),
     # The render knobs over a scene's own (render(overrides=...), diff(overrides=...)).
@@ -66,6 +67,7 @@ if TYPE_CHECKING:  # the lazy names, for type checkers and IDEs
         Instances,
         PhongMaterial,
         PointLight,
+        Points,
         Prototype,
         RectAreaLight,
         RenderSettings,
@@ -108,6 +110,7 @@ __all__ = [
     "PhongMaterial",
     "PhongSceneError",
     "PointLight",
+    "Points",
     "Problem",
     "Prototype",
     "RectAreaLight",

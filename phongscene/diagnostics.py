@@ -165,25 +165,37 @@ class _Spheres:
 
     matrices: np.ndarray
     names: tuple[str, ...]
+    points: tuple = ()  # the scene's Points sets (centres and radii: no matrices)
 
     @staticmethod
     def of(scene: Scene) -> _Spheres:
+        points = tuple(getattr(scene, "points", ()))
         if not scene.spheres:
-            return _Spheres(np.zeros((0, 4, 4)), ())
-        return _Spheres(np.stack([s.world_from_object for s in scene.spheres]), tuple(s.source for s in scene.spheres))
+            return _Spheres(np.zeros((0, 4, 4)), (), points)
+        return _Spheres(
+            np.stack([s.world_from_object for s in scene.spheres]), tuple(s.source for s in scene.spheres), points
+        )
 
     def containing(self, point) -> list[str]:
         """The names of the spheres ``point`` is inside of."""
-        if not len(self.matrices):
-            return []
-        offset = np.asarray(point, dtype=np.float64) - self.matrices[:, :3, 3]
-        local = np.linalg.solve(self.matrices[:, :3, :3], offset[:, :, None])[:, :, 0]
-        return [self.names[i] or "a sphere" for i in np.flatnonzero((local**2).sum(axis=1) < 1.0)]
+        p = np.asarray(point, dtype=np.float64)
+        out = []
+        if len(self.matrices):
+            offset = p - self.matrices[:, :3, 3]
+            local = np.linalg.solve(self.matrices[:, :3, :3], offset[:, :, None])[:, :, 0]
+            out = [self.names[i] or "a sphere" for i in np.flatnonzero((local**2).sum(axis=1) < 1.0)]
+        for group in self.points:
+            inside = np.count_nonzero(((p - group.centers) ** 2).sum(axis=1) < group.radii**2)
+            out += [group.source or "a points set"] * int(inside)
+        return out
 
     def sample_points(self) -> np.ndarray:
         """Each sphere's centre and top (its object +Y pole)."""
         centres = self.matrices[:, :3, 3]
-        return np.concatenate([centres, centres + self.matrices[:, :3, 1]])
+        out = [centres, centres + self.matrices[:, :3, 1]]
+        for group in self.points:
+            out += [group.centers, group.centers + group.radii[:, None] * (0.0, 1.0, 0.0)]
+        return np.concatenate(out)
 
 
 def _object_bounds(scene: Scene, spheres: _Spheres) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -204,6 +216,12 @@ def _object_bounds(scene: Scene, spheres: _Spheres) -> tuple[np.ndarray, np.ndar
         lows.append(np.array([b[0] for _, b in finite]))
         highs.append(np.array([b[1] for _, b in finite]))
         names.extend(shape.source for shape, _ in finite)
+    for group in spheres.points:
+        b = group.bounds()
+        if b is not None:
+            lows.append(b[0][None])
+            highs.append(b[1][None])
+            names.append(group.source)
     for group in getattr(scene, "instances", ()):
         boxes = _copy_boxes(group)
         if boxes is not None:
@@ -322,10 +340,10 @@ def _sample_points(scene: Scene, spheres: _Spheres) -> np.ndarray:
     """Points of the geometry (mesh points, evenly strided to about SAMPLE_POINTS; the centres
     and tops of the spheres, likewise), as the reader's clip warning samples them."""
     groups = [g for g in getattr(scene, "instances", ()) if _copy_boxes(g) is not None]
-    parts = len(scene.meshes) + (1 if len(spheres.matrices) else 0) + len(groups)
+    parts = len(scene.meshes) + (1 if len(spheres.matrices) or spheres.points else 0) + len(groups)
     per_part = max(1, SAMPLE_POINTS // max(1, parts))
     points = [m.points[:: max(1, len(m.points) // per_part)] for m in scene.meshes if len(m.points)]
-    if len(spheres.matrices):
+    if len(spheres.matrices) or spheres.points:
         on_spheres = spheres.sample_points()
         points.append(on_spheres[:: max(1, len(on_spheres) // per_part)])
     for group in groups:  # each copy's centre
@@ -446,7 +464,7 @@ def _light_causes(scene: Scene, boxes, spheres: _Spheres, reader_warnings) -> li
 
 def _material_causes(scene: Scene) -> list[str]:
     """Every material black: no light makes it brighter than black."""
-    materials = {id(o.material): o.material for o in (*scene.spheres, *scene.meshes)}.values()
+    materials = {id(o.material): o.material for o in (*scene.spheres, *scene.meshes, *scene.points)}.values()
     if not materials:
         return []
 

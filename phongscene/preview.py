@@ -138,7 +138,12 @@ class Preview:
             said = str(e) if isinstance(e, (PhongSceneError, OSError)) else f"{type(e).__name__}: {e}"
             self._publish(stage="error", errors=[said], warnings=[], start=start)
             return
-        gprims = (*scene.spheres, *scene.meshes, *(m for i in scene.instances for m in i.prototype.meshes))
+        gprims = (
+            *scene.spheres,
+            *scene.meshes,
+            *scene.points,
+            *(m for i in scene.instances for m in i.prototype.meshes),
+        )
         textures = {t.file for g in gprims for t in g.material.textures if t.file}
         self._watch(used_files(self.scene) + tuple(sorted(textures)))
         coarse = replace(

@@ -564,6 +564,50 @@ class Sphere:
 
 
 @dataclass(frozen=True, slots=True, eq=False)
+class Points:
+    """Many spheres of one material (a ``UsdGeom.Points`` prim): sphere k has world-space centre
+    ``centers[k]`` and radius ``radii[k]`` (> 0). 32 bytes a sphere, where a ``Sphere`` each
+    would hold a 4×4 matrix and a Python object: a million points fit. Sphere k traces exactly
+    as ``Sphere.at(centers[k], radii[k], material, source)`` (the same numbers in both backends),
+    and the whole set is one object for light linking, named by ``source``."""
+
+    centers: np.ndarray  # (N, 3) float64, world space
+    radii: np.ndarray  # (N,) float64, > 0
+    material: PhongMaterial = DEFAULT_MATERIAL
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "centers", _readonly(self.centers, np.float64, (3,), "Points", "centers", self.source))
+        object.__setattr__(self, "radii", _readonly(self.radii, np.float64, (), "Points", "radii", self.source))
+
+    def __len__(self) -> int:
+        return len(self.radii)
+
+    def spheres(self) -> tuple[Sphere, ...]:
+        """The same spheres as ``Sphere`` nodes (for tools that want them one by one, and tests)."""
+        return tuple(
+            Sphere.at(c, float(r), self.material, self.source) for c, r in zip(self.centers.tolist(), self.radii)
+        )
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
+        if not len(self):
+            return None
+        return (self.centers - self.radii[:, None]).min(axis=0), (self.centers + self.radii[:, None]).max(axis=0)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Points):
+            return NotImplemented
+        return (
+            _arrays_equal(self.centers, other.centers)
+            and _arrays_equal(self.radii, other.radii)
+            and self.material == other.material
+            and self.source == other.source
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+@dataclass(frozen=True, slots=True, eq=False)
 class TriangleMesh:
     """A triangle mesh in world space.
 
@@ -866,6 +910,7 @@ class Scene:
     source_file: str = ""  # the file the scene was read from ("" when built in Python)
     # Prototypes placed by transforms (instancing): their meshes are in prototype space.
     instances: tuple[Instances, ...] = ()
+    points: tuple[Points, ...] = ()  # UsdGeom.Points: many spheres each, compactly
 
     @property
     def triangle_count(self) -> int:
@@ -926,9 +971,11 @@ class Scene:
             source = obj.material.source
             return obj.source == path or source == path or (bool(source) and source.startswith(path.rstrip("/") + "/"))
 
-        found = [obj for obj in (*self.spheres, *self.meshes) if matches(obj)]
+        found = [obj for obj in (*self.spheres, *self.meshes, *self.points) if matches(obj)]
         if not found:
-            materials = sorted({o.material.source for o in (*self.spheres, *self.meshes) if o.material.source})
+            materials = sorted(
+                {o.material.source for o in (*self.spheres, *self.meshes, *self.points) if o.material.source}
+            )
             raise KeyError(
                 f"with_material: no material or object at {path!r}; the materials: "
                 f"{', '.join(materials) or '(none named)'}"
@@ -940,13 +987,17 @@ class Scene:
             )
 
         return dataclasses.replace(
-            self, spheres=tuple(map(changed, self.spheres)), meshes=tuple(map(changed, self.meshes))
+            self,
+            spheres=tuple(map(changed, self.spheres)),
+            meshes=tuple(map(changed, self.meshes)),
+            points=tuple(map(changed, self.points)),
         )
 
     @property
     def objects(self) -> tuple:
-        """Every geometry node, in the order the backends number them: spheres, meshes, intrinsics."""
-        return (*self.spheres, *self.meshes, *self.intrinsics)
+        """Every geometry node, in the order the backends number them: spheres, meshes, intrinsics,
+        points (the last, so that adding them renumbers nothing before)."""
+        return (*self.spheres, *self.meshes, *self.intrinsics, *self.points)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
         """World-space axis-aligned bounds of all geometry but infinite planes, or None for an
@@ -961,7 +1012,7 @@ class Scene:
             if len(m.points):
                 lows.append(m.points.min(axis=0))
                 highs.append(m.points.max(axis=0))
-        for group in self.instances:
+        for group in (*self.instances, *self.points):
             b = group.bounds()
             if b is not None:
                 lows.append(b[0])

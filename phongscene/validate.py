@@ -49,6 +49,7 @@ from .scene import (
     Linking,
     PhongMaterial,
     PointLight,
+    Points,
     Prototype,
     RectAreaLight,
     RenderSettings,
@@ -196,6 +197,7 @@ _ITEM_TYPES = {
     "meshes": (TriangleMesh,),
     "intrinsics": (Intrinsic,),
     "instances": (Instances,),
+    "points": (Points,),
 }
 
 
@@ -249,8 +251,8 @@ def _wrong_types(scene: Scene) -> list[Problem]:
     if out:
         return out
     # Every node's ``source`` names its prim in every later message: it must be text.
-    nodes = [scene.camera, scene.ambient, scene.settings, *scene.lights, *scene.spheres, *scene.meshes]
-    nodes += [n.material for n in (*scene.spheres, *scene.meshes)]
+    nodes = [scene.camera, scene.ambient, scene.settings, *scene.lights, *scene.spheres, *scene.meshes, *scene.points]
+    nodes += [n.material for n in (*scene.spheres, *scene.meshes, *scene.points)]
     for node in nodes:
         if not isinstance(node.source, str):
             out.append(
@@ -316,6 +318,11 @@ def validate(scene: Scene) -> list[Problem]:
         materials.append(sphere.material)
         if sphere.material.textures:
             c.add(sphere, "material", "a textured material needs texture coordinates, which only meshes carry")
+    for group in scene.points:
+        _check_points(c, group)
+        materials.append(group.material)
+        if group.material.textures:
+            c.add(group, "material", "a textured material needs texture coordinates, which only meshes carry")
     for group in scene.instances:
         _check_instances(c, group)
     prototype_meshes = [m for p in scene.prototypes for m in p.meshes]
@@ -579,6 +586,30 @@ def _check_sphere(c: _Collector, s: Sphere) -> None:
                 f"the sphere must lie within ±{MAX_COORDINATE:g} (so that distances and "
                 f"their squares stay finite), it reaches {reach:.3g}",
             )
+
+
+def _check_points(c: _Collector, p: Points) -> None:
+    """As ``_check_sphere`` of each ``Sphere.at(center, radius)``, in whole arrays."""
+    if len(p.centers) != len(p.radii):
+        c.add(p, "radii", f"has {len(p.radii)} values for {len(p.centers)} centers")
+        return
+    if not (c.finite(p, "centers", p.centers) and c.finite(p, "radii", p.radii)):
+        return
+    with np.errstate(under="ignore"):
+        # Sphere's "singular": the radius cubed (its matrix's determinant) is not positive.
+        bad = np.flatnonzero(~(p.radii**3 > 0))
+    if len(bad):
+        c.add(
+            p,
+            "radii",
+            f"must be > 0 (and not so small that r³ underflows): {len(bad)} are not, the first "
+            f"radii[{bad[0]}] = {p.radii[bad[0]]:.9g}",
+        )
+        return
+    with np.errstate(over="ignore"):
+        reach = float(np.max(np.abs(p.centers) + p.radii[:, None])) if len(p) else 0.0
+    if not reach <= MAX_COORDINATE:
+        c.add(p, "centers", f"the spheres must lie within ±{MAX_COORDINATE:g}, they reach {reach:.3g}")
 
 
 def _check_intrinsic(c: _Collector, i: Intrinsic) -> None:

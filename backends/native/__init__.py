@@ -302,6 +302,13 @@ def scene_arrays(scene: Scene) -> dict:
         # Each mesh is one POV-Ray object, whose shadow test the POV-Ray numerics reproduce.
         "mesh_origins": c(np.array([m.local_origin() for m in meshes]).reshape(-1, 3), np.float64),
         "intrinsics": intrinsic_parts(scene, material_id),
+        # Points sets: the model's arrays, read in place; each set one object after the intrinsics.
+        "ball_centers": [c(p.centers, np.float64) for p in scene.points],
+        "ball_radii": [c(p.radii, np.float64) for p in scene.points],
+        "ball_material": [material_id(p.material) for p in scene.points],
+        "ball_object": [
+            len(scene.spheres) + len(scene.meshes) + len(scene.intrinsics) + k for k in range(len(scene.points))
+        ],
         "materials": _materials(material_ids),
         "lights": [_light(light) for light in scene.lights],
         "ambient": scene.ambient.color,

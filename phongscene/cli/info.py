@@ -58,13 +58,15 @@ def run_info(args) -> int:
     for prim, node in result.nodes:
         print(f"  {prim} -> {node}")
     prototype_meshes = tuple(m for p in scene.prototypes for m in p.meshes)
-    materials = {m.material for m in (*scene.spheres, *scene.meshes, *prototype_meshes)}  # equal materials count once
+    # equal materials count once
+    materials = {m.material for m in (*scene.spheres, *scene.meshes, *scene.points, *prototype_meshes)}
     kinds: dict[str, int] = {}
     for light in scene.lights:
         kinds[type(light).__name__] = kinds.get(type(light).__name__, 0) + 1
     print(
         f"counts: {len(scene.meshes)} meshes, {scene.triangle_count} triangles, {len(scene.spheres)} spheres, "
-        f"{len(scene.lights)} lights ({', '.join(f'{n} {k}' for k, n in sorted(kinds.items())) or 'none'}), "
+        + (f"{sum(map(len, scene.points))} points in {len(scene.points)} sets, " if scene.points else "")
+        + f"{len(scene.lights)} lights ({', '.join(f'{n} {k}' for k, n in sorted(kinds.items())) or 'none'}), "
         f"{len(materials)} materials"
     )
     if scene.instances:

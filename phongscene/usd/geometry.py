@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from pxr import Usd, UsdGeom, UsdSkel
 
-from ..scene import Intrinsic, PhongMaterial, Sphere, TriangleMesh
+from ..scene import Intrinsic, PhongMaterial, Points, Sphere, TriangleMesh
 from ..tolerances import UNIT_TOLERANCE, is_singular
 from . import subdivision, textures
 from .context import ReadContext
@@ -705,22 +705,32 @@ def primitive(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: Pho
 # A Points prim without ``widths`` (USD leaves the size to the renderer): spheres of this
 # diameter, in the prim's units, with a warning.
 DEFAULT_POINT_WIDTH = 1.0
+# A prim transform whose linear part A has AᵀA = s²·I to this relative error maps spheres to
+# spheres (rotation, mirror, uniform scale): the points stay one compact ``Points`` node. A
+# matrix authored in float32 (a DCC's rotation) is orthogonal to ~1e-7; 1e-6 of the radius is
+# far below a pixel at any resolution. Other transforms (non-uniform scale, shear) make
+# ellipsoids: one ``Sphere`` (with its matrix) per point, exact but 20-50 times the memory.
+SIMILARITY_TOLERANCE = 1e-6
 
 
-def points(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial) -> list[Sphere]:
+def points(
+    ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMaterial
+) -> Points | list[Sphere] | None:
     """``UsdGeom.Points`` as analytic spheres: one per point, of diameter ``widths`` (constant:
-    one value; vertex or varying: one per point), ``world · translate(p) · scale(w/2)``."""
+    one value; vertex or varying: one per point), ``world · translate(p) · scale(w/2)``. Under a
+    similarity transform (``SIMILARITY_TOLERANCE``) one ``Points`` node of world-space centres
+    and radii; else one ``Sphere`` per point (ellipsoids). None: nothing to draw."""
     path = str(prim.GetPath())
     p = ctx.get(prim, "points", ("point3f[]", "point3d[]", "float3[]", "double3[]"))
     if p is None or not len(p):
-        return []
+        return None
     p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
     if not np.isfinite(p).all():
         ctx.problem(prim, "points", f"{int(np.count_nonzero(~np.isfinite(p).all(axis=1)))} points are not finite")
-        return []
+        return None
     if not np.all(np.isfinite(world)) or is_singular(world[:3, :3]):
         ctx.problem(prim, "xformOpOrder", "the transform is not finite or singular")
-        return []
+        return None
     widths = ctx.get(prim, "widths", ("float[]", "double[]", "half[]"))
     if widths is None or not len(widths):
         ctx.unsupported[f"Points without widths (spheres of diameter {DEFAULT_POINT_WIDTH:g})"].append(path)
@@ -731,13 +741,34 @@ def points(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongM
             w = np.full(len(p), w[0])
         elif len(w) != len(p):
             ctx.problem(prim, "widths", f"has {len(w)} values, expected 1 (constant) or {len(p)} (one per point)")
-            return []
-        if not (np.isfinite(w).all() and (w >= 0).all()):
-            ctx.problem(prim, "widths", "values must be finite and >= 0")
-            return []
-    out = []
-    for k in np.flatnonzero(w > 0):  # a zero width draws nothing
-        local = np.diag([w[k] / 2, w[k] / 2, w[k] / 2, 1.0])
-        local[:3, 3] = p[k]
-        out.append(Sphere(world @ local, material, path))
-    return out
+            return None
+        bad = np.flatnonzero(~(w >= 0))  # NaN and negative (inf is caught below, with the positions)
+        if len(bad) or not np.isfinite(w).all():
+            bad = np.flatnonzero(~(np.isfinite(w) & (w >= 0)))
+            ctx.problem(
+                prim,
+                "widths",
+                f"values must be finite and >= 0: {len(bad)} are not, the first widths[{bad[0]}] = {w[bad[0]]:g}",
+            )
+            return None
+    drawn = w > 0  # a zero width draws nothing
+    if not drawn.all():
+        p, w = p[drawn], w[drawn]
+    if not len(w):
+        return None
+    a, t = world[:3, :3], world[:3, 3]
+    scale = float(np.linalg.norm(a[:, 0]))
+    if np.abs(a.T @ a - scale**2 * np.eye(3)).max() > SIMILARITY_TOLERANCE * scale**2:
+        out = []
+        for k in range(len(w)):
+            local = np.diag([w[k] / 2, w[k] / 2, w[k] / 2, 1.0])
+            local[:3, 3] = p[k]
+            out.append(Sphere(world @ local, material, path))
+        return out
+    # The centres as world · translate(p) places them; a diagonal or identity A without a
+    # product, so that a translated prim's spheres are the numbers the per-point matrices held.
+    if not np.array_equal(a, np.eye(3)):
+        p = p * np.diag(a) if np.count_nonzero(a - np.diag(np.diag(a))) == 0 else p @ a.T
+    if np.any(t):
+        p = p + t  # not in place: p may be a view of the attribute's array
+    return Points(p, w / 2 if scale == 1.0 else w / 2 * scale, material, path)

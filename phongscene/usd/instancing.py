@@ -33,7 +33,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from pxr import Usd, UsdGeom, UsdLux, UsdShade
 
-from ..scene import Instances, Intrinsic, Prototype, Sphere
+from ..scene import Instances, Intrinsic, Points, Prototype, Sphere
 from .context import ReadContext, gf_to_numpy
 
 # A prototype whose instances on the stage are fewer than this is flattened (one copy: the
@@ -225,9 +225,11 @@ class Instancing:
             for s in read.spheres:
                 suffix = s.source[len(read.source) :] if s.source.startswith(read.source) else ""
                 for k, m in enumerate(transforms):
-                    spheres.append(
-                        Sphere(m @ s.world_from_object, s.material, sources[k] + suffix if sources else s.source)
-                    )
+                    source = sources[k] + suffix if sources else s.source
+                    if isinstance(s, Points):  # each copy as its own spheres, as a Sphere is placed
+                        spheres.extend(Sphere(m @ one.world_from_object, s.material, source) for one in s.spheres())
+                    else:
+                        spheres.append(Sphere(m @ s.world_from_object, s.material, source))
             # Intrinsic prims (Cube, Cylinder, ...) are placed in the world per copy, as spheres:
             # each is already an affine map of a canonical shape (docs/instancing.md).
             for i in (i for i in read.meshes if isinstance(i, Intrinsic)):

@@ -25,7 +25,7 @@ from pxr import Tf, Usd, UsdGeom, UsdLux
 
 from ..errors import Problem, SceneError, SceneFileNotFoundError
 from ..limits import MAX_SUBDIVISION_LEVEL
-from ..scene import AmbientLight, Camera, Intrinsic, RenderSettings, Scene, framing_camera, head_light
+from ..scene import AmbientLight, Camera, Intrinsic, Points, RenderSettings, Scene, framing_camera, head_light
 from ..validate import validate
 from . import curves, geometry
 from .camera import choose_camera, conform_to_aperture, read_camera, read_render_settings
@@ -263,12 +263,13 @@ def _read(
         camera=camera or Camera(),
         ambient=AmbientLight(ambient_color, ambient[0].source if len(ambient) == 1 else ""),
         lights=tuple(lights),
-        spheres=tuple(spheres),
+        spheres=tuple(s for s in spheres if not isinstance(s, Points)),
         meshes=tuple(m for m in meshes if not isinstance(m, Intrinsic)),
         intrinsics=tuple(m for m in meshes if isinstance(m, Intrinsic)),
         settings=settings,
         source_file=file,
         instances=instances,
+        points=tuple(s for s in spheres if isinstance(s, Points)),
     )
     if camera is None:
         scene = replace(scene, camera=framing_camera(scene))
@@ -457,8 +458,11 @@ def _gprim(
         return
     if type_name == "Points":
         placed = geometry.points(ctx, prim, world, material)
-        spheres.extend(placed)
-        ctx.nodes.append((path, f"Points ({len(placed)} spheres)"))
+        if isinstance(placed, Points):  # the scene takes it out of the spheres' list (in _read)
+            spheres.append(placed)
+        elif placed:  # ellipsoids under a non-uniform transform: a Sphere each
+            spheres.extend(placed)
+        ctx.nodes.append((path, f"Points ({len(placed) if placed else 0} spheres)"))
         return
     if type_name == "BasisCurves":
         tubes = curves.basis_curves(ctx, prim, world, material)

@@ -39,6 +39,7 @@ def warn_clipping_lights(ctx: ReadContext, scene: Scene) -> None:
         m.points[:: max(1, len(m.points) * max(1, len(scene.meshes)) // CLIP_SAMPLE_POINTS)] for m in scene.meshes
     ]
     points += [s.world_from_object[:3, 3][None, :] for s in scene.spheres]
+    points += [g.centers[:: max(1, len(g) // CLIP_SAMPLE_POINTS)] for g in scene.points]
     if not points:
         return
     p = np.concatenate(points)

@@ -32,6 +32,7 @@ from ..scene import (
     Intrinsic,
     PhongMaterial,
     PointLight,
+    Points,
     RectAreaLight,
     RenderSettings,
     Scene,
@@ -174,6 +175,17 @@ def define_sphere(stage: Usd.Stage, path: str, sphere: Sphere) -> UsdGeom.Sphere
     else:
         prim.CreateRadiusAttr(1.0)
         _set_transform(prim, m)
+    return prim
+
+
+def define_points(stage: Usd.Stage, path: str, points: Points) -> UsdGeom.Points:
+    """A world-space Points prim: ``points`` and vertex ``widths`` = 2 · radii (float32, as a
+    Mesh's points are written)."""
+    prim = UsdGeom.Points.Define(stage, path)
+    centers = np.asarray(points.centers, dtype=np.float32)
+    prim.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(centers))
+    prim.CreateWidthsAttr(Vt.FloatArray.FromNumpy(np.asarray(2.0 * points.radii, dtype=np.float32)))
+    prim.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
     return prim
 
 
@@ -525,6 +537,10 @@ def scene_to_stage(scene: Scene, texture_files: dict[int, str] | None = None) ->
         path = paths.take(intrinsic.source, "/World/Geometry", intrinsic.kind.capitalize())
         bind_material(define_intrinsic(stage, path, intrinsic), material_for(intrinsic.material))
         written.setdefault(intrinsic.source, []).append(path)
+    for points in scene.points:
+        path = paths.take(points.source, "/World/Geometry", "Points")
+        bind_material(define_points(stage, path, points).GetPrim(), material_for(points.material))
+        written.setdefault(points.source, []).append(path)
     for light, path in zip(scene.lights, light_paths):
         if not light.linking.default:
             define_linking(stage, path, light.linking, written)

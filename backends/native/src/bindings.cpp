@@ -59,17 +59,18 @@ using Matrices = In<double, nb::shape<-1, 4, 4>>;
 using Rows3 = In<double, nb::shape<-1, 3>>;
 using Index3 = In<int32_t, nb::shape<-1, 3>>;
 using Index1 = In<int32_t, nb::shape<-1>>;
+using Reals1 = In<double, nb::shape<-1>>;
 
 // The meshes' arrays are the model's own (one list entry per mesh), read in place: no
 // concatenated copy on either side.
-std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_object,
-                                         const Matrices& sphere_object_from_world, const Index1& sphere_material,
-                                         const std::vector<Rows3>& points, const std::vector<Index3>& triangles,
-                                         const std::vector<Rows3>& normals, const std::vector<Index3>& normal_indices,
-                                         const Index1& mesh_material, const Rows3& mesh_origins,
-                                         std::vector<phong::Material> materials, std::vector<phong::Light> lights,
-                                         const phong::RGB& ambient, bool povray_triangles,
-                                         std::vector<phong::IntrinsicShape> intrinsics) {
+std::unique_ptr<phong::Scene> make_scene(
+    const Matrices& sphere_world_from_object, const Matrices& sphere_object_from_world, const Index1& sphere_material,
+    const std::vector<Rows3>& points, const std::vector<Index3>& triangles, const std::vector<Rows3>& normals,
+    const std::vector<Index3>& normal_indices, const Index1& mesh_material, const Rows3& mesh_origins,
+    std::vector<phong::Material> materials, std::vector<phong::Light> lights, const phong::RGB& ambient,
+    bool povray_triangles, std::vector<phong::IntrinsicShape> intrinsics, const std::vector<Rows3>& ball_centers,
+    const std::vector<Reals1>& ball_radii, const std::vector<int32_t>& ball_material,
+    const std::vector<int32_t>& ball_object) {
     const size_t n_spheres = sphere_world_from_object.shape(0), n_meshes = points.size();
     if (sphere_object_from_world.shape(0) != n_spheres || sphere_material.shape(0) != n_spheres)
         throw std::invalid_argument("sphere arrays differ in length");
@@ -86,6 +87,21 @@ std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_objec
         if (int32_t(part.kind) < 0 || int32_t(part.kind) > int32_t(phong::IntrinsicKind::kSphere))
             throw std::invalid_argument("unknown intrinsic kind");
     a.intrinsics = std::move(intrinsics);
+    const size_t n_sets = ball_centers.size();
+    if (ball_radii.size() != n_sets || ball_material.size() != n_sets || ball_object.size() != n_sets)
+        throw std::invalid_argument("points lists differ in length");
+    size_t n_balls = 0;
+    for (size_t g = 0; g < n_sets; ++g) {
+        const size_t count = ball_centers[g].shape(0);
+        if (ball_radii[g].shape(0) != count) throw std::invalid_argument("a points set's radii differ in length");
+        // Python validates the scene (phongscene.validate: Points); a radius that is not positive
+        // would only give a meaningless image, not a crash, but costs nothing to refuse.
+        for (size_t i = 0; i < count; ++i)
+            if (!(ball_radii[g](i) > 0.0)) throw std::invalid_argument("a points radius is not > 0");
+        if (ball_object[g] < 0) throw std::invalid_argument("a points object number is negative");
+        a.balls.push_back({ball_centers[g].data(), ball_radii[g].data(), count, ball_material[g], ball_object[g]});
+        n_balls += count;
+    }
     size_t n_triangles = 0;
     for (size_t m = 0; m < n_meshes; ++m) {
         phong::MeshArrays mesh;
@@ -106,7 +122,8 @@ std::unique_ptr<phong::Scene> make_scene(const Matrices& sphere_world_from_objec
         a.meshes.push_back(mesh);
     }
     // Triangles are numbered in int32 (leaf refs) and their ids in uint32 (primitive refs).
-    if (n_spheres + n_triangles > size_t(INT32_MAX)) throw std::invalid_argument("too many primitives");
+    if (n_spheres + n_triangles + a.intrinsics.size() + n_balls > size_t(INT32_MAX))
+        throw std::invalid_argument("too many primitives");
     // The arrays stay alive (held by the caller's frame) while the GIL is released.
     nb::gil_scoped_release release;
     return std::make_unique<phong::Scene>(a, std::move(materials), std::move(lights), ambient);
@@ -531,20 +548,27 @@ NB_MODULE(_native, m) {
                const std::vector<Rows3>& normals, const std::vector<Index3>& normal_indices,
                const Index1& mesh_material, const Rows3& mesh_origins, std::vector<phong::Material> materials,
                std::vector<phong::Light> lights, const phong::RGB& ambient, bool povray_triangles,
-               std::vector<phong::IntrinsicShape> intrinsics) {
-                std::unique_ptr<phong::Scene> built = make_scene(
-                    swo, sow, smat, points, triangles, normals, normal_indices, mesh_material, mesh_origins,
-                    std::move(materials), std::move(lights), ambient, povray_triangles, std::move(intrinsics));
+               std::vector<phong::IntrinsicShape> intrinsics, const std::vector<Rows3>& ball_centers,
+               const std::vector<Reals1>& ball_radii, const std::vector<int32_t>& ball_material,
+               const std::vector<int32_t>& ball_object) {
+                std::unique_ptr<phong::Scene> built =
+                    make_scene(swo, sow, smat, points, triangles, normals, normal_indices, mesh_material, mesh_origins,
+                               std::move(materials), std::move(lights), ambient, povray_triangles,
+                               std::move(intrinsics), ball_centers, ball_radii, ball_material, ball_object);
                 new (self) phong::Scene(std::move(*built));
             },
             "sphere_world_from_object"_a, "sphere_object_from_world"_a, "sphere_material"_a, "points"_a, "triangles"_a,
             "normals"_a, "normal_indices"_a, "mesh_material"_a, "mesh_origins"_a, "materials"_a, "lights"_a,
             "ambient"_a, "povray_triangles"_a = false, "intrinsics"_a = std::vector<phong::IntrinsicShape>(),
+            "ball_centers"_a = std::vector<Rows3>(), "ball_radii"_a = std::vector<Reals1>(),
+            "ball_material"_a = std::vector<int32_t>(), "ball_object"_a = std::vector<int32_t>(),
             "points, triangles, normals and normal_indices are lists with one array per mesh (normal_indices "
             "(T, 3) or empty: flat; -1 rows: flat), read in place; triangles are numbered across the meshes in "
             "order. Materials are indexed by sphere_material and mesh_material; lights are summed in list order. "
             "Each mesh is one POV-Ray object with its frame's origin in mesh_origins; with povray_triangles, "
-            "triangles are tested as POV-Ray's mesh2 tests them.")
+            "triangles are tested as POV-Ray's mesh2 tests them. Points sets: ball_centers (N, 3) and ball_radii "
+            "(N,), one array each per set, read in place, with one ball_material and ball_object (light linking's "
+            "object number) per set.")
         .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
              "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and "
              "specular_texture, and the (u, v) "

@@ -110,6 +110,7 @@ RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std:
 const Material& material_of(const Scene& world, const Hit& hit) {
     const Scene& scene = world.surface_of(hit);  // an instance's primitives are its prototype's
     const int32_t m = scene.is_sphere(hit.ref) ? scene.spheres[size_t(~hit.ref)].material
+                      : scene.is_ball(hit.ref) ? scene.ball_group(scene.ball_index(hit.ref)).material
                       : hit.ref < 0            ? scene.intrinsic(hit.ref).material
                                                : scene.triangle_shading[size_t(hit.ref)].material;
     return scene.materials[size_t(m)];
@@ -170,8 +171,9 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     // The primitive's own scene: the world's, or the prototype of the instance hit (whose normal
     // is then carried to the world below).
     const Scene& surface = scene.surface_of(hit);
-    if (surface.is_sphere(hit.ref)) {
-        const SphereShape& s = surface.spheres[size_t(~hit.ref)];
+    if (surface.is_round(hit.ref)) {
+        SphereShape scratch;
+        const SphereShape& s = surface.round_shape(hit.ref, scratch);
         n = sphere_normal(s, p);
         material = &surface.materials[size_t(s.material)];
     } else if (hit.ref < 0) {

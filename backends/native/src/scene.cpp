@@ -126,7 +126,16 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         (part.kind == IntrinsicKind::kPlane ? planes : intrinsics).push_back(part);
     }
     const size_t n_intrinsics = intrinsics.size();
-    std::vector<PrimRef> prims(n_spheres + n_triangles + n_intrinsics);
+    // Balls (Points sets) join after the intrinsic parts (ids S + T + I + row), so that a scene
+    // without them builds the same tree as before they existed.
+    size_t n_balls = 0;
+    for (const GeometryArrays::Balls& set : in.balls) {
+        check_index(set.material, materials.size(), "points material");
+        ball_groups.push_back({n_balls, set.material, set.object});
+        n_balls += set.count;
+    }
+    const size_t first_ball_id = n_spheres + n_triangles + n_intrinsics;
+    std::vector<PrimRef> prims(first_ball_id + n_balls);
     for (size_t q = 0; q < n_intrinsics; ++q) {
         Bounds b;
         b.lo = intrinsics[q].bounds_lo;
@@ -155,6 +164,27 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         prims[i] = PrimRef(b, uint32_t(i));
     }
     std::mutex bounds_mutex;  // each chunk's union of double bounds joins `bounds` (min/max: any order)
+    // A ball's box as a sphere's: centre ± sqrt(r²) = r (ball_sphere).
+    auto ball_bounds = [](const double* c, double r) {
+        Bounds b;
+        b.lo = {c[0] - r, c[1] - r, c[2] - r};
+        b.hi = {c[0] + r, c[1] + r, c[2] + r};
+        return b;
+    };
+    for (size_t g = 0; g < in.balls.size(); ++g) {
+        const GeometryArrays::Balls& set = in.balls[g];
+        const size_t first = ball_groups[g].first;
+        for_chunks(set.count, [&](size_t begin, size_t end) {
+            Bounds chunk_bounds;
+            for (size_t i = begin; i < end; ++i) {
+                const Bounds b = ball_bounds(set.centers + 3 * i, set.radii[i]);
+                chunk_bounds.grow(b);
+                prims[first_ball_id + first + i] = PrimRef(b, uint32_t(first_ball_id + first + i));
+            }
+            const std::lock_guard<std::mutex> lock(bounds_mutex);
+            bounds.grow(chunk_bounds);
+        });
+    }
     for_chunks(n_triangles, [&](size_t begin, size_t end) {
         Bounds chunk_bounds;
         size_t m = begin < end ? mesh_of(begin) : 0;
@@ -225,8 +255,12 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
                 ++spheres_before;
                 continue;
             }
+            if (id >= first_ball_id) {  // a ball: its ref is set below
+                ++spheres_before;
+                continue;
+            }
             if (id >= n_spheres + n_triangles) {  // an intrinsic part
-                refs_[k] = ~int32_t(n_spheres + (id - n_spheres - n_triangles));
+                refs_[k] = ~int32_t(n_spheres + n_balls + (id - n_spheres - n_triangles));
                 ++spheres_before;
                 continue;
             }
@@ -252,6 +286,29 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
             if (in.povray_triangles) povray_triangles[slot] = make_povray_triangle(corners, mesh.origin);
         }
     });
+    // The balls in leaf order (one pass: a ball's slot is the number of balls before it).
+    balls.resize(n_balls);
+    ball_source.resize(n_balls);
+    size_t ball = 0, group = 0;  // group: the set of the last ball seen (neighbours share it)
+    for (size_t k = 0; k < order.size(); ++k) {
+        const uint32_t id = order[k];
+        if (id < first_ball_id) continue;
+        const size_t row = id - first_ball_id;
+        if (row >= ball_groups[group].first + in.balls[group].count)  // rows ascend within a set's run
+            group = size_t(std::upper_bound(ball_groups.begin() + 1, ball_groups.end(), row,
+                                            [](size_t r, const BallGroup& g) { return r < g.first; }) -
+                           ball_groups.begin() - 1);
+        else if (row < ball_groups[group].first)
+            group = size_t(std::upper_bound(ball_groups.begin() + 1, ball_groups.end(), row,
+                                            [](size_t r, const BallGroup& g) { return r < g.first; }) -
+                           ball_groups.begin() - 1);
+        const GeometryArrays::Balls& set = in.balls[group];
+        const size_t local = row - ball_groups[group].first;
+        balls[ball] = {row3(set.centers + 3 * local), set.radii[local]};
+        ball_source[ball] = uint32_t(row);
+        refs_[k] = ~int32_t(n_spheres + ball);
+        ++ball;
+    }
     bvh_.order.clear();
     bvh_.order.shrink_to_fit();
     first_triangle_ = std::move(first_triangle);
@@ -273,7 +330,10 @@ int32_t Scene::triangle_mesh(size_t slot) const {
 int64_t Scene::primitive_id(int32_t ref) const {
     // Python's numbering: spheres, triangles, then intrinsic parts (unbounded planes last).
     if (is_sphere(ref)) return int64_t(~ref);
-    if (ref < 0) return int64_t(triangle_source.size()) + int64_t(~ref);
+    if (is_ball(ref))
+        return int64_t(spheres.size() + triangle_source.size() + intrinsics.size() + planes.size()) +
+               ball_source[ball_index(ref)];
+    if (ref < 0) return int64_t(triangle_source.size()) + int64_t(~ref) - int64_t(balls.size());
     return int64_t(spheres.size()) + triangle_source[size_t(ref)];
 }
 
@@ -375,6 +435,13 @@ int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_clos
     for (const SphereShape& s : spheres) {
         double t;
         if (intersect_sphere(s, ray, t_min, t_max, t)) {
+            ++count;
+            t_closest = std::fmin(t_closest, t);
+        }
+    }
+    for (const BallShape& b : balls) {
+        double t;
+        if (intersect_ball(b, ray, t_min, t_max, t)) {
             ++count;
             t_closest = std::fmin(t_closest, t);
         }

@@ -50,11 +50,29 @@ struct GeometryArrays {
     // The intrinsic prims' parts (intrinsics.hpp), bounds filled in by the Scene; unbounded
     // planes among them go to Scene::planes.
     std::vector<IntrinsicShape> intrinsics;
+    // Points sets (BallShape), each its own arrays: (N, 3) centres and (N,) radii, one material
+    // and one object (LightLinking's numbering).
+    struct Balls {
+        const double* centers = nullptr;
+        const double* radii = nullptr;
+        size_t count = 0;
+        int32_t material = 0;
+        int32_t object = 0;
+    };
+    std::vector<Balls> balls;
+};
+
+// A Points set in the Scene: its balls are input rows [first, next set's first), and where they
+// sit in Scene::balls (leaf order) ball_source says.
+struct BallGroup {
+    size_t first;
+    int32_t material;
+    int32_t object;
 };
 
 // A ray's closest hit. ref >= 0: triangle index (leaf order); ref < 0: sphere ~ref when
-// ~ref < S, else intrinsic part ~ref − S (Scene::intrinsics), or an unbounded plane
-// (Scene::plane_ref).
+// ~ref < S, ball ~ref − S (Scene::balls, leaf order) when ~ref < S + B, else intrinsic part
+// ~ref − S − B (Scene::intrinsics), or an unbounded plane (Scene::plane_ref).
 struct Hit {
     double t;
     int32_t ref;
@@ -134,26 +152,48 @@ class Scene {
         size_t count = spheres.size() + (first_triangle_.empty() ? 0 : first_triangle_.size() - 1);
         for (const std::vector<IntrinsicShape>* parts : {&intrinsics, &planes})
             for (const IntrinsicShape& part : *parts) count = std::max(count, size_t(part.object) + 1);
+        for (const BallGroup& group : ball_groups) count = std::max(count, size_t(group.object) + 1);
         return count;
     }
     // The object (LightLinking's numbering) of a primitive ref (as Hit::ref).
     int32_t object_of(int32_t ref) const {
         if (ref >= 0) return int32_t(spheres.size()) + triangle_mesh(size_t(ref));
+        if (is_ball(ref)) return ball_group(ball_index(ref)).object;
         return is_sphere(ref) ? ~ref : intrinsic(ref).object;
     }
-    // Refs of the non-triangle primitives: spheres, intrinsic parts in the BVH, then unbounded
-    // planes (ref = plane_ref(k), after every part).
+    // Refs of the non-triangle primitives: spheres, balls, intrinsic parts in the BVH, then
+    // unbounded planes (ref = plane_ref(k), after every part).
     bool is_sphere(int32_t ref) const { return ref < 0 && size_t(~ref) < spheres.size(); }
-    int32_t plane_ref(size_t k) const { return ~int32_t(spheres.size() + intrinsics.size() + k); }
+    bool is_ball(int32_t ref) const {
+        return ref < 0 && size_t(~ref) >= spheres.size() && size_t(~ref) < spheres.size() + balls.size();
+    }
+    bool is_round(int32_t ref) const { return ref < 0 && size_t(~ref) < spheres.size() + balls.size(); }
+    size_t ball_index(int32_t ref) const { return size_t(~ref) - spheres.size(); }
+    const BallGroup& ball_group(size_t ball) const {
+        const size_t row = ball_source[ball];
+        if (ball_groups.size() == 1) return ball_groups[0];
+        return *(std::upper_bound(ball_groups.begin() + 1, ball_groups.end(), row,
+                                  [](size_t r, const BallGroup& g) { return r < g.first; }) -
+                 1);
+    }
+    // The sphere or ball (as a SphereShape, in `scratch`) of ref (is_round).
+    const SphereShape& round_shape(int32_t ref, SphereShape& scratch) const {
+        if (is_sphere(ref)) return spheres[size_t(~ref)];
+        const size_t k = ball_index(ref);
+        scratch = ball_sphere(balls[k], ball_group(k).material);
+        return scratch;
+    }
+    int32_t plane_ref(size_t k) const { return ~int32_t(spheres.size() + balls.size() + intrinsics.size() + k); }
     const IntrinsicShape& intrinsic(int32_t ref) const {
-        const size_t k = size_t(~ref) - spheres.size();
+        const size_t k = size_t(~ref) - spheres.size() - balls.size();
         return k < intrinsics.size() ? intrinsics[k] : planes[k - intrinsics.size()];
     }
 
     // Every primitive the ray hits in (t_min, t_max), by brute force (tests only).
     int count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const;
 
-    // The primitive's id as Python numbers them: spheres 0..S-1, then triangles in mesh order.
+    // The primitive's id as Python numbers them: spheres 0..S-1, then triangles in mesh order,
+    // intrinsic parts (unbounded planes last), then the balls by input row.
     int64_t primitive_id(int32_t ref) const;
 
     // Children per node of the walk closest_hit() and occluded() take: 8 (AVX2) or 4 (SSE2).
@@ -164,6 +204,9 @@ class Scene {
     int32_t triangle_mesh(size_t slot) const;
 
     std::vector<SphereShape> spheres;
+    std::vector<BallShape> balls;                   // the Points sets' spheres, leaf order
+    std::vector<uint32_t> ball_source;              // leaf order -> input row (over every set, in order)
+    std::vector<BallGroup> ball_groups;             // by first input row
     std::vector<IntrinsicShape> intrinsics;         // parts in the BVH
     std::vector<IntrinsicShape> planes;             // unbounded planes: outside the BVH and `bounds`
     TriangleStore triangles;                        // leaf order; float when that is exact
@@ -209,9 +252,10 @@ class Scene {
         }
         return found;
     }
-    // A sphere's or intrinsic part's hit test (ref < 0).
+    // A sphere's, ball's or intrinsic part's hit test (ref < 0).
     bool hit_solid(int32_t ref, const Ray& ray, double t_min, double t_max, double& t) const {
         if (is_sphere(ref)) return intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_max, t);
+        if (is_ball(ref)) return intersect_ball(balls[ball_index(ref)], ray, t_min, t_max, t);
         return intersect_intrinsic(intrinsic(ref), ray, t_min, t_max, t);
     }
     // A triangle's hit test: POV-Ray's where the scene was built for it, else the watertight one.

@@ -139,9 +139,11 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
                 b.grow(tri.v0);
                 b.grow(tri.v1);
                 b.grow(tri.v2);
-            } else if (is_sphere(ref)) {
-                b.lo = spheres[size_t(~ref)].bounds_lo;
-                b.hi = spheres[size_t(~ref)].bounds_hi;
+            } else if (is_round(ref)) {
+                SphereShape scratch;
+                const SphereShape& s = round_shape(ref, scratch);
+                b.lo = s.bounds_lo;
+                b.hi = s.bounds_hi;
             } else {
                 b.lo = intrinsic(ref).bounds_lo;
                 b.hi = intrinsic(ref).bounds_hi;
@@ -154,8 +156,11 @@ bool Scene::shadow_candidates(const Vec3* hull, int hull_count, double t_min,
             if (candidates.size() == kMaxBundleCandidates) return false;
             // An intrinsic part (intrinsics.hpp) has no bundle test: the rays go one by one
             // through occluded(), which tests every kind.
-            if (ref < 0 && !is_sphere(ref)) return false;
-            if (ref < 0) box.sphere_origin = sphere_origin(spheres[size_t(~ref)], apex);
+            if (ref < 0 && !is_round(ref)) return false;
+            if (ref < 0) {
+                SphereShape scratch;
+                box.sphere_origin = sphere_origin(round_shape(ref, scratch), apex);
+            }
             candidates.push_back(box);
         }
         return true;
@@ -206,7 +211,8 @@ bool Scene::occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray
             hit = hit_triangle(box.ref, ray, wr, t_min, t_max, t, bary);
         } else {
             // ray.origin is the bundle's apex, whose object-space form the candidate holds.
-            hit = intersect_sphere(spheres[size_t(~box.ref)], box.sphere_origin, ray.dir, t_min, t_max, t);
+            SphereShape scratch;
+            hit = intersect_sphere(round_shape(box.ref, scratch), box.sphere_origin, ray.dir, t_min, t_max, t);
         }
         if (hit) {
             std::swap(candidates[0], candidates[k]);
@@ -277,7 +283,8 @@ void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, con
             // box test cost more than the sphere tests it saved: S3's render 380.6M -> 333.4M
             // instructions with the reciprocals left out). origin is the bundle's apex, whose
             // object-space form the candidate holds.
-            const SphereShape& sphere = spheres[size_t(~box.ref)];
+            SphereShape scratch;
+            const SphereShape& sphere = round_shape(box.ref, scratch);
             for (size_t first = 0; first < count; first += 2) {
                 const int open_lanes = (blocked[first] ? 0 : 1) | (first + 1 < count && !blocked[first + 1] ? 2 : 0);
                 if (open_lanes == 0) continue;

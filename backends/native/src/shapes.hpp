@@ -201,6 +201,48 @@ inline Vec3 sphere_normal(const SphereShape& s, const Vec3& p) {
     return normalize(s.object_from_world.transposed_vector(s.object_from_world.point(p)));
 }
 
+// A sphere of a Points set (model: phongscene.scene.Points): 32 bytes, where a SphereShape holds
+// its matrix and bounds in 152. It is traced as the SphereShape of Sphere.at(center, radius)
+// (ball_sphere below), with the same numbers: numpy's inverse of that matrix (LAPACK's
+// triangular solve multiplies by the reciprocal of the diagonal) is s = 1/r on the diagonal,
+// zeros (+0) off it, and the translation t = 0 − c·s (+0 where c·s is ±0), which is what
+// ball_object_from_world computes; tests/native/test_native_points.py renders a Points set and
+// the same Spheres to identical images.
+struct BallShape {
+    Vec3 center;
+    double radius;
+};
+
+inline Affine ball_object_from_world(const BallShape& b) {
+    const double s = 1.0 / b.radius;
+    return {{s, 0.0, 0.0, 0.0 - b.center.x * s, 0.0, s, 0.0, 0.0 - b.center.y * s, 0.0, 0.0, s, 0.0 - b.center.z * s}};
+}
+
+// The SphereShape the ball stands for (for the less travelled paths: shading, shadow bundles).
+inline SphereShape ball_sphere(const BallShape& b, int32_t material) {
+    SphereShape s;
+    s.object_from_world = ball_object_from_world(b);
+    // Sphere bounds as the Scene computes them (centre ± the row norms, here sqrt(r²) = r).
+    s.bounds_lo = {b.center.x - b.radius, b.center.y - b.radius, b.center.z - b.radius};
+    s.bounds_hi = {b.center.x + b.radius, b.center.y + b.radius, b.center.z + b.radius};
+    s.material = material;
+    s.axis_aligned = true;
+    return s;
+}
+
+// intersect_sphere(ball_sphere(b), ray, ...) without building the matrix: the axis-aligned
+// path's operations (axis_aligned_point/vector: m[0]·x + m[3]) on the same numbers, and for b
+// = o·d = 0 the full path (its sign rule).
+inline bool intersect_ball(const BallShape& ball, const Ray& ray, double t_min, double t_max, double& t_hit) {
+    const double s = 1.0 / ball.radius;
+    const Vec3 t{0.0 - ball.center.x * s, 0.0 - ball.center.y * s, 0.0 - ball.center.z * s};
+    const Vec3 o{s * ray.origin.x + t.x, s * ray.origin.y + t.y, s * ray.origin.z + t.z};
+    const Vec3 d{s * ray.dir.x, s * ray.dir.y, s * ray.dir.z};
+    const double b = dot(o, d);
+    if (b == 0.0) return intersect_sphere(ball_sphere(ball, 0), ray, t_min, t_max, t_hit);
+    return detail::sphere_roots(o, dot(o, o) - 1.0, d, dot(d, d), b, t_min, t_max, t_hit);
+}
+
 // Triangle corners, stored in BVH leaf order for the hot loop.
 struct TriangleShape {
     Vec3 v0, v1, v2;
