@@ -97,9 +97,30 @@ def _normals_to_world(ctx: ReadContext, prim: Usd.Prim, normals: np.ndarray, wor
     return normals
 
 
+# Quads per block of the concave-quad test: its temporaries (~200 B a quad) stay ~100 MiB (a
+# 5M-quad mesh tested at once peaked at 2.7 GiB, over the reader's whole model).
+QUAD_BLOCK = 500_000
+
+
+def _bad_quad_fans(fv, corners, quads, first_tri) -> np.ndarray:
+    """The quads (of ``quads``) whose fan (0,1,2), (0,2,3) is wrong: its two triangles turn
+    opposite ways, A1·A2 < 0. Block by block."""
+    bad = []
+    for start in range(0, len(quads), QUAD_BLOCK):
+        block = quads[start : start + QUAD_BLOCK]
+        row = first_tri[block]
+        p0, p1, p2, p3 = corners(fv[row, 0]), corners(fv[row, 1]), corners(fv[row, 2]), corners(fv[row + 1, 2])
+        d1, d2, d3 = p1 - p0, p2 - p0, p3 - p0
+        a1 = np.cross(d1, d2)
+        a2 = np.cross(d2, d3)
+        bad.append(block[a1[:, 0] * a2[:, 0] + a1[:, 1] * a2[:, 1] + a1[:, 2] * a2[:, 2] < 0])  # as summed before
+    return np.concatenate(bad) if bad else np.zeros(0, dtype=np.int64)
+
+
 def _ear_clip_concave_faces(fv, corners, counts, first_tri) -> None:
     """Re-triangulate, in place in ``fv`` (the fan's face-vertex triples, ``first_tri`` the first
-    row of each face, ``counts`` its corner count), the faces whose fan is wrong, by ear clipping
+    row of each face, ``counts`` its corner count; ``corners(ids)`` the positions of face-vertex
+    ids, computed where needed, not for every corner at once), the faces whose fan is wrong, by ear clipping
     in the face's plane. A fan from a face's first corner tiles the face exactly when every fan
     triangle turns the same way as the face (their area vectors sum to the face's normal); a
     concave face seen badly from that corner has a fan triangle turned against it. Convex faces
@@ -108,20 +129,7 @@ def _ear_clip_concave_faces(fv, corners, counts, first_tri) -> None:
     quads = np.flatnonzero(counts == 4)
     if quads.size:
         # A quad's fan (0,1,2), (0,2,3) is right when both triangles turn the same way: A1·A2 >= 0.
-        row = first_tri[quads]
-        p0, p1, p2, p3 = corners[fv[row, 0]], corners[fv[row, 1]], corners[fv[row, 2]], corners[fv[row + 1, 2]]
-        d1, d2, d3 = p1 - p0, p2 - p0, p3 - p0
-        a1 = (
-            d1[:, 1] * d2[:, 2] - d1[:, 2] * d2[:, 1],
-            d1[:, 2] * d2[:, 0] - d1[:, 0] * d2[:, 2],
-            d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0],
-        )
-        a2 = (
-            d2[:, 1] * d3[:, 2] - d2[:, 2] * d3[:, 1],
-            d2[:, 2] * d3[:, 0] - d2[:, 0] * d3[:, 2],
-            d2[:, 0] * d3[:, 1] - d2[:, 1] * d3[:, 0],
-        )
-        bad = quads[a1[0] * a2[0] + a1[1] * a2[1] + a1[2] * a2[2] < 0]
+        bad = _bad_quad_fans(fv, corners, quads, first_tri)
         big = np.union1d(big, bad)  # those go through the general test and ear clipping below
     if not big.size:
         return
@@ -129,7 +137,7 @@ def _ear_clip_concave_faces(fv, corners, counts, first_tri) -> None:
     rows = np.repeat(first_tri[big], per_face) + (
         np.arange(int(per_face.sum())) - np.repeat(np.cumsum(per_face) - per_face, per_face)
     )
-    a, b, c = corners[fv[rows, 0]], corners[fv[rows, 1]], corners[fv[rows, 2]]
+    a, b, c = corners(fv[rows, 0]), corners(fv[rows, 1]), corners(fv[rows, 2])
     e1, e2 = b - a, c - a
     area = np.empty_like(e1)  # twice the fan triangles' area vectors, e1 × e2
     area[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
@@ -142,7 +150,7 @@ def _ear_clip_concave_faces(fv, corners, counts, first_tri) -> None:
         ids = np.concatenate(
             [fv[row : row + per_face[j], 0][:1], fv[row : row + per_face[j], 1], fv[row + per_face[j] - 1, 2:]]
         )
-        triangles = _ear_clip(corners[ids], normal[j])
+        triangles = _ear_clip(corners(ids), normal[j])
         if triangles is not None:  # else degenerate or self-intersecting: keep the fan
             fv[row : row + len(triangles)] = ids[np.asarray(triangles)]
 
@@ -329,7 +337,7 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
         s = starts[face_of_tri]
         fv = np.stack([s, s + k, s + k + 1], axis=1)  # face-vertex (corner) ids
         identity = False
-        _ear_clip_concave_faces(fv, p[idx], counts[faces], first_tri)
+        _ear_clip_concave_faces(fv, lambda ids: p[idx[ids]], counts[faces], first_tri)
     left = ctx.get(prim, "orientation", ("token",), UsdGeom.Tokens.rightHanded) == UsdGeom.Tokens.leftHanded
     if left != _winding_flipped(world):
         fv = fv[:, [0, 2, 1]]

@@ -60,6 +60,39 @@ def warn_clipping_lights(ctx: ReadContext, scene: Scene) -> None:
             )
 
 
+# Triangles per block of the facing test: its temporaries (corners, edges, normals: ~200 B a
+# triangle) stay ~100 MiB however big the mesh (10M triangles at once peaked at 2.7 GiB).
+FACING_BLOCK = 500_000
+
+
+def _faces_away(points: np.ndarray, triangles: np.ndarray, eye: np.ndarray) -> bool:
+    """Whether any triangle faces away from the eye (block by block; stops at the first)."""
+    for start in range(0, len(triangles), FACING_BLOCK):
+        p = points[triangles[start : start + FACING_BLOCK]]
+        facing = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 0] - eye)
+        if np.any(facing > 0):
+            return True
+    return False
+
+
+def _closed(triangles: np.ndarray, n_points: int) -> bool:
+    """Whether every edge is used by exactly two triangles. Each edge is one int64 key
+    (lo·n + hi), sorted in place: closed when the sorted keys come in equal pairs, each pair
+    unlike the next (8 bytes an edge, no (E, 2) pair arrays or np.unique's copies)."""
+    keys = np.empty(3 * len(triangles), dtype=np.int64)
+    for k, (i, j) in enumerate(((0, 1), (1, 2), (2, 0))):
+        a, b = triangles[:, i], triangles[:, j]
+        lo = np.minimum(a, b).astype(np.int64)
+        lo *= n_points
+        lo += np.maximum(a, b)
+        keys[k * len(triangles) : (k + 1) * len(triangles)] = lo
+    keys.sort()
+    if len(keys) % 2:
+        return False
+    first, second = keys[0::2], keys[1::2]
+    return bool(np.array_equal(first, second) and np.all(second[:-1] != first[1:]))
+
+
 def warn_single_sided(ctx: ReadContext, stage: Usd.Stage, scene: Scene) -> None:
     """phongscene shades every surface from both sides (Suffern's model, and POV-Ray, which has no
     back-face culling for mesh2, so both backends agree); USD renderers cull the back of a mesh
@@ -72,16 +105,7 @@ def warn_single_sided(ctx: ReadContext, stage: Usd.Stage, scene: Scene) -> None:
         prim = stage.GetPrimAtPath(mesh.source)
         if not prim or not prim.IsA(UsdGeom.Mesh) or UsdGeom.Mesh(prim).GetDoubleSidedAttr().Get(ctx.time):
             continue
-        tri = mesh.triangles.astype(np.int64)
-        p = mesh.points[tri]
-        facing = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 0] - eye)
-        if not np.any(facing > 0):
-            continue  # every triangle faces the camera: no back to see
-        # Closed (every edge used twice): its back faces are hidden behind its front faces. An
-        # edge is one int64 key (a 1-D unique is ~10x faster than np.unique(axis=0) on pairs).
-        edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-        _, uses = np.unique(edges[:, 0] * len(mesh.points) + edges[:, 1], return_counts=True)
-        if not np.all(uses == 2):
+        if _faces_away(mesh.points, mesh.triangles, eye) and not _closed(mesh.triangles, len(mesh.points)):
             seen.append(mesh.source)
     if seen:
         ctx.unsupported[

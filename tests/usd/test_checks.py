@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from usda import read
 
@@ -100,3 +101,15 @@ def test_a_light_that_clips_most_of_the_scene_to_white_is_said_with_the_exposure
     assert f"radiance {radiance:.3g}" in said and f"inputs:exposure {-math.log2(radiance):+.2f}" in said
     dim = read(tmp_path, body.replace("= 50", "= 3")).warnings  # radiance 0.95: nothing to say
     assert not [w for w in dim if "lights a white surface" in w]
+
+
+def test_the_closed_mesh_test_counts_each_edge_twice():
+    from phongscene.usd.scene_checks import _closed
+
+    tetrahedron = np.array([[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]], dtype=np.int32)
+    assert _closed(tetrahedron, 4)
+    assert not _closed(tetrahedron[:3], 4)  # open: three edges used once
+    fin = np.concatenate([tetrahedron, [[0, 1, 4]]])  # edge 0-1 used three times
+    assert not _closed(fin, 5)
+    doubled = np.concatenate([tetrahedron, tetrahedron])  # every edge four times
+    assert not _closed(doubled, 4)
