@@ -414,7 +414,11 @@ def _subdivided(ctx: ReadContext, prim: Usd.Prim, world, material, st, scheme, l
             uv_values, element = uvs
             uv_of_corner = element[:, 0][corner_kept]
     if _has_authored_normals(prim):
-        ctx.unsupported["authored normals of subdivision surfaces (the limit surface's normals are used)"].append(path)
+        # Often a polygon mesh exported without subdivisionScheme = "none": say how to get it back.
+        ctx.unsupported[
+            "authored normals of subdivision surfaces (the limit surface's normals are used; "
+            "phong:subdivisionLevel = 0 or --subdivision-level 0 renders the cage with them)"
+        ].append(path)
     refined = subdivision.refine(
         ctx, prim, scheme, p, counts[keep], idx[corner_kept], cage_holes, level, uv_values, uv_of_corner
     )

@@ -14,7 +14,7 @@ import sys
 import numpy as np
 import pytest
 import trimesh
-from pxr import Sdf, Usd, UsdGeom, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 from scipy.spatial import cKDTree
 
 from phongscene import render
@@ -332,3 +332,14 @@ def test_povray_renders_the_refined_surface_as_the_native_tracer(tmp_path):
     assert native.max() > 0.1  # lit
     result = compare(render(scene, "povray", mapping="exact"), native)
     assert result.ok, result
+
+
+def test_authored_normals_give_way_to_the_limit_surfaces_with_a_warning(tmp_path):
+    normals = Vt.Vec3fArray([Gf.Vec3f(*(np.sign(p) / np.sqrt(3.0))) for p in CUBE_POINTS])
+    result, mesh = refined(tmp_path, CUBE_POINTS, CUBE_FACES, level=1, normals=normals)
+    said = [w for w in result.warnings if "authored normals of subdivision surfaces" in w]
+    assert len(said) == 1 and "/M" in said[0] and "--subdivision-level 0" in said[0]
+    assert len(mesh.normals) == len(mesh.points)  # the limit normals, one per refined vertex
+    result, cage = refined(tmp_path, CUBE_POINTS, CUBE_FACES, level=0, normals=normals)
+    assert not [w for w in result.warnings if "authored normals" in w]
+    assert cage.normals is not None and len(cage.triangles) == 12  # the cage, with its normals
