@@ -1,8 +1,9 @@
 # SPDX-License-Identifier: Apache-2.0
 """Signal sweep by hand (issue 27.2): SENDS runs of validate / render / compile on an example, each
 sent SIGINT, SIGTERM or SIGHUP after a random delay in [0, 1.5) s (fixed seed). A run passes with
-exit 0 (done before the signal) or 130 / 143 / 129, at most one stderr line, no traceback, and no
-output left behind when it did not finish.
+exit 0 (done before the signal) or 130 / 143 / 129, at most one stderr line besides the command's
+own status line ("native: rendered in 0.12 s"), no traceback, and no output left behind when it did
+not finish. Every failing run is printed.
 
     .venv/bin/python benchmarks/signal_sweep.py SENDS [SEED]
 """
@@ -11,6 +12,7 @@ import collections
 import glob
 import os
 import random
+import re
 import signal
 import subprocess
 import sys
@@ -41,7 +43,8 @@ for _i in range(N):
     p.send_signal(sig)
     _, err = p.communicate(timeout=60)
     err = err.decode(errors="replace")
-    ok = p.returncode in (0, EXP[sig]) and "Traceback" not in err and len(err.splitlines()) <= 1
+    said = [line for line in err.splitlines() if not re.match(r"^\w+: rendered in [\d.]+ s$", line)]
+    ok = p.returncode in (0, EXP[sig]) and "Traceback" not in err and len(said) <= 1
     left = glob.glob(OUT + "/*")
     if p.returncode != 0 and left:
         ok = False
@@ -50,5 +53,5 @@ for _i in range(N):
         bad.append((cmd[0], signal.Signals(sig).name, round(delay, 3), p.returncode, err[-300:], left))
 print(N, "sends", dict(tally))
 print(len(bad), "bad")
-for b in bad[:10]:
+for b in bad:
     print(b)

@@ -166,8 +166,8 @@ _SIGNAL_ME_DURING_USD_IMPORT = textwrap.dedent(
 )
 
 
-def _interrupted(script: str, delay: float) -> tuple[subprocess.Popen, str, str]:
-    """Runs ``script`` (one of the _SIGNAL_ME_... programs), sends SIGINT ``delay`` s after it
+def _interrupted(script: str, delay: float, signum: int = signal.SIGINT) -> tuple[subprocess.Popen, str, str]:
+    """Runs ``script`` (one of the _SIGNAL_ME_... programs), sends ``signum`` ``delay`` s after it
     announces its import, and returns the process and its output."""
     read, write = os.pipe()
     proc = subprocess.Popen(
@@ -181,7 +181,7 @@ def _interrupted(script: str, delay: float) -> tuple[subprocess.Popen, str, str]
     assert os.read(read, 1) == b"!"
     os.close(read)
     time.sleep(delay)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(signum)
     out, err = proc.communicate(timeout=WAIT_SECONDS)
     return proc, out, err
 
@@ -198,6 +198,18 @@ def test_ctrl_c_while_usd_imports_exits_130_without_a_traceback(delay):
     assert proc.returncode == EXIT_INTERRUPTED, (proc.returncode, err)
     assert "interrupted" in err and "Traceback" not in err and "Error occurred" not in err
     assert "file:" not in out  # the command did not run on after the Ctrl-C
+
+
+# SIGTERM and SIGHUP there too: their handler's Terminated was swallowed the same way (a signal
+# sweep, benchmarks/signal_sweep.py 300 7: 15 runs exited 0 with USD's "already registered" lines).
+@pytest.mark.subprocess
+@pytest.mark.parametrize("delay", [0.0, 0.02, 0.06])
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
+def test_sigterm_or_sighup_while_usd_imports_exits_with_its_status(delay, signum):
+    proc, out, err = _interrupted(_SIGNAL_ME_DURING_USD_IMPORT, delay, signum)
+    assert proc.returncode == 128 + signum, (proc.returncode, err)
+    assert err.strip() == f"terminated by {signal.Signals(signum).name}", err
+    assert "file:" not in out
 
 
 # As above, but the signal comes when numpy starts to import: the first heavy import, which used to
@@ -224,3 +236,21 @@ def test_preimport_finishes_the_import_then_raises_the_deferred_ctrl_c(tmp_path,
         preimport(["probe_ctrl_c"])
     assert sys.modules["probe_ctrl_c"].FINISHED  # not interrupted half-way
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the handler is back
+
+
+def test_preimport_holds_sigterm_back_too_then_calls_its_handler(tmp_path, monkeypatch):
+    from phongscene.cli.process import Terminated, _on_terminating_signal, preimport
+
+    (tmp_path / "probe_sigterm.py").write_text(
+        "import os, signal\nos.kill(os.getpid(), signal.SIGTERM)\nx = sum(range(1000))\nFINISHED = True\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    hangup = signal.getsignal(signal.SIGHUP)
+    previous = signal.signal(signal.SIGTERM, _on_terminating_signal)
+    try:
+        with pytest.raises(Terminated):
+            preimport(["probe_sigterm"])
+        assert sys.modules["probe_sigterm"].FINISHED  # not interrupted half-way
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        signal.signal(signal.SIGHUP, hangup)  # _on_terminating_signal ignores both once called
