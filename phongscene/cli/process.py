@@ -28,7 +28,18 @@ TERMINATING_SIGNALS = ("SIGTERM", "SIGHUP")
 # Every pxr module the reader imports, not pxr.Usd alone: each one's import swallows a signal the
 # same way (a signal sweep after pxr.Usd alone was held: 4 of 300 runs lost one in pxr.UsdGeom's).
 # ~40 ms more than pxr.Usd alone where the scene is read in the sandbox's child, nothing otherwise.
-USD_MODULES = ("pxr.Usd", "pxr.UsdGeom", "pxr.UsdLux", "pxr.UsdShade", "pxr.UsdSkel", "pxr.UsdRender", "pxr.Sdr")
+# And the native extension, which the reader calls too (OpenSubdiv): a signal raised inside its
+# module set-up (nanobind's enums) aborted the process (SIGABRT, 1 of 300 sends).
+USD_MODULES = (
+    "pxr.Usd",
+    "pxr.UsdGeom",
+    "pxr.UsdLux",
+    "pxr.UsdShade",
+    "pxr.UsdSkel",
+    "pxr.UsdRender",
+    "pxr.Sdr",
+    "phongscene.backends.native",
+)
 PREIMPORTS = {
     "compare": ("OpenImageIO",),
     **dict.fromkeys(("diff", "info", "validate", "import", "compile"), (*USD_MODULES, "OpenImageIO")),
