@@ -368,7 +368,10 @@ def _usd_error_text(error: Exception) -> str:
         return "the file is not valid UTF-8 text (USD's message could not be decoded)"
     messages = [m.group(1) for m in re.finditer(r"Error in '[^']*' at line \d+ in file \S+ : '(.*)'", text)]
     specific = [m for m in messages if not m.startswith("Failed to open layer")]
-    message = (specific or messages or [text.strip()])[-1]
+    message = (specific or messages or [text.strip()])[-1].strip()
+    # USD quotes the offending bytes: a control character among them (a fuzzed '#usda\x1c1.0'
+    # header) would break our one error line in two (str.splitlines splits at \x1c), so escaped.
+    message = "".join(c if c.isprintable() else repr(c)[1:-1] for c in message)
     if len(message) > MAX_USD_MESSAGE_CHARS:  # a corrupt crate lists every invalid spec: the start says it
         message = message[:MAX_USD_MESSAGE_CHARS] + f"... ({len(message) - MAX_USD_MESSAGE_CHARS} more characters)"
     return message

@@ -301,6 +301,18 @@ def test_problems_are_collected_together(tmp_path):
     assert all(p.file.endswith("scene.usda") for p in info.value.problems)
 
 
+def test_a_control_character_in_usds_message_stays_on_one_line(tmp_path):
+    """USD quotes the bytes it cannot parse; \x1c (a line boundary to str.splitlines) in a fuzzed
+    header split the one error line in two (benchmarks/fuzz_campaign.py, file m274)."""
+    bad = tmp_path / "bad.usda"
+    bad.write_bytes(b"#usda\x1c1.0\ndef Sphere {}\n")
+    with pytest.raises(SceneError) as caught:
+        read_usd(bad)
+    (problem,) = caught.value.problems
+    assert "cannot read USD" in problem.message and "\\x1c" in problem.message
+    assert len(str(problem).splitlines()) == 1
+
+
 def test_unreadable_and_missing_files(tmp_path):
     bad = tmp_path / "bad.usda"
     bad.write_text("#usda 1.0\ndef Sphere {{{ nonsense")
