@@ -5,7 +5,10 @@ through every command (validate, render, info, compile), two child processes at 
 run must end in exit 0/2/3 with at most a few ``error:`` / ``warning:`` lines, within the time
 limit, and leave no output behind on failure (the checks of tests/cli/test_fuzz_files.py).
 
-    .venv/bin/python benchmarks/fuzz_campaign.py --files 5000 [--seed 1] [--minutes 60]
+    .venv/bin/python benchmarks/fuzz_campaign.py --files 5000 [--seed 1] [--minutes 60] [--first K]
+
+Each file is drawn from (seed, index) alone, so a campaign can run in parts: ``--first 2000
+--files 3000`` is files 2000-4999 of the same seed.
 
 Prints the exit codes per command, and every failure (file kept in --keep) as it happens."""
 
@@ -56,6 +59,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--files", type=int, default=5000)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--first", type=int, default=0, help="index of the first file (to run a campaign in parts)")
     parser.add_argument("--minutes", type=float, default=float("inf"), help="stop after this long")
     parser.add_argument("--keep", type=Path, default=Path("out/fuzz_failures"), help="failing files go here")
     args = parser.parse_args()
@@ -91,7 +95,7 @@ def main() -> int:
             return path, results
 
         with ThreadPoolExecutor(max_workers=2) as pool:
-            pending = [pool.submit(one, i) for i in range(args.files)]
+            pending = [pool.submit(one, i) for i in range(args.first, args.first + args.files)]
             for future in pending:
                 if time.monotonic() - start > args.minutes * 60:
                     for p in pending:
@@ -108,9 +112,14 @@ def main() -> int:
                         shutil.copy(path, args.keep / path.name)
                         print(f"FAIL {name} {path.name}: {problem}", flush=True)
                 path.unlink(missing_ok=True)
+                if runs % (250 * len(COMMANDS)) == 0:
+                    print(
+                        f"  {runs // len(COMMANDS)} files, {failures} failures, {time.monotonic() - start:.0f} s",
+                        flush=True,
+                    )
         files = runs // len(COMMANDS)
         print(
-            f"{files} files x {len(COMMANDS)} commands = {runs} runs in {time.monotonic() - start:.0f} s, "
+            f"files {args.first}-{args.first + files - 1} (seed {args.seed}): {files} files x {len(COMMANDS)} commands = {runs} runs in {time.monotonic() - start:.0f} s, "
             f"{failures} failures, slowest run {slowest:.1f} s (limit {60} s)"
         )
         for name, counter in codes.items():
