@@ -15,6 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from backends.povray.compile import UvFrame, uv_frame  # the uvs POV-Ray numerics reproduce
 from phongscene.scene import (
     Camera,
     DirectionalLight,
@@ -89,11 +90,16 @@ _WRAPS = {
 }
 
 
-def texture_arrays(scene: Scene, *, half_texels: bool = False) -> dict | None:
+def texture_arrays(scene: Scene, *, half_texels: bool = False, frame: UvFrame | None = None) -> dict | None:
     """The arguments of ``_native.Scene.set_textures``, or None without textures: the textures
     in the order ``_materials`` numbers them (materials in first-use order, spheres then
-    meshes), and each triangle's corner uvs (zeros for meshes without uvs). ``half_texels``:
-    texels rounded to half floats, as POV-Ray holds an EXR image map (ref §16)."""
+    meshes), and each triangle's corner uvs (zeros for meshes without uvs).
+
+    In POV-Ray numerics, as POV-Ray holds them: ``half_texels``, texels rounded to half floats
+    (an EXR image map, ref §16); ``frame``, the corner uvs as the SDL writes them, mapped into
+    the compiler's UvFrame, with the frame's origin and span to map a hit's uv back (POV-Ray
+    weighs the SDL's uvs, and a few ulps decide the texel at an edge: src/povray_triangle.hpp
+    ``povray_mesh_uv``)."""
     models: dict[PhongMaterial, None] = {}
     for obj in scene.objects:
         models.setdefault(obj.material, None)
@@ -103,9 +109,14 @@ def texture_arrays(scene: Scene, *, half_texels: bool = False) -> dict | None:
             textures.setdefault(id(t), t)
     if not textures:
         return None
-    corner_uv = [m.uvs[m.uv_indices] if m.uvs is not None else np.zeros((len(m.triangles), 3, 2)) for m in scene.meshes]
+    corner_uv = [
+        (m.uvs if frame is None else frame.apply(m.uvs))[m.uv_indices]
+        if m.uvs is not None
+        else np.zeros((len(m.triangles), 3, 2))
+        for m in scene.meshes
+    ]
     images = [t.image.astype(np.float16).astype(np.float32) if half_texels else t.image for t in textures.values()]
-    return {
+    out = {
         "images": [np.ascontiguousarray(i, dtype=np.float32) for i in images],
         "wrap_s": [_WRAPS[t.wrap_s] for t in textures.values()],
         "wrap_t": [_WRAPS[t.wrap_t] for t in textures.values()],
@@ -113,6 +124,9 @@ def texture_arrays(scene: Scene, *, half_texels: bool = False) -> dict | None:
             np.concatenate(corner_uv) if corner_uv else np.zeros((0, 3, 2)), dtype=np.float64
         ),
     }
+    if frame is not None:
+        out["uv_origin"], out["uv_span"] = frame.origin, frame.span
+    return out
 
 
 def _light(light: Light):
@@ -337,9 +351,11 @@ def light_link_arrays(scene: Scene) -> dict | None:
     }
 
 
-def _finish(native: _native.Scene, scene: Scene, *, half_texels: bool = False) -> _native.Scene:
+def _finish(native: _native.Scene, scene: Scene, *, povray_numerics: bool = False) -> _native.Scene:
     """Textures and light links onto a built C++ scene."""
-    textures = texture_arrays(scene, half_texels=half_texels)
+    textures = (
+        texture_arrays(scene, half_texels=True, frame=uv_frame(scene)) if povray_numerics else texture_arrays(scene)
+    )
     if textures is not None:
         native.set_textures(**textures)
     links = light_link_arrays(scene)
@@ -381,6 +397,8 @@ def add_instances(native: _native.Scene, scene: Scene, numerics: str) -> None:
         if numerics != "scale-invariant":
             arrays = _as_povray_stores(arrays, part)
         built = _native.Scene(**arrays)
+        # An instance's uvs stay the model's: its hits interpolate barycentrically (povray_mesh_uv
+        # takes a world mesh's POV-Ray triangle).
         textures = texture_arrays(part, half_texels=numerics != "scale-invariant")
         if textures is not None:
             built.set_textures(**textures)
@@ -456,7 +474,7 @@ def prepare(
     arrays = scene_arrays(scene)
     if s.numerics != "scale-invariant":
         arrays = _as_povray_stores(arrays, scene)
-    native = _finish(_native.Scene(**arrays), scene, half_texels=s.numerics != "scale-invariant")
+    native = _finish(_native.Scene(**arrays), scene, povray_numerics=s.numerics != "scale-invariant")
     add_instances(native, scene, s.numerics)
     return PreparedRender(native, _camera(scene.camera), _settings(s), progress)
 

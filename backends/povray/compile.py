@@ -146,11 +146,21 @@ class UvFrame:
     def identity(self) -> bool:
         return (self.lo_u, self.n_u, self.lo_v, self.n_v) == (0, self.g_u, 0, self.g_v)
 
+    @property
+    def origin(self) -> tuple[float, float]:
+        """The model's (u, v) at the SDL's (0, 0)."""
+        return (self.lo_u / self.g_u, self.lo_v / self.g_v)
+
+    @property
+    def span(self) -> tuple[float, float]:
+        """The model's uv extent of the SDL's [0, 1]²."""
+        return (self.n_u / self.g_u, self.n_v / self.g_v)
+
     def apply(self, uvs: np.ndarray) -> np.ndarray:
+        """The SDL's uvs of the model's ``uvs``."""
         if self.identity:
             return uvs
-        lo = np.array([self.lo_u / self.g_u, self.lo_v / self.g_v])
-        return (uvs - lo) / np.array([self.n_u / self.g_u, self.n_v / self.g_v])
+        return (uvs - np.array(self.origin)) / np.array(self.span)
 
     def tile(self, texture: Texture) -> np.ndarray:
         """The texture's image extended over the frame's box by its own wrap rules (the image

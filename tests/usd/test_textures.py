@@ -358,6 +358,71 @@ def test_povray_once_is_clamp_inside_the_unit_square_and_clear_outside(tmp_path)
     assert np.all(image[outside] == (0.0, 0.0, 100.0))  # transparent: the background shows
 
 
+# A tilted quad with off-grid corners: POV-Ray's hit lies on its float32-rounded plane, and
+# Mesh::UVCoord weighs the corners' uvs by distances to the sides in 3D (not barycentrics), so
+# POV-Ray's uv is off the model's by ~1e-7 of the uvs' magnitude: where a texel edge is that
+# close, POV-Ray reads the other texel (issue 27: 1-19 failing pixels on public textured files).
+EDGE_QUAD_ORIGIN = np.array([0.1234567, -0.0765432, 0.3141593])
+EDGE_QUAD_A = np.array([0.9876543, 0.1111111, 0.4321987])
+EDGE_QUAD_B = np.array([-0.0987654, 0.9234567, -0.2718282])
+EDGE_QUAD_PIXELS = 60
+
+
+def _edge_quad(wrap, lo, span):
+    """The quad with uvs lo .. lo + span across it, a minified random two-valued texture (every
+    pixel sees a sharp texel edge nearby), ambient-only (each pixel is the texel lookup)."""
+    from phongscene.scene import AmbientLight, Camera, Scene, Texture, TriangleMesh
+
+    rng = np.random.default_rng(3)
+    texture = Texture(rng.choice([0.05, 1.0], (64, 64, 3)).astype(np.float32), wrap, wrap, source="/Edge/Texture")
+    o, a, b = EDGE_QUAD_ORIGIN, EDGE_QUAD_A, EDGE_QUAD_B
+    material = dataclasses.replace(calibration.GROUND, diffuse_texture=texture, ka=1.0, kd=0.0, ks=0.0)
+    quad = TriangleMesh(
+        [tuple(c) for c in (o, o + a, o + a + b, o + b)],
+        [(0, 1, 2), (0, 2, 3)],
+        material=material,
+        uvs=[(lo + span * s, lo + span * t) for s, t in ((0, 0), (1, 0), (1, 1), (0, 1))],
+        uv_indices=[(0, 1, 2), (0, 2, 3)],
+    )
+    n = EDGE_QUAD_PIXELS
+    settings = dataclasses.replace(calibration.point_light().settings, width=n, height=n)
+    camera = Camera(position=(0.55, 0.45, 3.0), projection="orthographic", ortho_width=1.2)
+    return check(Scene(camera=camera, ambient=AmbientLight((1.0, 1.0, 1.0)), meshes=(quad,), settings=settings))
+
+
+def _edge_quad_model_uv(lo, span):
+    """The model's (exact) uv at each pixel centre, and the pixels well inside the quad."""
+    n = EDGE_QUAD_PIXELS
+    c = (np.arange(n) + 0.5) / n
+    x, y = np.meshgrid(0.55 - 0.6 + 1.2 * c, 0.45 + 0.6 - 1.2 * c)
+    frame = np.array([[EDGE_QUAD_A[0], EDGE_QUAD_B[0]], [EDGE_QUAD_A[1], EDGE_QUAD_B[1]]])
+    st = np.linalg.solve(frame, np.stack([x.ravel() - EDGE_QUAD_ORIGIN[0], y.ravel() - EDGE_QUAD_ORIGIN[1]]))
+    inside = ((st > 0.02) & (st < 0.98)).all(axis=0).reshape(n, n)
+    return lo + span * st[0], lo + span * st[1], inside
+
+
+@pytest.mark.povray
+def test_povray_numerics_take_the_mesh_uv_as_povray_computes_it():
+    from phongscene.backends import povray
+
+    # uvs near 1000 (repeat) and spanning 1000 texture widths: POV-Ray's uv error is ~1e-4 there;
+    # uvs in [0, 0.7495] with clamp: the uvs the SDL holds are mapped into the UvFrame.
+    cases = [("repeat", 1000.0, 0.75), ("repeat", 0.0, 1000.75), ("clamp", 0.0, 0.7495)]
+    scenes = [_edge_quad(*case) for case in cases]
+    images = povray.render_many([(s, None, None) for s in scenes])
+    for (wrap, lo, span), scene, pov in zip(cases, scenes, images):
+        ours = native.render(scene, dataclasses.replace(scene.settings, numerics="povray"))
+        u, v, inside = _edge_quad_model_uv(lo, span)
+        rel = np.abs(ours - pov) / np.maximum(pov, SRGB_ABS)
+        assert np.all(rel[inside] <= POV_OUTPUT_REL), (wrap, lo, span, np.count_nonzero(rel[inside] > POV_OUTPUT_REL))
+        if lo + span > 2.0:  # ... where the model's own uv reads other texels at hundreds of pixels
+            texture = scene.meshes[0].material.diffuse_texture
+            half = dataclasses.replace(texture, image=texture.image.astype(np.float16).astype(np.float32))
+            model = oracle.sample_texture(half, np.mod(u, 1.0), np.mod(v, 1.0)).reshape(pov.shape)
+            off = (np.abs(model - pov) > POV_OUTPUT_REL * pov)[inside].any(axis=-1)
+            assert np.count_nonzero(off) > 100, (wrap, lo, span)
+
+
 # -- a textured Blender export ----------------------------------------------------------------------
 
 # Blender 5.0.1's USD export of benchmarks/blender/build_scenes.py's "textured_glossy" (its colour

@@ -92,3 +92,14 @@ def test_roughness_usdz_preview_surfaces():
     assert any(
         "the texture's mean is used" in w and "Tex033/Principled_BSDF.inputs:roughness" in w for w in result.warnings
     )
+
+
+@pytest.mark.povray
+@pytest.mark.parametrize("width", [160, 640])
+def test_diff_passes_on_roughness_usdz_texture_edges(width):
+    # Its textured spheres failed diff at 1 (160 px) and 7 (640 px) texel-edge pixels while the
+    # native tracer took the model's uv in POV-Ray numerics (issue 27.4; povray_mesh_uv).
+    import phongscene
+
+    result = phongscene.diff(SHARED_ASSETS / "roughness" / "RoughnessTest.usdz", None, width=width)
+    assert result.ok, result.report

@@ -148,7 +148,8 @@ void check_textures(const phong::Scene& scene) {
 
 // Copies the textures and the per-corner uvs into the scene, checking what C++ indexes with.
 void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, const std::vector<phong::Wrap>& wrap_s,
-                  const std::vector<phong::Wrap>& wrap_t, const CornerUv& corner_uv) {
+                  const std::vector<phong::Wrap>& wrap_t, const CornerUv& corner_uv, std::array<double, 2> uv_origin,
+                  std::array<double, 2> uv_span) {
     if (wrap_s.size() != images.size() || wrap_t.size() != images.size())
         throw std::invalid_argument("one wrap_s and wrap_t per texture");
     bool textured = false;
@@ -171,6 +172,12 @@ void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, 
     }
     scene.textures = std::move(textures);
     scene.corner_uv.assign(corner_uv.data(), corner_uv.data() + corner_uv.size());
+    for (int k = 0; k < 2; ++k) {
+        if (!std::isfinite(uv_origin[k]) || !std::isfinite(uv_span[k]) || uv_span[k] == 0.0)
+            throw std::invalid_argument("uv_origin and uv_span must be finite, uv_span non-zero");
+        scene.uv_origin[k] = uv_origin[k];
+        scene.uv_span[k] = uv_span[k];
+    }
 }
 
 using Flags = In<uint8_t, nb::shape<-1>>;
@@ -570,9 +577,10 @@ NB_MODULE(_native, m) {
             "(N,), one array each per set, read in place, with one ball_material and ball_object (light linking's "
             "object number) per set.")
         .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
+             "uv_origin"_a = std::array<double, 2>{0.0, 0.0}, "uv_span"_a = std::array<double, 2>{1.0, 1.0},
              "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and "
              "specular_texture, and the (u, v) "
-             "of each triangle corner, (T, 3, 2) in input order.")
+             "of each triangle corner, (T, 3, 2) in input order; a lookup takes uv_origin + uv_span * (u, v).")
         .def("set_light_links", &set_light_links, "shadows"_a, "lit"_a, "casts"_a,
              "Per light (one entry each): whether it casts shadow rays, and the objects (spheres 0..S-1, then meshes "
              "S + m) it illuminates and that cast its shadows, as uint8 arrays of one flag per object (empty: all).")

@@ -194,8 +194,16 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         if (material->diffuse_texture >= 0 || material->specular_texture >= 0) {
             // cd and cs from the textures at the hit's (u, v), interpolated like the normals.
             const double* uv = surface.corner_uv.data() + 6 * size_t(surface.triangle_source[size_t(hit.ref)]);
-            const double u = uv[0] * hit.bary.b0 + uv[2] * hit.bary.b1 + uv[4] * hit.bary.b2;
-            const double v = uv[1] * hit.bary.b0 + uv[3] * hit.bary.b1 + uv[5] * hit.bary.b2;
+            double u, v;
+            if (!surface.povray_triangles.empty() && hit.instance < 0) {
+                // POV-Ray's own weights on the SDL's uvs, mapped back (povray_mesh_uv).
+                povray_mesh_uv(surface.povray_triangles[size_t(hit.ref)], p, uv, u, v);
+                u = surface.uv_origin[0] + surface.uv_span[0] * u;
+                v = surface.uv_origin[1] + surface.uv_span[1] * v;
+            } else {
+                u = uv[0] * hit.bary.b0 + uv[2] * hit.bary.b1 + uv[4] * hit.bary.b2;
+                v = uv[1] * hit.bary.b0 + uv[3] * hit.bary.b1 + uv[5] * hit.bary.b2;
+            }
             textured = *material;
             if (material->diffuse_texture >= 0)
                 textured.diffuse_color = surface.textures[size_t(material->diffuse_texture)].lookup(u, v);

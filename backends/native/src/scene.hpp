@@ -222,6 +222,11 @@ class Scene {
     // triangle row (triangle_source): 6 numbers per triangle; empty without textures.
     std::vector<Texture> textures;
     std::vector<double> corner_uv;
+    // In POV-Ray numerics corner_uv holds the uvs as the SDL does (mapped into the compiler's
+    // UvFrame, backends/povray/compile.py); a lookup takes u = uv_origin + uv_span·u' (the
+    // identity otherwise).
+    double uv_origin[2] = {0.0, 0.0};
+    double uv_span[2] = {1.0, 1.0};
     // Instanced geometry (instances.hpp): null without instances. The geometry above is the
     // world's own; each instance's lies in its prototype's Scene.
     std::unique_ptr<InstanceLayer> instances;
