@@ -61,6 +61,7 @@ def preflight(path: str) -> list[Sdf.Layer]:
             continue
         seen.add(layer.identifier)
         opened.append(layer)
+        _check_time_rates(layer)
         for dependency, spec, arc in _dependencies(layer):
             anchored = Sdf.ComputeAssetPathRelativeToLayer(layer, dependency)
             resolved = str(resolver.Resolve(anchored)) or anchored
@@ -76,6 +77,28 @@ def preflight(path: str) -> list[Sdf.Layer]:
                 )
             pending.append(resolved)
     return opened
+
+
+def _check_time_rates(layer: Sdf.Layer) -> None:
+    """A layer's ``timeCodesPerSecond`` and ``framesPerSecond`` are positive and finite: USD scales
+    a sublayer's or reference's time samples by the ratio of the rates, and at a rate of 0 its
+    time-sample queries never return (usd-core 26.11: ``GetNumTimeSamples`` spins at full CPU on
+    usd-wg's ``timeCodesPerSecond_0.usda``). Raises SceneError naming the layer and the field."""
+    for field, authored in (
+        ("timeCodesPerSecond", layer.HasTimeCodesPerSecond),
+        ("framesPerSecond", layer.HasFramesPerSecond),
+    ):
+        if not authored():
+            continue
+        value = getattr(layer, field)
+        if not (0.0 < value < float("inf")):
+            raise SceneError(
+                Problem(
+                    f"must be a positive, finite number of time codes (frames) per second, not {value!r}",
+                    attribute=field,
+                    file=layer.realPath or layer.identifier,
+                )
+            )
 
 
 def _announce_file(path: str, announced: set[str]) -> None:

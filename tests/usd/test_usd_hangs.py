@@ -84,3 +84,36 @@ def test_deep_nesting_reads_in_linear_time(tmp_path):
     result = _cli("validate", "-q", str(path), timeout=NESTING_TIMEOUT_S)
     assert result.returncode == 0, result.stderr[-500:]
     assert result.stdout.strip() == f"ok: {path}"
+
+
+# A layer that runs at 0 (or a negative number of) time codes per second: usd-core's time-sample
+# queries on an attribute animated in a sublayer never returned (usd-wg's
+# timeCodesPerSecond_0.usda: `info` ran > 60 s at full CPU). Refused before USD composes, so the
+# command is start-up plus parsing two tiny layers.
+TIME_RATE_TIMEOUT_S = 30
+ANIMATED_SUBLAYER = '#usda 1.0\ndef Cube "Box" {\n    double3 xformOp:translate.timeSamples = { 0: (0, 0, 0), 100: (10, 0, 0) }\n    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n'
+
+
+@pytest.mark.subprocess
+@pytest.mark.parametrize(
+    ("field", "value", "suffix"),
+    # USD's text parser refuses framesPerSecond <= 0 itself; a crate file carries it.
+    [("timeCodesPerSecond", 0.0, ".usda"), ("timeCodesPerSecond", -1.0, ".usda"), ("framesPerSecond", 0.0, ".usdc")],
+)
+@pytest.mark.parametrize("command", ["info", "render"])
+def test_a_layer_at_no_time_codes_per_second_is_an_error_not_a_hang(tmp_path, field, value, suffix, command):
+    from pxr import Sdf
+
+    (tmp_path / "anim.usda").write_text(ANIMATED_SUBLAYER)
+    scene = tmp_path / f"scene{suffix}"
+    layer = Sdf.Layer.CreateNew(str(scene))
+    layer.startTimeCode, layer.endTimeCode = 0.0, 100.0
+    layer.subLayerPaths.append("./anim.usda")
+    setattr(layer, field, value)
+    layer.Save()
+    args = ["-o", str(tmp_path / "out.exr"), "--width", "8"] if command == "render" else []
+    result = _cli(command, str(scene), *args, timeout=TIME_RATE_TIMEOUT_S)
+    assert result.returncode == 2, result.stderr
+    (line,) = [l for l in result.stderr.splitlines() if l.startswith("error: ")]
+    assert line.startswith(f"error: {scene}: {field}: must be a positive, finite number"), line
+    assert not (tmp_path / "out.exr").exists()
