@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
-"""The ``phongscene`` process (the console script and ``python -m phongscene``): the CLI's
+"""The ``phongscene`` process (the ``phongscene`` command, cli/launcher.c, and ``python -m
+phongscene``): the CLI's
 ``main`` with two start-up and exit costs that a command-line run does not need (issue 15,
 measured by benchmarks/startup.py):
 
@@ -30,6 +31,9 @@ def main() -> None:
     # its documented status and one line (issue 27.2), not a traceback from inside an import.
     for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(signum, _exit_at_once)
+    # The `phongscene` command (cli/launcher.c) starts the interpreter with these signals held
+    # back, so that one sent during its start-up waits for the handlers above: let them in.
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, (signal.SIGINT, signal.SIGTERM, signal.SIGHUP))
     if not any(name in os.environ for name in BLAS_THREAD_VARIABLES):
         os.environ["OPENBLAS_NUM_THREADS"] = "1"  # before numpy is imported (the CLI imports it later)
     from .cli import main as cli_main
@@ -37,7 +41,13 @@ def main() -> None:
     # SIGINT is KeyboardInterrupt again (cli.main turns it into "interrupted", 130, after its
     # cleanup); cli.main replaces SIGTERM / SIGHUP's handlers with its own as it starts.
     signal.signal(signal.SIGINT, signal.default_int_handler)
-    _exit_without_teardown(cli_main())
+    code = cli_main()
+    # The command is done and its status decided: a signal from now on is ignored rather than
+    # kill the process by its default action while the interpreter shuts down (Python restores
+    # SIG_DFL for its handlers as it finalizes; blocking would hold it in this thread only).
+    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, signal.SIG_IGN)
+    _exit_without_teardown(code)
 
 
 def _exit_at_once(signum, frame) -> None:
