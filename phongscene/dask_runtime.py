@@ -14,6 +14,7 @@ render never starts it. A worker keeps the USD stage it opened last between task
 from __future__ import annotations
 
 import os
+import shutil
 import time as _time
 from collections.abc import Callable
 from contextlib import contextmanager
@@ -62,29 +63,91 @@ def scheduler_address(scheduler: str | None = None) -> str | None:
 def dask_client(scheduler: str | None, local_workers: Callable[[], int]):
     """A Dask client, with the workers warmed (``warm_plugin``), and the name
     of its cluster: the scheduler at ``scheduler`` (or ``DASK_SCHEDULER_ADDRESS``), else a
-    LocalCluster of ``local_workers()`` processes, closed on exit. Frames and bench share it."""
+    LocalCluster of ``local_workers()`` processes, closed on exit. Frames and bench share it.
+
+    A LocalCluster's files (Dask's scratch space, each worker's folder) go in a temporary folder
+    of ours, removed once the cluster is closed: Dask's own default, ``$TMPDIR/dask-scratch-space``,
+    outlives the run, and a worker ended early leaves its folder in it."""
+    import tempfile
+
+    import dask
     from distributed import Client
 
     address = scheduler_address(scheduler)
-    cluster = local_cluster(local_workers()) if address is None else None
+    scratch = tempfile.mkdtemp(prefix="phongscene-dask-") if address is None else None
+    cluster = None
     try:
-        try:
-            client = Client(cluster if cluster is not None else address)
-        except OSError as e:  # a scheduler that is not there (Dask waits distributed.comm.timeouts.connect)
-            raise BackendError(f"cannot reach the Dask scheduler {address}: {e}") from None
-        with client:
-            # Each worker imports what the tasks need now (and any that joins later, when it joins).
-            client.register_plugin(warm_plugin())
-            yield client, "LocalCluster" if cluster is not None else address
-    except KeyboardInterrupt:
-        # Ctrl-C: the scheduler (in this process, for a LocalCluster) and the client log each
-        # message they could not deliver, with a traceback, while the cluster closes; the CLI
-        # says one line instead.
+        with dask.config.set({"temporary-directory": scratch} if scratch else {}):
+            if address is None:
+                # Assigned before a held signal is acted on, so that the cluster is closed below.
+                with _terminal_signals_held():
+                    cluster = local_cluster(local_workers(), scratch)
+            try:
+                client = Client(cluster if cluster is not None else address)
+            except OSError as e:  # a scheduler that is not there (Dask waits distributed.comm.timeouts.connect)
+                raise BackendError(f"cannot reach the Dask scheduler {address}: {e}") from None
+            with client:
+                # Each worker imports what the tasks need now (and any that joins later, when it joins).
+                client.register_plugin(warm_plugin())
+                yield client, "LocalCluster" if cluster is not None else address
+    except BaseException:
+        # Ctrl-C, SIGTERM, SIGHUP (cli.process.Terminated) or an error: the scheduler (in this
+        # process, for a LocalCluster) and the client log each message they could not deliver,
+        # with a traceback, while the cluster closes; the CLI says one line instead.
         _silence_dask_logs()
         raise
     finally:
-        if cluster is not None:
-            cluster.close()
+        # Whole: a signal during the cleanup is acted on after it (the workers gone, the folder
+        # removed), not in the middle of it.
+        with _terminal_signals_held():
+            if cluster is not None:
+                _close_local_cluster(cluster)
+            if scratch is not None:
+                shutil.rmtree(scratch, ignore_errors=True)
+
+
+# How long the workers of a closed LocalCluster may take to exit before they are killed.
+WORKER_EXIT_SECONDS = 5.0
+
+
+def _close_local_cluster(cluster) -> None:
+    """Close ``cluster`` and make sure its worker processes are gone: a worker that did not exit
+    when its nanny asked (one busy in a frame, or whose nanny was interrupted) is killed, so
+    that nothing of the run outlives it."""
+    processes = []
+    for nanny in getattr(cluster, "workers", {}).values():
+        process = getattr(getattr(nanny, "process", None), "process", None)
+        if process is not None and process.pid is not None:
+            processes.append(process.pid)
+    try:
+        cluster.close(timeout=WORKER_EXIT_SECONDS)
+    except Exception:
+        pass
+    deadline = _time.monotonic() + WORKER_EXIT_SECONDS
+    for pid in processes:
+        while _alive(pid) and _time.monotonic() < deadline:
+            _time.sleep(0.05)
+        if _alive(pid):
+            try:
+                os.kill(pid, 9)  # SIGKILL: it holds the terminating signals back (local_cluster)
+                os.waitpid(pid, 0)
+            except (ProcessLookupError, ChildProcessError):
+                pass
+
+
+def _alive(pid: int) -> bool:
+    """``pid`` exists and is not a zombie (reaps it if it is our exited child)."""
+    try:
+        done, _ = os.waitpid(pid, os.WNOHANG)
+        if done:
+            return False
+    except ChildProcessError:
+        pass  # not our child (or reaped already): ask the kernel
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
 
 
 def _silence_dask_logs() -> None:
@@ -152,36 +215,74 @@ def run_frames(
     return run
 
 
-def local_cluster(workers: int):
-    """A Dask ``LocalCluster`` of ``workers`` processes on this machine, one task at a time each.
+def local_cluster(workers: int, directory: str | None = None):
+    """A Dask ``LocalCluster`` of ``workers`` processes on this machine, one task at a time each,
+    its files in ``directory``.
 
     Processes, not threads: the USD reader and the task's Python hold the GIL; each task's
     renderer uses the threads its options give. The scheduler's HTTP server (its /metrics and
     /health routes; no dashboard without bokeh) takes a free port: Dask's default, 8787, is
     taken by any other cluster on the machine, and falling back from it is a warning."""
     import logging
-    import signal
-    import threading
 
     from distributed import LocalCluster
 
-    # Ctrl-C goes to the terminal's whole process group: each worker would print its own
-    # KeyboardInterrupt traceback (~40 lines). The workers start with SIGINT ignored (an ignored
-    # signal stays ignored across exec, and Python installs no KeyboardInterrupt handler then),
-    # so only this process hears it: it stops, closes the cluster, and says one line.
-    quiet = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if quiet else None
+    return LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        silence_logs=logging.CRITICAL,
+        local_directory=directory,
+    )
+
+
+@contextmanager
+def _terminal_signals_held():
+    """SIGINT, SIGTERM and SIGHUP held back while a LocalCluster starts (or closes), then acted
+    on: the first that came meanwhile is raised as the block ends (KeyboardInterrupt, or the
+    handler that was in place: the CLI's closes the cluster, says one line, exits 128 + N).
+
+    A terminal's Ctrl-C or hang-up, and a SIGTERM to the process group, reach every process of
+    the group: each worker would die mid-message or print its own KeyboardInterrupt traceback
+    (~40 lines), and a resource tracker killed by SIGHUP is restarted without its records
+    (KeyError tracebacks). So the signals are also blocked in this thread: Dask's event-loop
+    thread, the resource tracker and the workers, created inside the block, keep that mask,
+    and only this process hears those signals. Blocking one thread is not enough for this
+    process itself (a signal goes to any thread that does not block it: USD's and OpenImageIO's
+    pools), hence the recording handlers. Outside the main thread (which alone runs Python's
+    handlers) a no-op."""
+    import multiprocessing.resource_tracker
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+    caught: list[int] = []
+    previous = {signum: signal.signal(signum, lambda signum, frame: caught.append(signum)) for signum in held}
+    signal.pthread_sigmask(signal.SIG_BLOCK, held)
     try:
-        return LocalCluster(
-            n_workers=workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            silence_logs=logging.CRITICAL,
-        )
+        # The resource tracker that multiprocessing's spawn gives the workers, started now with
+        # SIGHUP blocked (it ignores SIGINT and SIGTERM itself); starting it unblocks SIGINT and
+        # SIGTERM in this thread (multiprocessing.resource_tracker.ensure_running), so block
+        # them again before Dask creates its threads and workers.
+        multiprocessing.resource_tracker.ensure_running()
+        signal.pthread_sigmask(signal.SIG_BLOCK, held)
+        yield
     finally:
-        if quiet:
-            signal.signal(signal.SIGINT, previous)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, held)  # one pending here is recorded now
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+    if caught:
+        first = caught[0]
+        if first == signal.SIGINT:
+            raise KeyboardInterrupt
+        if callable(previous[first]):
+            previous[first](first, None)  # raises Terminated under the CLI
+        else:
+            signal.raise_signal(first)  # its default action (or ignored), as if it came now
 
 
 def run_serially(

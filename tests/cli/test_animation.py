@@ -727,3 +727,58 @@ def test_frames_carry_the_estimator_options(tmp_path):
     framed, timed = read_image(tmp_path / "f.0024.exr"), read_image(tmp_path / "t.exr")
     np.testing.assert_array_equal(framed, timed)
     assert not np.array_equal(framed, read_image(tmp_path / "plain.exr"))  # the options did something
+
+
+# A run's processes are found by a marker in their environment (POV-Ray, Dask's workers and the
+# resource tracker inherit it); one still alive this long after the command ended is an orphan.
+ORPHAN_GRACE_S = 5.0
+# How long a frames run may take to start its cluster and write a first frame here (loaded
+# 2-core machine), and to end after the signal.
+FRAMES_WAIT_S = 120
+
+
+def _marked(marker: str) -> list[int]:
+    found = []
+    for environ in Path("/proc").glob("[0-9]*/environ"):
+        try:
+            if marker.encode() in environ.read_bytes():
+                found.append(int(environ.parent.name))
+        except OSError:
+            continue
+    return found
+
+
+@pytest.mark.dask
+@pytest.mark.subprocess
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+def test_a_signal_to_the_group_during_frames_leaves_nothing_behind(tmp_path, signum):
+    # As a terminal's Ctrl-C or hang-up does: every process of the group gets it, the workers too.
+    tmp, out = tmp_path / "tmp", tmp_path / "out"
+    tmp.mkdir()
+    out.mkdir()
+    marker = f"phongscene-test-{os.getpid()}-{signum}"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "phongscene", "render", str(ANIMATED), "-o", str(out / "f.####.png")]
+        + ["--frames", "1:24", "--workers", "2", "--threads", "1", "--width", "64"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=dict(os.environ, TMPDIR=str(tmp), PHONGSCENE_TEST_RUN=marker),
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + FRAMES_WAIT_S
+    while not list(out.glob("f.*.png")) and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert proc.poll() is None, proc.communicate()[1]  # mid-run: frames written, the rest to come
+    os.killpg(proc.pid, signum)
+    _, err = proc.communicate(timeout=FRAMES_WAIT_S)
+    line = "interrupted" if signum == signal.SIGINT else f"terminated by {signal.Signals(signum).name}"
+    said = [l for l in err.splitlines() if not l.startswith("frames:")]  # the progress line
+    assert (proc.returncode, said) == (128 + signum, [line]), err
+    deadline = time.monotonic() + ORPHAN_GRACE_S
+    while _marked(marker) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert _marked(marker) == []  # no worker, nanny or resource tracker outlives the command
+    assert list(tmp.iterdir()) == []  # Dask's scratch space went with the cluster
+    for frame in out.iterdir():  # the frames done are whole (written atomically), nothing else
+        assert frame.name.startswith("f.") and read_image(frame).shape == (48, 64, 3), frame.name
