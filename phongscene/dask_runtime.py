@@ -21,6 +21,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from .errors import BackendError, PhongSceneError
+from .held_signals import held_signals
 
 # Dask retries a task that raised this many times before the frame is reported as failed.
 TASK_RETRIES = 1
@@ -239,50 +240,26 @@ def local_cluster(workers: int, directory: str | None = None):
 
 @contextmanager
 def _terminal_signals_held():
-    """SIGINT, SIGTERM and SIGHUP held back while a LocalCluster starts (or closes), then acted
-    on: the first that came meanwhile is raised as the block ends (KeyboardInterrupt, or the
-    handler that was in place: the CLI's closes the cluster, says one line, exits 128 + N).
+    """``held_signals`` while a LocalCluster starts or closes, blocked in this thread too.
 
     A terminal's Ctrl-C or hang-up, and a SIGTERM to the process group, reach every process of
     the group: each worker would die mid-message or print its own KeyboardInterrupt traceback
     (~40 lines), and a resource tracker killed by SIGHUP is restarted without its records
-    (KeyError tracebacks). So the signals are also blocked in this thread: Dask's event-loop
-    thread, the resource tracker and the workers, created inside the block, keep that mask,
-    and only this process hears those signals. Blocking one thread is not enough for this
-    process itself (a signal goes to any thread that does not block it: USD's and OpenImageIO's
-    pools), hence the recording handlers. Outside the main thread (which alone runs Python's
-    handlers) a no-op."""
+    (KeyError tracebacks). Dask's event-loop thread, the resource tracker and the workers,
+    created inside the block, keep the blocked mask, so only this process hears those signals
+    (it closes the cluster and asks its workers to exit); one that comes meanwhile is acted on
+    as the block ends, not lost."""
     import multiprocessing.resource_tracker
     import signal
-    import threading
 
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    held = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-    caught: list[int] = []
-    previous = {signum: signal.signal(signum, lambda signum, frame: caught.append(signum)) for signum in held}
-    signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
+    with held_signals(block_thread=True):
         # The resource tracker that multiprocessing's spawn gives the workers, started now with
         # SIGHUP blocked (it ignores SIGINT and SIGTERM itself); starting it unblocks SIGINT and
         # SIGTERM in this thread (multiprocessing.resource_tracker.ensure_running), so block
         # them again before Dask creates its threads and workers.
         multiprocessing.resource_tracker.ensure_running()
-        signal.pthread_sigmask(signal.SIG_BLOCK, held)
+        signal.pthread_sigmask(signal.SIG_BLOCK, (signal.SIGINT, signal.SIGTERM, signal.SIGHUP))
         yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, held)  # one pending here is recorded now
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
-    if caught:
-        first = caught[0]
-        if first == signal.SIGINT:
-            raise KeyboardInterrupt
-        if callable(previous[first]):
-            previous[first](first, None)  # raises Terminated under the CLI
-        else:
-            signal.raise_signal(first)  # its default action (or ignored), as if it came now
 
 
 def run_serially(

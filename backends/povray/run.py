@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from phongscene.errors import BackendError, PhongSceneError, Problem, SceneError
+from phongscene.held_signals import held_signals
 from phongscene.images import read_image, write_image
 from phongscene.scene import POVRAY_SAMPLE_PATTERNS, RenderSettings, Scene
 
@@ -318,17 +319,23 @@ def _run(
     ``phase(text)``, when given, is told while POV-Ray parses. Without ``sums``, each frame is its
     own sum (the frames are returned, as float64)."""
     sums = PassSums([1] * job.frames) if sums is None else sums
-    workdir = Path(keep_dir) if keep_dir else Path(tempfile.mkdtemp(prefix="phongscene-povray-"))
+    workdir = Path(keep_dir) if keep_dir else None
     try:
+        if workdir is None:
+            # Made and known to the cleanup below before a signal is acted on (held_signals).
+            with held_signals():
+                workdir = Path(tempfile.mkdtemp(prefix="phongscene-povray-"))
         images = _run_in(job, workdir, stem, timeout, frame_done, phase, sums, keep=bool(keep_dir))
     except BackendError:
         raise
-    except BaseException:  # Ctrl-C, a full disk, ...: nothing worth keeping
-        if not keep_dir:
-            shutil.rmtree(workdir, ignore_errors=True)
+    except BaseException:  # Ctrl-C, a signal, a full disk, ...: nothing worth keeping
+        if not keep_dir and workdir is not None:
+            with held_signals():
+                shutil.rmtree(workdir, ignore_errors=True)
         raise
     if not keep_dir:
-        shutil.rmtree(workdir, ignore_errors=True)
+        with held_signals():  # whole: a signal now is acted on once the folder is gone
+            shutil.rmtree(workdir, ignore_errors=True)
     return images
 
 

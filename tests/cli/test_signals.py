@@ -321,3 +321,26 @@ def test_the_command_passes_its_arguments_and_status_through(tmp_path):
         [str(PHONGSCENE), "--version"], capture_output=True, text=True, env=dict(os.environ, PATH="/nonexistent")
     )
     assert probe.returncode == 0 and probe.stdout.strip()
+
+
+def test_held_signals_acts_on_the_first_signal_once_the_block_is_done(tmp_path):
+    from phongscene.cli.process import Terminated, install_signal_handlers
+    from phongscene.held_signals import held_signals
+
+    previous = install_signal_handlers()
+    try:
+        steps = []
+        with pytest.raises(Terminated) as raised:
+            with held_signals():
+                signal.raise_signal(signal.SIGHUP)
+                steps.append("after the signal")  # the block is not cut short
+                signal.raise_signal(signal.SIGTERM)
+        assert steps == ["after the signal"] and raised.value.signum == signal.SIGHUP
+        with pytest.raises(KeyboardInterrupt):
+            with held_signals():
+                signal.raise_signal(signal.SIGINT)
+        with held_signals():
+            pass  # nothing came: nothing raised
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
