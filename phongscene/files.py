@@ -16,6 +16,7 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
 from .errors import PhongSceneError
+from .held_signals import held_signals
 
 # Permissions before the umask, as for open(path, "w"): outputs are meant to be shared
 # (reports are served as web pages, SDL is handed to povray), not private.
@@ -41,11 +42,14 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """
     path = Path(path)
     check_output(path)
+    tmp = None
     try:
-        tmp, mode = _create_temporary(path)
-    except OSError as e:
-        raise PhongSceneError(f"{path}: cannot write: {e.strerror or e}") from None
-    try:
+        try:
+            # Created and known to the cleanup below before a signal is acted on (held_signals).
+            with held_signals():
+                tmp, mode = _create_temporary(path)
+        except OSError as e:
+            raise PhongSceneError(f"{path}: cannot write: {e.strerror or e}") from None
         yield tmp
         os.chmod(tmp, mode)  # the writer may have replaced the file with one of its own
         os.replace(tmp, path)
@@ -56,12 +60,14 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         raise
     except PhongSceneError as e:
         text = str(e)
-        if str(tmp) in text:
+        if tmp is not None and str(tmp) in text:
             raise PhongSceneError(text.replace(str(tmp), str(path))) from None
         raise
     finally:
-        if os.path.lexists(tmp):
-            os.unlink(tmp)
+        if tmp is not None:
+            with held_signals():  # whole: a signal now is acted on once the file is gone
+                if os.path.lexists(tmp):
+                    os.unlink(tmp)
 
 
 def check_output(path: str | os.PathLike) -> None:
@@ -114,14 +120,20 @@ def atomic_folder(outdir: str | os.PathLike) -> Iterator[Path]:
             raise PhongSceneError(f"{outdir}: cannot create its folder: {e.strerror or e}") from None
     check_output_folder(outdir)
     tmp = outdir.parent / f".{outdir.name}.{os.urandom(TEMP_NAME_BYTES).hex()}"
-    tmp.mkdir()
+    made = False
     try:
+        with held_signals():  # made and known to the cleanup before a signal is acted on
+            tmp.mkdir()
+            made = True
         yield tmp
         outdir.mkdir(exist_ok=True)
-        for item in sorted(tmp.iterdir()):
-            os.replace(item, outdir / item.name)
+        with held_signals():  # the report's files moved in together
+            for item in sorted(tmp.iterdir()):
+                os.replace(item, outdir / item.name)
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if made:
+            with held_signals():
+                shutil.rmtree(tmp, ignore_errors=True)
 
 
 def write_text_atomic(path: str | os.PathLike, text: str, encoding: str = "utf-8") -> Path:

@@ -94,3 +94,38 @@ def test_an_image_that_does_not_read_back_whole_is_not_renamed_into_place(tmp_pa
     with pytest.raises(PhongSceneError, match="does not read back whole"):
         write_imagebuf(target, Truncating(), "uint8")
     assert target.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["out.png"]
+
+
+def test_a_signal_as_the_temporary_file_is_made_or_removed_leaves_no_file(tmp_path, monkeypatch):
+    # Python runs a signal's handler between any two bytecodes: one that came just as the hidden
+    # temporary file was created (before the block that removes it began), or while it was being
+    # removed, left `.out.<hex>.png` beside the output (a signal sweep: 1 of 300 sends).
+    import signal
+
+    from phongscene import files
+
+    create = files._create_temporary
+
+    def create_then_signal(path):
+        made = create(path)
+        signal.raise_signal(signal.SIGINT)  # arrives with the file made, before anyone knows it
+        return made
+
+    monkeypatch.setattr(files, "_create_temporary", create_then_signal)
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_path(tmp_path / "out.png"):
+            pass
+    assert list(tmp_path.iterdir()) == []
+
+    monkeypatch.setattr(files, "_create_temporary", create)
+    unlink = os.unlink
+
+    def signal_then_unlink(path):
+        signal.raise_signal(signal.SIGINT)  # arrives as the cleanup removes the file
+        unlink(path)
+
+    monkeypatch.setattr(files.os, "unlink", signal_then_unlink)
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_path(tmp_path / "out.png"):
+            raise OSError("the write failed")
+    assert list(tmp_path.iterdir()) == []
