@@ -80,31 +80,12 @@ def preimport(modules) -> None:
     their import (Tf: "Error occurred postprocessing module"), so a SIGTERM there was lost and the
     command ran on with half-registered types (a signal sweep of 300 sends: 15 such runs)."""
     import importlib
-    import signal
-    import threading
 
-    if threading.current_thread() is not threading.main_thread():
-        for module in modules:
-            importlib.import_module(module)
-        return
-    caught: list[int] = []
-    held = (signal.SIGINT, *(getattr(signal, name) for name in TERMINATING_SIGNALS))
-    previous = {signum: signal.signal(signum, lambda signum, frame: caught.append(signum)) for signum in held}
-    try:
+    from ..held_signals import held_signals
+
+    with held_signals():
         for module in modules:
             try:
                 importlib.import_module(module)
             except ImportError:
                 pass  # a missing module is the command's to report, in its own words
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
-    if not caught:
-        return
-    first = caught[0]
-    if first == signal.SIGINT:
-        raise KeyboardInterrupt
-    if callable(previous[first]):
-        previous[first](first, None)  # raises Terminated under main
-    else:
-        signal.raise_signal(first)  # its default action (or ignored), as if it came now
