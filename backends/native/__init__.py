@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from backends.povray.compile import UvFrame, uv_frame  # the uvs POV-Ray numerics reproduce
+from phongscene.backends.povray.compile import UvFrame, uv_frame  # the uvs POV-Ray numerics reproduce
 from phongscene.scene import (
     Camera,
     DirectionalLight,

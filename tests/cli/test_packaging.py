@@ -62,7 +62,10 @@ def test_wheel_contains_the_backends_the_extension_and_no_cpp(tmp_path):
     assert "phongscene/backends/native/__init__.py" in names
     assert any(n.startswith("phongscene/backends/native/_native") and n.endswith(".so") for n in names)
     assert "phongscene/schemas/__init__.py" in names
-    assert not [n for n in names if n.endswith((".cpp", ".hpp", "CMakeLists.txt"))]
+    assert not [n for n in names if n.endswith((".cpp", ".hpp", ".c", "CMakeLists.txt"))]
+    # The `phongscene` command (cli/launcher.c, compiled), installed to the scripts folder.
+    (command,) = [n for n in names if n.endswith(".data/scripts/phongscene")]
+    assert zipfile.ZipFile(wheel).read(command)[:4] == b"\x7fELF"
     assert "phongscene/py.typed" in names  # PEP 561: mypy reads the package's annotations
     assert "phongscene/schemas/phongscene_PhongSurface.usda" in names
     (metadata,) = [n for n in names if n.endswith(".dist-info/METADATA")]
