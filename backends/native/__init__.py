@@ -12,10 +12,10 @@ thread pool. This module is the only code that knows both sides.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from phongscene.backends.povray.compile import UvFrame, uv_frame  # the uvs POV-Ray numerics reproduce
 from phongscene.scene import (
     Camera,
     DirectionalLight,
@@ -30,6 +30,9 @@ from phongscene.scene import (
 )
 
 from . import _native
+
+if TYPE_CHECKING:
+    from phongscene.backends.povray.compile import UvFrame
 
 __all__ = ["PreparedRender", "build", "prepare", "render", "scene_arrays", "_native"]
 
@@ -353,9 +356,14 @@ def light_link_arrays(scene: Scene) -> dict | None:
 
 def _finish(native: _native.Scene, scene: Scene, *, povray_numerics: bool = False) -> _native.Scene:
     """Textures and light links onto a built C++ scene."""
-    textures = (
-        texture_arrays(scene, half_texels=True, frame=uv_frame(scene)) if povray_numerics else texture_arrays(scene)
-    )
+    if povray_numerics:
+        # The uvs the SDL holds are the compiler's to say (imported here: a plain render needs
+        # no POV-Ray compiler, tests/cli/test_startup_costs.py).
+        from phongscene.backends.povray.compile import uv_frame
+
+        textures = texture_arrays(scene, half_texels=True, frame=uv_frame(scene))
+    else:
+        textures = texture_arrays(scene)
     if textures is not None:
         native.set_textures(**textures)
     links = light_link_arrays(scene)
