@@ -64,6 +64,10 @@ class DiffResult:
     # What the native image shows that its author should hear of: nothing in view, no light, too
     # dark, with the causes found in the scene (phongscene.diagnostics).
     image_warnings: tuple[str, ...] = ()
+    # Pixels (x, y) the scene's normal maps change in the native image: POV-Ray 3.7 has no
+    # tangent-space normal maps, so both backends are compared without them and these are where
+    # the native tracer's picture (with them) departs from the compared one.
+    normal_map_pixels: tuple[tuple[int, int], ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -111,6 +115,14 @@ class DiffResult:
                 " ..." if len(self.unexplained) > 10 else ""
             )
             lines.append(f"  {len(self.unexplained)} failing pixels not explained: {shown}")
+        if self.normal_map_pixels:
+            shown = ", ".join(f"({x}, {y})" for x, y in self.normal_map_pixels[:10]) + (
+                " ..." if len(self.normal_map_pixels) > 10 else ""
+            )
+            lines.append(
+                f"  {len(self.normal_map_pixels)} pixels change with the scene's normal maps, which POV-Ray 3.7 "
+                f"cannot render (compared without them): {shown}"
+            )
         if self.numerics_differ:
             lines.append(
                 f"  {self.numerics_differ} pixels of a plain native render (scale-invariant tolerances) differ "
@@ -211,6 +223,9 @@ def diff(
         from .backends.povray import pass_count
 
         thresholds = for_povray_passes(pass_count(scene, mapping))
+    # POV-Ray 3.7 cannot render normal maps (the SDL leaves them out): both backends render the
+    # scene without them, and the native image with them says where they change the picture.
+    normal_mapped, scene = (scene, scene.without_normal_maps()) if scene.normal_mapped else (None, scene)
     images, timings = {}, {}
     for backend in LABELS:
         bar = ProgressBar(backend, progress) if progress is not None else None
@@ -229,6 +244,10 @@ def diff(
     explained, unexplained = _explain(scene, settings, mapping, images, report, thresholds)
     plain = render_native_as_povray(scene, replace(settings, numerics="scale-invariant"), mapping)
     numerics_differ = int(failing_mask(images["native"], plain, thresholds).sum())
+    normal_map_pixels = ()
+    if normal_mapped is not None:
+        with_maps = render_native_as_povray(normal_mapped, settings, mapping)
+        normal_map_pixels = _listed(failing_mask(with_maps, images["native"], thresholds))
 
     from .diagnostics import ImageChecks
 
@@ -246,6 +265,7 @@ def diff(
         unexplained,
         numerics_differ,
         image_warnings,
+        normal_map_pixels,
     )
     if outdir is not None:
         from .files import atomic_folder
@@ -277,6 +297,7 @@ def diff(
                     "explained_by_povray_shadow_cache": [list(p) for p in explained],
                     "unexplained_failing_pixels": [list(p) for p in unexplained],
                     "native_numerics_differ_pixels": numerics_differ,
+                    "normal_map_pixels": [list(p) for p in normal_map_pixels],
                 },
             )
         result = replace(result, outdir=Path(outdir))
@@ -311,8 +332,12 @@ def _explain(
     failing = failing_mask(images["povray"], images["native"], thresholds)
     cached = render_native_as_povray(scene, replace(settings, numerics="povray-shadow-cache"), mapping)
     by_cache = failing & ~failing_mask(images["povray"], cached, thresholds)
-    listed = lambda mask: tuple((int(x), int(y)) for y, x in np.argwhere(mask))  # noqa: E731
-    return listed(by_cache), listed(failing & ~by_cache)
+    return _listed(by_cache), _listed(failing & ~by_cache)
+
+
+def _listed(mask: np.ndarray) -> tuple[tuple[int, int], ...]:
+    """The (x, y) of a mask's set pixels, row by row."""
+    return tuple((int(x), int(y)) for y, x in np.argwhere(mask))
 
 
 def _settings_dict(settings: RenderSettings) -> dict:

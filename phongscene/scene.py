@@ -272,6 +272,12 @@ class PhongMaterial:
     # Beer-Lambert (Suffern ch. 28's cf_in; POV-Ray's exponential interior fade): the fraction of
     # each channel a ray keeps per unit distance inside the interior, (0, 1] (white: none absorbed).
     interior_filter: RGB = (1.0, 1.0, 1.0)
+    # A tangent-space normal map (UsdPreviewSurface ``normal``, MaterialX ``normalmap``): the texel
+    # is the shading normal in the frame (T, B, N) of the point — T, B along increasing u and v
+    # (the triangle's dP/du, dP/dv made orthonormal to N), N the interpolated normal — so its
+    # texels are signed, (0, 0, 1) the unperturbed normal. Meshes with uvs only. POV-Ray 3.7 has
+    # no such map (its bump_map is a height field in a world-fixed frame): the SDL leaves it out.
+    normal_texture: Texture | None = None
 
     @property
     def transmits(self) -> bool:
@@ -288,7 +294,12 @@ class PhongMaterial:
 
     @property
     def textures(self) -> tuple[Texture, ...]:
-        """The textures the material samples (diffuse first)."""
+        """The textures the material samples (diffuse, specular, normal)."""
+        return tuple(t for t in (self.diffuse_texture, self.specular_texture, self.normal_texture) if t is not None)
+
+    @property
+    def colour_textures(self) -> tuple[Texture, ...]:
+        """The textures that colour the surface (diffuse, specular): not the normal map."""
         return tuple(t for t in (self.diffuse_texture, self.specular_texture) if t is not None)
 
     def without_textures(self) -> PhongMaterial:
@@ -992,6 +1003,31 @@ class Scene:
             meshes=tuple(map(changed, self.meshes)),
             points=tuple(map(changed, self.points)),
         )
+
+    @property
+    def normal_mapped(self) -> bool:
+        """Whether a mesh (a world one or a prototype's) has a normal-mapped material."""
+        meshes = (*self.meshes, *(m for p in self.prototypes for m in p.meshes))
+        return any(m.material.normal_texture is not None for m in meshes)
+
+    def without_normal_maps(self) -> Scene:
+        """The same scene with every normal map left out (what POV-Ray 3.7 renders of it; the
+        instances written out as meshes where a prototype has one)."""
+        if not self.normal_mapped:
+            return self
+        import dataclasses
+
+        in_prototypes = any(m.material.normal_texture is not None for p in self.prototypes for m in p.meshes)
+        scene = self.flattened() if in_prototypes else self
+        plain: dict[PhongMaterial, PhongMaterial] = {}
+
+        def unmapped(mesh):
+            if mesh.material.normal_texture is None:
+                return mesh
+            material = plain.setdefault(mesh.material, dataclasses.replace(mesh.material, normal_texture=None))
+            return dataclasses.replace(mesh, material=material)
+
+        return dataclasses.replace(scene, meshes=tuple(map(unmapped, scene.meshes)))
 
     @property
     def objects(self) -> tuple:

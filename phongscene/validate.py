@@ -398,17 +398,19 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
         c.add(m, "interior_filter", f"must be in (0, 1] per channel, got {_show(f)}")
     if not isinstance(m.fresnel, (bool, np.bool_)):
         c.add(m, "fresnel", f"must be True or False, got {_show(m.fresnel)}")
-    for field in ("diffuse_texture", "specular_texture"):
+    for field in ("diffuse_texture", "specular_texture", "normal_texture"):
         t = getattr(m, field)
         if t is None:
             continue
         if isinstance(t, Texture):
-            _check_texture(c, t)
+            _check_texture(c, t, signed=field == "normal_texture")
         else:
             c.add(m, field, f"must be a Texture (or None), got {type(t).__name__}")
 
 
-def _check_texture(c: _Collector, t) -> None:
+def _check_texture(c: _Collector, t, signed: bool = False) -> None:
+    """A texture's wraps, size and texels: colours in [0, MAX_TEXEL]; a normal map's (``signed``)
+    tangent-space vectors in [-MAX_TEXEL, MAX_TEXEL] (the tracer normalises them)."""
     for field in ("wrap_s", "wrap_t"):
         c.one_of(t, field, WRAPS)
     if max(t.image.shape[:2]) > MAX_TEXTURE_SIDE:
@@ -419,8 +421,9 @@ def _check_texture(c: _Collector, t) -> None:
     low, high = (float(image.min()), float(image.max())) if image.size else (0.0, 0.0)
     if not (math.isfinite(low) and math.isfinite(high)):
         c.add(t, "image", f"{int(np.count_nonzero(~np.isfinite(image)))} texel values are not finite")
-    elif low < 0 or high > MAX_TEXEL:
-        c.add(t, "image", f"texel values must be in [0, {MAX_TEXEL:g}], got {low:g}..{high:g}")
+    elif (low < (-MAX_TEXEL if signed else 0)) or high > MAX_TEXEL:
+        lowest = f"-{MAX_TEXEL:g}" if signed else "0"
+        c.add(t, "image", f"texel values must be in [{lowest}, {MAX_TEXEL:g}], got {low:g}..{high:g}")
 
 
 def _check_camera(c: _Collector, cam: Camera) -> None:

@@ -81,6 +81,8 @@ def _materials(models) -> list[_native.Material]:
             native.diffuse_texture = texture_ids.setdefault(id(m.diffuse_texture), len(texture_ids))
         if m.specular_texture is not None:
             native.specular_texture = texture_ids.setdefault(id(m.specular_texture), len(texture_ids))
+        if m.normal_texture is not None:
+            native.normal_texture = texture_ids.setdefault(id(m.normal_texture), len(texture_ids))
         out.append(native)
     return out
 
@@ -108,7 +110,7 @@ def texture_arrays(scene: Scene, *, half_texels: bool = False, frame: UvFrame | 
         models.setdefault(obj.material, None)
     textures: dict[int, object] = {}
     for m in models:
-        for t in m.textures:  # diffuse first, as _materials numbers them
+        for t in m.textures:  # diffuse, specular, normal: as _materials numbers them
             textures.setdefault(id(t), t)
     if not textures:
         return None

@@ -183,8 +183,8 @@ def uv_frame(scene: Scene) -> UvFrame:
     around every textured mesh's uvs and [0, 1]², widened by 1/g on each side (beyond the half
     texel a bilinear lookup reaches), unless an extended image would exceed MAX_TILED_TEXELS
     (then identity: POV-Ray's ``once`` is exact for clamp and mirror inside [0, 1]² only)."""
-    textured = [m for m in all_meshes(scene) if m.material.textures and m.uvs is not None and len(m.triangles)]
-    textures = {id(t): t for m in (*scene.spheres, *all_meshes(scene)) for t in m.material.textures}
+    textured = [m for m in all_meshes(scene) if m.material.colour_textures and m.uvs is not None and len(m.triangles)]
+    textures = {id(t): t for m in (*scene.spheres, *all_meshes(scene)) for t in m.material.colour_textures}
     if all((t.wrap_s, t.wrap_t) == ("repeat", "repeat") for t in textures.values()) or not textured:
         return UvFrame()
     used = np.concatenate([m.uvs[np.unique(m.uv_indices)] for m in textured])
@@ -215,7 +215,7 @@ def pov_images(scene: Scene) -> tuple[UvFrame, dict[int, tuple[str, np.ndarray]]
     frame = uv_frame(scene)
     out: dict[int, tuple[str, np.ndarray]] = {}
     for obj in (*scene.spheres, *all_meshes(scene)):
-        for t in obj.material.textures:
+        for t in obj.material.colour_textures:
             if id(t) not in out:
                 image = t.image if frame.identity else frame.tile(t)
                 out[id(t)] = (texture_file_name(image), image)

@@ -79,7 +79,11 @@ def run_info(args) -> int:
     if textured:
         print("textures:")
         for m in sorted(textured, key=lambda m: m.source):
-            for role, t in (("diffuseColor", m.diffuse_texture), ("specularColor", m.specular_texture)):
+            for role, t in (
+                ("diffuseColor", m.diffuse_texture),
+                ("specularColor", m.specular_texture),
+                ("normal", m.normal_texture),
+            ):
                 if t is not None:
                     # The file, not t.source: equal textures are shared, and source is the first prim read.
                     print(

@@ -38,6 +38,12 @@ PREVIEW_MIRROR_MAX_ROUGHNESS = 0.35
 # MaterialX standard_surface / OpenPBR / OmniPBR inputs that carry a normal map.
 NORMAL_MAP_INPUTS = ("normal", "geometry_normal", "normalmap_texture")
 PREVIEW_UNMODELLED = {"clearcoat": 0.0, "occlusion": 1.0, "normal": (0.0, 0.0, 1.0)}
+# What a read normal map is told as (one grouped warning listing the materials): the model has
+# it, but one backend cannot draw it.
+NORMAL_MAP_NOTE = (
+    "normal maps (in the native tracer's shading; POV-Ray 3.7 has no tangent-space normal maps, "
+    "so its SDL leaves them out and `diff` compares without them)"
+)
 
 
 def preview_to_phong(
@@ -399,7 +405,10 @@ class MaterialReader:
         # Inputs the classic model has no term for: say so instead of dropping them silently.
         # (A connected input counts: an occlusion map, a normal map.) The neutral values are the
         # UsdPreviewSurface spec's defaults, under which the input changes nothing.
+        normal_map = self._normal_map(shader, "normal")
         for name, neutral in PREVIEW_UNMODELLED.items():
+            if name == "normal" and normal_map is not None:
+                continue
             inp = shader.GetInput(name)
             if inp and (inp.HasConnectedSource() or np.any(np.asarray(inp.Get(self.ctx.time)) != neutral)):
                 self.ctx.unsupported[f"UsdPreviewSurface inputs:{name} (not in the Phong model; ignored)"].append(
@@ -446,7 +455,9 @@ class MaterialReader:
         metal = None if metallic_texture is None else metallic_texture.texture
         if metal is not None and not int(values["useSpecularWorkflow"]):
             if diffuse_texture is None or diffuse_texture.texture is None:
-                return self._metallic_textured(material, metallic_texture, values, specular_level)
+                return self._with_normal_map(
+                    self._metallic_textured(material, metallic_texture, values, specular_level), normal_map
+                )
             self.ctx.unsupported["textured metallic over a textured diffuseColor (the mean metallic is used)"].append(
                 str(prim.GetPath())
             )
@@ -459,7 +470,22 @@ class MaterialReader:
                 specular_texture = self.textures.connected(shader, "specularColor", factor)
             else:
                 specular_texture = None  # the metallic workflow does not read specularColor
-        return self._textured(material, diffuse_texture, specular_texture)
+        return self._with_normal_map(self._textured(material, diffuse_texture, specular_texture), normal_map)
+
+    def _normal_map(self, shader: UsdShade.Shader, name: str) -> Connected | None:
+        """The tangent-space normal map feeding input ``name`` of ``shader`` (a texture whose
+        image was read: its texels signed, as the texture node's scale and bias make them), or None."""
+        connected = self.textures.connected(shader, name, signed=True)
+        return connected if connected is not None and connected.texture is not None else None
+
+    def _with_normal_map(self, material: PhongMaterial, normal_map: Connected | None) -> PhongMaterial:
+        """``material`` with the normal map ``normal_map`` (None: as it is)."""
+        if normal_map is None:
+            return material
+        mapped = dataclasses.replace(material, normal_texture=normal_map.texture)
+        self.st_of[mapped] = self.st_of.get(material, normal_map.st)
+        self.ctx.unsupported[NORMAL_MAP_NOTE].append(material.source)
+        return mapped
 
     def _network(self, shader: UsdShade.Shader, network: Network) -> PhongMaterial:
         """A MaterialX Standard Surface / OpenPBR or an OmniPBR shader, through the

@@ -179,12 +179,20 @@ def decode(header: ImageHeader, shown: str) -> np.ndarray:
 
 
 def texels(
-    pixels: np.ndarray, srgb: bool, channel: int | None, scale: np.ndarray, bias: np.ndarray, factor: float, shown: str
+    pixels: np.ndarray,
+    srgb: bool,
+    channel: int | None,
+    scale: np.ndarray,
+    bias: np.ndarray,
+    factor: float,
+    shown: str,
+    signed: bool = False,
 ) -> tuple[np.ndarray, bool, int]:
     """The model's (H, W, 3) float32 texels of the selected output of ``pixels`` (``decode``):
     RGB (grey repeated), or one channel repeated (a missing alpha is 1, a missing colour channel
     of a grey image is the grey); sRGB-decoded when ``srgb`` (OpenImageIO's colour conversion, on
-    colour only), then ``(texel · scale + bias) · factor`` in float64, clipped at 0. Built a
+    colour only), then ``(texel · scale + bias) · factor`` in float64, clipped at 0 (unless
+    ``signed``: a normal map's tangent-space vectors keep their sign). Built a
     block of rows at a time into a read-only float32 array (the model takes it without a copy).
     Returns (texels, whether any was negative before clipping, the count of non-finite values
     among the channels used)."""
@@ -210,7 +218,7 @@ def texels(
         else:
             values = rgb
         values = (values.astype(np.float64) * scale + bias) * factor
-        if values.min() < 0:  # NaN compares False: non-finite texels are counted above
+        if not signed and values.min() < 0:  # NaN compares False: non-finite texels are counted above
             negative = True
             np.clip(values, 0.0, None, out=values)
         out[top : top + rows] = values  # broadcast: one channel repeated into RGB

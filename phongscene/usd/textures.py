@@ -105,9 +105,12 @@ class TextureReader:
         self.textures: dict[tuple, Texture] = {}
         self.budget = TexelBudget()
 
-    def connected(self, shader: UsdShade.Shader, name: str, factor: float = 1.0) -> Connected | None:
+    def connected(
+        self, shader: UsdShade.Shader, name: str, factor: float = 1.0, signed: bool = False
+    ) -> Connected | None:
         """The texture feeding colour input ``name`` of ``shader`` (times ``factor``), or None
-        when the input is not fed by a UsdUVTexture."""
+        when the input is not fed by a UsdUVTexture. ``signed``: a normal map's vectors, not
+        clipped at 0."""
         source = _source_output(shader.GetInput(name))
         if source is None:
             return None
@@ -157,7 +160,7 @@ class TextureReader:
                 )
                 wrap = "black"
             wraps.append(wrap)
-        key = (resolved, srgb, output, tuple(scale), tuple(bias), factor, *wraps)
+        key = (resolved, srgb, output, tuple(scale), tuple(bias), factor, signed, *wraps)
         if key not in self.textures:
             try:
                 self.budget.charge(header.texels, f"{resolved} ({header.width} x {header.height})")
@@ -167,7 +170,7 @@ class TextureReader:
             pixels = self._pixels(resolved, header, path)
             if pixels is None:
                 return Connected(None, value, st)
-            image, negative, nonfinite = texels(pixels, srgb, channel, scale, bias, factor, resolved)
+            image, negative, nonfinite = texels(pixels, srgb, channel, scale, bias, factor, resolved, signed)
             if nonfinite:
                 self.ctx.problem(prim, "inputs:file", f"{resolved}: {nonfinite} texel values are not finite")
                 return Connected(None, value, st)

@@ -138,9 +138,10 @@ using CornerUv = In<double, nb::shape<-1, 3, 2>>;
 void check_textures(const phong::Scene& scene) {
     bool textured = false;
     for (const phong::Material& m : scene.materials) {
-        if (m.diffuse_texture >= int64_t(scene.textures.size()) || m.specular_texture >= int64_t(scene.textures.size()))
+        const int64_t count = int64_t(scene.textures.size());
+        if (m.diffuse_texture >= count || m.specular_texture >= count || m.normal_texture >= count)
             throw std::invalid_argument("a material's texture index is out of range (call set_textures)");
-        textured |= m.diffuse_texture >= 0 || m.specular_texture >= 0;
+        textured |= m.diffuse_texture >= 0 || m.specular_texture >= 0 || m.normal_texture >= 0;
     }
     if (textured && scene.corner_uv.size() != 6 * scene.triangles.size())
         throw std::invalid_argument("textured materials need corner_uv for every triangle (call set_textures)");
@@ -154,9 +155,10 @@ void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, 
         throw std::invalid_argument("one wrap_s and wrap_t per texture");
     bool textured = false;
     for (const phong::Material& m : scene.materials) {
-        if (m.diffuse_texture >= int64_t(images.size()) || m.specular_texture >= int64_t(images.size()))
+        const int64_t count = int64_t(images.size());
+        if (m.diffuse_texture >= count || m.specular_texture >= count || m.normal_texture >= count)
             throw std::invalid_argument("a material's texture index is out of range");
-        textured |= m.diffuse_texture >= 0 || m.specular_texture >= 0;
+        textured |= m.diffuse_texture >= 0 || m.specular_texture >= 0 || m.normal_texture >= 0;
     }
     if (textured && corner_uv.shape(0) != scene.triangles.size())
         throw std::invalid_argument("corner_uv needs one row per triangle");
@@ -418,6 +420,7 @@ NB_MODULE(_native, m) {
         .def_rw("specular_color", &Material::specular_color)
         .def_rw("diffuse_texture", &Material::diffuse_texture)
         .def_rw("specular_texture", &Material::specular_texture)
+        .def_rw("normal_texture", &Material::normal_texture)
         .def_rw("emission", &Material::emission)
         .def_rw("kr", &Material::kr)
         .def_rw("reflective_color", &Material::reflective_color)
@@ -578,8 +581,8 @@ NB_MODULE(_native, m) {
             "object number) per set.")
         .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
              "uv_origin"_a = std::array<double, 2>{0.0, 0.0}, "uv_span"_a = std::array<double, 2>{1.0, 1.0},
-             "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture and "
-             "specular_texture, and the (u, v) "
+             "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture, "
+             "specular_texture and normal_texture, and the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order; a lookup takes uv_origin + uv_span * (u, v).")
         .def("set_light_links", &set_light_links, "shadows"_a, "lit"_a, "casts"_a,
              "Per light (one entry each): whether it casts shadow rays, and the objects (spheres 0..S-1, then meshes "

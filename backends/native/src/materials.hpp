@@ -26,6 +26,7 @@ struct Material {
     RGB specular_color;             // cs
     int32_t diffuse_texture = -1;   // index into Scene::textures replacing cd, or -1
     int32_t specular_texture = -1;  // ... replacing cs, or -1
+    int32_t normal_texture = -1;    // ... a tangent-space normal map perturbing n (normal_maps.hpp), or -1
     RGB emission{};                 // Le, added where the surface is seen (0: none; x + 0 is exact)
     // Mirror reflection (Suffern ch. 24, PerfectSpecular): kr·cr times the radiance traced along
     // the mirror direction is added to the Phong terms (render.cpp); kr = 0 traces no ray.

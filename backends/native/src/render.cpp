@@ -4,6 +4,7 @@
 
 #include "adaptive_pixels.hpp"
 #include "low_discrepancy.hpp"
+#include "normal_maps.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -167,7 +168,9 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     const int32_t object = !linked || hit.instance >= 0 ? -1 : scene.object_of(hit.ref);
     Vec3 n;
     const Material* material;
-    Material textured;  // a textured material with this point's colours
+    Material textured;   // a textured material with this point's colours
+    Vec3 mapped_normal;  // n perturbed by the material's normal map (normal_maps.hpp), where it has one
+    bool normal_mapped = false;
     // The primitive's own scene: the world's, or the prototype of the instance hit (whose normal
     // is then carried to the world below).
     const Scene& surface = scene.surface_of(hit);
@@ -191,7 +194,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
             n = normalize(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
         }
         material = &surface.materials[size_t(sh.material)];
-        if (material->diffuse_texture >= 0 || material->specular_texture >= 0) {
+        if (material->diffuse_texture >= 0 || material->specular_texture >= 0 || material->normal_texture >= 0) {
             // cd and cs from the textures at the hit's (u, v), interpolated like the normals.
             const double* uv = surface.corner_uv.data() + 6 * size_t(surface.triangle_source[size_t(hit.ref)]);
             double u, v;
@@ -204,6 +207,14 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                 u = uv[0] * hit.bary.b0 + uv[2] * hit.bary.b1 + uv[4] * hit.bary.b2;
                 v = uv[1] * hit.bary.b0 + uv[3] * hit.bary.b1 + uv[5] * hit.bary.b2;
             }
+            if (material->normal_texture >= 0) {
+                Vec3 dpdu, dpdv;
+                if (uv_tangents(tri.v0, tri.v1, tri.v2, uv, dpdu, dpdv)) {
+                    mapped_normal = perturbed_normal(n, dpdu, dpdv,
+                                                     surface.textures[size_t(material->normal_texture)].lookup(u, v));
+                    normal_mapped = true;
+                }
+            }
             textured = *material;
             if (material->diffuse_texture >= 0)
                 textured.diffuse_color = surface.textures[size_t(material->diffuse_texture)].lookup(u, v);
@@ -212,10 +223,16 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
             material = &textured;
         }
     }
-    if (hit.instance >= 0) n = normalize(scene.instances->normal_to_world(hit.instance, n));
+    if (hit.instance >= 0) {
+        n = normalize(scene.instances->normal_to_world(hit.instance, n));
+        if (normal_mapped) mapped_normal = normalize(scene.instances->normal_to_world(hit.instance, mapped_normal));
+    }
     // Two-sided: the shading normal faces the viewer (as POV-Ray). The unflipped normal points
-    // out of a closed object, so a ray meeting it from behind is leaving the interior.
+    // out of a closed object, so a ray meeting it from behind is leaving the interior. (The side
+    // is the surface's, not the normal map's: a map tilting the normal past the view ray does not
+    // turn the surface inside out.)
     const bool leaving = dot(n, ray.dir) > 0.0;
+    if (normal_mapped) n = mapped_normal;
     if (leaving) n = -n;
     const Vec3 wo = -ray.dir;
 
