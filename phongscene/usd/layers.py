@@ -19,6 +19,7 @@ from pxr import Ar, Sdf, Tf
 
 from ..errors import Problem, SceneError
 from ..memory_model import announce, layer_bytes
+from .materialx_documents import MaterialXDocumentError, as_layer, is_materialx_document, repoint
 
 
 def not_regular(path: str) -> str | None:
@@ -75,8 +76,24 @@ def preflight(path: str) -> list[Sdf.Layer]:
                         file=layer.realPath or layer.identifier,
                     )
                 )
+            if spec is not None and is_materialx_document(resolved) and os.path.isfile(resolved):
+                translated = _materialx_layer(resolved, spec, arc)
+                if translated is not None:
+                    repoint(spec, arc, dependency, translated)
+                    opened.append(translated)
+                continue
             pending.append(resolved)
     return opened
+
+
+def _materialx_layer(path: str, spec: Sdf.PrimSpec, arc: str) -> Sdf.Layer | None:
+    """The in-memory USD layer of a referenced MaterialX document (materialx_documents), or None
+    after a warning (USD's own error for the arc follows: the rest of the stage is drawn)."""
+    try:
+        return as_layer(path)
+    except MaterialXDocumentError as e:
+        Tf.Warn(f"{spec.path}.{arc}: cannot read the MaterialX document {path}: {e}")
+        return None
 
 
 def _check_time_rates(layer: Sdf.Layer) -> None:

@@ -475,7 +475,7 @@ class MaterialReader:
     def _normal_map(self, shader: UsdShade.Shader, name: str) -> Connected | None:
         """The tangent-space normal map feeding input ``name`` of ``shader`` (a texture whose
         image was read: its texels signed, as the texture node's scale and bias make them), or None."""
-        connected = self.textures.connected(shader, name, signed=True)
+        connected = self.textures.normal_map(shader, name)
         return connected if connected is not None and connected.texture is not None else None
 
     def _with_normal_map(self, material: PhongMaterial, normal_map: Connected | None) -> PhongMaterial:
@@ -493,8 +493,15 @@ class MaterialReader:
         prim = shader.GetPrim()
         source = str(prim.GetPath())
         values = {}
+        base_name = network.base_color[0]
+        base_texture = self.textures.connected(shader, base_name)
         for name, default in inputs(network).items():
-            value = self._input_value(shader, name, default)
+            if name == base_name and base_texture is not None:
+                # The metal's F0 tint takes the texture's mean colour (one cs per material).
+                texture = base_texture.texture
+                value = base_texture.fallback if texture is None else tuple(texture.image.mean(axis=(0, 1)).tolist())
+            else:
+                value = self._input_value(shader, name, default)
             try:
                 arr = np.asarray(value, dtype=np.float64)
             except (TypeError, ValueError):
@@ -512,18 +519,30 @@ class MaterialReader:
             inp = shader.GetInput(name)
             if inp and (inp.HasConnectedSource() or np.any(np.asarray(inp.Get(self.ctx.time)) != neutral)):
                 self.ctx.unsupported[f"{network.label} inputs:{name} (not in the Phong model; ignored)"].append(source)
+        normal_map = self._normal_map(shader, "normal") if network.label.startswith("MaterialX") else None
         for name in NORMAL_MAP_INPUTS:
             # No neutral constant: any authored value or connection (a normalmap node, an
-            # OmniPBR normal texture) perturbs the normal, which is not modelled.
+            # OmniPBR normal texture) perturbs the normal; what is not read as a map is named.
             inp = shader.GetInput(name)
+            if name == "normal" and normal_map is not None:
+                continue
             if inp and (inp.HasConnectedSource() or inp.GetAttr().HasAuthoredValue()):
-                self.ctx.unsupported[f"{network.label} inputs:{name} (normal maps are not modelled; ignored)"].append(
+                self.ctx.unsupported[f"{network.label} inputs:{name} (not read as a normal map; ignored)"].append(
                     source
                 )
         diffuse, roughness, f0 = reduce(network, values)
-        return preview_to_phong(
+        material = preview_to_phong(
             tuple(diffuse), roughness, specular_color=tuple(f0), use_specular_workflow=1, source=source
         )
+        if base_texture is not None and base_texture.texture is not None:
+            # The diffuse lobe is base·base_color·(1 − metalness): the texels are scaled so.
+            weight = 1.0 if network.base_weight is None else max(float(values[network.base_weight[0]]), 0.0)
+            metal = float(np.clip(float(values[network.metalness[0]]), 0.0, 1.0))
+            if network.base_tint is not None and tuple(values[network.base_tint[0]]) != (1.0, 1.0, 1.0):
+                self.ctx.unsupported[f"{network.label} tinted textures (the tint is not applied)"].append(source)
+            base_texture = self.textures.connected(shader, base_name, weight * (1.0 - metal))
+            material = self._textured(material, base_texture)
+        return self._with_normal_map(material, normal_map)
 
     def _metallic_textured(
         self, material: PhongMaterial, connected, values: dict, specular_level: float

@@ -38,6 +38,14 @@ PRIMVAR_READER_ID = "UsdPrimvarReader_float2"
 TRANSFORM_2D_ID = "UsdTransform2d"
 WRAP_TOKENS = ("repeat", "clamp", "mirror", "black")
 CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3}
+# MaterialX image nodes (their ids ND_image_<type>, ND_tiledimage_<type>), the normalmap node
+# (ND_normalmap_float / _vector2, ND_normalmap in 1.38), and how their address modes wrap
+# ("constant" is the default value outside the image: black here, the common default).
+MTLX_IMAGE_PREFIXES = ("ND_image_", "ND_tiledimage_")
+MTLX_NORMALMAP_PREFIX = "ND_normalmap"
+MTLX_ADDRESS_MODES = {"periodic": "repeat", "clamp": "clamp", "mirror": "mirror", "constant": "black"}
+# An image node without a texcoord reads the first uv set: USD's st (as usdMtlx and Storm do).
+MTLX_FIRST_UV_SET = "st"
 UV_TYPES = tuple(t + "[]" for t in ("texCoord2f", "texCoord2d", "texCoord2h", "float2", "double2", "half2"))
 
 
@@ -106,19 +114,52 @@ class TextureReader:
         self.budget = TexelBudget()
 
     def connected(
-        self, shader: UsdShade.Shader, name: str, factor: float = 1.0, signed: bool = False
+        self,
+        shader: UsdShade.Shader,
+        name: str,
+        factor: float = 1.0,
+        signed: bool = False,
+        scale_bias: tuple[tuple[float, ...], tuple[float, ...]] | None = None,
     ) -> Connected | None:
         """The texture feeding colour input ``name`` of ``shader`` (times ``factor``), or None
-        when the input is not fed by a UsdUVTexture. ``signed``: a normal map's vectors, not
-        clipped at 0."""
+        when the input is not fed by a UsdUVTexture or a MaterialX image node. ``signed``: a
+        normal map's vectors, not clipped at 0; ``scale_bias``: applied after the node's own
+        (a MaterialX normalmap node's decoding)."""
         source = _source_output(shader.GetInput(name))
         if source is None:
             return None
         tex_shader, output = source
-        if tex_shader.GetShaderId() != TEXTURE_SHADER_ID:
+        shader_id = tex_shader.GetShaderId()
+        if shader_id == TEXTURE_SHADER_ID:
+            return self._uv_texture(tex_shader, output, factor, signed)
+        if shader_id and shader_id.startswith(MTLX_IMAGE_PREFIXES):
+            return self._mtlx_image(tex_shader, factor, signed, scale_bias)
+        return None
+
+    def normal_map(self, shader: UsdShade.Shader, name: str) -> Connected | None:
+        """The tangent-space normal map feeding input ``name``: a UsdUVTexture (its scale and
+        bias decode it, as the UsdPreviewSurface spec has it), or a MaterialX ``normalmap`` node
+        over an image (v = 2·texel − 1, its x and y times the node's ``scale``); None otherwise."""
+        source = _source_output(shader.GetInput(name))
+        if source is None:
             return None
+        node, _ = source
+        if not (node.GetShaderId() or "").startswith(MTLX_NORMALMAP_PREFIX):
+            return self.connected(shader, name, signed=True)
+        time, path = self.ctx.time, str(node.GetPath())
+        space = str(_value(node.GetInput("space"), time, "tangent"))
+        if space != "tangent":
+            self.ctx.unsupported["MaterialX normalmap nodes in object space (not applied)"].append(path)
+            return None
+        strength = np.resize(np.asarray(_value(node.GetInput("scale"), time, 1.0), dtype=np.float64), 2)
+        if not np.all(np.isfinite(strength)):
+            self.ctx.problem(node.GetPrim(), "inputs:scale", f"must be finite, got {strength.tolist()}")
+            return None
+        sx, sy = (float(c) for c in strength)
+        return self.connected(node, "in", signed=True, scale_bias=((2 * sx, 2 * sy, 2.0), (-sx, -sy, -1.0)))
+
+    def _uv_texture(self, tex_shader: UsdShade.Shader, output: str, factor: float, signed: bool) -> Connected:
         prim, time = tex_shader.GetPrim(), self.ctx.time
-        path = str(prim.GetPath())
         fallback = np.asarray(_value(tex_shader.GetInput("fallback"), time, (0.0, 0.0, 0.0, 1.0)), dtype=np.float64)
         fallback = np.resize(fallback, 4)
         channel = CHANNELS.get(output)
@@ -129,14 +170,8 @@ class TextureReader:
                 prim, f"outputs:{output}", "is not an output of UsdUVTexture (rgb, r, g, b, a) a colour can use"
             )
             return Connected(None, value, st)
-        asset = _value(tex_shader.GetInput("file"), time, None)
-        resolved = asset.resolvedPath if isinstance(asset, Sdf.AssetPath) else ""
-        if not resolved:
-            if asset is None or (isinstance(asset, Sdf.AssetPath) and not asset.path):
-                self.ctx.warn(f"{path}.inputs:file: not authored, so there is no image (the fallback {value} is used)")
-            else:
-                shown = asset.path if isinstance(asset, Sdf.AssetPath) else asset
-                self.ctx.warn(f"{path}.inputs:file: cannot find the image {shown!r} (the fallback {value} is used)")
+        resolved = self._resolved(tex_shader, value)
+        if resolved is None:
             return Connected(None, value, st)
         header = self._header(resolved, prim)
         if header is None:
@@ -160,24 +195,110 @@ class TextureReader:
                 )
                 wrap = "black"
             wraps.append(wrap)
-        key = (resolved, srgb, output, tuple(scale), tuple(bias), factor, signed, *wraps)
+        texture = self._texture(prim, resolved, header, srgb, channel, scale, bias, factor, signed, wraps)
+        return Connected(texture, value, st)
+
+    def _mtlx_image(self, node: UsdShade.Shader, factor: float, signed: bool, scale_bias) -> Connected:
+        """A MaterialX ``image`` / ``tiledimage`` node (its id ND_image_<type>): ``file`` (its
+        colour space from the attribute's colorSpace metadata: srgb_texture is sRGB, anything
+        else linear), ``default`` where there is no image, u/v address modes, ``texcoord`` (a
+        texcoord or geompropvalue node; unconnected: the first uv set, USD's st), and for
+        tiledimage ``uvtiling`` / ``uvoffset``. A float image reads the red channel, as
+        MaterialX does."""
+        prim, time = node.GetPrim(), self.ctx.time
+        shader_id = node.GetShaderId()
+        kind = shader_id.rsplit("_", 1)[-1]
+        width = {"float": 1, "color3": 3, "vector3": 3, "color4": 4, "vector4": 4, "vector2": 2}.get(kind, 3)
+        default = np.resize(np.asarray(_value(node.GetInput("default"), time, (0.0,) * width), dtype=np.float64), 4)
+        value = tuple(float(c) for c in (np.repeat(default[0], 3) if width == 1 else default[:3]))
+        st = self._mtlx_st(node)
+        resolved = self._resolved(node, value)
+        if resolved is None:
+            return Connected(None, value, st)
+        header = self._header(resolved, prim)
+        if header is None:
+            return Connected(None, value, st)
+        file_attr = node.GetInput("file").GetAttr()
+        space = file_attr.GetColorSpace() if file_attr.HasColorSpace() else ""
+        srgb = kind.startswith("color") and space == "srgb_texture"
+        wraps = []
+        for attr in ("uaddressmode", "vaddressmode"):
+            mode = str(_value(node.GetInput(attr), time, "periodic"))
+            if mode not in MTLX_ADDRESS_MODES:
+                self.ctx.problem(
+                    prim, f"inputs:{attr}", f"must be one of {', '.join(MTLX_ADDRESS_MODES)}; got {mode!r}"
+                )
+                mode = "periodic"
+            wraps.append(MTLX_ADDRESS_MODES[mode])
+        scale, bias = np.ones(4), np.zeros(4)
+        if scale_bias is not None:
+            scale[:3], bias[:3] = scale_bias
+        channel = 0 if width == 1 else None
+        texture = self._texture(prim, resolved, header, srgb, channel, scale, bias, factor, signed, wraps)
+        return Connected(texture, value, st)
+
+    def _mtlx_st(self, node: UsdShade.Shader) -> StSource:
+        """Where a MaterialX image node's uvs come from: its ``texcoord`` (a texcoord node: the
+        first uv set; a geompropvalue node: the primvar it names), through a tiledimage's
+        ``uvtiling`` and ``uvoffset`` (uv · tiling − offset, MaterialX's tiledimage)."""
+        time = self.ctx.time
+        primvar = MTLX_FIRST_UV_SET
+        source = _source_output(node.GetInput("texcoord"))
+        if source is not None:
+            reader, _ = source
+            reader_id = reader.GetShaderId() or ""
+            if reader_id.startswith("ND_geompropvalue"):
+                primvar = str(_value(reader.GetInput("geomprop"), time, "")) or MTLX_FIRST_UV_SET
+            elif not reader_id.startswith("ND_texcoord"):
+                self.ctx.unsupported["texture coordinates from other shaders (st (0, 0) used)"].append(
+                    str(reader.GetPath())
+                )
+                return StSource(None)
+        if not (node.GetShaderId() or "").startswith("ND_tiledimage"):
+            return StSource(primvar)
+        tiling = tuple(float(x) for x in _value(node.GetInput("uvtiling"), time, (1.0, 1.0)))
+        offset = tuple(float(x) for x in _value(node.GetInput("uvoffset"), time, (0.0, 0.0)))
+        return StSource(primvar, scale=tiling, translation=(-offset[0], -offset[1]))
+
+    def _resolved(self, node: UsdShade.Shader, value) -> str | None:
+        """The resolved path of a texture node's ``file``, or None after a warning (the node's
+        fallback ``value`` is used)."""
+        path = str(node.GetPath())
+        asset = _value(node.GetInput("file"), self.ctx.time, None)
+        resolved = asset.resolvedPath if isinstance(asset, Sdf.AssetPath) else ""
+        if resolved:
+            return resolved
+        if asset is None or (isinstance(asset, Sdf.AssetPath) and not asset.path):
+            self.ctx.warn(f"{path}.inputs:file: not authored, so there is no image (the fallback {value} is used)")
+        else:
+            shown = asset.path if isinstance(asset, Sdf.AssetPath) else asset
+            self.ctx.warn(f"{path}.inputs:file: cannot find the image {shown!r} (the fallback {value} is used)")
+        return None
+
+    def _texture(
+        self, prim, resolved: str, header: ImageHeader, srgb, channel, scale, bias, factor, signed, wraps
+    ) -> Texture | None:
+        """The model's texture of an image and how it is decoded, built once per distinct
+        decoding; None after a problem or warning (the fallback is used)."""
+        path = str(prim.GetPath())
+        key = (resolved, srgb, channel, tuple(scale), tuple(bias), factor, signed, *wraps)
         if key not in self.textures:
             try:
                 self.budget.charge(header.texels, f"{resolved} ({header.width} x {header.height})")
             except TextureTooBig as e:
                 self.ctx.problem(prim, "inputs:file", str(e))
-                return Connected(None, value, st)
+                return None
             pixels = self._pixels(resolved, header, path)
             if pixels is None:
-                return Connected(None, value, st)
+                return None
             image, negative, nonfinite = texels(pixels, srgb, channel, scale, bias, factor, resolved, signed)
             if nonfinite:
                 self.ctx.problem(prim, "inputs:file", f"{resolved}: {nonfinite} texel values are not finite")
-                return Connected(None, value, st)
+                return None
             if negative:
                 self.ctx.warn(f"{path}: scale and bias give negative colours (clipped to 0)")
             self.textures[key] = Texture(image, wraps[0], wraps[1], source=path, file=resolved)
-        return Connected(self.textures[key], value, st)
+        return self.textures[key]
 
     def _st(self, tex_shader: UsdShade.Shader) -> StSource:
         source = _source_output(tex_shader.GetInput("st"))

@@ -13,6 +13,7 @@ from collections import defaultdict
 from pxr import Sdr, Tf, Usd, UsdLux, UsdShade
 
 from .context import ReadContext
+from .materialx_documents import is_node_definition
 from .pbr_networks import MTLX_NETWORKS
 
 # difflib's similarity ratio from which a known name is offered as the one meant: 0.8 catches
@@ -66,11 +67,13 @@ def check_names(ctx: ReadContext) -> None:
                     )
         if prim.IsA(UsdShade.Shader):
             shader_id = UsdShade.Shader(prim).GetShaderId()
-            # The MaterialX surfaces the reader maps (pbr_networks) need no registered node.
+            # The MaterialX surfaces the reader maps (pbr_networks) need no registered node, nor
+            # does any node MaterialX defines (usd-core registers none of them: it has no usdMtlx).
             if (
                 shader_id
                 and shader_id not in MTLX_NETWORKS
                 and Sdr.Registry().GetShaderNodeByIdentifier(shader_id) is None
+                and not is_node_definition(shader_id)
             ):
                 unregistered[shader_id].append(str(path))
     # One warning per unknown id, however many shaders use it (a set of 524 instanced teapots

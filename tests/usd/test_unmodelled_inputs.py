@@ -87,7 +87,7 @@ def Sphere "B" (prepend apiSchemas = ["MaterialBindingAPI"]) {
 }
 """
     )
-    (warning,) = [w for w in read(tmp_path, text).warnings if "normal maps" in w]
+    (warning,) = [w for w in read(tmp_path, text).warnings if "not read as a normal map" in w]
     assert "inputs:normal" in warning and "/X" in warning
 
 
