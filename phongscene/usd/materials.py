@@ -13,7 +13,7 @@ from pxr import Sdf, Sdr, Usd, UsdGeom, UsdShade
 from ..scene import DEFAULT_MATERIAL, PhongMaterial, Texture
 from .context import ReadContext
 from .names import COLOR_TYPES, PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
-from .pbr_networks import MDL_NETWORKS, MTLX_NETWORKS, Network, inputs, reduce
+from .pbr_networks import MDL_NETWORKS, MTLX_NETWORKS, OMNI_PBR, Network, inputs, reduce
 from .shader_defs import phong_input_defaults, phong_inputs
 from .textures import Connected, StSource, TextureReader
 
@@ -37,6 +37,10 @@ PREVIEW_MIRROR_MAX_ROUGHNESS = 0.35
 # authored other value or a connection is warned (never dropped silently).
 # MaterialX standard_surface / OpenPBR / OmniPBR inputs that carry a normal map.
 NORMAL_MAP_INPUTS = ("normal", "geometry_normal", "normalmap_texture")
+# OmniPBR's texture inputs (assets on the MDL shader itself) that the model reads.
+OMNI_DIFFUSE_TEXTURE = "diffuse_texture"
+OMNI_NORMAL_TEXTURE = "normalmap_texture"
+OMNI_UNREAD_TEXTURES = ("reflectionroughness_texture", "metallic_texture", "ORM_texture", "opacity_texture")
 PREVIEW_UNMODELLED = {"clearcoat": 0.0, "occlusion": 1.0, "normal": (0.0, 0.0, 1.0)}
 # What a read normal map is told as (one grouped warning listing the materials): the model has
 # it, but one backend cannot draw it.
@@ -494,7 +498,14 @@ class MaterialReader:
         source = str(prim.GetPath())
         values = {}
         base_name = network.base_color[0]
-        base_texture = self.textures.connected(shader, base_name)
+        omni = network is OMNI_PBR
+
+        def base_read(factor: float = 1.0):  # OmniPBR's texture is an asset input, MaterialX's a node
+            if omni:
+                return self.textures.omni_texture(shader, OMNI_DIFFUSE_TEXTURE, factor)
+            return self.textures.connected(shader, base_name, factor)
+
+        base_texture = base_read()
         for name, default in inputs(network).items():
             if name == base_name and base_texture is not None:
                 # The metal's F0 tint takes the texture's mean colour (one cs per material).
@@ -519,12 +530,18 @@ class MaterialReader:
             inp = shader.GetInput(name)
             if inp and (inp.HasConnectedSource() or np.any(np.asarray(inp.Get(self.ctx.time)) != neutral)):
                 self.ctx.unsupported[f"{network.label} inputs:{name} (not in the Phong model; ignored)"].append(source)
-        normal_map = self._normal_map(shader, "normal") if network.label.startswith("MaterialX") else None
+        normal_map = self._omni_normal_map(shader) if omni else self._normal_map(shader, "normal")
+        for name in OMNI_UNREAD_TEXTURES if omni else ():
+            inp = shader.GetInput(name)
+            if inp and inp.GetAttr().HasAuthoredValue():
+                self.ctx.unsupported[f"{network.label} inputs:{name} (no per-point form; the constant is used)"].append(
+                    source
+                )
         for name in NORMAL_MAP_INPUTS:
             # No neutral constant: any authored value or connection (a normalmap node, an
             # OmniPBR normal texture) perturbs the normal; what is not read as a map is named.
             inp = shader.GetInput(name)
-            if name == "normal" and normal_map is not None:
+            if name in ("normal", OMNI_NORMAL_TEXTURE) and normal_map is not None:
                 continue
             if inp and (inp.HasConnectedSource() or inp.GetAttr().HasAuthoredValue()):
                 self.ctx.unsupported[f"{network.label} inputs:{name} (not read as a normal map; ignored)"].append(
@@ -540,9 +557,20 @@ class MaterialReader:
             metal = float(np.clip(float(values[network.metalness[0]]), 0.0, 1.0))
             if network.base_tint is not None and tuple(values[network.base_tint[0]]) != (1.0, 1.0, 1.0):
                 self.ctx.unsupported[f"{network.label} tinted textures (the tint is not applied)"].append(source)
-            base_texture = self.textures.connected(shader, base_name, weight * (1.0 - metal))
+            base_texture = base_read(weight * (1.0 - metal))
             material = self._textured(material, base_texture)
         return self._with_normal_map(material, normal_map)
+
+    def _omni_normal_map(self, shader: UsdShade.Shader) -> Connected | None:
+        """OmniPBR's ``normalmap_texture`` (MDL's tangent_space_normal_texture): v = 2·texel − 1,
+        its x and y times ``bump_factor`` and negated by ``flip_tangent_u`` / ``flip_tangent_v``."""
+        factor = float(np.nan_to_num(float(self._input_value(shader, "bump_factor", 1.0))))
+        sx = -factor if bool(self._input_value(shader, "flip_tangent_u", False)) else factor
+        sy = -factor if bool(self._input_value(shader, "flip_tangent_v", False)) else factor
+        connected = self.textures.omni_texture(
+            shader, OMNI_NORMAL_TEXTURE, signed=True, scale_bias=((2 * sx, 2 * sy, 2.0), (-sx, -sy, -1.0))
+        )
+        return connected if connected is not None and connected.texture is not None else None
 
     def _metallic_textured(
         self, material: PhongMaterial, connected, values: dict, specular_level: float

@@ -44,6 +44,8 @@ CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3}
 MTLX_IMAGE_PREFIXES = ("ND_image_", "ND_tiledimage_")
 MTLX_NORMALMAP_PREFIX = "ND_normalmap"
 MTLX_ADDRESS_MODES = {"periodic": "repeat", "clamp": "clamp", "mirror": "mirror", "constant": "black"}
+# OmniPBR's textures read texture coordinate 0: USD's st.
+OMNI_UV_SET = "st"
 # An image node without a texcoord reads the first uv set: USD's st (as usdMtlx and Storm do).
 MTLX_FIRST_UV_SET = "st"
 UV_TYPES = tuple(t + "[]" for t in ("texCoord2f", "texCoord2d", "texCoord2h", "float2", "double2", "half2"))
@@ -158,6 +160,41 @@ class TextureReader:
         sx, sy = (float(c) for c in strength)
         return self.connected(node, "in", signed=True, scale_bias=((2 * sx, 2 * sy, 2.0), (-sx, -sy, -1.0)))
 
+    def omni_texture(
+        self, shader: UsdShade.Shader, name: str, factor: float = 1.0, signed: bool = False, scale_bias=None
+    ) -> Connected | None:
+        """An OmniPBR (MDL) material's texture: the asset input ``name`` on the shader itself
+        (``diffuse_texture``, ``normalmap_texture``), its colour space from the attribute's
+        colorSpace (sRGB; raw; auto, the default: sRGB for 8-bit files, as MDL's gamma auto), at
+        the st primvar through ``texture_scale``, ``texture_rotate`` (degrees) and
+        ``texture_translate`` (MDL's rotation_translation_scale: scaled, rotated, translated,
+        UsdTransform2d's order); None when the input is not authored."""
+        inp = shader.GetInput(name)
+        if not inp or not inp.GetAttr().HasAuthoredValue():
+            return None
+        prim, time = shader.GetPrim(), self.ctx.time
+        st = StSource(
+            OMNI_UV_SET,
+            scale=tuple(float(x) for x in _value(shader.GetInput("texture_scale"), time, (1.0, 1.0))),
+            rotation_deg=float(_value(shader.GetInput("texture_rotate"), time, 0.0)),
+            translation=tuple(float(x) for x in _value(shader.GetInput("texture_translate"), time, (0.0, 0.0))),
+        )
+        value = (0.0, 0.0, 1.0) if signed else (0.0, 0.0, 0.0)
+        resolved = self._resolved(shader, value, name)
+        if resolved is None:
+            return Connected(None, value, st)
+        header = self._header(resolved, prim)
+        if header is None:
+            return Connected(None, value, st)
+        attr = inp.GetAttr()
+        space = attr.GetColorSpace() if attr.HasColorSpace() else "auto"
+        srgb = not signed and (space == "sRGB" or (space in ("auto", "") and header.eight_bit))
+        scale, bias = np.ones(4), np.zeros(4)
+        if scale_bias is not None:
+            scale[:3], bias[:3] = scale_bias
+        texture = self._texture(prim, resolved, header, srgb, None, scale, bias, factor, signed, ["repeat", "repeat"])
+        return Connected(texture, value, st)
+
     def _uv_texture(self, tex_shader: UsdShade.Shader, output: str, factor: float, signed: bool) -> Connected:
         prim, time = tex_shader.GetPrim(), self.ctx.time
         fallback = np.asarray(_value(tex_shader.GetInput("fallback"), time, (0.0, 0.0, 0.0, 1.0)), dtype=np.float64)
@@ -260,19 +297,19 @@ class TextureReader:
         offset = tuple(float(x) for x in _value(node.GetInput("uvoffset"), time, (0.0, 0.0)))
         return StSource(primvar, scale=tiling, translation=(-offset[0], -offset[1]))
 
-    def _resolved(self, node: UsdShade.Shader, value) -> str | None:
-        """The resolved path of a texture node's ``file``, or None after a warning (the node's
-        fallback ``value`` is used)."""
+    def _resolved(self, node: UsdShade.Shader, value, name: str = "file") -> str | None:
+        """The resolved path of a texture node's ``file`` (input ``name``), or None after a
+        warning (the node's fallback ``value`` is used)."""
         path = str(node.GetPath())
-        asset = _value(node.GetInput("file"), self.ctx.time, None)
+        asset = _value(node.GetInput(name), self.ctx.time, None)
         resolved = asset.resolvedPath if isinstance(asset, Sdf.AssetPath) else ""
         if resolved:
             return resolved
         if asset is None or (isinstance(asset, Sdf.AssetPath) and not asset.path):
-            self.ctx.warn(f"{path}.inputs:file: not authored, so there is no image (the fallback {value} is used)")
+            self.ctx.warn(f"{path}.inputs:{name}: not authored, so there is no image (the fallback {value} is used)")
         else:
             shown = asset.path if isinstance(asset, Sdf.AssetPath) else asset
-            self.ctx.warn(f"{path}.inputs:file: cannot find the image {shown!r} (the fallback {value} is used)")
+            self.ctx.warn(f"{path}.inputs:{name}: cannot find the image {shown!r} (the fallback {value} is used)")
         return None
 
     def _texture(

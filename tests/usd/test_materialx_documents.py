@@ -208,3 +208,41 @@ def Material "M" {{
 """
     result = read(tmp_path, looks + QUAD.replace("</Looks/M_Wood>", "</M>"))
     assert any("no shader" in w and shader_id in w for w in result.warnings) == warned
+
+
+def test_omni_pbr_textures_are_its_diffuse_texture_and_normal_map(tmp_path):
+    """OmniPBR's asset inputs: diffuse_texture (8-bit, colour space auto: sRGB) × (1 − metallic),
+    normalmap_texture (2·texel − 1, x and y × bump_factor, v flipped by flip_tangent_v), at st
+    through texture_scale / texture_translate; a roughness texture is named as not read."""
+    _textures(tmp_path)
+    looks = """
+def Material "M_Wood" {
+    token outputs:mdl:surface.connect = </M_Wood/S.outputs:out>
+    def Shader "S" {
+        uniform token info:implementationSource = "sourceAsset"
+        uniform asset info:mdl:sourceAsset = @OmniPBR.mdl@
+        uniform token info:mdl:sourceAsset:subIdentifier = "OmniPBR"
+        asset inputs:diffuse_texture = @./tex/base.png@
+        float inputs:metallic_constant = 0.25
+        asset inputs:normalmap_texture = @./tex/normal.png@ ( colorSpace = "raw" )
+        float inputs:bump_factor = 0.5
+        bool inputs:flip_tangent_v = 1
+        asset inputs:reflectionroughness_texture = @./tex/base.png@
+        float2 inputs:texture_scale = (2, 2)
+        float2 inputs:texture_translate = (0.25, 0)
+        token outputs:out
+    }
+}
+"""
+    result = read(tmp_path, looks + QUAD.replace("</Looks/M_Wood>", "</M_Wood>"))
+    (mesh,) = result.scene.meshes
+    m = mesh.material
+    np.testing.assert_allclose(m.diffuse_texture.image, srgb_to_linear(PIXELS8 / 255.0) * 0.75, atol=DECODED_ATOL)
+    expected = 2.0 * NORMAL8 / 255.0 - 1.0
+    expected[..., 0] *= 0.5
+    expected[..., 1] *= -0.5
+    np.testing.assert_allclose(m.normal_texture.image, expected, atol=DECODED_ATOL)
+    corners = np.array([(0, 0), (1, 0), (1, 1), (0, 1)], dtype=np.float64)
+    np.testing.assert_allclose(mesh.uvs, corners * 2 + (0.25, 0), atol=1e-12)
+    assert any("reflectionroughness_texture" in w and "/M_Wood/S" in w for w in result.warnings)
+    assert not [w for w in result.warnings if "normalmap_texture" in w]
