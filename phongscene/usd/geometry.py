@@ -274,6 +274,7 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     if not np.all(np.isfinite(p)):
         ctx.problem(prim, "points", f"{int(np.count_nonzero(~np.isfinite(p).all(axis=1)))} points are not finite")
     pose = ctx.skinning.pose(prim, p) if prim.HasAPI(UsdSkel.BindingAPI) and len(ctx.problems) == n_problems else None
+    bind_points = p
     if pose is not None:
         # Posed in the skeleton's space, placed by the skeleton (UsdSkel: the mesh's transform
         # does not apply to skinned points).
@@ -345,11 +346,17 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     # The identity fan's triangles are the indices themselves (a view, not a 1M-row gather).
     triangles = idx.reshape(-1, 3) if identity else idx[fv]
 
-    if pose is not None and _has_authored_normals(prim):
-        ctx.unsupported["authored normals of skinned meshes (geometric normals are used)"].append(path)
+    if pose is not None and pose.normals is None and _has_authored_normals(prim):
+        ctx.unsupported[
+            "authored normals of skinned meshes without readable joint influences (geometric normals are used)"
+        ].append(path)
         normals = None
     else:
-        normals = _mesh_normals(ctx, prim, len(p), len(idx), len(counts), fv, triangles, face_of_tri, p)
+        # A skinned mesh's normals are read in the bind pose (a zero one takes its bind-pose
+        # triangle's normal), then skinned, each by the influences of its corner's point.
+        normals = _mesh_normals(ctx, prim, len(p), len(idx), len(counts), fv, triangles, face_of_tri, bind_points)
+        if normals is not None and pose is not None:
+            normals = _skinned_normals(pose.normals, *normals, triangles)
     if len(ctx.problems) > n_problems:
         return None
     uvs = (
@@ -516,6 +523,15 @@ def _mesh_normals(ctx, prim, n_points, n_corners, n_faces, fv, triangles, face_o
     if zero.any():
         values, corner = _geometric_normals_for_zero(values, corner, zero, points, triangles)
     return values, corner
+
+
+def _skinned_normals(skinning, values, corner, triangles):
+    """(normals, normal_indices) skinned: one normal per distinct (authored normal, point) pair
+    the corners use (a normal shared by points of different joints poses differently at each)."""
+    pairs = np.stack([np.asarray(corner, dtype=np.int64).ravel(), np.asarray(triangles, dtype=np.int64).ravel()], 1)
+    unique, inverse = np.unique(pairs, axis=0, return_inverse=True)
+    skinned = skinning.skin(values[unique[:, 0]], unique[:, 1])
+    return skinned, inverse.reshape(np.shape(corner))
 
 
 def _geometric_normals_for_zero(values, corner, zero, points, triangles):

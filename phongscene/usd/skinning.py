@@ -8,9 +8,10 @@ skinning query (``ComputeSkinnedPoints``: linear blend or dual quaternion, as au
 rule: the mesh's own transform does not apply), so the skeleton's local-to-world places them.
 An animated ``SkelAnimation`` is read frame by frame like any other time sample.
 
-Not modelled (a warning lists the meshes): blend shapes (the posed points without them) and
-authored normals of a skinned mesh (bind-pose normals would be wrong in the pose, so they are
-dropped and the triangles' geometric normals are used).
+Authored normals are skinned too (``UsdSkel.SkinNormals``: each normal by its point's joint
+influences, with the inverse transposes of the skinning transforms and of the geomBindTransform,
+as UsdSkel's imaging skins them). Not modelled (a warning lists the meshes): blend shapes (the
+posed points without them).
 """
 
 from __future__ import annotations
@@ -19,10 +20,41 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from pxr import Usd, UsdSkel, Vt
+from pxr import Gf, Usd, UsdSkel, Vt
 
 if TYPE_CHECKING:
     from .context import ReadContext
+
+
+@dataclass(frozen=True)
+class NormalSkinning:
+    """What skins a mesh's normals: the method, the inverse transposes of the geomBindTransform's
+    and of each (mesh-ordered) skinning transform's linear part, and each point's influences."""
+
+    method: str
+    geom_bind: Gf.Matrix3d
+    joints: Vt.Matrix3dArray
+    indices: np.ndarray  # (N, k) int, or (1, k) for a rigidly deformed mesh
+    weights: np.ndarray  # (N, k) float, likewise
+
+    def skin(self, normals: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """``normals`` (K, 3), each that of point ``points[i]``, skinned and made unit."""
+        k = self.indices.shape[1]
+        rows = np.zeros(len(points), dtype=np.int64) if len(self.indices) == 1 else points
+        skinned = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(normals, dtype=np.float32))
+        UsdSkel.SkinNormals(
+            self.method,
+            self.geom_bind,
+            self.joints,
+            Vt.IntArray.FromNumpy(np.ascontiguousarray(self.indices[rows].ravel(), dtype=np.int32)),
+            Vt.FloatArray.FromNumpy(np.ascontiguousarray(self.weights[rows].ravel(), dtype=np.float32)),
+            k,
+            skinned,
+        )
+        out = np.asarray(skinned, dtype=np.float64).reshape(-1, 3)
+        lengths = np.linalg.norm(out, axis=1, keepdims=True)
+        # A normal its joints' weights cancel (zero weights): the normal as authored.
+        return np.where(lengths > 0, out / np.where(lengths > 0, lengths, 1.0), normals)
 
 
 @dataclass(frozen=True)
@@ -31,6 +63,7 @@ class Pose:
 
     points: np.ndarray  # (N, 3) float64
     world: np.ndarray  # (4, 4) column-vector, model space
+    normals: NormalSkinning | None = None  # None: the mesh's influences could not be read
 
 
 class Skinning:
@@ -74,7 +107,42 @@ class Skinning:
         if target.HasBlendShapes():
             self.ctx.unsupported["blend shapes (the skinned pose without them)"].append(path)
         skeleton_prim = skel_query.GetSkeleton().GetPrim()
-        return Pose(np.asarray(posed, dtype=np.float64).reshape(-1, 3), self.ctx.world(skeleton_prim))
+        return Pose(
+            np.asarray(posed, dtype=np.float64).reshape(-1, 3),
+            self.ctx.world(skeleton_prim),
+            _normal_skinning(target, xforms, time),
+        )
+
+
+def _inverse_transposes(matrices: np.ndarray) -> np.ndarray:
+    """The inverse transposes of the linear parts of (J, 4, 4) Gf (row-vector) matrices; a
+    singular one (a zero scale) gives zeros (its normals then keep their authored direction)."""
+    linear = matrices[:, :3, :3]
+    out = np.zeros_like(linear)
+    ok = np.abs(np.linalg.det(linear)) > 0
+    out[ok] = np.linalg.inv(linear[ok]).transpose(0, 2, 1)
+    return out
+
+
+def _normal_skinning(target: UsdSkel.SkinningQuery, xforms, time) -> NormalSkinning | None:
+    influences = target.ComputeJointInfluences(time)
+    if not influences:
+        return None
+    indices, weights = influences
+    k = target.GetNumInfluencesPerComponent()
+    mapper = target.GetJointMapper()
+    if mapper and not mapper.IsNull() and not mapper.IsIdentity():
+        mapped = Vt.Matrix4dArray(len(target.GetJointOrder() or []))
+        xforms = mapper.RemapTransforms(xforms, mapped) or mapped
+    joints = _inverse_transposes(np.asarray(xforms, dtype=np.float64).reshape(-1, 4, 4))
+    bind = _inverse_transposes(np.asarray(target.GetGeomBindTransform(time), dtype=np.float64).reshape(1, 4, 4))[0]
+    return NormalSkinning(
+        str(target.GetSkinningMethod()),
+        Gf.Matrix3d(*bind.ravel().tolist()),
+        Vt.Matrix3dArray.FromNumpy(np.ascontiguousarray(joints)),
+        np.asarray(indices, dtype=np.int64).reshape(-1, k),
+        np.asarray(weights, dtype=np.float64).reshape(-1, k),
+    )
 
 
 def _enclosing_root(prim: Usd.Prim) -> UsdSkel.Root | None:

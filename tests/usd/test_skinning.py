@@ -16,6 +16,8 @@ from phongscene.usd import read_usd
 
 # Skinned points are float32 (USD's point3f[]): a few ulps of coordinates of size ~3.
 POINT_TOLERANCE = 1e-5
+# Skinned normals are float32 (UsdSkel skins them so) unit vectors: a few ulps of 1.
+NORMAL_TOLERANCE = 1e-6
 RADIUS, SEGMENTS, RINGS = 0.2, 8, 5  # rings at y = 0, 0.5, 1, 1.5, 2
 ELBOW = np.array([0.0, 1.0, 0.0])
 ROOT_OFFSET = np.array([3.0, 0.0, 0.0])  # the SkelRoot's translate: places the skeleton
@@ -107,13 +109,57 @@ def test_the_pose_is_usds_own_baked_skinning(tmp_path):
     assert not np.allclose(ours, _posed(0.0), atol=0.1)  # the bend is not the bind pose
 
 
-def test_authored_normals_of_a_skinned_mesh_are_dropped_with_a_warning(tmp_path):
-    path = tmp_path / "arm.usda"
+def _radial_normals() -> np.ndarray:
+    p = _cylinder_points()
+    n = p * (1.0, 0.0, 1.0)
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def _with_normals(path, interpolation: str) -> None:
+    """The arm with smooth radial normals, per point or per face corner."""
     _write(path)
     stage = Usd.Stage.Open(str(path))
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/Arm/Cylinder"))
-    mesh.CreateNormalsAttr([Gf.Vec3f(0, 1, 0)] * len(_cylinder_points()))
+    n = _radial_normals()
+    if interpolation == "faceVarying":
+        n = n[np.asarray(mesh.GetFaceVertexIndicesAttr().Get())]
+    mesh.CreateNormalsAttr([Gf.Vec3f(*x) for x in n])
+    mesh.SetNormalsInterpolation(interpolation)
     stage.Save()
-    result = read_usd(path, time=10.0)
-    assert result.scene.meshes[0].normals is None
-    assert any("skinned" in w and "/Arm/Cylinder" in w for w in result.warnings)
+
+
+@pytest.mark.parametrize("interpolation", ["vertex", "faceVarying"])
+@pytest.mark.parametrize("t", [0.0, 10.0])
+def test_authored_normals_are_skinned_with_their_points(tmp_path, interpolation, t):
+    """The upper rings turn rigidly with the elbow: their normals turn by the same rotation;
+    the lower ones stay. (Per corner: each corner's normal follows its point's joint.)"""
+    path = tmp_path / "arm.usda"
+    _with_normals(path, interpolation)
+    result = read_usd(path, time=t)
+    (mesh,) = result.scene.meshes
+    a = math.radians(BEND_DEG * t / 10.0)
+    rz = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
+    expected = _radial_normals()
+    upper = _cylinder_points()[:, 1] > 1.0
+    expected[upper] = expected[upper] @ rz.T
+    corners = np.asarray(mesh.triangles)
+    np.testing.assert_allclose(
+        np.asarray(mesh.normals)[np.asarray(mesh.normal_indices)], expected[corners], atol=NORMAL_TOLERANCE
+    )
+    assert not [w for w in result.warnings if "normals" in w and "skinned" in w]
+
+
+def test_skinned_normals_are_usds_own_baked_ones(tmp_path):
+    """usd-core's BakeSkinning skins the normals by its own path; ours agree (world space)."""
+    path = tmp_path / "arm.usda"
+    _with_normals(path, "vertex")
+    (mesh,) = read_usd(path, time=7.0).scene.meshes
+    stage = Usd.Stage.Open(str(path))
+    assert UsdSkel.BakeSkinning(UsdSkel.Root(stage.GetPrimAtPath("/Arm")), Gf.Interval(0, 10))
+    baked = UsdGeom.Mesh(stage.GetPrimAtPath("/Arm/Cylinder"))
+    world = np.array(baked.ComputeLocalToWorldTransform(7.0))[:3, :3]
+    n = np.asarray(baked.GetNormalsAttr().Get(7.0), dtype=np.float64) @ np.linalg.inv(world).T
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    ours = np.asarray(mesh.normals)[np.asarray(mesh.normal_indices)]
+    np.testing.assert_allclose(ours, n[np.asarray(mesh.triangles)], atol=NORMAL_TOLERANCE)
+    assert not np.allclose(ours, _radial_normals()[np.asarray(mesh.triangles)], atol=0.1)  # they did turn
