@@ -297,6 +297,13 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
         return None
 
     scheme = ctx.get(prim, "subdivisionScheme", ("token",), UsdGeom.Tokens.catmullClark)
+    if scheme != UsdGeom.Tokens.none and _polygon_export(ctx, prim):
+        ctx.unsupported[
+            "meshes with normals and no subdivisionScheme, drawn as the polygon meshes their normals describe "
+            '(USD\'s fallback is catmullClark: author subdivisionScheme = "catmullClark", phong:subdivisionLevel '
+            "or --subdivision-level to refine them)"
+        ].append(path)
+        scheme = UsdGeom.Tokens.none
     if scheme != UsdGeom.Tokens.none:
         if scheme not in subdivision.SCHEMES:
             allowed = ", ".join([*subdivision.SCHEMES, UsdGeom.Tokens.none])
@@ -453,6 +460,20 @@ def _subdivided(ctx: ReadContext, prim: Usd.Prim, world, material, st, scheme, l
         _to_world(refined.points, world), triangles, world_normals, triangles, material, path, uvs_out, uv_triangles
     )
     return mesh_, kept[refined.base_face], n_faces
+
+
+def _polygon_export(ctx: ReadContext, prim: Usd.Prim) -> bool:
+    """Whether a mesh is a polygon model exported without ``subdivisionScheme = "none"``: the
+    scheme is not authored (USD's fallback, catmullClark, applies), the mesh authors normals
+    (which a subdivision surface ignores: the exporter meant them), and no refinement level is
+    asked for (``phong:subdivisionLevel``, ``--subdivision-level``). Refined, such a model loses
+    its shape (OpenChessSet's king loses the knob under its cross); Storm draws its cage too."""
+    return (
+        not prim.GetAttribute("subdivisionScheme").HasAuthoredValue()
+        and ctx.subdivision_level is None
+        and not prim.GetAttribute(subdivision.SUBDIVISION_LEVEL).HasAuthoredValue()
+        and _has_authored_normals(prim)
+    )
 
 
 def _has_authored_normals(prim: Usd.Prim) -> bool:

@@ -551,6 +551,15 @@ class MaterialReader:
         material = preview_to_phong(
             tuple(diffuse), roughness, specular_color=tuple(f0), use_specular_workflow=1, source=source
         )
+        transmission = 0.0 if network.transmission is None else float(values[network.transmission[0]])
+        if transmission > 0:
+            # Transmission weight t: the opaque surface × (1 − t) plus refraction × t, the
+            # UsdPreviewSurface's opacity 1 − t (the same dielectric, Suffern ch. 28).
+            ior = float(values[network.ior[0]]) if network.ior is not None else 1.5
+            material = preview_glass(material, 1.0 - min(transmission, 1.0), ior, roughness)
+            tint = values[network.transmission_color[0]]
+            if tuple(float(c) for c in tint) != (1.0, 1.0, 1.0):
+                self.ctx.unsupported[f"{network.label} tinted transmission (clear glass is used)"].append(source)
         if base_texture is not None and base_texture.texture is not None:
             # The diffuse lobe is base·base_color·(1 − metalness): the texels are scaled so.
             weight = 1.0 if network.base_weight is None else max(float(values[network.base_weight[0]]), 0.0)

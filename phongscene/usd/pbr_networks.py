@@ -44,6 +44,11 @@ class Network:
     # F0 of a dielectric as a function of (ior, specular weight): the networks disagree here.
     dielectric_f0: str  # "ior" (F0 from the ior, times the weight) or "level" (OmniPBR: 0.08·level)
     unmodelled: dict[str, object] = field(default_factory=dict)
+    # The transmission weight and its colour (None: the network has none the model reads): the
+    # weight makes the surface the book's dielectric (materials.preview_glass), as a UsdPreviewSurface's
+    # opacity below 1 does; a tinted transmission colour is not modelled (a warning says so).
+    transmission: tuple[str, float] | None = None
+    transmission_color: tuple[str, tuple[float, float, float]] | None = None
 
 
 STANDARD_SURFACE = Network(
@@ -57,10 +62,11 @@ STANDARD_SURFACE = Network(
     roughness=("specular_roughness", 0.2),
     ior=("specular_IOR", 1.5),
     dielectric_f0="ior",
+    transmission=("transmission", 0.0),
+    transmission_color=("transmission_color", (1.0, 1.0, 1.0)),
     unmodelled={
         "coat": 0.0,
         "sheen": 0.0,
-        "transmission": 0.0,
         "subsurface": 0.0,
         "emission": 0.0,
         "thin_film_thickness": 0.0,
@@ -79,10 +85,11 @@ OPEN_PBR = Network(
     roughness=("specular_roughness", 0.3),
     ior=("specular_ior", 1.5),
     dielectric_f0="ior",
+    transmission=("transmission_weight", 0.0),
+    transmission_color=("transmission_color", (1.0, 1.0, 1.0)),
     unmodelled={
         "coat_weight": 0.0,
         "fuzz_weight": 0.0,
-        "transmission_weight": 0.0,
         "subsurface_weight": 0.0,
         "emission_luminance": 0.0,
         "thin_film_weight": 0.0,
@@ -155,5 +162,7 @@ def inputs(network: Network) -> dict[str, object]:
         network.specular_color,
         network.roughness,
         network.ior,
+        network.transmission,
+        network.transmission_color,
     )
     return dict(pair for pair in pairs if pair is not None)

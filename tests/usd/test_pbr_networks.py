@@ -209,3 +209,38 @@ def test_defaults_match_the_materialx_data_libraries(network, nodedef):
         assert found is not None, name
         expected = [float(v) for v in found.getValueString().split(",")]
         assert np.ravel(default).tolist() == pytest.approx(expected), name
+
+
+@pytest.mark.parametrize("weight", [1.0, 0.6])
+def test_standard_surface_transmission_is_the_preview_surfaces_glass(tmp_path, weight):
+    """transmission t is the UsdPreviewSurface's opacity 1 − t: the same dielectric (kt, ior,
+    Fresnel mirror); a tinted transmission colour is named as not modelled."""
+    mtlx = _material(
+        "X",
+        "mtlx:",
+        f"""uniform token info:id = "ND_standard_surface_surfaceshader"
+        float inputs:base = 0.5
+        color3f inputs:base_color = (1, 1, 1)
+        float inputs:specular_roughness = 0.1
+        float inputs:specular_IOR = 1.45
+        float inputs:transmission = {weight}
+        color3f inputs:transmission_color = (1, 0.9, 0.8)""",
+    )
+    preview = _material(
+        "P",
+        "",
+        f"""uniform token info:id = "UsdPreviewSurface"
+        color3f inputs:diffuseColor = (0.5, 0.5, 0.5)
+        float inputs:roughness = 0.1
+        float inputs:ior = 1.45
+        float inputs:opacity = {1.0 - weight}""",
+        output="surface",
+    )
+    result = read(tmp_path, CAMERA_AND_LIGHT + mtlx + preview + _sphere("A", "X") + _sphere("B", "P"))
+    looks = _materials_of(result)
+    x, p = looks["/X/S"], looks["/P/S"]
+    _same_look(x, p)
+    assert x.kt == pytest.approx(weight) and x.kt == pytest.approx(p.kt)
+    assert (x.ior, x.kr, x.fresnel) == pytest.approx((p.ior, p.kr, p.fresnel))
+    assert any("tinted transmission" in w and "/X/S" in w for w in result.warnings)
+    assert not [w for w in result.warnings if "inputs:transmission " in w]

@@ -343,3 +343,21 @@ def test_authored_normals_give_way_to_the_limit_surfaces_with_a_warning(tmp_path
     result, cage = refined(tmp_path, CUBE_POINTS, CUBE_FACES, level=0, normals=normals)
     assert not [w for w in result.warnings if "authored normals" in w]
     assert cage.normals is not None and len(cage.triangles) == 12  # the cage, with its normals
+
+
+def test_a_mesh_with_normals_and_no_scheme_is_the_polygon_mesh_they_describe(tmp_path):
+    """USD's fallback scheme is catmullClark, but a mesh that authors normals and no scheme is a
+    polygon export (OpenChessSet's pieces): drawn as its cage with its normals, with a warning;
+    an authored level or scheme still refines it."""
+    normals = Vt.Vec3fArray([Gf.Vec3f(*(np.sign(p) / np.sqrt(3.0))) for p in CUBE_POINTS])
+    result, cage = refined(tmp_path, CUBE_POINTS, CUBE_FACES, normals=normals)
+    assert len(cage.triangles) == 12 and cage.normals is not None
+    (said,) = [w for w in result.warnings if "no subdivisionScheme" in w]
+    assert "/M" in said and "--subdivision-level" in said
+    _, refined_cube = refined(tmp_path, CUBE_POINTS, CUBE_FACES, scheme="catmullClark", normals=normals)
+    assert len(refined_cube.triangles) > 12
+    _, without_normals = refined(tmp_path, CUBE_POINTS, CUBE_FACES)
+    assert len(without_normals.triangles) > 12  # no normals: the fallback scheme, refined
+    path = tmp_path / "mesh.usda"
+    write_mesh(path, CUBE_POINTS, CUBE_FACES, normals=normals)
+    assert len(read_usd(str(path), subdivision_level=1).scene.meshes[0].triangles) > 12
