@@ -972,14 +972,15 @@ class _Compiler:
             out.append(f"  normal_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.normal_indices)}\n  }}")
         if mesh.uvs is not None:
             out.append(f"  uv_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.uv_indices)}\n  }}")
+        if mesh.material.transmits:
+            # A mesh has an inside (for its interior's refraction) only with an inside_vector;
+            # any direction does for a closed mesh (POV-Ray counts crossings along it). It is part
+            # of the mesh2 body: before any transform (the parser refuses it after one).
+            out.append("  inside_vector <0.2718281828, 0.5772156649, 0.7853981634>")
         if origin.any():
             # Local coordinates keep float32 precision far from the origin; the translate comes
             # before the texture, so the texture (the exact mapping's slope) stays in world space.
             out.append(f"  translate {self.vec(origin, mesh, 'points')}")
-        if mesh.material.transmits:
-            # A mesh has an inside (for its interior's refraction) only with an inside_vector;
-            # any direction does for a closed mesh (POV-Ray counts crossings along it).
-            out.append("  inside_vector <0.2718281828, 0.5772156649, 0.7853981634>")
         if not declare:
             texture, modifiers = self.linked(mesh)
             out.append(f"  texture {{ {texture} }}{self.interior(mesh.material)}{modifiers}")

@@ -605,6 +605,18 @@ def glass_slab() -> Scene:
     )
 
 
+def glass_far_box() -> Scene:
+    """A small glass box farther from the origin than its size, so POV-Ray's mesh2 holds it in a
+    local frame (a ``translate``, TriangleMesh.local_origin): its ``inside_vector`` must come
+    before that translate (POV-Ray's parser refuses it after one)."""
+    scene = point_light()
+    box = box_mesh((-0.5, 0.3, 1.25), (0.0, 0.75, 1.65), dataclasses.replace(GLASS, kr=0.0, kt=0.85))
+    assert box.local_origin().any()
+    return dataclasses.replace(
+        scene, meshes=(*scene.meshes, box), settings=dataclasses.replace(scene.settings, max_depth=6)
+    )
+
+
 def dielectric_sphere() -> Scene:
     """The book's dielectric (ch. 28; kr = kt = 1, fresnel): a glass sphere that reflects F and
     transmits 1 − F at every crossing, and a fresnel (opaque, ior 1.5) red sphere beside it."""
@@ -671,6 +683,7 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "facing_mirrors": facing_mirrors,
     "glass_sphere": glass_sphere,
     "glass_slab": glass_slab,
+    "glass_far_box": glass_far_box,
     "dielectric_sphere": dielectric_sphere,
     "tinted_glass": tinted_glass,
 }
