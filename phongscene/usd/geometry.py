@@ -467,7 +467,7 @@ def _polygon_export(ctx: ReadContext, prim: Usd.Prim) -> bool:
     scheme is not authored (USD's fallback, catmullClark, applies), the mesh authors normals
     (which a subdivision surface ignores: the exporter meant them), and no refinement level is
     asked for (``phong:subdivisionLevel``, ``--subdivision-level``). Refined, such a model loses
-    its shape (OpenChessSet's king loses the knob under its cross); Storm draws its cage too."""
+    its shape (its hard edges rounded, its small parts shrunk); Storm draws its cage by default too."""
     return (
         not prim.GetAttribute("subdivisionScheme").HasAuthoredValue()
         and ctx.subdivision_level is None
