@@ -486,7 +486,17 @@ def prepare(
         arrays = _as_povray_stores(arrays, scene)
     native = _finish(_native.Scene(**arrays), scene, povray_numerics=s.numerics != "scale-invariant")
     add_instances(native, scene, s.numerics)
-    return PreparedRender(native, _camera(scene.camera), _settings(s), progress)
+    settings_ = _settings(s)
+    if s.transmission == "povray":
+        # Camera rays start in the interior of the transparent object around the camera (POV-Ray).
+        from phongscene.containment import containing_interior
+
+        inside = containing_interior(scene, scene.camera.position)
+        if inside is not None:
+            order = list(dict.fromkeys(o.material for o in scene.objects))
+            assert len(order) == len(arrays["materials"])  # scene_arrays numbers them so
+            settings_.camera_medium = order.index(inside)
+    return PreparedRender(native, _camera(scene.camera), settings_, progress)
 
 
 # POV-Ray's mesh2 shades a triangle smoothly only when its vertex normals differ by more than

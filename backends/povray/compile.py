@@ -46,6 +46,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from phongscene.containment import INSIDE_VECTOR
 from phongscene.errors import Problem, SceneError
 from phongscene.scene import (
     AmbientLight,
@@ -976,7 +977,7 @@ class _Compiler:
             # A mesh has an inside (for its interior's refraction) only with an inside_vector;
             # any direction does for a closed mesh (POV-Ray counts crossings along it). It is part
             # of the mesh2 body: before any transform (the parser refuses it after one).
-            out.append("  inside_vector <0.2718281828, 0.5772156649, 0.7853981634>")
+            out.append(f"  inside_vector <{', '.join(map(str, INSIDE_VECTOR))}>")
         if origin.any():
             # Local coordinates keep float32 precision far from the origin; the translate comes
             # before the texture, so the texture (the exact mapping's slope) stays in world space.

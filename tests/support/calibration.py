@@ -605,6 +605,26 @@ def glass_slab() -> Scene:
     )
 
 
+def glass_smooth_mesh() -> Scene:
+    """glass_sphere's ball as a smooth-shaded icosphere mesh (320 triangles, vertex normals):
+    near its silhouette the interpolated normal turns away from rays that enter, where the two
+    transmission conventions decide entering and leaving differently (by the normal, or, as
+    POV-Ray does, by the interiors the ray is in)."""
+    import trimesh
+
+    scene = glass_sphere()
+    ball = trimesh.creation.icosphere(subdivisions=2, radius=0.7)
+    mesh = TriangleMesh(
+        ball.vertices + np.array([-0.9, 0.75, 1.6]),
+        np.asarray(ball.faces),
+        normals=np.asarray(ball.vertex_normals),
+        normal_indices=np.asarray(ball.faces),
+        material=GLASS,
+        source="/GlassBall",
+    )
+    return dataclasses.replace(scene, spheres=scene.spheres[:-1], meshes=(*scene.meshes, mesh))
+
+
 def glass_far_box() -> Scene:
     """A small glass box farther from the origin than its size, so POV-Ray's mesh2 holds it in a
     local frame (a ``translate``, TriangleMesh.local_origin): its ``inside_vector`` must come
@@ -684,6 +704,7 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "glass_sphere": glass_sphere,
     "glass_slab": glass_slab,
     "glass_far_box": glass_far_box,
+    "glass_smooth_mesh": glass_smooth_mesh,
     "dielectric_sphere": dielectric_sphere,
     "tinted_glass": tinted_glass,
 }

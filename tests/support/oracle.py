@@ -78,7 +78,8 @@ are not traced: they return black (ref §18: ``max_trace_level`` = max_depth + 1
 
 Transparency (Suffern ch. 27, Transparent::shade; ref §18), at a hit of depth k < max_depth on a
 material with kt > 0: the unflipped normal points out of the interior, so the ray is leaving when
-it meets the normal from behind; η = ior entering, 1/ior leaving; with n facing the ray and
+it meets the normal from behind (settings.transmission "book"; "povray": when it travels in that
+material's interior, POV-Ray's interior list); η = ior entering, 1/ior leaving; with n facing the ray and
 cos_i = −d·n, Snell gives cos²θt = 1 − (1 − cos_i²)/η². cos²θt < 0 (total internal reflection):
 L += L(P, r) at full weight (no kr term). Otherwise L += kr·cr·L(P, r) + w·L(P, t) with
 t = d/η − (cos θt − cos_i/η)·n and w = kt/η² (settings.transmission "book") or kt ("povray").
@@ -915,12 +916,16 @@ def _reflected(
     out = np.zeros((len(p), 3))
     kr, cr, kt, ior = geo.kr[material], geo.cr[material], geo.kt[material], geo.ior[material]
     along = np.einsum("ij,ij->i", normal, d)
+    transmits = kt > 0.0
+    # "book": leaving where the ray meets the normal from behind; "povray": where the ray is in
+    # this material's interior (POV-Ray's interior list; they differ at a smooth mesh's silhouette).
     leaving = along > 0.0
-    n = np.where(leaving[:, None], -normal, normal)  # facing the ray
+    if settings.transmission == "povray":
+        leaving = np.where(transmits, medium == material, leaving)
+    n = np.where((along > 0.0)[:, None], -normal, normal)  # facing the ray
     eta = np.where(leaving, 1.0 / ior, ior)
     cos_i = np.abs(along)
     cos_t2 = 1.0 - (1.0 - cos_i**2) / eta**2
-    transmits = kt > 0.0
     tir = transmits & (cos_t2 < 0.0)
     cos_t = np.sqrt(np.maximum(cos_t2, 0.0))
     rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
@@ -1005,8 +1010,42 @@ def render(scene: Scene, settings: RenderSettings | None = None) -> np.ndarray:
     sx = cols[..., None] + offsets[:, 0]  # (H, W, K)
     sy = rows[..., None] + offsets[:, 1]
     origins, directions = camera_rays(scene.camera, width, height, sx, sy)
-    radiance = _trace(_prepare(scene), scene, settings, origins, directions)
+    geo = _prepare(scene)
+    medium = np.full(len(origins.reshape(-1, 3)), _camera_medium(geo, scene, settings), dtype=np.int64)
+    radiance = _trace(geo, scene, settings, origins, directions, medium=medium)
     return np.einsum("hwkc,k->hwc", radiance.reshape(height, width, len(weights), 3), weights)
+
+
+def _camera_medium(geo: _Geometry, scene: Scene, settings: RenderSettings) -> int:
+    """The interior camera rays start in: in the "povray" convention that of the transparent
+    sphere or mesh containing the camera (POV-Ray's interior list), found here by the sphere's
+    equation and a closed mesh's winding number (the triangles' solid angles seen from the camera,
+    Van Oosterom-Strackee, summed over 4π: ±1 inside, 0 outside; not the backend's ray parity);
+    else none (-1)."""
+    if settings.transmission != "povray":
+        return -1
+    eye = np.asarray(scene.camera.position, dtype=np.float64)
+    for inverse, material in zip(geo.sphere_object_from_world, geo.sphere_material):
+        q = inverse[:3, :3] @ eye + inverse[:3, 3]
+        if geo.kt[material] > 0 and float(q @ q) < 1.0:
+            return int(material)
+    for model, mesh in zip([m for m in scene.meshes if len(m.triangles)], geo.meshes):
+        if geo.kt[mesh.material] > 0 and abs(_winding_number(model, eye)) > 0.5:
+            return int(mesh.material)
+    return -1
+
+
+def _winding_number(mesh, eye: np.ndarray) -> float:
+    a, b, c = (mesh.points[mesh.triangles[:, k]] - eye for k in range(3))
+    la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
+    numerator = np.einsum("ij,ij->i", a, np.cross(b, c))
+    denominator = (
+        la * lb * lc
+        + np.einsum("ij,ij->i", a, b) * lc
+        + np.einsum("ij,ij->i", b, c) * la
+        + np.einsum("ij,ij->i", c, a) * lb
+    )
+    return float(np.sum(2.0 * np.arctan2(numerator, denominator)) / (4.0 * math.pi))
 
 
 def with_half_texels(scene: Scene) -> Scene:

@@ -7,6 +7,7 @@
 #include "normal_maps.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -228,12 +229,18 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         if (normal_mapped) mapped_normal = normalize(scene.instances->normal_to_world(hit.instance, mapped_normal));
     }
     // Two-sided: the shading normal faces the viewer (as POV-Ray). The unflipped normal points
-    // out of a closed object, so a ray meeting it from behind is leaving the interior. (The side
-    // is the surface's, not the normal map's: a map tilting the normal past the view ray does not
-    // turn the surface inside out.)
-    const bool leaving = dot(n, ray.dir) > 0.0;
+    // out of a closed object, so a ray meeting it from behind is leaving the interior (the book's
+    // rule, Suffern's Dielectric). POV-Ray instead knows which interiors a ray is in (its
+    // history): a transmissive surface is left only by a ray inside its interior. The two differ
+    // where an interpolated normal turns away from a ray entering near a smooth mesh's
+    // silhouette; in the POV-Ray convention its rule decides. (The side is the surface's, not the
+    // normal map's: a map tilting the normal past the view ray does not turn the surface inside out.)
+    const bool back_facing = dot(n, ray.dir) > 0.0;
+    const bool povray_interiors =
+        settings.transmission_convention == TransmissionConvention::kPovray && material->kt > 0.0;
+    const bool leaving = povray_interiors ? medium != nullptr && medium == &material_of(scene, hit) : back_facing;
     if (normal_mapped) n = mapped_normal;
-    if (leaving) n = -n;
+    if (back_facing) n = -n;
     const Vec3 wo = -ray.dir;
 
     RGB color = ambient_term(*material, scene.ambient);
@@ -363,7 +370,9 @@ RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<Bundl
     if (!(origin ? context.scene.closest_hit(ray, *origin, near, HUGE_VAL, hit)
                  : context.scene.closest_hit(ray, near, HUGE_VAL, hit)))
         return context.settings.background;
-    return shade_hit(context, ray, hit, scratch, 0, nullptr);  // the camera is outside every interior
+    const int32_t inside = context.settings.camera_medium;
+    assert(inside < int32_t(context.scene.materials.size()));  // bindings.cpp checks it
+    return shade_hit(context, ray, hit, scratch, 0, inside >= 0 ? &context.scene.materials[size_t(inside)] : nullptr);
 }
 
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,

@@ -38,6 +38,9 @@ struct RenderSettings {
     // than this returns black (POV-Ray's max_trace_level max_depth + 1).
     int max_depth = 5;
     TransmissionConvention transmission_convention = TransmissionConvention::kBook;
+    // The material (Scene::materials) of the transparent object containing the camera, whose
+    // interior camera rays start in (POV-Ray's rule; phongscene/containment.py), or -1: outside.
+    int32_t camera_medium = -1;
 };
 
 // The deepest max_depth a render accepts (phongscene/limits.py MAX_DEPTH: POV-Ray's limit); the

@@ -1,0 +1,41 @@
+# SPDX-License-Identifier: Apache-2.0
+"""phongscene.containment: the transparent object around the camera (POV-Ray's interior list
+starts there), by a sphere's equation and a mesh's crossing parity, at unit, tiny and huge
+scales; opaque objects never contain it; parity is all an open mesh gets."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from phongscene.containment import containing_interior, mesh_contains
+from phongscene.scene import PhongMaterial, Scene, Sphere
+from support import calibration
+
+GLASS = PhongMaterial(ka=0.0, kd=0.0, ks=0.0, kt=0.9, ior=1.5)
+
+
+@pytest.mark.parametrize("scale", [1e-6, 1.0, 1e5])
+def test_a_box_mesh_contains_what_is_inside_it(scale):
+    box = calibration.box_mesh((-1 * scale, -2 * scale, -3 * scale), (1 * scale, 2 * scale, 3 * scale), GLASS)
+    for point, inside in [((0, 0, 0), True), ((0.9, 1.9, -2.9), True), ((1.1, 0, 0), False), ((0, 0, -3.5), False)]:
+        assert mesh_contains(box, np.asarray(point, dtype=np.float64) * scale) == inside, point
+
+
+def test_the_camera_medium_is_the_transparent_object_around_it():
+    ball = Sphere.at((0.0, 0.0, 0.0), 2.0, GLASS)
+    opaque = Sphere.at((5.0, 0.0, 0.0), 2.0, PhongMaterial())
+    box = calibration.box_mesh((9.0, -1.0, -1.0), (11.0, 1.0, 1.0), dataclasses.replace(GLASS, ior=1.33))
+    scene = Scene(spheres=(ball, opaque), meshes=(box,))
+    assert containing_interior(scene, (0.5, 0.5, 0.5)) is ball.material
+    assert containing_interior(scene, (5.0, 0.0, 0.0)) is None  # opaque: no interior
+    assert containing_interior(scene, (10.0, 0.0, 0.0)) is box.material
+    assert containing_interior(scene, (3.0, 0.0, 0.0)) is None
+
+
+def test_a_point_whose_ray_crosses_no_face_is_outside():
+    quad = calibration.ground_quad(0.0, GLASS)
+    assert not mesh_contains(quad, np.array([0.0, 1.0, 0.0]))  # above it, the ray crosses nothing
+    assert mesh_contains(quad, np.array([0.0, -1.0, 0.0]))  # below, once: parity says inside
