@@ -353,10 +353,11 @@ def thresholds(args, base=None):
 
 def print_warnings(warnings, stream=None, *, every: bool = False) -> None:
     """Each warning as a ``warning:`` line; the same message about many prims as one line, and
-    at most warning_groups.MAX_WARNING_LINES lines unless ``every`` (`info` lists them all)."""
+    at most warning_groups.MAX_WARNING_LINES lines unless ``every`` (`info` lists them all, and
+    keeps apart the messages that name different prims)."""
     from ..warning_groups import capped, grouped
 
-    lines = grouped(warnings)
+    lines = grouped(warnings, merge_named_paths=not every)
     for line in lines if every else capped(lines):
         print(f"warning: {line}", file=sys.stderr if stream is None else stream)
 
