@@ -20,6 +20,9 @@ from collections import defaultdict
 MAX_WARNING_LINES = 20
 # Prims named in a grouped line; the count says the rest.
 PRIMS_SHOWN = 3
+# Lines a command keeps free after the reader's warnings, for the image check's warning (at most
+# one line, phongscene.diagnostics.ImageChecks) printed when the render is done.
+IMAGE_CHECK_LINES = 1
 # A warning about one prim: "/Path/To/Prim[.attribute]: message".
 _ABOUT_A_PRIM = re.compile(r"^(?P<prim>/[^\s:.]*)(?P<attribute>\.[\w:]+)?: (?P<message>.+)$", re.DOTALL)
 # A prim path named inside a message ("targets /World/Looks/M", "@a.usd@</Prim>"): after a

@@ -94,3 +94,17 @@ def test_a_missing_layer_through_many_prims_is_one_line_from_render(tmp_path, ca
     assert len(rendered) == 1 and f"(or another of {OFFSET_PRIMS} paths)" in rendered[0]
     assert main(["info", str(scene)]) == 0
     assert len([line for line in capsys.readouterr().out.splitlines() if "missing.usda" in line]) == OFFSET_PRIMS
+
+
+def test_the_image_check_warning_counts_within_the_cap(tmp_path, capsys):
+    # usd-wg's teapotScene_animCycle.usd printed 20 capped reader lines, then "nothing in view": 21.
+    scene = tmp_path / "dark.usda"
+    body = "".join(f'def SphereLight "L{i}" {{\n    float inputs:typo{i} = 1\n}}\n' for i in range(30))
+    scene.write_text("#usda 1.0\n" + body)  # no geometry: nothing in view
+    for command, output in (("render", "out.exr"), ("compile", "out.pov")):
+        extra = ["--width", "8", "--height", "8"] if command == "render" else []
+        assert main([command, str(scene), "-o", str(tmp_path / output), *extra]) == 0
+        printed = capsys.readouterr()
+        lines = [line for line in (printed.err + printed.out).splitlines() if line.startswith("warning:")]
+        assert len(lines) == MAX_WARNING_LINES, command
+        assert "more warnings" in lines[-2] and lines[-1].startswith("warning: nothing in view"), command
