@@ -351,13 +351,15 @@ def thresholds(args, base=None):
         raise UsageError(str(e)) from None
 
 
-def print_warnings(warnings, stream=None, *, every: bool = False) -> None:
+def print_warnings(warnings, stream=None, *, every: bool = False, leave: int = 0) -> None:
     """Each warning as a ``warning:`` line; the same message about many prims as one line, and
-    at most warning_groups.MAX_WARNING_LINES lines unless ``every`` (`info` lists them all)."""
-    from ..warning_groups import capped, grouped
+    at most warning_groups.MAX_WARNING_LINES lines, less ``leave`` for warnings the command
+    prints later, unless ``every`` (`info` lists them all, and keeps apart the messages that
+    name different prims)."""
+    from ..warning_groups import MAX_WARNING_LINES, capped, grouped
 
-    lines = grouped(warnings)
-    for line in lines if every else capped(lines):
+    lines = grouped(warnings, merge_named_paths=not every)
+    for line in lines if every else capped(lines, MAX_WARNING_LINES - leave):
         print(f"warning: {line}", file=sys.stderr if stream is None else stream)
 
 
@@ -365,6 +367,7 @@ def scene_and_settings(args, with_warnings: bool = False):
     """The scene of ``args.scene`` (its warnings printed) and its settings with the command's
     overrides (and, ``with_warnings``, the reader's warnings: the image checks read them)."""
     from ..rendering import load_scene
+    from ..warning_groups import IMAGE_CHECK_LINES
 
     overrides = overrides_from_args(args)
     scene, warnings = load_scene(
@@ -374,6 +377,6 @@ def scene_and_settings(args, with_warnings: bool = False):
         camera=overrides.camera,
         subdivision_level=overrides.subdivision_level,
     )
-    print_warnings(warnings)
+    print_warnings(warnings, leave=IMAGE_CHECK_LINES)  # render and compile print the image check's after
     scene, settings = overrides.apply(scene)
     return (scene, settings, warnings) if with_warnings else (scene, settings)
