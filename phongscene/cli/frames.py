@@ -58,7 +58,7 @@ def run_frames(args, task, arguments, label: str, frames: tuple[int, ...] | None
         camera=getattr(args, "camera", None),
         subdivision_level=getattr(args, "subdivision_level", None),
     )
-    print_warnings(warnings)
+    printed = print_warnings(warnings)
     bar = ProgressBar("frames")
 
     def on_frame(frame, metrics, error):
@@ -79,7 +79,10 @@ def run_frames(args, task, arguments, label: str, frames: tuple[int, ...] | None
         for warning in run.results[frame].get("warnings", ()):
             if warning not in warnings:
                 later.setdefault(warning, []).append(frame)
-    print_warnings(f"frames {', '.join(map(str, frames))}: {warning}" for warning, frames in later.items())
+    # Within the same cap as the first frame's (a command prints at most MAX_WARNING_LINES).
+    print_warnings(
+        (f"frames {', '.join(map(str, frames))}: {warning}" for warning, frames in later.items()), leave=printed
+    )
     where = (
         f"on {run.workers} Dask worker{'' if run.workers == 1 else 's'} ({run.cluster})"
         if run.cluster

@@ -351,16 +351,19 @@ def thresholds(args, base=None):
         raise UsageError(str(e)) from None
 
 
-def print_warnings(warnings, stream=None, *, every: bool = False, leave: int = 0) -> None:
+def print_warnings(warnings, stream=None, *, every: bool = False, leave: int = 0) -> int:
     """Each warning as a ``warning:`` line; the same message about many prims as one line, and
     at most warning_groups.MAX_WARNING_LINES lines, less ``leave`` for warnings the command
-    prints later, unless ``every`` (`info` lists them all, and keeps apart the messages that
-    name different prims)."""
+    prints before or after (at least the one line that counts what is left out), unless
+    ``every`` (`info` lists them all, and keeps apart the messages that name different prims).
+    Returns the lines printed."""
     from ..warning_groups import MAX_WARNING_LINES, capped, grouped
 
     lines = grouped(warnings, merge_named_paths=not every)
-    for line in lines if every else capped(lines, MAX_WARNING_LINES - leave):
+    shown = lines if every else capped(lines, max(1, MAX_WARNING_LINES - leave))
+    for line in shown:
         print(f"warning: {line}", file=sys.stderr if stream is None else stream)
+    return len(shown)
 
 
 def scene_and_settings(args, with_warnings: bool = False):

@@ -529,7 +529,11 @@ class MaterialReader:
         for name, neutral in network.unmodelled.items():
             inp = shader.GetInput(name)
             if inp and (inp.HasConnectedSource() or np.any(np.asarray(inp.Get(self.ctx.time)) != neutral)):
-                self.ctx.unsupported[f"{network.label} inputs:{name} (not in the Phong model; ignored)"].append(source)
+                # One line per network kind, naming each material's inputs (a shader with seven
+                # unmodelled lobes made seven lines).
+                self.ctx.unsupported[f"{network.label} lobes not in the Phong model (ignored)"].append(
+                    f"{source}.inputs:{name}"
+                )
         normal_map = self._omni_normal_map(shader) if omni else self._normal_map(shader, "normal")
         for name in OMNI_UNREAD_TEXTURES if omni else ():
             inp = shader.GetInput(name)

@@ -108,3 +108,23 @@ def test_the_image_check_warning_counts_within_the_cap(tmp_path, capsys):
         lines = [line for line in (printed.err + printed.out).splitlines() if line.startswith("warning:")]
         assert len(lines) == MAX_WARNING_LINES, command
         assert "more warnings" in lines[-2] and lines[-1].startswith("warning: nothing in view"), command
+
+
+def test_warnings_printed_in_two_parts_share_one_cap():
+    """``render --frames`` prints the first frame's warnings, then the later frames' new ones:
+    together at most MAX_WARNING_LINES lines (they were 20 + 20)."""
+    import io
+
+    from phongscene.cli.options import print_warnings
+    from phongscene.warning_groups import MAX_WARNING_LINES
+
+    out = io.StringIO()
+    first = print_warnings([f"message {i}" for i in range(15)], out)
+    print_warnings([f"later {i}" for i in range(15)], out, leave=first)
+    lines = out.getvalue().splitlines()
+    assert first == 15 and len(lines) == MAX_WARNING_LINES
+    assert lines[-1].startswith("warning: ... and ")
+    out = io.StringIO()
+    full = print_warnings([f"message {i}" for i in range(30)], out)
+    print_warnings(["later"], out, leave=full)  # the cap is spent: one line still says so
+    assert len(out.getvalue().splitlines()) == MAX_WARNING_LINES + 1

@@ -244,3 +244,15 @@ def test_standard_surface_transmission_is_the_preview_surfaces_glass(tmp_path, w
     assert (x.ior, x.kr, x.fresnel) == pytest.approx((p.ior, p.kr, p.fresnel))
     assert any("tinted transmission" in w and "/X/S" in w for w in result.warnings)
     assert not [w for w in result.warnings if "inputs:transmission " in w]
+
+
+def test_one_shaders_many_unmodelled_lobes_are_one_line(tmp_path):
+    body = CAMERA_AND_LIGHT + _material(
+        "C",
+        "mtlx:",
+        'uniform token info:id = "ND_standard_surface_surfaceshader"\n'
+        "        float inputs:coat = 1\n        float inputs:sheen = 0.5\n        float inputs:subsurface = 0.2",
+    )
+    warnings = [w for w in read(tmp_path, body + _sphere("S", "C")).warnings if "not in the Phong model" in w]
+    assert len(warnings) == 1
+    assert all(f"/C/S.inputs:{name}" in warnings[0] for name in ("coat", "sheen", "subsurface"))
