@@ -12,7 +12,7 @@ from pxr import Sdf, Sdr, Usd, UsdGeom, UsdShade
 
 from ..scene import DEFAULT_MATERIAL, PhongMaterial, Texture
 from .context import ReadContext
-from .names import COLOR_TYPES, PHONG_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
+from .names import COLOR_TYPES, PHONG_INPUTS, PHONG_MAP_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
 from .pbr_networks import MDL_NETWORKS, MTLX_NETWORKS, OMNI_PBR, Network, inputs, reduce
 from .shader_defs import phong_input_defaults, phong_inputs
 from .textures import Connected, StSource, TextureReader
@@ -267,6 +267,8 @@ class MaterialReader:
         values = {}
         connected = {n: self.textures.connected(shader, n) for n in ("diffuseColor", "specularColor", "ks")}
         for name, (field, sdf_type) in phong_inputs().items():
+            if name in PHONG_MAP_INPUTS:
+                continue  # read as a texture below
             default = self.phong_defaults[name]
             if connected.get(name) is not None:
                 fallback = connected[name].fallback
@@ -319,7 +321,8 @@ class MaterialReader:
                 )
                 material = dataclasses.replace(material, ks=top)
                 specular = Connected(cs, material.specular_color, ks.st)
-        return self._textured(material, connected["diffuseColor"], specular)
+        textured = self._textured(material, connected["diffuseColor"], specular)
+        return self._with_normal_map(textured, self._normal_map(shader, "normal"))
 
     def _preview_emission(self, shader: UsdShade.Shader) -> tuple[float, float, float]:
         """UsdPreviewSurface's emissiveColor: Le, added to the shaded colour (the model's

@@ -43,7 +43,7 @@ from ..scene import (
 from ..tolerances import UNIT_TOLERANCE
 from ..validate import check
 from . import names
-from .names import PHONG_RENDER_CONTEXT, PHONG_SEED_INPUTS, PHONG_SHADER_ID
+from .names import PHONG_MAP_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SEED_INPUTS, PHONG_SHADER_ID
 from .shader_defs import phong_inputs
 
 # The focal length written for perspective cameras (tenths of a scene unit, as in USD); the
@@ -116,6 +116,8 @@ def define_phong_material(
     phong.SetShaderId(PHONG_SHADER_ID)
     defaults = PhongMaterial()
     for name, (field, sdf_type) in phong_inputs().items():
+        if name in PHONG_MAP_INPUTS:
+            continue  # connected to its texture below
         value = getattr(material, field)
         if name not in PHONG_SEED_INPUTS and value == getattr(defaults, field):
             continue  # the secondary-ray inputs only where a material uses them
@@ -131,6 +133,12 @@ def define_phong_material(
         t = material.specular_texture
         texture = _texture_shader(stage, f"{path}/SpecularTexture", t, texture_file(t), material.specular_color)
         phong.GetInput("specularColor").ConnectToSource(texture.ConnectableAPI(), "rgb")
+    normal_map = None
+    if material.normal_texture is not None:
+        # The texels are the decoded tangent-space normals (a float EXR keeps their sign).
+        t = material.normal_texture
+        normal_map = _texture_shader(stage, f"{path}/NormalTexture", t, texture_file(t), (0.0, 0.0, 1.0))
+        phong.CreateInput("normal", Sdf.ValueTypeNames.Normal3f).ConnectToSource(normal_map.ConnectableAPI(), "rgb")
     mat.CreateSurfaceOutput(PHONG_RENDER_CONTEXT).ConnectToSource(phong.ConnectableAPI(), "surface")
 
     # Preview fallback (for other tools): Lambert albedo kd·cd, and the reader's mapping
@@ -156,6 +164,8 @@ def define_phong_material(
             float(material.kd),
         )
         preview.GetInput("diffuseColor").ConnectToSource(albedo_texture.ConnectableAPI(), "rgb")
+    if normal_map is not None:
+        preview.CreateInput("normal", Sdf.ValueTypeNames.Normal3f).ConnectToSource(normal_map.ConnectableAPI(), "rgb")
     mat.CreateSurfaceOutput().ConnectToSource(preview.ConnectableAPI(), "surface")
     return mat
 

@@ -267,3 +267,16 @@ def test_diff_compares_without_the_maps_and_says_where_they_change_the_picture(t
         listed[y, x] = True
     assert not (changed & ~listed).any()  # every clearly changed pixel is listed
     assert "change with the scene's normal maps" in result.explanation()
+
+
+def test_write_usd_round_trips_a_normal_map(tmp_path):
+    """write_usd connects our shader's (and the preview stand-in's) ``normal`` to the map, written
+    as a float EXR (signed texels kept): read back, the same texels and the same picture."""
+    from phongscene import write_usd
+
+    scene = quad_scene(bumpy_map())
+    back = load_usd(str(write_usd(scene, tmp_path / "bumpy.usda")))
+    (mesh,) = back.meshes
+    np.testing.assert_array_equal(mesh.material.normal_texture.image, scene.meshes[0].material.normal_texture.image)
+    settings = dataclasses.replace(back.settings, width=64, height=48)
+    assert_close(native.render(back, settings), native.render(scene), NATIVE_REL)

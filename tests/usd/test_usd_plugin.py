@@ -92,6 +92,7 @@ def test_usd_validators_report_nothing_with_the_plugin_folder(usd_files):
         "kr",
         "ks",
         "kt",
+        "normal",
         "reflectiveColor",
         "specularColor",
     ]
