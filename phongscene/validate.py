@@ -339,15 +339,18 @@ def validate(scene: Scene) -> list[Problem]:
     for material in _unique(materials):
         _check_material(c, material)
     if any(_number(m.kt) and m.kt > 0 for m in materials):  # a kt that is not a number: reported above
-        # Filtered shadows (through transmissive objects) are traced for single shadow rays only.
+        # Filtered shadows (through transmissive objects): an area light's every grid sample is
+        # filtered, so the estimators that skip samples (adaptive, cells) do not apply.
         for light in scene.lights:
             if isinstance(light, (RectAreaLight, SphereAreaLight)):
-                c.add(
-                    light,
-                    "samples",
-                    "area lights in a scene with transmissive materials (kt > 0) are not supported "
-                    "yet: their shadows through transmissive objects are not traced (use point or distant lights)",
-                )
+                for field in ("adaptive", "cell_samples"):
+                    if getattr(light, field) is not None:
+                        c.add(
+                            light,
+                            field,
+                            "in a scene with transmissive materials (kt > 0) an area light's shadows are "
+                            "filtered at every grid sample: unset it (the full grid)",
+                        )
     return c.problems
 
 

@@ -625,6 +625,23 @@ def glass_smooth_mesh() -> Scene:
     return dataclasses.replace(scene, spheres=scene.spheres[:-1], meshes=(*scene.meshes, mesh))
 
 
+def glass_under_rect_light() -> Scene:
+    """glass_sphere lit by a 5 × 5 rect area light instead of its point light: the soft shadow
+    of the glass ball on the ground is each grid sample's ray filtered by kt per crossing."""
+    scene = glass_sphere()
+    light = RectAreaLight(
+        center=(-1.5, 4.5, 2.5), axis_u=(1.5, 0.0, 0.0), axis_v=(0.0, 0.0, 1.5), color=(3.0, 3.0, 3.0), samples=5
+    )
+    return dataclasses.replace(scene, lights=(light,))
+
+
+def glass_under_sphere_light() -> Scene:
+    """The same under a sphere light (its disc faces each shaded point: `orient`)."""
+    scene = glass_sphere()
+    light = SphereAreaLight(center=(-1.5, 4.5, 2.5), radius=0.6, color=(3.0, 3.0, 3.0), samples=5)
+    return dataclasses.replace(scene, lights=(light,))
+
+
 def glass_far_box() -> Scene:
     """A small glass box farther from the origin than its size, so POV-Ray's mesh2 holds it in a
     local frame (a ``translate``, TriangleMesh.local_origin): its ``inside_vector`` must come
@@ -705,6 +722,8 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "glass_slab": glass_slab,
     "glass_far_box": glass_far_box,
     "glass_smooth_mesh": glass_smooth_mesh,
+    "glass_under_rect_light": glass_under_rect_light,
+    "glass_under_sphere_light": glass_under_sphere_light,
     "dielectric_sphere": dielectric_sphere,
     "tinted_glass": tinted_glass,
 }

@@ -827,14 +827,25 @@ def _shade(
         if len(lit) == 0:
             continue
         nl = n_dot_l[lit]
-        if geo.transmissive and light.linking.shadows and isinstance(light, (PointLight, DirectionalLight)):
+        if geo.transmissive and light.linking.shadows:
             start = np.full(len(lit), -1, dtype=np.int64) if medium is None else medium[lit].copy()
             shadowed_by = light.linking.shadowed_by
             casts = None if shadowed_by is None else shadowed_by.__contains__
             if casts is not None:  # inside an object that casts none of its shadows: no filter from it
                 leaving = np.einsum("ij,ij->i", normal[lit], d[lit]) > 0.0
                 start[leaving & ~np.array([bool(casts(s)) for s in source[lit]], dtype=bool)] = -1
-            light_colour = lc[lit] * _shadow_filter(geo, p[lit], l[lit], dist[lit], start, casts)
+            if isinstance(light, (PointLight, DirectionalLight)):
+                light_colour = lc[lit] * _shadow_filter(geo, p[lit], l[lit], dist[lit], start, casts)
+            else:
+                # An area light: each grid sample's shadow ray filtered, the colours weighted.
+                offsets, weights = area_light_offsets(light, l[lit])
+                filtered = np.zeros((len(lit), 3))
+                for k, weight in enumerate(weights):
+                    to_sample = np.asarray(light.center, dtype=np.float64) + offsets[:, k] - p[lit]
+                    sample_dist = np.linalg.norm(to_sample, axis=1)
+                    sample_dir = to_sample / sample_dist[:, None]
+                    filtered += weight * _shadow_filter(geo, p[lit], sample_dir, sample_dist, start.copy(), casts)
+                light_colour = lc[lit] * filtered
         else:
             fraction = _visible_fraction(geo, light, p[lit], l[lit], dist[lit])
             light_colour = lc[lit] * fraction[:, None]

@@ -315,6 +315,17 @@ template <class Shadow>
 }
 }  // namespace detail
 
+// `orient`: a sphere light's disc faces p. Axis 1 is perpendicular to l (towards the light's
+// centre) and a helper axis (z, or y when l is nearly vertical), axis 2 to l and axis 1; both of
+// length 2r.
+inline void oriented_axes(const SphereAreaLight& L, const Vec3& l, Vec3& a1, Vec3& a2) {
+    const Vec3 helper = std::fabs(std::fabs(l.z) - 1.0) < kOrientVerticalTolerance ? Vec3{0, 1, 0} : Vec3{0, 0, 1};
+    const double size = 2.0 * L.radius;
+    const Vec3 u = normalize(cross(l, helper));
+    a1 = u * size;
+    a2 = normalize(cross(l, u)) * size;
+}
+
 // The unshadowed fraction of the light at p, in [0, 1]. `grid` is area_light_grid(light).
 // `shadow(dir, distance)` traces one shadow ray from p (unit dir; distance to the light sample,
 // inf for directional lights); `shadow.each(dirs, distances, count, blocked)` traces the rays of
@@ -331,16 +342,21 @@ double visible_fraction(const T& L, const AreaLightGrid& grid, const Vec3& p, co
         return detail::area_light_fraction(grid, p, centre, shadow, L.center, L.axis_u, L.axis_v, false, L.adaptive,
                                            L.cell_samples);
     } else {
-        // `orient`: the disc faces p. Axis 1 is perpendicular to l and a helper axis
-        // (z, or y when l is nearly vertical), axis 2 to l and axis 1; both of length 2r.
-        const Vec3& l = centre.l;
-        const Vec3 helper = std::fabs(std::fabs(l.z) - 1.0) < kOrientVerticalTolerance ? Vec3{0, 1, 0} : Vec3{0, 0, 1};
-        const Vec3 a1 = normalize(cross(l, helper));
-        const Vec3 a2 = normalize(cross(l, a1));
-        const double size = 2.0 * L.radius;
-        return detail::area_light_fraction(grid, p, centre, shadow, L.center, a1 * size, a2 * size, true, L.adaptive,
-                                           L.cell_samples);
+        Vec3 a1, a2;
+        oriented_axes(L, centre.l, a1, a2);
+        return detail::area_light_fraction(grid, p, centre, shadow, L.center, a1, a2, true, L.adaptive, L.cell_samples);
     }
+}
+
+// The grid sample k of an area light seen along `l` from the shaded point (a rect light's own
+// samples; a sphere light's oriented disc), the point area_light_fraction traces towards.
+inline Vec3 area_light_sample(const RectAreaLight&, const AreaLightGrid& grid, const Vec3&, size_t k) {
+    return grid.targets[k];
+}
+inline Vec3 area_light_sample(const SphereAreaLight& L, const AreaLightGrid& grid, const Vec3& l, size_t k) {
+    Vec3 a1, a2;
+    oriented_axes(L, l, a1, a2);
+    return L.center + a1 * grid.ju[k] + a2 * grid.jv[k];
 }
 
 }  // namespace phong

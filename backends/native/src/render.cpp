@@ -268,6 +268,30 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                     return;
                 }
                 using T = std::decay_t<decltype(light)>;
+                if constexpr (std::is_same_v<T, RectAreaLight> || std::is_same_v<T, SphereAreaLight>) {
+                    if (context.transmissive) {
+                        // Every grid sample's shadow ray filtered as a point light's is (Python
+                        // validates: the full grid, no adaptive or cells estimator), the colours
+                        // summed with the grid's weights, as POV-Ray averages its samples' colours.
+                        assert(light.adaptive == kFullSubdivision && light.cell_samples == 0);
+                        const unsigned char* casts =
+                            link != nullptr && !link->casts.empty() ? link->casts.data() : nullptr;
+                        const bool inside_a_non_caster =
+                            casts != nullptr && leaving && object >= 0 && !casts[size_t(object)];
+                        const AreaLightGrid& grid = context.grids[j];
+                        RGB filtered{};
+                        for (size_t k = 0; k < grid.weight.size(); ++k) {
+                            const Vec3 v = area_light_sample(light, grid, centre.l, k) - p;
+                            const double d = length(v);
+                            filtered +=
+                                shadow_filter(context, p, v / d, d, inside_a_non_caster ? nullptr : medium, casts) *
+                                grid.weight[k];
+                        }
+                        centre.color = hadamard(centre.color, filtered);
+                        fraction = 1.0;
+                        return;
+                    }
+                }
                 if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
                     if (context.transmissive) {  // filtered by transmissive occluders
                         const unsigned char* casts =
