@@ -9,9 +9,10 @@ prims read the same; a document that cannot be read is a warning and the rest is
 from __future__ import annotations
 
 import numpy as np
-import OpenImageIO as oiio
 import pytest
 from usda import read
+
+from support.png import write_png
 
 # OpenImageIO's sRGB decoding and 8-bit → float32 (as in tests/usd/test_textures.py): far below an
 # 8-bit step.
@@ -32,12 +33,6 @@ NORMAL8 = np.array(
 
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
-def write_png(path, pixels) -> None:
-    buf = oiio.ImageBuf(oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], "uint8"))
-    buf.set_pixels(oiio.ROI(), pixels)
-    assert buf.write(str(path))
 
 
 MTLX = """<?xml version="1.0"?>

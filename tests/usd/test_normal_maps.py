@@ -11,7 +11,6 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import OpenImageIO as oiio
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
@@ -28,7 +27,7 @@ from phongscene.scene import (
     TriangleMesh,
 )
 from phongscene.usd.materials import NORMAL_MAP_NOTE
-from support import oracle
+from support import oracle, png
 
 # The native tracer against the float64 oracle: float32 texels and colour arithmetic (as the
 # colour textures' test, tests/usd/test_textures.py).
@@ -43,7 +42,7 @@ DECODED_ATOL = 2.4e-7
 SCALED_REL = 1e-5
 # A pixel "changes" with the normal map when it moves by more than this (far above rounding).
 CHANGED = 1e-3
-# A normal map's 8-bit texel t encodes 2·t/255 − 1 (scale 2, bias −1): exact in float32 and float64.
+# A normal map's 8-bit texels; scale 2, bias −1 decode t as 2·t/255 − 1.
 PIXELS8 = np.array(
     [
         [[128, 128, 255], [200, 128, 230], [60, 160, 220], [128, 40, 200]],
@@ -170,10 +169,7 @@ def test_tiny_and_huge_scales_shade_as_unit_scale(scale):
 
 
 def write_png(path, pixels=PIXELS8) -> str:
-    buf = oiio.ImageBuf(oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], "uint8"))
-    buf.set_pixels(oiio.ROI(), pixels)
-    assert buf.write(str(path))
-    return str(path)
+    return png.write_png(path, pixels)
 
 
 def normal_mapped_stage(path, image: str, *, scale=(2, 2, 2, 1), bias=(-1, -1, -1, 0)) -> str:

@@ -16,7 +16,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 from phongscene import load_usd
 from phongscene.backends import native
 from phongscene.validate import check, validate
-from support import calibration, oracle
+from support import calibration, oracle, png
 from support.paths import SCENES
 
 # The native tracer against the float64 oracle: float32 texels and colour arithmetic.
@@ -44,10 +44,7 @@ def srgb_to_linear(c: np.ndarray) -> np.ndarray:
 
 
 def write_png(path, pixels=PIXELS8) -> str:
-    buf = oiio.ImageBuf(oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], "uint8"))
-    buf.set_pixels(oiio.ROI(), pixels)
-    assert buf.write(str(path))
-    return str(path)
+    return png.write_png(path, pixels)
 
 
 def textured_stage(
