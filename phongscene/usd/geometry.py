@@ -193,6 +193,14 @@ def _ear_clip(points: np.ndarray, normal: np.ndarray) -> list[tuple[int, int, in
     return out
 
 
+def _frozen(array: np.ndarray) -> np.ndarray:
+    """``array`` made read-only, for the model to keep as it is (``scene._readonly``): an array
+    that owns its memory; a view (of a USD array, say) stays writable and is copied there."""
+    if array.base is None:
+        array.setflags(write=False)
+    return array
+
+
 def _winding_flipped(world: np.ndarray) -> bool:
     # A mirroring transform turns a counter-clockwise (front) face clockwise in world space.
     return bool(np.linalg.det(world[:3, :3]) < 0)
@@ -330,22 +338,33 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
             ctx.problem(prim, "holeIndices", f"indices out of range [0, {len(counts)})")
             return None
         keep[holes] = False
+    # Face and corner ids in 32 bits where they fit (USD's own int[] are): at 5M quads the
+    # int64 fan and its temporaries were 600 MiB of the reader's peak (benchmarks/README.md).
+    index_type = np.int32 if len(idx) <= np.iinfo(np.int32).max else np.int64
     if keep.all() and (counts == 3).all():
         # A triangle mesh (the common case): the fan below is the identity, built without its
         # ~150 MB of temporaries at 1M triangles; the same arrays.
-        faces = face_of_tri = np.arange(len(counts))
-        fv = np.arange(len(idx), dtype=np.int32 if len(idx) <= np.iinfo(np.int32).max else np.int64).reshape(-1, 3)
+        faces = face_of_tri = np.arange(len(counts), dtype=index_type)
+        fv = np.arange(len(idx), dtype=index_type).reshape(-1, 3)
         identity = True
     else:
-        faces = np.flatnonzero(keep)
+        faces = np.flatnonzero(keep).astype(index_type)
         per_face = counts[faces] - 2
         face_of_tri = np.repeat(faces, per_face)
         first_tri = np.cumsum(per_face) - per_face
-        k = np.arange(len(face_of_tri)) - np.repeat(first_tri, per_face) + 1
-        s = starts[face_of_tri]
-        fv = np.stack([s, s + k, s + k + 1], axis=1)  # face-vertex (corner) ids
+        # Face-vertex (corner) ids (s, s + k, s + k + 1), written column by column in place.
+        fv = np.empty((len(face_of_tri), 3), dtype=index_type)
+        fv[:, 0] = np.repeat(starts[faces].astype(index_type), per_face)
+        k = np.arange(len(face_of_tri), dtype=index_type)
+        k -= np.repeat(first_tri.astype(index_type), per_face)
+        np.add(fv[:, 0], k, out=fv[:, 1])
+        del k
+        fv[:, 1] += 1
+        np.add(fv[:, 1], 1, out=fv[:, 2])
         identity = False
-        _ear_clip_concave_faces(fv, lambda ids: p[idx[ids]], counts[faces], first_tri)
+        _ear_clip_concave_faces(fv, lambda corner: p[idx[corner]], counts[faces], first_tri)
+        del per_face, first_tri
+    del starts, keep, faces
     left = ctx.get(prim, "orientation", ("token",), UsdGeom.Tokens.rightHanded) == UsdGeom.Tokens.leftHanded
     if left != _winding_flipped(world):
         fv = fv[:, [0, 2, 1]]
@@ -377,6 +396,11 @@ def _mesh(ctx: ReadContext, prim: Usd.Prim, world: np.ndarray, material: PhongMa
     if uvs is None and material.textures:
         material = material.without_textures()  # no st: the fallback colours
     world_points = _to_world(p, world)
+    # What the model keeps is handed over frozen (read-only, owning its memory), which the model
+    # takes without copying; the rest goes first: a 10M-triangle mesh's copies were ~350 MiB of
+    # the reader's peak (benchmarks/README.md).
+    p = bind_points = fv = None
+    world_points, triangles = _frozen(world_points), _frozen(triangles)
     if normals is None:
         return (
             TriangleMesh(world_points, triangles, material=material, source=path, uvs=uv_values, uv_indices=uv_indices),
