@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import DirectionalLight, RectAreaLight, RenderSettings, Scene, SphereAreaLight
+from .scene import DirectionalLight, RectAreaLight, RenderSettings, Scene, SphereAreaLight, row_blocks
 
 # A pixel is black when an sRGB PNG stores it as 0: its largest channel encodes below half a code
 # step, 0.5/255, which on the sRGB curve's linear segment (slope 12.92) is this linear value.
@@ -185,16 +185,30 @@ class _Spheres:
             local = np.linalg.solve(self.matrices[:, :3, :3], offset[:, :, None])[:, :, 0]
             out = [self.names[i] or "a sphere" for i in np.flatnonzero((local**2).sum(axis=1) < 1.0)]
         for group in self.points:
-            inside = np.count_nonzero(((p - group.centers) ** 2).sum(axis=1) < group.radii**2)
+            inside = sum(
+                np.count_nonzero(((p - c) ** 2).sum(axis=1) < r**2) for c, r in row_blocks(group.centers, group.radii)
+            )
             out += [group.source or "a points set"] * int(inside)
         return out
 
-    def sample_points(self) -> np.ndarray:
-        """Each sphere's centre and top (its object +Y pole)."""
+    def sample_points(self, about: int) -> np.ndarray:
+        """Every ``stride``-th row (stride = max(1, rows // about)) of the spheres' centres, then
+        their tops (object +Y poles), then each Points set's centres and tops, all in a row. Only
+        the rows taken are made: the whole arrays of a 3M-point set were 290 MB at the render's
+        peak (benchmarks/README.md, memory per point)."""
         centres = self.matrices[:, :3, 3]
-        out = [centres, centres + self.matrices[:, :3, 1]]
+        parts = [(len(centres), lambda i: centres[i]), (len(centres), lambda i: centres[i] + self.matrices[i, :3, 1])]
         for group in self.points:
-            out += [group.centers, group.centers + group.radii[:, None] * (0.0, 1.0, 0.0)]
+            parts += [
+                (len(group), lambda i, g=group: g.centers[i]),
+                (len(group), lambda i, g=group: g.centers[i] + g.radii[i, None] * (0.0, 1.0, 0.0)),
+            ]
+        stride = max(1, sum(n for n, _ in parts) // about)
+        out, offset = [], 0
+        for n, rows in parts:
+            first = -offset % stride  # the first row of this part on the stride
+            out.append(rows(np.arange(first, n, stride)))
+            offset += n
         return np.concatenate(out)
 
 
@@ -344,8 +358,7 @@ def _sample_points(scene: Scene, spheres: _Spheres) -> np.ndarray:
     per_part = max(1, SAMPLE_POINTS // max(1, parts))
     points = [m.points[:: max(1, len(m.points) // per_part)] for m in scene.meshes if len(m.points)]
     if len(spheres.matrices) or spheres.points:
-        on_spheres = spheres.sample_points()
-        points.append(on_spheres[:: max(1, len(on_spheres) // per_part)])
+        points.append(spheres.sample_points(per_part))
     for group in groups:  # each copy's centre
         centres = _copy_boxes(group)[0]
         points.append(centres[:: max(1, len(centres) // per_part)])

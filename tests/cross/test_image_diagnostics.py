@@ -260,3 +260,27 @@ def test_instanced_copies_count_as_geometry():
     behind_copies[:, 2, 3] = 5.0  # behind the default camera, which looks down -Z from the origin
     behind = ps.Scene(instances=(ps.Instances(Prototype((tri,)), behind_copies),), lights=lit.lights, settings=settings)
     assert ImageChecks.of(behind).nothing_in_view.startswith("the camera faces away from every object")
+
+
+def test_sphere_samples_are_every_strided_row_of_centres_and_tops_made_row_by_row():
+    # _Spheres.sample_points makes only the rows it takes (memory per point, issue 23.3): they
+    # must be exactly the strided rows of the whole centres-then-tops array.
+    from phongscene.diagnostics import _Spheres
+
+    rng = np.random.default_rng(3)
+    matrices = np.tile(np.eye(4), (7, 1, 1))
+    matrices[:, :3, 3] = rng.random((7, 3))
+    matrices[:, :3, 1] *= rng.random((7, 1))
+    sets = (
+        ps.Points(rng.random((1000, 3)), rng.random(1000) + 0.1, source="/A"),
+        ps.Points(rng.random((13, 3)), rng.random(13) + 0.1, source="/B"),
+    )
+    for spheres_matrices in (matrices, np.zeros((0, 4, 4))):
+        for points in (sets, (), sets[1:]):
+            spheres = _Spheres(spheres_matrices, ("s",) * len(spheres_matrices), points)
+            whole = [spheres_matrices[:, :3, 3], spheres_matrices[:, :3, 3] + spheres_matrices[:, :3, 1]]
+            for p in points:
+                whole += [p.centers, p.centers + p.radii[:, None] * (0.0, 1.0, 0.0)]
+            whole = np.concatenate(whole)
+            for about in (1, 3, 10, 1024, 5000):
+                assert np.array_equal(spheres.sample_points(about), whole[:: max(1, len(whole) // about)])
