@@ -114,7 +114,7 @@ const Material& material_of(const Scene& world, const Hit& hit) {
     const int32_t m = scene.is_sphere(hit.ref) ? scene.spheres[size_t(~hit.ref)].material
                       : scene.is_ball(hit.ref) ? scene.ball_group(scene.ball_index(hit.ref)).material
                       : hit.ref < 0            ? scene.intrinsic(hit.ref).material
-                                               : scene.triangle_shading[size_t(hit.ref)].material;
+                                               : scene.triangle_material(size_t(hit.ref));
     return scene.materials[size_t(m)];
 }
 
@@ -186,15 +186,17 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         material = &surface.materials[size_t(part.material)];
     } else {
         const TriangleShape& tri = surface.triangles[size_t(hit.ref)];
-        const TriangleShading& sh = surface.triangle_shading[size_t(hit.ref)];
-        if (sh.n0 >= 0) {
+        const TriangleNormals* sh =
+            surface.triangle_normals.empty() ? nullptr : &surface.triangle_normals[size_t(hit.ref)];
+        if (sh && sh->n0 >= 0) {
             // Smooth: barycentric interpolation of the vertex normals, renormalised (as POV-Ray).
-            n = normalize(surface.normals[size_t(sh.n0)] * hit.bary.b0 + surface.normals[size_t(sh.n1)] * hit.bary.b1 +
-                          surface.normals[size_t(sh.n2)] * hit.bary.b2);
+            n = normalize(surface.normals[size_t(sh->n0)] * hit.bary.b0 +
+                          surface.normals[size_t(sh->n1)] * hit.bary.b1 +
+                          surface.normals[size_t(sh->n2)] * hit.bary.b2);
         } else {
             n = normalize(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
         }
-        material = &surface.materials[size_t(sh.material)];
+        material = &surface.materials[size_t(surface.triangle_material(size_t(hit.ref)))];
         if (material->diffuse_texture >= 0 || material->specular_texture >= 0 || material->normal_texture >= 0) {
             // cd and cs from the textures at the hit's (u, v), interpolated like the normals.
             const double* uv = surface.corner_uv.data() + 6 * size_t(surface.triangle_source[size_t(hit.ref)]);

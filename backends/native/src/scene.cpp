@@ -241,7 +241,9 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         for (size_t i = 0; i < 3 * mesh.point_count && every_vertex_float; ++i)
             every_vertex_float = float_exact(mesh.points[i]);
     triangles.resize(n_triangles, every_vertex_float);
-    triangle_shading.resize(n_triangles);
+    bool any_vertex_normals = false;
+    for (const MeshArrays& mesh : in.meshes) any_vertex_normals = any_vertex_normals || mesh.normal_indices;
+    if (any_vertex_normals) triangle_normals.resize(n_triangles);
     triangle_source.resize(n_triangles);
     if (in.povray_triangles) povray_triangles.resize(n_triangles);
     for_chunks(order.size(), [&](size_t begin, size_t end) {
@@ -273,15 +275,17 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
             const TriangleShape corners{row3(mesh.points + 3 * size_t(t[0])), row3(mesh.points + 3 * size_t(t[1])),
                                         row3(mesh.points + 3 * size_t(t[2]))};
             triangles.set(slot, corners);
-            TriangleShading sh{-1, -1, -1, mesh.material};
-            if (mesh.normal_indices && mesh.normal_indices[3 * local] >= 0) {
-                const int32_t* n = mesh.normal_indices + 3 * local;
-                const int32_t offset = int32_t(first_normal[m]);
-                sh.n0 = n[0] + offset;
-                sh.n1 = n[1] + offset;
-                sh.n2 = n[2] + offset;
+            if (any_vertex_normals) {
+                TriangleNormals sh{-1, -1, -1};
+                if (mesh.normal_indices && mesh.normal_indices[3 * local] >= 0) {
+                    const int32_t* n = mesh.normal_indices + 3 * local;
+                    const int32_t offset = int32_t(first_normal[m]);
+                    sh.n0 = n[0] + offset;
+                    sh.n1 = n[1] + offset;
+                    sh.n2 = n[2] + offset;
+                }
+                triangle_normals[slot] = sh;
             }
-            triangle_shading[slot] = sh;
             triangle_source[slot] = uint32_t(i);
             if (in.povray_triangles) povray_triangles[slot] = make_povray_triangle(corners, mesh.origin);
         }
@@ -312,6 +316,8 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     bvh_.order.clear();
     bvh_.order.shrink_to_fit();
     first_triangle_ = std::move(first_triangle);
+    mesh_material_.resize(n_meshes);
+    for (size_t m = 0; m < n_meshes; ++m) mesh_material_[m] = in.meshes[m].material;
 }
 
 void Scene::add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,

@@ -202,18 +202,23 @@ class Scene {
     // The mesh of leaf-order triangle `slot` (from its input row: the POV-Ray walk's rare
     // question needs no per-triangle array).
     int32_t triangle_mesh(size_t slot) const;
+    // The material of leaf-order triangle `slot`: its mesh's (a per-mesh number, not a
+    // per-triangle one: 4 bytes a triangle fewer).
+    int32_t triangle_material(size_t slot) const { return mesh_material_[size_t(triangle_mesh(slot))]; }
 
     std::vector<SphereShape> spheres;
-    std::vector<BallShape> balls;                   // the Points sets' spheres, leaf order
-    std::vector<uint32_t> ball_source;              // leaf order -> input row (over every set, in order)
-    std::vector<BallGroup> ball_groups;             // by first input row
-    std::vector<IntrinsicShape> intrinsics;         // parts in the BVH
-    std::vector<IntrinsicShape> planes;             // unbounded planes: outside the BVH and `bounds`
-    TriangleStore triangles;                        // leaf order; float when that is exact
-    std::vector<TriangleShading> triangle_shading;  // leaf order
-    std::vector<uint32_t> triangle_source;          // leaf order -> input row
-    std::vector<PovrayTriangle> povray_triangles;   // leaf order; empty unless built in POV-Ray numerics
-    Vec3Store normals;                              // float when that is exact
+    std::vector<BallShape> balls;            // the Points sets' spheres, leaf order
+    std::vector<uint32_t> ball_source;       // leaf order -> input row (over every set, in order)
+    std::vector<BallGroup> ball_groups;      // by first input row
+    std::vector<IntrinsicShape> intrinsics;  // parts in the BVH
+    std::vector<IntrinsicShape> planes;      // unbounded planes: outside the BVH and `bounds`
+    TriangleStore triangles;                 // leaf order; float when that is exact
+    // Leaf order; empty when no mesh has vertex normals (every triangle flat): 12 bytes a
+    // triangle only where a scene needs them (benchmarks/README.md, memory per triangle).
+    std::vector<TriangleNormals> triangle_normals;
+    std::vector<uint32_t> triangle_source;         // leaf order -> input row
+    std::vector<PovrayTriangle> povray_triangles;  // leaf order; empty unless built in POV-Ray numerics
+    Vec3Store normals;                             // float when that is exact
     std::vector<Material> materials;
     std::vector<Light> lights;
     std::vector<LightLinking> light_links;  // empty (every light default), or one per light
@@ -279,6 +284,7 @@ class Scene {
     std::vector<Bvh8Node> bvh8_;
     std::vector<int32_t> refs_;           // BVH leaf order
     std::vector<size_t> first_triangle_;  // mesh m's input rows start at first_triangle_[m]
+    std::vector<int32_t> mesh_material_;  // by mesh
 };
 
 }  // namespace phong

@@ -248,10 +248,9 @@ struct TriangleShape {
     Vec3 v0, v1, v2;
 };
 
-// Per-triangle shading data (normal rows or -1 for flat shading, material).
-struct TriangleShading {
+// A smooth triangle's vertex-normal rows (-1: flat shading).
+struct TriangleNormals {
     int32_t n0, n1, n2;
-    int32_t material;
 };
 
 // The per-ray set-up of the watertight test: the axis along which the ray is most dominant
