@@ -339,18 +339,17 @@ def validate(scene: Scene) -> list[Problem]:
     for material in _unique(materials):
         _check_material(c, material)
     if any(_number(m.kt) and m.kt > 0 for m in materials):  # a kt that is not a number: reported above
-        # Filtered shadows (through transmissive objects): an area light's every grid sample is
-        # filtered, so the estimators that skip samples (adaptive, cells) do not apply.
+        # Filtered shadows (through transmissive objects): an area light's grid samples are
+        # filtered (all of them, or POV-Ray's `adaptive n` recursion on their colours); the
+        # native cells estimator, which answers visibility only, does not apply.
         for light in scene.lights:
-            if isinstance(light, (RectAreaLight, SphereAreaLight)):
-                for field in ("adaptive", "cell_samples"):
-                    if getattr(light, field) is not None:
-                        c.add(
-                            light,
-                            field,
-                            "in a scene with transmissive materials (kt > 0) an area light's shadows are "
-                            "filtered at every grid sample: unset it (the full grid)",
-                        )
+            if isinstance(light, (RectAreaLight, SphereAreaLight)) and light.cell_samples is not None:
+                c.add(
+                    light,
+                    "cell_samples",
+                    "in a scene with transmissive materials (kt > 0) an area light's shadows are "
+                    "filtered at its grid samples, which the cells estimator does not do: unset it",
+                )
     return c.problems
 
 

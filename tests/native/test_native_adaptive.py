@@ -44,6 +44,8 @@ def _full(scene):
         ("adaptive_sphere_light_threshold", 5),  # only where a region's corners agree
         ("adaptive_am1", 1000),  # unsupersampled pixels keep their centre colour
         ("adaptive_am2", 1000),
+        ("adaptive_glass_rect_light", 100),  # regions across the glass shadow's edge do not split
+        ("adaptive_glass_sphere_light", 100),
     ],
 )
 def test_adaptive_scenes_differ_from_the_full_estimators(name, at_least):

@@ -779,7 +779,32 @@ def adaptive_am1_two_lights() -> Scene:
     )
 
 
+# A light whose colour sum (0.3) puts POV-Ray's 0.1 between its two kinds of shadow edge: an
+# opaque occluder's changes the arriving colour by 0.3 (> 0.1: the region splits), the glass
+# ball's (kt 0.9, twice: 1 - 0.81) by 0.057 (< 0.1: it does not), so the colour rule decides.
+DIM_FOR_GLASS = (0.1, 0.1, 0.1)
+
+
+def adaptive_glass_rect_light() -> Scene:
+    """glass_under_rect_light with `adaptive 1` on a 9×9 grid under DIM_FOR_GLASS: after the
+    first split the recursion compares the corners' filtered colours (kt per crossing of the
+    glass ball), which split regions across the red ball's shadow edge but not the glass ball's."""
+    scene = glass_under_rect_light()
+    light = dataclasses.replace(scene.lights[0], color=DIM_FOR_GLASS, samples=9, adaptive=1)
+    return dataclasses.replace(scene, lights=(light,))
+
+
+def adaptive_glass_sphere_light() -> Scene:
+    """The same under a 9×9 sphere light with `adaptive 0`: regions split only where two
+    adjacent corners' filtered colours differ by more than 0.1."""
+    scene = glass_under_sphere_light()
+    light = dataclasses.replace(scene.lights[0], color=DIM_FOR_GLASS, samples=9, adaptive=0)
+    return dataclasses.replace(scene, lights=(light,))
+
+
 ADAPTIVE_SCENES: dict[str, Callable[[], Scene]] = {
+    "adaptive_glass_rect_light": adaptive_glass_rect_light,
+    "adaptive_glass_sphere_light": adaptive_glass_sphere_light,
     "adaptive_am1_two_lights": adaptive_am1_two_lights,
     "adaptive_rect_light_levels": adaptive_rect_light_levels,
     "adaptive_sphere_light_threshold": adaptive_sphere_light_threshold,

@@ -130,6 +130,46 @@ double adaptive_fraction(int u1, int v1, int u2, int v2, int level, int adaptive
     }
     return (corner[0] + corner[1] + corner[2] + corner[3]) * 0.25;
 }
+
+// adaptive_fraction's recursion on filtered shadow rays (through transmissive objects, POV-Ray's
+// TraceAreaLightSubsetShadowRay with a filtering TraceShadowRay): grid point (u, v) gives the
+// colour filter of its shadow ray, `filter(u, v)` (each point once, cached in `samples` where
+// `traced` says so); two edge-adjacent corners differ when the light's colour as it arrives,
+// `arriving` (POV-Ray's float colour), times their filters does by more than
+// kAdaptiveAreaLightThreshold (|dr| + |dg| + |db|); a region's filter is the mean of its 4
+// quadrants' or else of its 4 corners'. For 0/1 filters (opaque occluders) the decisions are
+// adaptive_fraction's.
+template <class Filter>
+RGB adaptive_filter(int u1, int v1, int u2, int v2, int level, int adaptive, const RGB& arriving, int n,
+                    std::vector<RGB>& samples, std::vector<unsigned char>& traced, Filter& filter) {
+    RGB corner[4];
+    const int us[4] = {u1, u2, u1, u2}, vs[4] = {v1, v1, v2, v2};
+    for (int k = 0; k < 4; ++k) {
+        const size_t at = size_t(us[k]) * size_t(n) + size_t(vs[k]);
+        if (!traced[at]) {
+            samples[at] = filter(us[k], vs[k]);
+            traced[at] = 1;
+        }
+        corner[k] = samples[at];
+    }
+    if (u2 - u1 > 1 || v2 - v1 > 1) {
+        auto differ = [&](int a, int b) {
+            return std::fabs(arriving.x * (corner[a].x - corner[b].x)) +
+                       std::fabs(arriving.y * (corner[a].y - corner[b].y)) +
+                       std::fabs(arriving.z * (corner[a].z - corner[b].z)) >
+                   kAdaptiveAreaLightThreshold;
+        };
+        if (level < adaptive || differ(0, 1) || differ(1, 3) || differ(3, 2) || differ(2, 0)) {
+            const int ul = int(std::floor((u1 + u2) / 2.0)), uh = int(std::ceil((u1 + u2) / 2.0));
+            const int vl = int(std::floor((v1 + v2) / 2.0)), vh = int(std::ceil((v1 + v2) / 2.0));
+            corner[0] = adaptive_filter(u1, v1, ul, vl, level + 1, adaptive, arriving, n, samples, traced, filter);
+            corner[1] = adaptive_filter(uh, v1, u2, vl, level + 1, adaptive, arriving, n, samples, traced, filter);
+            corner[2] = adaptive_filter(u1, vh, ul, v2, level + 1, adaptive, arriving, n, samples, traced, filter);
+            corner[3] = adaptive_filter(uh, vh, u2, v2, level + 1, adaptive, arriving, n, samples, traced, filter);
+        }
+    }
+    return (corner[0] + corner[1] + corner[2] + corner[3]) * 0.25;
+}
 }  // namespace detail
 
 // An area light's grid points as offsets (ju, jv) along its two axes, |ju|, |jv| <= 1/2 (for a

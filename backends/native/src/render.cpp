@@ -272,22 +272,37 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                 using T = std::decay_t<decltype(light)>;
                 if constexpr (std::is_same_v<T, RectAreaLight> || std::is_same_v<T, SphereAreaLight>) {
                     if (context.transmissive) {
-                        // Every grid sample's shadow ray filtered as a point light's is (Python
-                        // validates: the full grid, no adaptive or cells estimator), the colours
-                        // summed with the grid's weights, as POV-Ray averages its samples' colours.
-                        assert(light.adaptive == kFullSubdivision && light.cell_samples == 0);
+                        // Every grid sample's shadow ray filtered as a point light's is, the
+                        // colours summed with the grid's weights, as POV-Ray averages its samples'
+                        // colours; or, under `adaptive n`, POV-Ray's recursion on those colours
+                        // (Python validates: no cells estimator here).
+                        assert(light.cell_samples == 0);
                         const unsigned char* casts =
                             link != nullptr && !link->casts.empty() ? link->casts.data() : nullptr;
                         const bool inside_a_non_caster =
                             casts != nullptr && leaving && object >= 0 && !casts[size_t(object)];
                         const AreaLightGrid& grid = context.grids[j];
-                        RGB filtered{};
-                        for (size_t k = 0; k < grid.weight.size(); ++k) {
+                        auto filter_of = [&](size_t k) {
                             const Vec3 v = area_light_sample(light, grid, centre.l, k) - p;
                             const double d = length(v);
-                            filtered +=
-                                shadow_filter(context, p, v / d, d, inside_a_non_caster ? nullptr : medium, casts) *
-                                grid.weight[k];
+                            return shadow_filter(context, p, v / d, d, inside_a_non_caster ? nullptr : medium, casts);
+                        };
+                        RGB filtered{};
+                        if (light.adaptive != kFullSubdivision) {
+                            const RGB arriving{double(float(centre.color.x)), double(float(centre.color.y)),
+                                               double(float(centre.color.z))};
+                            const size_t count = size_t(grid.n) * size_t(grid.n);
+                            thread_local std::vector<RGB> samples;
+                            thread_local std::vector<unsigned char> traced;
+                            samples.resize(count);
+                            traced.assign(count, 0);
+                            auto filter_at = [&](int a, int b) {
+                                return filter_of(size_t(a) * size_t(grid.n) + size_t(b));
+                            };
+                            filtered = detail::adaptive_filter(0, 0, grid.n - 1, grid.n - 1, 0, light.adaptive,
+                                                               arriving, grid.n, samples, traced, filter_at);
+                        } else {
+                            for (size_t k = 0; k < grid.weight.size(); ++k) filtered += filter_of(k) * grid.weight[k];
                         }
                         centre.color = hadamard(centre.color, filtered);
                         fraction = 1.0;
