@@ -176,7 +176,7 @@ def diff_frame(scene: str, frame: int, outdir: str, overrides: RenderOverrides, 
     result = diff(
         open_stage(scene),
         outdir,
-        overrides=replace(overrides, mapping=overrides.mapping or "exact", time=float(frame)),
+        overrides=replace(overrides, time=float(frame)),  # no mapping: exact, or classic where needed
         thresholds=thresholds,
     )
     r = result.report

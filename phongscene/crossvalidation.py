@@ -137,7 +137,7 @@ def diff(
     scene_or_path: Scene | str | os.PathLike,
     outdir: str | os.PathLike | None = None,
     *,
-    mapping: str = "exact",
+    mapping: str | None = None,
     width: int | None = None,
     height: int | None = None,
     samples: int | None = None,
@@ -158,7 +158,9 @@ def diff(
         scene_or_path: a Scene, or the path of a USD file.
         outdir: report folder (images, heat map, metrics.json, index.html); None writes nothing.
         mapping: "exact" (POV-Ray exact mapping vs native "seed") or "classic" (the idiomatic
-            POV-Ray finish vs native "povray-classic").
+            POV-Ray finish vs native "povray-classic"); None: exact, unless the scene has what
+            the exact mapping cannot render (``exact_mapping_obstacle``: a transmissive material
+            with a highlight), then classic, with a warning that says why.
         width, height: image size override (one alone keeps the aspect ratio).
         samples: anti-aliasing samples per axis override (``RenderSettings.samples``).
         threads: native worker threads override (0 = all cores).
@@ -198,7 +200,8 @@ def diff(
     elif any(v is not None for v in named.values()):
         raise TypeError("diff: give overrides= or the separate width ... shadow_adaptive and time, not both")
     mapping = overrides.mapping if overrides.mapping is not None else mapping
-    check_mapping(mapping)  # before the scene is read
+    if mapping is not None:
+        check_mapping(mapping)  # before the scene is read
     reading = None
     if progress is not None and not isinstance(scene_or_path, Scene):
         reading = ProgressBar("scene", progress)
@@ -216,6 +219,16 @@ def diff(
     if progress is not None:
         for w in warnings:
             progress.write(f"warning: {w}\n")
+    if mapping is None:
+        from .backends.povray import exact_mapping_obstacle
+
+        obstacle = exact_mapping_obstacle(scene)
+        mapping = "exact" if obstacle is None else "classic"
+        if obstacle is not None:
+            note = f"compared in the classic mapping: {obstacle}, which the exact mapping cannot render"
+            warnings = [*warnings, note]
+            if progress is not None:
+                progress.write(f"warning: {note}\n")
     scene, settings = replace(overrides, mapping=mapping).apply(scene)
 
     settings = replace(settings, numerics="povray")

@@ -9,7 +9,15 @@ mapping and needs neither (issue 15: start-up).
 
 from typing import TYPE_CHECKING
 
-from .mappings import MAPPING_OF_SPECULAR, MAPPINGS, SPECULAR_OF_MAPPING, check_mapping, resolve_mapping, specular_of
+from .mappings import (
+    MAPPING_OF_SPECULAR,
+    MAPPINGS,
+    SPECULAR_OF_MAPPING,
+    check_mapping,
+    exact_mapping_obstacle,
+    resolve_mapping,
+    specular_of,
+)
 
 # Exported on first use: name -> submodule.
 _LAZY_EXPORTS = {
@@ -49,6 +57,7 @@ __all__ = [
     "PovJob",
     "check_mapping",
     "compile_pov",
+    "exact_mapping_obstacle",
     "pass_count",
     "pass_scenes",
     "pov_quoted",

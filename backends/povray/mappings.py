@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from phongscene.errors import Problem, SceneError
 
 if TYPE_CHECKING:
-    from phongscene.scene import RenderSettings
+    from phongscene.scene import RenderSettings, Scene
 
 
 # POV-Ray mapping -> the specular convention of the model (RenderSettings.specular) it reproduces.
@@ -47,3 +47,16 @@ def resolve_mapping(settings: RenderSettings, mapping: str | None) -> str:
                 )
             )
     return check_mapping(mapping)
+
+
+def exact_mapping_obstacle(scene: Scene) -> str | None:
+    """Why the exact mapping cannot render ``scene`` (``compile_pov`` refuses it there), or None:
+    a transmissive material with a highlight, whose highlight the exact mapping's average
+    texture would have to split from its transmission (POV-Ray then splits total internal
+    reflection too). ``diff`` without a mapping compares such a scene in the classic one."""
+    for obj in (*scene.objects, *(m for p in scene.prototypes for m in p.meshes)):
+        material = obj.material
+        if material.ks > 0 and material.transmits:
+            name = material.source or getattr(obj, "source", "") or "a material"
+            return f"{name} is transmissive with a highlight (ks {material.ks:g}, kt {material.kt:g})"
+    return None

@@ -38,8 +38,9 @@ def add_diff_command(sub) -> None:
     p.add_argument("-o", "--outdir", required=True, metavar="OUTDIR", help="report folder (created)")
     add_override_options(
         p,
-        mapping_help="POV-Ray mapping: exact (the seed model, default) or classic (plain POV-Ray phong)",
-        mapping_default="exact",
+        mapping_help="POV-Ray mapping: exact (the seed model) or classic (plain POV-Ray phong); default: exact, "
+        "or classic where the scene has what the exact mapping cannot render (a transmissive material with a "
+        "highlight), with a warning",
         spp_help=f"{SPP_HELP} (RenderSettings.samples; default: the scene's)",
         threads_help="native worker threads (0 = all cores)",
     )
@@ -89,7 +90,8 @@ def _diff_frames(args, limits) -> int:
     from ..backends.povray import check_mapping
     from ..report import write_frames_report
 
-    check_mapping(args.mapping)
+    if args.mapping is not None:
+        check_mapping(args.mapping)
     overrides = frame_overrides(args)
     outdir = os.path.abspath(args.outdir)
     folder = lambda f: os.path.join(outdir, frame_name(FRAME_FOLDER, f))  # noqa: E731
@@ -106,7 +108,7 @@ def _diff_frames(args, limits) -> int:
         outdir,
         os.path.abspath(args.scene),
         run,
-        {"mapping": args.mapping, "workers": run.workers, "seconds": run.seconds},
+        {"mapping": args.mapping or "exact (classic where needed)", "workers": run.workers, "seconds": run.seconds},
     )
     print(f"report: {index}")
     if run.failures:

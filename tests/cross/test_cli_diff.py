@@ -248,3 +248,27 @@ def test_diff_passes_only_when_every_failing_pixel_is_explained_and_they_are_few
 def test_diff_renders_natively_in_povray_numerics(tmp_path):
     result = phongscene.diff(EXAMPLES / "seed_lobe.usda", None, width=40)
     assert result.settings.numerics == "povray" and result.ok
+
+
+@pytest.mark.povray
+def test_diff_without_a_mapping_compares_glass_with_a_highlight_in_the_classic_mapping():
+    # The exact mapping refuses a transmissive material with a highlight (a Blender glass's
+    # OpenPBR network has one); diff without --mapping compares it in the classic mapping and
+    # says why, diff --mapping exact still refuses it, and a scene without one stays exact.
+    import dataclasses
+
+    from phongscene.errors import SceneError
+    from support import calibration
+
+    scene = calibration.glass_sphere()
+    glass = scene.spheres[-1]
+    shiny = dataclasses.replace(glass.material, ks=0.5, exponent=50.0)
+    scene = dataclasses.replace(scene, spheres=(*scene.spheres[:-1], dataclasses.replace(glass, material=shiny)))
+    result = phongscene.diff(scene, None, width=32)
+    assert result.mapping == "classic" and result.settings.specular == "povray-classic"
+    assert any("compared in the classic mapping" in w and "highlight" in w for w in result.warnings)
+    assert result.ok
+    with pytest.raises(SceneError, match="use the classic mapping"):
+        phongscene.diff(scene, None, width=32, mapping="exact")
+    plain = phongscene.diff(calibration.glass_sphere(), None, width=32)
+    assert plain.mapping == "exact" and not any("classic mapping" in w for w in plain.warnings)
