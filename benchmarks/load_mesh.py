@@ -32,12 +32,22 @@ def torus_grid(n_u: int, n_v: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return points, np.full(len(quads), 4, dtype=np.int32), quads.ravel().astype(np.int32)
 
 
-def write_mesh(path: Path, triangles: int) -> None:
+def write_mesh(path: Path, triangles: int, normals: bool = False) -> None:
+    """The torus grid of about ``triangles`` triangles as a polygon mesh; with ``normals``, a
+    vertex-interpolated normal per point (away from the tube's centre line: smooth shading)."""
     n = int(np.sqrt(triangles / 2))
     points, counts, indices = torus_grid(n, n)
     stage = Usd.Stage.CreateNew(str(path))
     mesh = UsdGeom.Mesh.Define(stage, "/Torus")
     mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points.astype(np.float32)))
+    if normals:
+        ring = points * [1.0, 0.0, 1.0]
+        ring /= np.linalg.norm(ring, axis=1, keepdims=True)
+        away = points - ring
+        mesh.CreateNormalsAttr(
+            Vt.Vec3fArray.FromNumpy((away / np.linalg.norm(away, axis=1, keepdims=True)).astype(np.float32))
+        )
+        mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
     mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(counts))
     mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(indices))
     mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)

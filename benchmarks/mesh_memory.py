@@ -6,7 +6,10 @@ triangle = (RSS(N) − RSS(0)) / N, RSS(0) a scene of one tiny mesh. Peak RSS fr
 ``/usr/bin/time -v`` (``instances.measure``). The scene is a temporary ``.usdc``; the default
 framing camera and head light see it.
 
-    .venv/bin/python benchmarks/mesh_memory.py [--triangles 1000000 10000000]
+    .venv/bin/python benchmarks/mesh_memory.py [--triangles 1000000 10000000] [--normals]
+
+With --normals the mesh carries a vertex normal per point (smooth shading: the model's normals
+and the tracer's normal rows, 12 bytes a triangle, come in).
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--triangles", type=int, nargs="*", default=[1_000_000, 10_000_000])
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--normals", action="store_true", help="a vertex normal per point")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:
         tmp = Path(folder)
@@ -33,7 +37,7 @@ def main() -> None:
         base = None
         for n in [200, *sorted(args.triangles)]:
             scene = tmp / f"mesh_{n}.usdc"
-            write_mesh(scene, n)
+            write_mesh(scene, n, normals=args.normals)
             try:
                 rss, wall = measure(scene, "native", tmp / f"mesh_{n}.png", args.threads)
             except SystemExit as failed:  # e.g. over the sandbox's memory limit: say so, go on
