@@ -179,8 +179,8 @@ class Preview:
         return Path(self._tmp_folder()) / "diff"
 
     def run_diff(self) -> None:
-        """``phongscene diff`` of the scene as it is now, with the preview's overrides (the exact
-        mapping unless --mapping says otherwise); its report replaces the last one. In the
+        """``phongscene diff`` of the scene as it is now, with the preview's overrides (without
+        --mapping, diff's choice: exact, or classic where needed); its report replaces the last one. In the
         loop's thread: USD's stage is not shared between threads, and edits wait for it."""
         from .crossvalidation import diff
         from .usd.stage_reuse import open_stage
@@ -189,8 +189,7 @@ class Preview:
             self.state.diff, self.state.diff_summary = "running", ""
             self.state.generation += 1
         try:
-            overrides = replace(self.overrides, mapping=self.overrides.mapping or "exact")
-            result = diff(open_stage(self.scene), self.diff_folder, overrides=overrides)
+            result = diff(open_stage(self.scene), self.diff_folder, overrides=self.overrides)
             r = result.report
             verdict, summary = (
                 "done",
