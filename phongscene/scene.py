@@ -300,6 +300,18 @@ class PhongMaterial:
     # texels are signed, (0, 0, 1) the unperturbed normal. Meshes with uvs only. POV-Ray 3.7 has
     # no such map (its bump_map is a height field in a world-fixed frame): the SDL leaves it out.
     normal_texture: Texture | None = None
+    # The book's Checker3D (Suffern's 3D checker texture, the cd of its SV_Matte and SV_Phong
+    # materials): cd is diffuse_color (its color1) or checker_color (color2) by the parity of
+    # floor((x + ε)/s) + floor((y + ε)/s) + floor((z + ε)/s) at the world-space hit point,
+    # s = checker_size, ε = CHECKER_SHIFT (even: diffuse_color). checker_size 0 (the default):
+    # no checker. POV-Ray: ``pigment { checker }`` (the same parity), scaled and shifted to match.
+    checker_size: float = 0.0
+    checker_color: RGB = (0.5, 0.5, 0.5)  # the book's default color2
+
+    @property
+    def checkered(self) -> bool:
+        """Whether cd is the 3D checker (checker_size > 0)."""
+        return self.checker_size > 0
 
     @property
     def transmits(self) -> bool:
@@ -312,7 +324,7 @@ class PhongMaterial:
         return self.kr > 0 and any(c > 0 for c in self.reflective_color)
 
     def __post_init__(self) -> None:
-        _as_triples(self, "diffuse_color", "specular_color", "reflective_color", "interior_filter")
+        _as_triples(self, "diffuse_color", "specular_color", "reflective_color", "interior_filter", "checker_color")
 
     @property
     def textures(self) -> tuple[Texture, ...]:
@@ -341,10 +353,18 @@ class PhongMaterial:
             ior=self.ior,
             fresnel=self.fresnel,
             interior_filter=self.interior_filter,
+            checker_size=self.checker_size,
+            checker_color=self.checker_color,
         )
 
 
 DEFAULT_MATERIAL = PhongMaterial()
+
+# The book's Checker3D adds ε = -0.000187453738 (its "small random number") to each coordinate
+# before the floor, so that a surface at a whole multiple of the size (a ground plane at y = 0)
+# lies inside one row of cells, not on their boundary where rounding would decide. Both backends
+# add the same (native materials.hpp kCheckerShift; POV-Ray: the pigment's translate).
+CHECKER_SHIFT = -0.000187453738
 
 
 # --------------------------------------------------------------------------------------------

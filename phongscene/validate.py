@@ -400,6 +400,11 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
         c.add(m, "interior_filter", f"must be in (0, 1] per channel, got {_show(f)}")
     if not isinstance(m.fresnel, (bool, np.bool_)):
         c.add(m, "fresnel", f"must be True or False, got {_show(m.fresnel)}")
+    if c.real(m, "checker_size", m.checker_size) and not m.checker_size >= 0:
+        c.add(m, "checker_size", f"must be >= 0 (0: no checker), got {_show(m.checker_size)}")
+    c.colour(m, "checker_color")
+    if _number(m.checker_size) and m.checker_size > 0 and m.diffuse_texture is not None:
+        c.add(m, "checker_size", "a checker and a diffuse texture both give cd: use one of them")
     for field in ("diffuse_texture", "specular_texture", "normal_texture"):
         t = getattr(m, field)
         if t is None:

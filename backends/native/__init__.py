@@ -68,6 +68,9 @@ def _material(m: PhongMaterial) -> _native.Material:
     native.ior = m.ior
     native.fresnel = bool(m.fresnel)
     native.interior_filter = m.interior_filter
+    if m.checkered:
+        native.checker_size = m.checker_size
+        native.checker_color = m.checker_color
     return native
 
 

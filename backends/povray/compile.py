@@ -49,6 +49,7 @@ import numpy as np
 from phongscene.containment import INSIDE_VECTOR
 from phongscene.errors import Problem, SceneError
 from phongscene.scene import (
+    CHECKER_SHIFT,
     AmbientLight,
     DirectionalLight,
     Intrinsic,
@@ -673,6 +674,8 @@ class _Compiler:
         as half floats anyway), looked up bilinearly between texel centres (interpolate 2),
         extended and wrapped as ``UvFrame`` says (ref §16)."""
         t = m.diffuse_texture
+        if m.checkered:
+            return self.checker_pigment(m)
         if m.transmits:  # POV-Ray's transmit: the refracted ray's weight (ref §18)
             kt = self.coef(m.kt, m, "kt")
             if t is None:
@@ -681,6 +684,23 @@ class _Compiler:
         if t is None:
             return f"pigment {{ rgb {self.rgb(m.diffuse_color, m, 'diffuse_color')} }}"
         return f"pigment {{ {self.image_map(t)} }}"
+
+    def checker_pigment(self, m: PhongMaterial) -> str:
+        """The book's Checker3D as POV-Ray's ``checker`` (value floor(x) + floor(y) + floor(z)
+        of the pattern point, odd: the second colour; pattern.cpp), scaled by the cell size and
+        moved by -CHECKER_SHIFT, so that its pattern point is (p + ε)/s as the book's is. The
+        pigment is in world space: every object's texture follows its transform (see sphere)."""
+        colours = [
+            self.rgb(c, m, f) for c, f in ((m.diffuse_color, "diffuse_color"), (m.checker_color, "checker_color"))
+        ]
+        if m.transmits:  # POV-Ray's transmit, as for a plain colour (ref §18)
+            kt = self.coef(m.kt, m, "kt")
+            entries = ", ".join(f"rgbt <{c[1:-1]}, {kt}>" for c in colours)
+        else:
+            entries = ", ".join(f"rgb {c}" for c in colours)
+        size = self.num(m.checker_size, m, "checker_size")
+        shift = self.num(-CHECKER_SHIFT, m, "checker_size")
+        return f"pigment {{ checker {entries} scale {size} translate <{shift}, {shift}, {shift}> }}"
 
     def image_map(self, t: Texture, modifiers: str = "") -> str:
         """The texture's image map (see UvFrame): ``once`` unless the image simply repeats."""

@@ -35,6 +35,9 @@ PHONG_INPUTS: dict[str, tuple[str, str]] = {
     "ior": ("ior", "float"),
     "fresnel": ("fresnel", "bool"),
     "interiorFilter": ("interior_filter", "color3f"),
+    # The book's Checker3D (its color1 is diffuseColor): written only where checkerSize > 0.
+    "checkerColor": ("checker_color", "color3f"),
+    "checkerSize": ("checker_size", "float"),
     # A texture-only input: connected to a UsdUVTexture (its scale and bias decode the tangent-space
     # normal), its value unused; unconnected, the surface's own normal.
     "normal": ("normal_texture", "normal3f"),

@@ -583,6 +583,17 @@ def box_mesh(lo, hi, material: PhongMaterial) -> TriangleMesh:
     )
 
 
+def checker() -> Scene:
+    """The book's Checker3D: the ground quad at y = 0, a whole multiple of its cell size (the
+    book's ε puts the plane inside one row of cells, not on their boundary), and the sphere in a
+    3D checker of smaller cells (its cells cut the curved surface), under the point light."""
+    scene = point_light()
+    floor = dataclasses.replace(GROUND, checker_size=0.43, checker_color=(0.12, 0.16, 0.3))
+    ball = dataclasses.replace(RED, checker_size=0.2371, checker_color=(0.85, 0.78, 0.2))
+    sphere = dataclasses.replace(scene.spheres[0], material=ball)
+    return dataclasses.replace(scene, spheres=(sphere,), meshes=(ground_quad(0.0, floor),))
+
+
 def glass_sphere() -> Scene:
     """A glass sphere (kt 0.9, ior 1.5, a little kr) in front of the red sphere: the red sphere
     seen through it upside down, total internal reflection near its rim, its shadow on the
@@ -716,6 +727,7 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "texture_repeat": texture_repeat,
     "texture_clamp": texture_clamp,
     "texture_specular": texture_specular,
+    "checker": checker,
     "mirror_floor": mirror_floor,
     "facing_mirrors": facing_mirrors,
     "glass_sphere": glass_sphere,

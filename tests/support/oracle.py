@@ -106,6 +106,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from phongscene.scene import (
+    CHECKER_SHIFT,
     Camera,
     DirectionalLight,
     PointLight,
@@ -364,6 +365,8 @@ class _Geometry:
     ior: np.ndarray
     fresnel: np.ndarray  # bool
     interior_filter: np.ndarray  # (M, 3)
+    checker_size: np.ndarray  # (M,) the book's Checker3D cell size; 0: none
+    checker_color: np.ndarray  # (M, 3) its second colour
 
     def medium_transmittance(self, medium: np.ndarray, distance: np.ndarray) -> np.ndarray:
         """interior_filter[medium]^distance per ray, 1 where medium < 0 (none). (N, 3)."""
@@ -450,6 +453,8 @@ def _prepare(scene: Scene) -> _Geometry:
         ior=np.array([m.ior for m in materials], dtype=np.float64),
         fresnel=np.array([bool(m.fresnel) for m in materials], dtype=bool),
         interior_filter=np.array([m.interior_filter for m in materials], dtype=np.float64).reshape(-1, 3),
+        checker_size=np.array([m.checker_size for m in materials], dtype=np.float64),
+        checker_color=np.array([m.checker_color for m in materials], dtype=np.float64).reshape(-1, 3),
     )
 
 
@@ -693,7 +698,23 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
         specular[closer] = geo.cs[mat]
         source[closer] = intrinsic.source
         normal[closer] = nw[closer]
+    _checker_colours(geo, o, d, best_t, material, colour)
     return best_t, material, normal, colour, specular, source
+
+
+def _checker_colours(geo: _Geometry, o, d, t, material, colour) -> None:
+    """Where a hit's material is the book's Checker3D, its cd in ``colour``: diffuse_color or
+    checker_color by the parity of the summed cells floor((p + ε)/s) of the world point, a sum
+    beyond 32 bits counting as even (POV-Ray's int cast; the native tracer's rule)."""
+    hit = np.flatnonzero(np.isfinite(t))
+    hit = hit[geo.checker_size[material[hit]] > 0]
+    if not len(hit):
+        return
+    m = material[hit]
+    p = o[hit] + t[hit, None] * d[hit]
+    cells = np.floor((p + CHECKER_SHIFT) / geo.checker_size[m][:, None]).sum(axis=1)
+    odd = (np.abs(cells) < 2.0**31) & (np.mod(cells, 2.0) == 1.0)
+    colour[hit] = np.where(odd[:, None], geo.checker_color[m], geo.cd[m])
 
 
 def _occluded(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray, casts=None) -> np.ndarray:

@@ -81,6 +81,8 @@ def test_usd_validators_report_nothing_with_the_plugin_folder(usd_files):
     assert not result["loaded_phongscene"]
     assert result["known"]
     assert result["inputs"] == [
+        "checkerColor",
+        "checkerSize",
         "diffuseColor",
         "emissiveColor",
         "exponent",

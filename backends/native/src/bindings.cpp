@@ -429,7 +429,9 @@ NB_MODULE(_native, m) {
         .def_rw("kt", &Material::kt)
         .def_rw("ior", &Material::ior)
         .def_rw("fresnel", &Material::fresnel)
-        .def_rw("interior_filter", &Material::interior_filter);
+        .def_rw("interior_filter", &Material::interior_filter)
+        .def_rw("checker_size", &Material::checker_size)
+        .def_rw("checker_color", &Material::checker_color);
 
     nb::enum_<phong::Wrap>(m, "Wrap", "How a texture continues outside [0, 1] (textures.hpp).")
         .value("repeat", phong::Wrap::kRepeat)

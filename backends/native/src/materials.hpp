@@ -42,9 +42,30 @@ struct Material {
     // Beer-Lambert (Suffern ch. 28's cf_in): the fraction of each channel a ray keeps per unit
     // distance inside the interior, (0, 1]; white filters nothing.
     RGB interior_filter{1.0, 1.0, 1.0};
+    // The book's Checker3D (checker_colour below): cells of size checker_size > 0 alternate
+    // diffuse_color and checker_color; 0: no checker.
+    double checker_size = 0.0;
+    RGB checker_color{0.5, 0.5, 0.5};
 
     bool filters() const { return interior_filter.x != 1.0 || interior_filter.y != 1.0 || interior_filter.z != 1.0; }
 };
+
+// The book's Checker3D shift ε (phongscene.scene.CHECKER_SHIFT, which says why): added to every
+// coordinate before the floor.
+constexpr double kCheckerShift = -0.000187453738;
+
+// cd of a checkered material at world-space point p (Suffern's Checker3D::get_color): diffuse_color
+// where floor((x + ε)/s) + floor((y + ε)/s) + floor((z + ε)/s) is even, checker_color where odd.
+// The sum is a 32-bit integer, as POV-Ray's checker pattern casts it (pattern.cpp), and a sum out
+// of its range is INT_MIN (even), as that cast gives on x86: cells beyond 2^31 sizes from the
+// origin (a ground plane's far horizon) alternate no more, in both backends alike.
+inline RGB checker_colour(const Material& m, const Vec3& p) {
+    const double s = m.checker_size;
+    const double sum = std::floor((p.x + kCheckerShift) / s) + std::floor((p.y + kCheckerShift) / s) +
+                       std::floor((p.z + kCheckerShift) / s);
+    const int32_t cells = std::fabs(sum) < 2147483648.0 ? int32_t(sum) : INT32_MIN;
+    return (cells & 1) != 0 ? m.checker_color : m.diffuse_color;
+}
 
 // What a ray keeps of its radiance over `distance` inside `medium` (nullptr: outside every
 // interior): interior_filter^distance per channel.

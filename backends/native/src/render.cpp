@@ -226,6 +226,12 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
             material = &textured;
         }
     }
+    if (material->checker_size > 0.0) {  // the book's Checker3D: cd by the cell of p (world space)
+        const RGB cd = checker_colour(*material, p);
+        if (material != &textured) textured = *material;
+        textured.diffuse_color = cd;
+        material = &textured;
+    }
     if (hit.instance >= 0) {
         n = normalize(scene.instances->normal_to_world(hit.instance, n));
         if (normal_mapped) mapped_normal = normalize(scene.instances->normal_to_world(hit.instance, mapped_normal));
