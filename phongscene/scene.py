@@ -37,9 +37,10 @@ Conventions:
   crossing it is refracted by Snell's law into direction t with η = ior entering, 1/ior leaving,
   and adds ``kt/η²·L(p, t)`` (``transmission`` "book") or ``kt·L(p, t)`` ("povray": POV-Ray has
   no η² factor, ref §18); under total internal reflection it adds instead the mirror ray's
-  ``L(p, r)`` at full weight and no kr term (the book and POV-Ray agree). Shadow rays of point and
-  distant lights go straight through transmissive objects, × kt per surface crossed (POV-Ray's
-  shadows, ref §18). Inside an interior every ray (also a shadow ray) keeps interior_filter^d of
+  ``L(p, r)`` at full weight and no kr term (the book and POV-Ray agree). Shadows: in the "book"
+  convention every object blocks shadow rays, transparent ones too (Suffern's Whitted tracer);
+  in the "povray" one they go straight through transmissive objects, × kt per surface crossed
+  (POV-Ray's shadows, ref §18). Inside an interior every ray (also a shadow ray) keeps interior_filter^d of
   its radiance over a distance d (Beer-Lambert); interiors are not nested: a refracted ray
   enters or leaves the one of the surface it crosses.
 

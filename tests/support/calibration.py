@@ -636,21 +636,29 @@ def glass_smooth_mesh() -> Scene:
     return dataclasses.replace(scene, spheres=scene.spheres[:-1], meshes=(*scene.meshes, mesh))
 
 
+def _povray_transmission(scene: Scene) -> Scene:
+    """The scene in the "povray" transmission convention, whose shadow rays are filtered by the
+    transmissive objects they cross (the book's are blocked by them): what a filtered-shadow
+    scene tests against the oracle too, not only against POV-Ray."""
+    return dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, transmission="povray"))
+
+
 def glass_under_rect_light() -> Scene:
-    """glass_sphere lit by a 5 × 5 rect area light instead of its point light: the soft shadow
-    of the glass ball on the ground is each grid sample's ray filtered by kt per crossing."""
+    """glass_sphere lit by a 5 × 5 rect area light instead of its point light, in the "povray"
+    transmission convention: the soft shadow of the glass ball on the ground is each grid sample's
+    ray filtered by kt per crossing."""
     scene = glass_sphere()
     light = RectAreaLight(
         center=(-1.5, 4.5, 2.5), axis_u=(1.5, 0.0, 0.0), axis_v=(0.0, 0.0, 1.5), color=(3.0, 3.0, 3.0), samples=5
     )
-    return dataclasses.replace(scene, lights=(light,))
+    return _povray_transmission(dataclasses.replace(scene, lights=(light,)))
 
 
 def glass_under_sphere_light() -> Scene:
     """The same under a sphere light (its disc faces each shaded point: `orient`)."""
     scene = glass_sphere()
     light = SphereAreaLight(center=(-1.5, 4.5, 2.5), radius=0.6, color=(3.0, 3.0, 3.0), samples=5)
-    return dataclasses.replace(scene, lights=(light,))
+    return _povray_transmission(dataclasses.replace(scene, lights=(light,)))
 
 
 def glass_far_box() -> Scene:

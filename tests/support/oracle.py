@@ -93,9 +93,10 @@ reflected term of a transparent surface, by the incoming ray's interior_filter^t
 nested); a reflected ray keeps its side (the interior when the hit is from inside, else the
 incoming ray's medium). A shadow ray starts in the shaded ray's medium and toggles the interior
 of every transmissive surface it crosses, filtered likewise over each segment.
-Shadow rays of point and distant lights in a scene with a transmissive material are traced
-segment by segment (each with the shadow window, from the last crossing): an opaque hit blocks
-the light, a transmissive one multiplies it by kt (no refraction).
+Shadow rays in a scene with a transmissive material, in the "povray" transmission convention,
+are traced segment by segment (each with the shadow window, from the last crossing): an opaque
+hit blocks the light, a transmissive one multiplies it by kt (no refraction). In the "book"
+convention every object blocks them (Suffern's Whitted tracer).
 """
 
 from __future__ import annotations
@@ -848,7 +849,7 @@ def _shade(
         if len(lit) == 0:
             continue
         nl = n_dot_l[lit]
-        if geo.transmissive and light.linking.shadows:
+        if geo.transmissive and settings.transmission == "povray" and light.linking.shadows:
             start = np.full(len(lit), -1, dtype=np.int64) if medium is None else medium[lit].copy()
             shadowed_by = light.linking.shadowed_by
             casts = None if shadowed_by is None else shadowed_by.__contains__

@@ -277,7 +277,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                 }
                 using T = std::decay_t<decltype(light)>;
                 if constexpr (std::is_same_v<T, RectAreaLight> || std::is_same_v<T, SphereAreaLight>) {
-                    if (context.transmissive) {
+                    if (context.filtered_shadows) {
                         // Every grid sample's shadow ray filtered as a point light's is, the
                         // colours summed with the grid's weights, as POV-Ray averages its samples'
                         // colours; or, under `adaptive n`, POV-Ray's recursion on those colours
@@ -316,7 +316,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                     }
                 }
                 if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
-                    if (context.transmissive) {  // filtered by transmissive occluders
+                    if (context.filtered_shadows) {  // filtered by transmissive occluders
                         const unsigned char* casts =
                             link != nullptr && !link->casts.empty() ? link->casts.data() : nullptr;
                         // From inside an object that casts none of this light's shadows its
@@ -404,10 +404,12 @@ RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std:
 TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_, const RayTolerances& tolerances_)
     : scene(scene_), settings(settings_), tolerances(tolerances_) {
     for (const Light& light : scene.lights) grids.push_back(area_light_grid(light));
+    bool transmissive = false;
     for (const Material& m : scene.materials) transmissive = transmissive || m.kt > 0.0;
     if (scene.instances)
         for (size_t p = 0; p < scene.instances->prototype_count(); ++p)
             for (const Material& m : scene.instances->prototype(p).materials) transmissive = transmissive || m.kt > 0.0;
+    filtered_shadows = transmissive && settings.transmission_convention == TransmissionConvention::kPovray;
 }
 
 RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch,

@@ -64,9 +64,11 @@ struct TraceContext {
     const RenderSettings& settings;
     RayTolerances tolerances;
     std::vector<AreaLightGrid> grids;  // by light
-    // Some material transmits (kt > 0): shadow rays of point and distant lights are then filtered
-    // by the transmissive objects they cross (render.cpp: shadow_filter).
-    bool transmissive = false;
+    // Some material transmits (kt > 0) and the transmission convention is POV-Ray's: shadow rays
+    // are then filtered by the transmissive objects they cross (render.cpp: shadow_filter). In
+    // the book's convention every object casts an opaque shadow, transparent ones too (Suffern's
+    // Whitted tracer: its shadow rays test every object's shadow_hit alike).
+    bool filtered_shadows = false;
 
     TraceContext(const Scene& scene, const RenderSettings& settings, const RayTolerances& tolerances);
 };
