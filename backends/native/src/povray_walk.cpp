@@ -18,6 +18,11 @@
 //
 // The walk finds the closest hit always (its e <= t <= Best), so it can differ from a plain
 // any-hit test only when a hit lies in [1e-6, t_min]; without one, occluded()'s answer stands.
+//
+// A filtered shadow ray (through glass, ref §18) is searched segment by segment from each
+// crossing, and each segment's search walks every mesh again: a crossing a few microns from
+// an opaque mesh (a glass ball seated in a pawn's socket) hides that whole mesh from the rest
+// of the ray, so POV-Ray lights a point the mesh shadows (OpenChessSet's Pawn: 21 pixels).
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -38,7 +43,7 @@ constexpr int kMaxWalkHits = 1024;
 struct WalkHit {
     int32_t mesh;
     double entry;  // entry distance of the triangle's box
-    double t;
+    Hit hit;
 };
 
 double box_entry(const TriangleShape& tri, const Ray& ray) {
@@ -62,20 +67,31 @@ double box_entry(const TriangleShape& tri, const Ray& ray) {
 
 }  // namespace
 
-bool Scene::occluded_povray_walk(const Ray& ray, double t_min, double t_max) const {
-    Hit hit;
-    if (!closest_hit(ray, kPovrayMeshDepthTolerance, t_min, hit)) return true;  // nothing to stop the walk
+namespace {
+
+// The hits POV-Ray's search reports along `ray`, each passed to visit(hit) until it returns
+// true (then so does this); past kMaxWalkHits it gives up (gave_up, and false). A sphere, an instance and an intrinsic
+// part report every hit, and so does a mesh with an inside: the compiler writes inside_vector for a transmissive
+// material's mesh, and POV-Ray's walk does not stop early for such a mesh (mesh.cpp:
+// `if (!OldStyle && Depth > Best) break`, OldStyle = has_inside_vector). Any other mesh
+// reports the hits its walk visits (the file comment).
+template <class Visit>
+bool each_reported_hit(const Scene& scene, const Ray& ray, bool& gave_up, Visit visit) {
     std::vector<WalkHit> hits;
+    Hit hit;
     double from = kPovrayMeshDepthTolerance;
-    while (closest_hit(ray, from, HUGE_VAL, hit)) {
-        if (int(hits.size()) == kMaxWalkHits) return true;
-        if (hit.ref < 0 || hit.instance >= 0) {
-            // A sphere counts every hit; so does an instance here (its mesh's walk is not
-            // reproduced: an instanced occluder behind a too-close hit of its own is not missed).
-            if (hit.t > t_min && hit.t < t_max) return true;
+    while (scene.closest_hit(ray, from, HUGE_VAL, hit)) {
+        if (int(hits.size()) == kMaxWalkHits) {
+            gave_up = true;
+            return false;
+        }
+        const bool walked = hit.ref >= 0 && hit.instance < 0 &&
+                            !(scene.materials[size_t(scene.triangle_material(size_t(hit.ref)))].kt > 0.0);
+        if (!walked) {
+            if (visit(hit)) return true;
         } else {
             const size_t slot = size_t(hit.ref);
-            hits.push_back({triangle_mesh(slot), box_entry(triangles[slot], ray), hit.t});
+            hits.push_back({scene.triangle_mesh(slot), box_entry(scene.triangles[slot], ray), hit});
         }
         from = hit.t;
     }
@@ -87,13 +103,42 @@ bool Scene::occluded_povray_walk(const Ray& ray, double t_min, double t_max) con
         size_t j = i;
         for (; j < hits.size() && hits[j].mesh == hits[i].mesh; ++j) {
             if (hits[j].entry > best) break;
-            best = hits[j].t;
-            if (best > t_min && best < t_max) return true;
+            best = hits[j].hit.t;
+            if (visit(hits[j].hit)) return true;
         }
         while (j < hits.size() && hits[j].mesh == hits[i].mesh) ++j;
         i = j;
     }
     return false;
+}
+
+}  // namespace
+
+bool Scene::occluded_povray_walk(const Ray& ray, double t_min, double t_max) const {
+    Hit hit;
+    if (!closest_hit(ray, kPovrayMeshDepthTolerance, t_min, hit)) return true;  // nothing to stop the walk
+    bool gave_up = false;
+    const bool found = each_reported_hit(*this, ray, gave_up, [&](const Hit& h) { return h.t > t_min && h.t < t_max; });
+    return found || gave_up;  // beyond kMaxWalkHits occluded()'s answer stands
+}
+
+bool Scene::closest_hit_povray_walk(const Ray& ray, double t_min, double t_max, Hit& hit) const {
+    // The closest hit is always visited (its box is entered no later than it, and the walk's
+    // Best is some hit's t, never below it): only a hit in [1e-6, t_min] can change the answer.
+    Hit near;
+    if (!closest_hit(ray, kPovrayMeshDepthTolerance, t_min, near)) return closest_hit(ray, t_min, t_max, hit);
+    bool found = false, gave_up = false;
+    Hit best{};
+    each_reported_hit(*this, ray, gave_up, [&](const Hit& h) {
+        if (h.t > t_min && h.t < t_max && (!found || h.t < best.t)) {
+            best = h;
+            found = true;
+        }
+        return false;
+    });
+    if (gave_up) return closest_hit(ray, t_min, t_max, hit);
+    if (found) hit = best;
+    return found;
 }
 
 }  // namespace phong

@@ -118,6 +118,25 @@ const Material& material_of(const Scene& world, const Hit& hit) {
     return scene.materials[size_t(m)];
 }
 
+// POV-Ray's shadow cache (ref §6) seen through glass: the thread's cached opaque occluder is
+// tested first, from P over the whole ray, so an opaque object behind a transmissive one
+// shadows P even where the crossing's segment search would miss it (a crossing a hair from a
+// mesh hides that mesh: povray_walk.cpp). The cache's state depends on the pixels the thread
+// rendered before; the shadow-cache numerics (diff's explanation) assume it holds the occluder.
+bool opaque_behind_glass(const TraceContext& context, const Ray& ray, double t_min, double t_max,
+                         const unsigned char* casts) {
+    const Scene& scene = context.scene;
+    double from = t_min;
+    for (int crossings = 0; crossings <= kMaxShadowCrossings; ++crossings) {
+        Hit hit;
+        if (!scene.closest_hit_povray_walk(ray, from, t_max, hit)) return false;
+        const bool casts_shadow = casts == nullptr || hit.instance >= 0 || casts[size_t(scene.object_of(hit.ref))];
+        if (casts_shadow && !(material_of(scene, hit).kt > 0.0)) return true;
+        from = hit.t;
+    }
+    return false;
+}
+
 // How much of a light at `distance` along unit l reaches p through transmissive objects, as
 // POV-Ray computes it (ref §18): the shadow ray goes straight (no refraction), an opaque object
 // blocks it, and each crossing of a transmissive surface multiplies it by kt. Each segment
@@ -131,14 +150,19 @@ const Material& material_of(const Scene& world, const Hit& hit) {
 RGB shadow_filter(const TraceContext& context, const Vec3& p, const Vec3& l, double distance, const Material* medium,
                   const unsigned char* casts) {
     const double window = context.tolerances.shadow_window;
+    if (context.settings.numerics == Numerics::kPovrayShadowCache &&
+        opaque_behind_glass(context, Ray{p, l}, window, distance - window, casts))
+        return RGB{};
     RGB filter{1.0, 1.0, 1.0};
     Vec3 from = p;
     double remaining = distance;
     for (int crossings = 0; crossings <= kMaxShadowCrossings; ++crossings) {
         Hit hit;
         const Ray ray{from, l};
-        if (!context.scene.closest_hit(ray, window, remaining - window, hit))
-            return medium == nullptr ? filter : hadamard(filter, medium_transmittance(medium, remaining));
+        const bool found = context.povray_walk
+                               ? context.scene.closest_hit_povray_walk(ray, window, remaining - window, hit)
+                               : context.scene.closest_hit(ray, window, remaining - window, hit);
+        if (!found) return medium == nullptr ? filter : hadamard(filter, medium_transmittance(medium, remaining));
         const Material& m = material_of(context.scene, hit);
         const bool casts_shadow =
             casts == nullptr || hit.instance >= 0 || casts[size_t(context.scene.object_of(hit.ref))];
@@ -253,7 +277,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
 
     RGB color = ambient_term(*material, scene.ambient);
     color += material->emission;  // Le: + 0 is exact, so unlit materials shade as before
-    const bool povray_walk = settings.numerics != Numerics::kScaleInvariant;
+    const bool povray_walk = context.povray_walk;
     const FloatSlabOrigin p_rounded(p);
     for (size_t j = 0; j < scene.lights.size(); ++j) {
         const LightLinking* link = linked ? &scene.light_links[j] : nullptr;
@@ -410,6 +434,7 @@ TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_,
         for (size_t p = 0; p < scene.instances->prototype_count(); ++p)
             for (const Material& m : scene.instances->prototype(p).materials) transmissive = transmissive || m.kt > 0.0;
     filtered_shadows = transmissive && settings.transmission_convention == TransmissionConvention::kPovray;
+    povray_walk = settings.numerics != Numerics::kScaleInvariant;
 }
 
 RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch,

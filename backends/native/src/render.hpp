@@ -69,6 +69,8 @@ struct TraceContext {
     // the book's convention every object casts an opaque shadow, transparent ones too (Suffern's
     // Whitted tracer: its shadow rays test every object's shadow_hit alike).
     bool filtered_shadows = false;
+    // POV-Ray numerics: shadow rays see meshes as POV-Ray's mesh walk reports them (povray_walk.cpp).
+    bool povray_walk = false;
 
     TraceContext(const Scene& scene, const RenderSettings& settings, const RayTolerances& tolerances);
 };

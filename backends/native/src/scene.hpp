@@ -141,6 +141,10 @@ class Scene {
     // walk stops at its first hit, even one too close to count as a shadow hit, so an occluder
     // of the same mesh behind it can be missed. Call only where occluded() said true.
     bool occluded_povray_walk(const Ray& ray, double t_min, double t_max) const;
+    // closest_hit() as POV-Ray's shadow search finds it (the same walk): the nearest hit in
+    // (t_min, t_max) among those POV-Ray's meshes report. A filtered shadow ray's segments
+    // (render.cpp: shadow_filter) start on a crossed surface, often a hair from another mesh.
+    bool closest_hit_povray_walk(const Ray& ray, double t_min, double t_max, Hit& hit) const;
 
     // occluded() counting only the objects whose casts[object] is 1 (a light's shadow link;
     // light_linking.cpp). The BVH holds every object, so an excluded one is skipped, not culled.
