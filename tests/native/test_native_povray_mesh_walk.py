@@ -133,7 +133,9 @@ def _box(lo, hi) -> np.ndarray:
 
 
 def _mesh(points: np.ndarray, material: PhongMaterial) -> TriangleMesh:
-    return TriangleMesh(points=points, triangles=np.arange(len(points), dtype=np.int32).reshape(-1, 3), material=material)
+    return TriangleMesh(
+        points=points, triangles=np.arange(len(points), dtype=np.int32).reshape(-1, 3), material=material
+    )
 
 
 def socket_scene(plate: bool = True) -> Scene:
