@@ -308,6 +308,11 @@ class PhongMaterial:
     # no checker. POV-Ray: ``pigment { checker }`` (the same parity), scaled and shifted to match.
     checker_size: float = 0.0
     checker_color: RGB = (0.5, 0.5, 0.5)  # the book's default color2
+    # cd varies per instance (a primvar reader on the diffuse colour, reading a per-instance
+    # primvar: a PointInstancer's one-per-instance array, or a constant primvar on each
+    # instanceable prim): on a prototype's mesh, copy k's cd is its ``Instances.colors[k]``;
+    # elsewhere, or in a group without colours, diffuse_color (the reader's fallback).
+    instance_color: bool = False
 
     @property
     def checkered(self) -> bool:
@@ -872,6 +877,9 @@ class Instances:
     world_from_prototype: np.ndarray  # (K, 4, 4) float64
     source: str = ""  # the PointInstancer, or "" for instanceable references (see sources)
     sources: tuple[str, ...] = ()
+    # (K, 3) linear RGB >= 0, or None: copy k's cd on the prototype's meshes whose material has
+    # instance_color (a per-instance primvar's values); the other meshes keep their own cd.
+    colors: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         m = np.array(self.world_from_prototype, dtype=np.float64, order="C", copy=True)
@@ -879,6 +887,20 @@ class Instances:
             raise ValueError(f"expected transforms of shape (K, 4, 4), got {m.shape}")
         m.setflags(write=False)
         object.__setattr__(self, "world_from_prototype", m)
+        if self.colors is not None:
+            c = np.array(self.colors, dtype=np.float64, order="C", copy=True)
+            if c.shape != (len(m), 3):
+                raise ValueError(f"expected colors of shape ({len(m)}, 3), one per copy, got {c.shape}")
+            c.setflags(write=False)
+            object.__setattr__(self, "colors", c)
+
+    def material_of(self, mesh: TriangleMesh, k: int) -> PhongMaterial:
+        """Copy k's material on the prototype's ``mesh``: its own, or with cd the copy's colour
+        (instance_color)."""
+        m = mesh.material
+        if not m.instance_color or self.colors is None:
+            return m
+        return replace(m, diffuse_color=tuple(float(c) for c in self.colors[k]), instance_color=False)
 
     def __len__(self) -> int:
         return len(self.world_from_prototype)
@@ -909,7 +931,7 @@ class Instances:
             if normals is not None:
                 normals = normals @ np.linalg.inv(a)
                 normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
-            out.append(replace(mesh, points=mesh.points @ a.T + t, normals=normals))
+            out.append(replace(mesh, points=mesh.points @ a.T + t, normals=normals, material=self.material_of(mesh, k)))
         return tuple(out)
 
 

@@ -400,6 +400,8 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
         c.add(m, "interior_filter", f"must be in (0, 1] per channel, got {_show(f)}")
     if not isinstance(m.fresnel, (bool, np.bool_)):
         c.add(m, "fresnel", f"must be True or False, got {_show(m.fresnel)}")
+    if not isinstance(m.instance_color, (bool, np.bool_)):
+        c.add(m, "instance_color", f"must be True or False, got {_show(m.instance_color)}")
     if c.real(m, "checker_size", m.checker_size) and not m.checker_size >= 0:
         c.add(m, "checker_size", f"must be >= 0 (0: no checker), got {_show(m.checker_size)}")
     c.colour(m, "checker_color")
@@ -681,6 +683,17 @@ def _check_instances(c: _Collector, group: Instances) -> None:
             "world_from_prototype",
             f"{int(bad.sum())} of {len(m)} instance transforms are invalid, e.g. copy {k}: {what}",
         )
+    colors = group.colors
+    if colors is not None and len(colors):
+        bad = ~(np.isfinite(colors) & (colors >= 0)).all(axis=1)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            c.add(
+                _Copy(group.source_of(k)),
+                "colors",
+                f"{int(bad.sum())} of {len(colors)} instance colours are not finite and >= 0, "
+                f"e.g. copy {k}: {tuple(float(x) for x in colors[k])}",
+            )
 
 
 @dataclass(frozen=True)

@@ -71,6 +71,7 @@ def _material(m: PhongMaterial) -> _native.Material:
     if m.checkered:
         native.checker_size = m.checker_size
         native.checker_color = m.checker_color
+    native.instance_color = bool(m.instance_color)
     return native
 
 
@@ -416,7 +417,11 @@ def add_instances(native: _native.Scene, scene: Scene, numerics: str) -> None:
         if textures is not None:
             built.set_textures(**textures)
         transforms = np.ascontiguousarray(np.concatenate([g.world_from_prototype for g in same]), dtype=np.float64)
-        native.add_instances(built, transforms, rebuild=n == len(groups) - 1)  # the top level once, at the end
+        colors = None
+        if any(g.colors is not None for g in same):  # a group without colours: NaN, its meshes' own cd
+            colors = np.concatenate([g.colors if g.colors is not None else np.full((len(g), 3), np.nan) for g in same])
+        # the top level once, at the end
+        native.add_instances(built, transforms, rebuild=n == len(groups) - 1, colors=colors)
 
 
 def render(

@@ -657,16 +657,19 @@ class _Compiler:
 
     def declare_materials(self) -> None:
         for obj in (*self.scene.objects, *(m for p in self.scene.prototypes for m in p.meshes)):
-            m = obj.material
-            if m in self.materials:
-                continue
-            name = f"Material_{len(self.materials)}"
-            self.materials[m] = name
-            self.lines.append(self.comment_text(m, "material", len(self.materials) - 1))
-            texture = self.texture(m, name)
-            self.lines.append(f"#declare {name} = {texture}")
-            if m in self.unlit_materials:
-                self.lines.append(f"#declare {name}_Unlit = {self.unlit_texture(m)}")
+            self.declare_material(obj.material, unlit=obj.material in self.unlit_materials)
+
+    def declare_material(self, m: PhongMaterial, unlit: bool = False) -> None:
+        """``#declare Material_k`` for ``m`` (once), and its ``_Unlit`` texture where asked."""
+        if m in self.materials:
+            return
+        name = f"Material_{len(self.materials)}"
+        self.materials[m] = name
+        self.lines.append(self.comment_text(m, "material", len(self.materials) - 1))
+        texture = self.texture(m, name)
+        self.lines.append(f"#declare {name} = {texture}")
+        if unlit:
+            self.lines.append(f"#declare {name}_Unlit = {self.unlit_texture(m)}")
 
     def diffuse_pigment(self, m: PhongMaterial) -> str:
         """cd as a pigment: a colour, or the texture as an ``image_map`` on the mesh's uvs. The
@@ -797,7 +800,7 @@ class _Compiler:
 
     # -- light and shadow linking ---------------------------------------------------------------
 
-    def linked(self, obj) -> tuple[str, str]:
+    def linked(self, obj, material: PhongMaterial | None = None) -> tuple[str, str]:
         """(the texture an object wears, the modifiers after it) under its lights' linking.
 
         The exact mapping renders one light per pass, so linking is exact there: in a pass whose
@@ -806,8 +809,9 @@ class _Compiler:
         not in the light's collection:shadowLink) it is ``no_shadow`` (ref §6: no_shadow keeps
         the highlight; a ``shadowless`` light would drop it, ref §5). The classic mapping has all
         lights in one pass: an object can only be ``no_shadow`` for all of them, and every light
-        must illuminate it; otherwise an error names the light and the collection."""
-        name = self.materials[obj.material]
+        must illuminate it; otherwise an error names the light and the collection. ``material``:
+        the one it wears when not its own (an instance's copy with its own cd)."""
+        name = self.materials[obj.material if material is None else material]
         lights = self.scene.lights
         unlit = [i for i, light in enumerate(lights) if not light.linking.lights(obj.source)]
         unshadowing = [i for i, light in enumerate(lights) if not light.linking.shadows_from(obj.source)]
@@ -956,7 +960,11 @@ class _Compiler:
                 matrix = ", ".join(map(sdl_float, rows[k]))
                 for name, mesh in names:
                     # Linking cannot tell the copies apart here (the reader flattens those it would).
-                    texture, modifiers = self.linked(mesh)
+                    # A per-instance cd (instance_color) wears its own declared texture.
+                    material = group.material_of(mesh, k)
+                    if material is not mesh.material:
+                        self.declare_material(material, unlit=mesh.material in self.unlit_materials)
+                    texture, modifiers = self.linked(mesh, material)
                     self.lines.append(
                         f"object {{ {name} matrix <{matrix}> texture {{ {texture} }}"
                         f"{self.interior(mesh.material)}{modifiers} }}"

@@ -15,6 +15,10 @@
   *and* that inherited binding: the only override USD allows an instance.
 * Nesting: an instancer or an instance inside a prototype becomes nested placements, composed
   with the outer copies' transforms when the scene is built (the backends see one level).
+* Per-copy colours: a prototype mesh whose material's cd a primvar reader gives
+  (primvar_colors.py) takes each copy's value, a PointInstancer's per-instance array or a
+  constant primvar on (or above) the instanceable prim, into ``Instances.colors``; a copy
+  without one keeps the reader's fallback. Nested copies take their own placement's values.
 
 Flattening stays where it is cheaper or needed: a prototype with a single instance on the
 stage, or one holding lights (which the model places in the world), is read as ordinary
@@ -35,6 +39,8 @@ from pxr import Usd, UsdGeom, UsdLux, UsdShade
 
 from ..scene import Instances, Intrinsic, Points, Prototype, Sphere
 from .context import ReadContext, gf_to_numpy
+from .materials import MaterialReader
+from .primvar_colors import PrimvarColor, constant_primvar, per_instance
 
 # A prototype whose instances on the stage are fewer than this is flattened (one copy: the
 # instance machinery would only add a transform to every ray).
@@ -48,7 +54,7 @@ class _PrototypeRead:
     source: str
     meshes: list = field(default_factory=list)
     spheres: list = field(default_factory=list)  # (Sphere in prototype space)
-    nested: list = field(default_factory=list)  # (key, (K, 4, 4) prototype-from-nested, sources)
+    nested: list = field(default_factory=list)  # (key, (K, 4, 4) prototype-from-nested, sources, colours)
     prototype: Prototype | None = None  # built once it is placed
 
 
@@ -58,10 +64,11 @@ class Instancing:
     ``gprim(prim, transform, spheres, meshes)`` reads one gprim (the reader's), ``renderable()``
     makes a visibility/purpose filter for one traversal (the reader's)."""
 
-    def __init__(self, ctx: ReadContext, gprim: Callable, renderable: Callable):
-        self.ctx, self.gprim, self.renderable = ctx, gprim, renderable
+    def __init__(self, ctx: ReadContext, gprim: Callable, renderable: Callable, materials: MaterialReader):
+        self.ctx, self.gprim, self.renderable, self.materials = ctx, gprim, renderable, materials
         self.prototypes: dict[tuple, _PrototypeRead] = {}
-        self.placements: dict[tuple, list] = defaultdict(list)  # key -> [(transforms, sources)]
+        # key -> [(transforms, sources, colours (K, 3) or None)]
+        self.placements: dict[tuple, list] = defaultdict(list)
         self.reading: list[str] = []  # prototype roots being read (a cycle is a problem)
         self._instance_choice: dict[str, bool] = {}
 
@@ -80,7 +87,30 @@ class Instancing:
         """Place the instance ``prim`` (world transform ``world``)."""
         key = self._instance_key(prim)
         if self._read_prototype(key, prim):
-            self.placements[key].append((world[None], (str(prim.GetPath()),)))
+            self.placements[key].append((world[None], (str(prim.GetPath()),), self._instance_colour(key, prim)))
+
+    def _instance_colour(self, key: tuple, prim: Usd.Prim, stop: Usd.Prim | None = None) -> np.ndarray | None:
+        """The instance ``prim``'s colour (1, 3) for its prototype's primvar reader: a constant
+        primvar on it or an ancestor (up to ``stop``), or None."""
+        reads = self._primvar_color(key)
+        value = None if reads is None else constant_primvar(prim, reads.name, self.ctx.time, stop=stop)
+        return None if value is None else np.array([reads.of(value)])
+
+    def _primvar_color(self, key: tuple) -> PrimvarColor | None:
+        """What the prototype's per-copy cd reads (its meshes' materials with instance_color):
+        one primvar per prototype; a second is named in a warning and its meshes keep their
+        fallback."""
+        read = self.prototypes[key]
+        found = {}
+        for m in read.meshes:
+            reads = self.materials.primvar_colors.get(m.material)
+            if reads is not None:
+                found.setdefault(reads, m.source)
+        if len(found) > 1:
+            self.ctx.unsupported[
+                "prototypes whose meshes read different per-instance primvars (the first is used)"
+            ].append(read.source)
+        return next(iter(found), None)
 
     def _instance_key(self, prim: Usd.Prim) -> tuple:
         bound, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
@@ -150,10 +180,14 @@ class Instancing:
             if not proto or not self._read_prototype(key, proto):
                 continue
             sources = tuple(f"{path}[{ids[k]}]" for k in chosen)  # each copy by its id (for errors)
+            reads = self._primvar_color(key)
+            colours = None if reads is None else per_instance(prim, reads.name, len(proto_indices), ctx.time)
+            if colours is not None:
+                colours = colours[chosen] * np.asarray(reads.scale)
             if into is not None:
-                into.append((key, placed[chosen], sources))
+                into.append((key, placed[chosen], sources, colours))
             else:
-                self.placements[key].append((placed[chosen], sources))
+                self.placements[key].append((placed[chosen], sources, colours))
 
     # -- reading a prototype once ------------------------------------------------------------
 
@@ -168,6 +202,7 @@ class Instancing:
             ctx.problem(root, "prototypes", "this prototype contains itself (a cycle)")
             return False
         self.reading.append(root_path)
+        outer_root, self.materials.prototype_root = self.materials.prototype_root, root
         read = _PrototypeRead(root_path)
         it = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
         renderable = self.renderable()
@@ -184,7 +219,8 @@ class Instancing:
                 it.PruneChildren()
                 nested_key = self._instance_key(prim)
                 if self._read_prototype(nested_key, prim):
-                    read.nested.append((nested_key, local[None], (str(prim.GetPath()),)))
+                    colour = self._instance_colour(nested_key, prim, stop=root)
+                    read.nested.append((nested_key, local[None], (str(prim.GetPath()),), colour))
             elif prim.IsA(UsdGeom.PointInstancer):
                 it.PruneChildren()
                 self.instancer(prim, local, into=read.nested)
@@ -193,61 +229,97 @@ class Instancing:
             elif prim.HasAPI(UsdLux.LightAPI):
                 ctx.unsupported["lights inside PointInstancer prototypes (ignored)"].append(str(prim.GetPath()))
         self.reading.pop()
+        self.materials.prototype_root = outer_root
         self.prototypes[key] = read
         return True
 
     # -- the model ---------------------------------------------------------------------------
 
-    def _place(self, flat: dict, key: tuple, transforms: np.ndarray, sources: tuple) -> None:
+    def _place(self, flat: dict, key: tuple, transforms: np.ndarray, sources: tuple, colours) -> None:
         """Add copies of ``key`` to ``flat``, and the copies of what it nests (a method, not a
         recursive closure: that would be a reference cycle keeping the stage, and USD's layer
         registry would hand its stale layer to the next open of the same file)."""
-        flat[key].append((transforms, sources))
-        for nested_key, inner, inner_sources in self.prototypes[key].nested:
-            # every outer copy times every inner one: (K, 1) @ (1, J) -> K·J
+        flat[key].append((transforms, sources, colours))
+        for nested_key, inner, inner_sources, inner_colours in self.prototypes[key].nested:
+            # every outer copy times every inner one: (K, 1) @ (1, J) -> K·J (copy k·J + j)
             composed = np.matmul(transforms[:, None], inner[None]).reshape(-1, 4, 4)
-            self._place(flat, nested_key, composed, inner_sources)
+            tiled = None if inner_colours is None else np.tile(inner_colours, (len(transforms), 1))
+            self._place(flat, nested_key, composed, inner_sources, tiled)
+
+    def _colours(self, key: tuple, entries: list) -> np.ndarray | None:
+        """Every copy's colour (K, 3), in the entries' order: a placement without values takes
+        the prototype's fallback cd; None where no placement has values."""
+        if all(c is None for _, _, c in entries):
+            return None
+        reads = self._primvar_color(key)
+        fallback = next(
+            m.material.diffuse_color
+            for m in self.prototypes[key].meshes
+            if self.materials.primvar_colors.get(m.material) == reads
+        )
+        return np.concatenate([np.tile(fallback, (len(t), 1)) if c is None else c for t, _, c in entries])
 
     def build(self, spheres: list, meshes: list) -> tuple[Instances, ...]:
         """The scene's instances; the spheres of prototypes are appended to ``spheres`` (placed
         in the world), and a prototype placed exactly once is flattened into ``meshes``."""
         flat: dict[tuple, list] = defaultdict(list)  # key -> [(transforms, sources)], nesting composed
         for key, entries in self.placements.items():
-            for transforms, sources in entries:
-                self._place(flat, key, transforms, sources)
+            for transforms, sources, colours in entries:
+                self._place(flat, key, transforms, sources, colours)
         out = []
         for key, entries in flat.items():
             read = self.prototypes[key]
-            transforms = np.concatenate([t for t, _ in entries])
-            sources = tuple(s for _, srcs in entries for s in srcs)
+            transforms = np.concatenate([t for t, _, _ in entries])
+            sources = tuple(s for _, srcs, _ in entries for s in srcs)
+            colours = self._colours(key, entries)
             if len(sources) != len(transforms):  # a nested copy is named by its prim in the prototype
                 sources = ()
             for s in read.spheres:
                 suffix = s.source[len(read.source) :] if s.source.startswith(read.source) else ""
                 for k, m in enumerate(transforms):
                     source = sources[k] + suffix if sources else s.source
+                    material = _copy_material(s.material, colours, k)
                     if isinstance(s, Points):  # each copy as its own spheres, as a Sphere is placed
-                        spheres.extend(Sphere(m @ one.world_from_object, s.material, source) for one in s.spheres())
+                        spheres.extend(Sphere(m @ one.world_from_object, material, source) for one in s.spheres())
                     else:
-                        spheres.append(Sphere(m @ s.world_from_object, s.material, source))
+                        spheres.append(Sphere(m @ s.world_from_object, material, source))
             # Intrinsic prims (Cube, Cylinder, ...) are placed in the world per copy, as spheres:
             # each is already an affine map of a canonical shape (docs/instancing.md).
             for i in (i for i in read.meshes if isinstance(i, Intrinsic)):
                 suffix = i.source[len(read.source) :] if i.source.startswith(read.source) else ""
                 for k, m in enumerate(transforms):
                     source = sources[k] + suffix if sources else i.source
-                    meshes.append(replace(i, world_from_object=m @ i.world_from_object, source=source))
+                    meshes.append(
+                        replace(
+                            i,
+                            world_from_object=m @ i.world_from_object,
+                            source=source,
+                            material=_copy_material(i.material, colours, k),
+                        )
+                    )
             triangle_meshes = [m for m in read.meshes if not isinstance(m, Intrinsic)]
             if not triangle_meshes:
                 continue
             if read.prototype is None:
                 read.prototype = Prototype(tuple(triangle_meshes), read.source)
-            group = Instances(read.prototype, transforms, sources[0] if sources else read.source, sources)
+            group = Instances(read.prototype, transforms, sources[0] if sources else read.source, sources, colours)
             if len(transforms) == 1:  # one copy: flattening costs nothing
                 meshes.extend(group.placed_meshes(0))
                 continue
             out.append(group)
             self.ctx.nodes.append(
-                (read.source, f"Instances ({len(transforms)} copies of {read.prototype.triangle_count} triangles)")
+                (
+                    read.source,
+                    f"Instances ({len(transforms)} copies of {read.prototype.triangle_count} triangles"
+                    + (", a colour each)" if colours is not None else ")"),
+                )
             )
         return tuple(out)
+
+
+def _copy_material(material, colours: np.ndarray | None, k: int):
+    """A prototype's sphere or intrinsic prim placed as copy k: its cd the copy's colour where
+    its material reads one (as ``Instances.material_of`` does for the meshes)."""
+    if colours is None or not material.instance_color:
+        return material
+    return replace(material, diffuse_color=tuple(float(c) for c in colours[k]), instance_color=False)

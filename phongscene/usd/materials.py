@@ -14,6 +14,7 @@ from ..scene import DEFAULT_MATERIAL, PhongMaterial, Texture
 from .context import ReadContext
 from .names import COLOR_TYPES, PHONG_INPUTS, PHONG_MAP_INPUTS, PHONG_RENDER_CONTEXT, PHONG_SHADER_ID
 from .pbr_networks import MDL_NETWORKS, MTLX_NETWORKS, OMNI_PBR, Network, inputs, reduce
+from .primvar_colors import DIFFUSE_COLOUR_INPUTS, PrimvarColor, constant_primvar, primvar_reader
 from .shader_defs import phong_input_defaults, phong_inputs
 from .textures import Connected, StSource, TextureReader
 
@@ -164,6 +165,12 @@ class MaterialReader:
         # The sources of materials whose constant opacity is below their opacityThreshold
         # (UsdPreviewSurface's masked mode): gprims bound to them are not rendered.
         self.cut_out: set[str] = set()
+        # Materials whose cd a primvar reader gives (primvar_colors.py), and what it reads.
+        self.primvar_colors: dict[PhongMaterial, PrimvarColor] = {}
+        self._primvar_read: tuple[str, tuple] | None = None  # set by _input_value while mapping
+        # The root of the prototype being read (Instancing), or None: a primvar above it is
+        # the copy's, not the prototype's.
+        self.prototype_root: Usd.Prim | None = None
         self.phong_defaults = phong_input_defaults()
         preview = Sdr.Registry().GetShaderNodeByIdentifier(PREVIEW_SHADER_ID)
         self.preview_defaults = {n: preview.GetShaderInput(n).GetDefaultValue() for n in PREVIEW_INPUTS}
@@ -172,7 +179,19 @@ class MaterialReader:
         material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
         if not material:
             return self._display_color(prim)
-        return self.for_material(material)
+        m = self.for_material(material)
+        reads = self.primvar_colors.get(m)
+        if reads is None:
+            return m
+        value = constant_primvar(prim, reads.name, self.ctx.time, stop=self.prototype_root)
+        if value is not None:
+            return dataclasses.replace(m, diffuse_color=reads.of(value), instance_color=False)
+        if self.prototype_root is not None:
+            return m  # each copy's value: Instances.colors (instancing.py)
+        self.ctx.unsupported["primvar readers whose primvar the gprim lacks (the reader's fallback is used)"].append(
+            f"{prim.GetPath()} ({reads.name})"
+        )
+        return dataclasses.replace(m, instance_color=False)
 
     def for_material(self, material: UsdShade.Material) -> PhongMaterial:
         key = str(material.GetPath())
@@ -196,6 +215,23 @@ class MaterialReader:
         return parts
 
     def _material(self, material: UsdShade.Material) -> PhongMaterial:
+        """The mapped material; one whose cd a primvar reader gives is marked instance_color
+        and remembered with the primvar it reads (primvar_colors.py)."""
+        self._primvar_read = None
+        m = self._mapped(material)
+        if self._primvar_read is None:
+            return m
+        name, fallback = self._primvar_read
+        # The mapping's scale of the colour it read (base · (1 − metalness)), channel by channel;
+        # where the fallback is 0 the other channels' mean ratio (the mappings scale all alike).
+        ratios = [c / f for c, f in zip(m.diffuse_color, fallback) if f > 0]
+        mean = sum(ratios) / len(ratios) if ratios else 1.0
+        scale = tuple(c / f if f > 0 else mean for c, f in zip(m.diffuse_color, fallback))
+        m = dataclasses.replace(m, instance_color=True)
+        self.primvar_colors[m] = PrimvarColor(name, scale)
+        return m
+
+    def _mapped(self, material: UsdShade.Material) -> PhongMaterial:
         shader = surface_source(material)
         if not shader:
             self.ctx.unsupported["materials without a surface shader (rendered grey)"].append(str(material.GetPath()))
@@ -231,6 +267,11 @@ class MaterialReader:
                 value = attrs[0].Get(self.ctx.time)
                 return default if value is None else value
             where = f"{shader.GetPath()}.inputs:{name}"
+            if name in DIFFUSE_COLOUR_INPUTS:
+                reader = primvar_reader(shader, name, self.ctx.time)
+                if reader is not None:  # cd per gprim or per copy (for_gprim, instancing.py)
+                    self._primvar_read = reader
+                    return reader[1] if np.shape(default) == (3,) else reader[1][0]
             connected = self.textures.connected(shader, name)
             if connected is not None:
                 self.ctx.unsupported["textured inputs without a per-point model (the texture's mean is used)"].append(

@@ -215,6 +215,7 @@ def _read(
         ctx,
         lambda prim, world, spheres, meshes: _gprim(ctx, prim, world, materials, spheres, meshes),
         lambda: _Renderable(ctx),
+        materials,
     )
     for prim in it:
         if not renderable(prim):

@@ -94,7 +94,7 @@ def _value(inp: UsdShade.Input | None, time, default):
     return default if value is None else value
 
 
-def _source_output(inp: UsdShade.Input | None) -> tuple[UsdShade.Shader, str] | None:
+def source_output(inp: UsdShade.Input | None) -> tuple[UsdShade.Shader, str] | None:
     """The shader and output name that produce ``inp``'s value through connections, if any."""
     if not inp or not inp.HasConnectedSource():
         return None
@@ -127,7 +127,7 @@ class TextureReader:
         when the input is not fed by a UsdUVTexture or a MaterialX image node. ``signed``: a
         normal map's vectors, not clipped at 0; ``scale_bias``: applied after the node's own
         (a MaterialX normalmap node's decoding)."""
-        source = _source_output(shader.GetInput(name))
+        source = source_output(shader.GetInput(name))
         if source is None:
             return None
         tex_shader, output = source
@@ -142,7 +142,7 @@ class TextureReader:
         """The tangent-space normal map feeding input ``name``: a UsdUVTexture (its scale and
         bias decode it, as the UsdPreviewSurface spec has it), or a MaterialX ``normalmap`` node
         over an image (v = 2·texel − 1, its x and y times the node's ``scale``); None otherwise."""
-        source = _source_output(shader.GetInput(name))
+        source = source_output(shader.GetInput(name))
         if source is None:
             return None
         node, _ = source
@@ -280,7 +280,7 @@ class TextureReader:
         ``uvtiling`` and ``uvoffset`` (uv · tiling − offset, MaterialX's tiledimage)."""
         time = self.ctx.time
         primvar = MTLX_FIRST_UV_SET
-        source = _source_output(node.GetInput("texcoord"))
+        source = source_output(node.GetInput("texcoord"))
         if source is not None:
             reader, _ = source
             reader_id = reader.GetShaderId() or ""
@@ -338,7 +338,7 @@ class TextureReader:
         return self.textures[key]
 
     def _st(self, tex_shader: UsdShade.Shader) -> StSource:
-        source = _source_output(tex_shader.GetInput("st"))
+        source = source_output(tex_shader.GetInput("st"))
         if source is None:
             return StSource(None)
         shader, _ = source
@@ -350,7 +350,7 @@ class TextureReader:
                 "rotation_deg": float(_value(shader.GetInput("rotation"), time, 0.0)),
                 "translation": tuple(float(x) for x in _value(shader.GetInput("translation"), time, (0.0, 0.0))),
             }
-            source = _source_output(shader.GetInput("in"))
+            source = source_output(shader.GetInput("in"))
             if source is None:
                 return StSource(None, **transform)
             shader, _ = source

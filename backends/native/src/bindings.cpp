@@ -6,6 +6,7 @@
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/array.h>
+#include <nanobind/stl/optional.h>
 #include <nanobind/stl/variant.h>
 #include <nanobind/stl/vector.h>
 
@@ -431,6 +432,7 @@ NB_MODULE(_native, m) {
         .def_rw("fresnel", &Material::fresnel)
         .def_rw("interior_filter", &Material::interior_filter)
         .def_rw("checker_size", &Material::checker_size)
+        .def_rw("instance_color", &Material::instance_color)
         .def_rw("checker_color", &Material::checker_color);
 
     nb::enum_<phong::Wrap>(m, "Wrap", "How a texture continues outside [0, 1] (textures.hpp).")
@@ -594,19 +596,23 @@ NB_MODULE(_native, m) {
              "S + m) it illuminates and that cast its shadows, as uint8 arrays of one flag per object (empty: all).")
         .def(
             "add_instances",
-            [](phong::Scene& self, phong::Scene& prototype, const Matrices& world_from_prototype, bool rebuild) {
+            [](phong::Scene& self, phong::Scene& prototype, const Matrices& world_from_prototype, bool rebuild,
+               std::optional<Rows3> colors) {
                 if (&prototype == &self) throw std::invalid_argument("a scene cannot be its own prototype");
                 if (!prototype.instances_empty()) throw std::invalid_argument("a prototype holds no instances");
+                if (colors && colors->shape(0) != world_from_prototype.shape(0))
+                    throw std::invalid_argument("colors must have one row per instance");
                 auto taken = std::make_unique<phong::Scene>(std::move(prototype));
                 nb::gil_scoped_release release;
                 self.add_instances(std::move(taken), world_from_prototype.data(), world_from_prototype.shape(0),
-                                   rebuild);
+                                   rebuild, colors ? colors->data() : nullptr);
             },
-            "prototype"_a, "world_from_prototype"_a, "rebuild"_a = true,
+            "prototype"_a, "world_from_prototype"_a, "rebuild"_a = true, "colors"_a = nb::none(),
             "Adds copies of `prototype` (a Scene of its meshes in prototype space, taken over: it is empty "
             "afterwards), copy k placed by world_from_prototype[k] (K, 4, 4), column vectors, affine and "
             "invertible; the top-level BVH over every instance is rebuilt (rebuild=False: not yet, the scene cannot "
-            "be traced until an add with rebuild=True).")
+            "be traced until an add with rebuild=True). colors (K, 3): copy k's cd on the materials with "
+            "instance_color (None: their own).")
         .def_prop_ro("instance_count", [](const phong::Scene& s) { return s.instances ? s.instances->size() : 0; })
         .def_prop_ro("prototype_count",
                      [](const phong::Scene& s) { return s.instances ? s.instances->prototype_count() : 0; })

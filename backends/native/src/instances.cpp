@@ -72,7 +72,7 @@ size_t InstanceLayer::triangle_count() const {
 }
 
 void InstanceLayer::add(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
-                        bool rebuild) {
+                        bool rebuild, const double* colors) {
     const uint32_t index = uint32_t(prototypes_.size());
     const Bounds local = prototype->bounds;
     if (!prototype->instances_empty())
@@ -96,6 +96,8 @@ void InstanceLayer::add(std::unique_ptr<Scene> prototype, const double* world_fr
     for (size_t k = 0; k < count; ++k) all[added[k].id] = added[k];
     instances_ = std::move(all);
     world_boxes_.insert(world_boxes_.end(), boxes.begin(), boxes.end());
+    for (size_t k = 0; k < count; ++k)
+        colors_.push_back(colors ? RGB{colors[3 * k], colors[3 * k + 1], colors[3 * k + 2]} : RGB{NAN, NAN, NAN});
     for (const Bounds& b : boxes) bounds.grow(b);
     stale_ = true;
     if (rebuild) build();

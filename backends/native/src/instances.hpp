@@ -7,6 +7,7 @@
 // need no conversion, and a hit is compared with world hits as it is), and is traced there.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -58,7 +59,9 @@ class InstanceLayer {
     // Python validates), and rebuilds the top level unless `rebuild` is false (many
     // prototypes: build once, after the last; until then the layer is stale() and must not be
     // traced). Throws std::invalid_argument for a singular or non-affine matrix.
-    void add(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count, bool rebuild = true);
+    // `colors` (count × 3, or nullptr): copy k's cd on materials with instance_color.
+    void add(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count, bool rebuild = true,
+             const double* colors = nullptr);
     bool stale() const { return stale_; }
 
     // The closest hit in (t_min, t_max) among the instances (hit.instance: the instance's
@@ -72,6 +75,11 @@ class InstanceLayer {
         return instances_[size_t(instance)].prototype_from_world.transposed(n);
     }
     uint32_t instance_id(int32_t instance) const { return instances_[size_t(instance)].id; }
+    // The instance's colour (add's `colors`), or nullptr where its copies were given none.
+    const RGB* color_of(int32_t instance) const {
+        const RGB& c = colors_[instances_[size_t(instance)].id];
+        return std::isnan(c.x) ? nullptr : &c;
+    }
     size_t size() const { return instances_.size(); }
     size_t prototype_count() const { return prototypes_.size(); }
     const Scene& prototype(size_t p) const { return *prototypes_[p]; }
@@ -85,6 +93,7 @@ class InstanceLayer {
     std::vector<std::unique_ptr<Scene>> prototypes_;
     std::vector<Instance> instances_;  // leaf order once built
     std::vector<Bounds> world_boxes_;  // by instance (input order), for rebuilds
+    std::vector<RGB> colors_;          // by instance (input order); NaN: none given
     std::vector<Bvh4Node> nodes_;
     double magnitude_ = 0.0;  // largest absolute coordinate of the instances' boxes
     bool stale_ = false;      // instances added since the last build

@@ -46,6 +46,9 @@ struct Material {
     // diffuse_color and checker_color; 0: no checker.
     double checker_size = 0.0;
     RGB checker_color{0.5, 0.5, 0.5};
+    // cd is the instance's colour on an instance's hit (InstanceLayer::color_of; phongscene's
+    // PhongMaterial.instance_color), diffuse_color elsewhere.
+    bool instance_color = false;
 
     bool filters() const { return interior_filter.x != 1.0 || interior_filter.y != 1.0 || interior_filter.z != 1.0; }
 };

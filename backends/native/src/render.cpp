@@ -256,6 +256,13 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         textured.diffuse_color = cd;
         material = &textured;
     }
+    if (hit.instance >= 0 && material->instance_color) {  // cd per copy (a per-instance primvar)
+        if (const RGB* cd = scene.instances->color_of(hit.instance)) {
+            if (material != &textured) textured = *material;
+            textured.diffuse_color = *cd;
+            material = &textured;
+        }
+    }
     if (hit.instance >= 0) {
         n = normalize(scene.instances->normal_to_world(hit.instance, n));
         if (normal_mapped) mapped_normal = normalize(scene.instances->normal_to_world(hit.instance, mapped_normal));

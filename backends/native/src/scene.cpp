@@ -321,9 +321,9 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
 }
 
 void Scene::add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
-                          bool rebuild) {
+                          bool rebuild, const double* colors) {
     if (!instances) instances = std::make_unique<InstanceLayer>();
-    instances->add(std::move(prototype), world_from_prototype, count, rebuild);
+    instances->add(std::move(prototype), world_from_prototype, count, rebuild, colors);
     bounds.grow(instances->bounds);
 }
 

@@ -246,7 +246,7 @@ class Scene {
     }
     // Adds copies of a prototype (instances.hpp) and grows `bounds` by their boxes.
     void add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
-                       bool rebuild = true);
+                       bool rebuild = true, const double* colors = nullptr);
 
     Bounds bounds;           // of the geometry but unbounded planes, instances included (empty without primitives)
     double magnitude = 0.0;  // largest absolute coordinate of the geometry bounds
