@@ -347,7 +347,9 @@ class _Compiler:
         self.uv_frame, self.images = pov_images(scene)
         # Emissive materials: the exact mapping declares Emission per pass (1 in pass 0, else 0),
         # as the emitted light, like the ambient term, is counted once.
-        self.emission = any(any(o.material.emission) for o in scene.objects)
+        # Every material an object wears: the world's and the instances' prototypes' meshes.
+        worn = [o.material for o in (*scene.objects, *all_meshes(scene)[len(scene.meshes) :])]
+        self.emission = any(any(m.emission) for m in worn)
         # Materials some object wears where a light does not illuminate it (light linking): an
         # ambient-and-emission-only texture, Material_k_Unlit, is declared beside them.
         self.unlit_materials = {
@@ -356,7 +358,7 @@ class _Compiler:
         # Secondary rays (ref §18): only a scene with a reflective material gets the depth limit
         # (max_trace_level = max_depth + 1) and adc_bailout 0 (no weight cut-off), so the SDL of
         # every other scene is unchanged.
-        self.reflective = any(o.material.reflects or o.material.transmits for o in scene.objects)
+        self.reflective = any(m.reflects or m.transmits for m in worn)
 
     def trace_settings(self) -> str:
         """The global_settings items of secondary rays ("" for a scene that traces none)."""

@@ -19,11 +19,14 @@ import pytest
 from phongscene.backends import native
 from phongscene.backends.povray import compile_pov
 from phongscene.errors import SceneError
+from phongscene.comparison import compare
 from phongscene.scene import (
     AmbientLight,
     Camera,
+    Instances,
     PhongMaterial,
     PointLight,
+    Prototype,
     RenderSettings,
     Scene,
     Sphere,
@@ -254,6 +257,43 @@ def test_rays_between_two_mirrors_sum_a_geometric_series_up_to_max_depth(render,
     expected = sum(kr**k * np.asarray(a if k % 2 == 0 else b) for k in range(max_depth + 1))
     image = render(scene)
     assert _close(image, np.broadcast_to(expected, image.shape), FLOAT32_TWO_ULPS)
+
+
+def _instanced_mirrors(max_depth: int) -> tuple[Scene, np.ndarray]:
+    """The two mirrors above, each a copy of one mirror prototype (z = 0 and z = 10), both
+    ambient-only in one colour; and the series the path sums."""
+    kr, colour = 0.6, (0.9, 0.2, 0.1)
+    corners = [(-1e3, -1e3, 0.0), (1e3, -1e3, 0.0), (1e3, 1e3, 0.0), (-1e3, 1e3, 0.0)]
+    material = PhongMaterial(ka=1.0, kd=0.0, ks=0.0, exponent=1.0, diffuse_color=colour, kr=kr)
+    wall = Prototype((TriangleMesh(points=corners, triangles=[(0, 1, 2), (0, 2, 3)], material=material),))
+    places = np.stack([np.eye(4), np.eye(4)])
+    places[1, 2, 3] = 10.0
+    camera = Camera(position=(0.0, 0.0, 5.0), forward=(0.0, 0.0, -1.0), projection="orthographic", ortho_width=2.0)
+    scene = Scene(
+        camera=camera,
+        ambient=AmbientLight((1.0, 1.0, 1.0)),
+        instances=(Instances(wall, places),),
+        settings=RenderSettings(width=8, height=6, background=BACKGROUND, max_depth=max_depth),
+    )
+    return scene, sum(kr**k * np.asarray(colour) for k in range(max_depth + 1))
+
+
+def test_a_mirror_only_in_instances_gets_the_depth_limit_in_the_sdl():
+    """The SDL's max_trace_level and adc_bailout 0 follow a reflective material wherever it is: on
+    an instance's prototype too (without them POV-Ray stops at its default 5 levels and 1/255)."""
+    scene, _ = _instanced_mirrors(12)
+    for mapping in ("exact", "classic"):
+        assert "adc_bailout 0 max_trace_level 13" in compile_pov(scene, mapping=mapping)
+
+
+@pytest.mark.povray
+def test_povray_sums_the_instanced_mirrors_series_as_native():
+    from phongscene import render
+
+    scene, expected = _instanced_mirrors(12)
+    image = native.render(scene)
+    assert _close(image, np.broadcast_to(expected, image.shape), FLOAT32_TWO_ULPS)
+    assert compare(render(scene, "povray"), image).ok
 
 
 # ---------------------------------------------------------------------------------------------
