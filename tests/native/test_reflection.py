@@ -18,8 +18,8 @@ import pytest
 
 from phongscene.backends import native
 from phongscene.backends.povray import compile_pov
-from phongscene.errors import SceneError
 from phongscene.comparison import compare
+from phongscene.errors import SceneError
 from phongscene.scene import (
     AmbientLight,
     Camera,
