@@ -308,6 +308,15 @@ class PhongMaterial:
     # no checker. POV-Ray: ``pigment { checker }`` (the same parity), scaled and shifted to match.
     checker_size: float = 0.0
     checker_color: RGB = (0.5, 0.5, 0.5)  # the book's default color2
+    # The book's PlaneChecker instead (ch. 24's floors): cells of the x–z plane, by the parity of
+    # floor(x/s) + floor(z/s) at the world-space hit point (no ε), and an outline: where
+    # x/s − floor(x/s) or z/s − floor(z/s) is below w or above 1 − w, w = ½·width/s, cd is
+    # checker_outline_color. The book's code does this in float; the native tracer does too, but in
+    # POV-Ray's numerics in double, as POV-Ray's function pigment (the two differ only within a
+    # float's rounding of an edge). POV-Ray: ``pigment { function { ... } color_map }``.
+    checker_plane: bool = False
+    checker_outline_width: float = 0.0  # >= 0 (the book's outline_width; 0: no outline)
+    checker_outline_color: RGB = (0.0, 0.0, 0.0)  # the book's default: black
     # cd varies per instance (a primvar reader on the diffuse colour, reading a per-instance
     # primvar: a PointInstancer's one-per-instance array, or a constant primvar on each
     # instanceable prim): on a prototype's mesh, copy k's cd is its ``Instances.colors[k]``;
@@ -330,7 +339,15 @@ class PhongMaterial:
         return self.kr > 0 and any(c > 0 for c in self.reflective_color)
 
     def __post_init__(self) -> None:
-        _as_triples(self, "diffuse_color", "specular_color", "reflective_color", "interior_filter", "checker_color")
+        _as_triples(
+            self,
+            "diffuse_color",
+            "specular_color",
+            "reflective_color",
+            "interior_filter",
+            "checker_color",
+            "checker_outline_color",
+        )
 
     @property
     def textures(self) -> tuple[Texture, ...]:
@@ -344,24 +361,7 @@ class PhongMaterial:
 
     def without_textures(self) -> PhongMaterial:
         """The same material with its constant colours only (the textures' fallbacks)."""
-        return PhongMaterial(
-            self.ka,
-            self.kd,
-            self.ks,
-            self.exponent,
-            self.diffuse_color,
-            self.specular_color,
-            self.source,
-            emission=self.emission,
-            kr=self.kr,
-            reflective_color=self.reflective_color,
-            kt=self.kt,
-            ior=self.ior,
-            fresnel=self.fresnel,
-            interior_filter=self.interior_filter,
-            checker_size=self.checker_size,
-            checker_color=self.checker_color,
-        )
+        return replace(self, diffuse_texture=None, specular_texture=None, normal_texture=None)
 
 
 DEFAULT_MATERIAL = PhongMaterial()

@@ -405,6 +405,11 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
     if c.real(m, "checker_size", m.checker_size) and not m.checker_size >= 0:
         c.add(m, "checker_size", f"must be >= 0 (0: no checker), got {_show(m.checker_size)}")
     c.colour(m, "checker_color")
+    if not isinstance(m.checker_plane, (bool, np.bool_)):
+        c.add(m, "checker_plane", f"must be True or False, got {_show(m.checker_plane)}")
+    if c.real(m, "checker_outline_width", m.checker_outline_width) and not m.checker_outline_width >= 0:
+        c.add(m, "checker_outline_width", f"must be >= 0 (0: no outline), got {_show(m.checker_outline_width)}")
+    c.colour(m, "checker_outline_color")
     if _number(m.checker_size) and m.checker_size > 0 and m.diffuse_texture is not None:
         c.add(m, "checker_size", "a checker and a diffuse texture both give cd: use one of them")
     for field in ("diffuse_texture", "specular_texture", "normal_texture"):

@@ -71,6 +71,10 @@ def _material(m: PhongMaterial) -> _native.Material:
     if m.checkered:
         native.checker_size = m.checker_size
         native.checker_color = m.checker_color
+        if m.checker_plane:
+            native.checker_plane = True
+            native.checker_outline_width = m.checker_outline_width
+            native.checker_outline_color = m.checker_outline_color
     native.instance_color = bool(m.instance_color)
     return native
 

@@ -695,17 +695,40 @@ class _Compiler:
         of the pattern point, odd: the second colour; pattern.cpp), scaled by the cell size and
         moved by -CHECKER_SHIFT, so that its pattern point is (p + ε)/s as the book's is. The
         pigment is in world space: every object's texture follows its transform (see sphere)."""
-        colours = [
-            self.rgb(c, m, f) for c, f in ((m.diffuse_color, "diffuse_color"), (m.checker_color, "checker_color"))
-        ]
+        fields = [(m.diffuse_color, "diffuse_color"), (m.checker_color, "checker_color")]
+        if m.checker_plane:
+            fields.append((m.checker_outline_color, "checker_outline_color"))
+        colours = [self.rgb(c, m, f) for c, f in fields]
         if m.transmits:  # POV-Ray's transmit, as for a plain colour (ref §18)
             kt = self.coef(m.kt, m, "kt")
-            entries = ", ".join(f"rgbt <{c[1:-1]}, {kt}>" for c in colours)
+            colours = [f"rgbt <{c[1:-1]}, {kt}>" for c in colours]
         else:
-            entries = ", ".join(f"rgb {c}" for c in colours)
+            colours = [f"rgb {c}" for c in colours]
+        if m.checker_plane:
+            return self.plane_checker_pigment(m, colours)
+        entries = ", ".join(colours)
         size = self.num(m.checker_size, m, "checker_size")
         shift = self.num(-CHECKER_SHIFT, m, "checker_size")
         return f"pigment {{ checker {entries} scale {size} translate <{shift}, {shift}, {shift}> }}"
+
+    def plane_checker_pigment(self, m: PhongMaterial, colours: list[str]) -> str:
+        """The book's PlaneChecker as a function pigment over the world-space point (the texture
+        follows every object's transform, see sphere): 0.875 on the outline, else 0.125 for an
+        even cell and 0.5 for an odd one, each in a flat stretch of the colour map. POV-Ray's
+        function VM computes in double; the native tracer does the same in POV-Ray's numerics
+        (materials.hpp plane_checker_colour)."""
+        s = self.num(m.checker_size, m, "checker_size")
+        w = 0.5 * float(m.checker_outline_width) / float(m.checker_size)
+        lo, hi = self.num(w, m, "checker_outline_width"), self.num(1.0 - w, m, "checker_outline_width")
+        fx, fz = f"(x/{s} - floor(x/{s}))", f"(z/{s} - floor(z/{s}))"
+        # (POV-Ray's | binds looser than -: the sum of the tests is parenthesised before the shift.)
+        outline = f"({fx} < {lo}) | ({fx} > {hi}) | ({fz} < {lo}) | ({fz} > {hi})"
+        cell = f"select(abs(mod(floor(x/{s}) + floor(z/{s}), 2)) - 0.5, 0.125, 0.5)"
+        even, odd, line = colours
+        return (
+            f"pigment {{ function {{ select(({outline}) - 0.5, {cell}, 0.875) }} "
+            f"color_map {{ [0 {even}] [0.25 {even}] [0.25 {odd}] [0.75 {odd}] [0.75 {line}] [1 {line}] }} }}"
+        )
 
     def image_map(self, t: Texture, modifiers: str = "") -> str:
         """The texture's image map (see UvFrame): ``once`` unless the image simply repeats."""

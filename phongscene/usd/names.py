@@ -38,6 +38,10 @@ PHONG_INPUTS: dict[str, tuple[str, str]] = {
     # The book's Checker3D (its color1 is diffuseColor): written only where checkerSize > 0.
     "checkerColor": ("checker_color", "color3f"),
     "checkerSize": ("checker_size", "float"),
+    # The book's PlaneChecker instead (x–z cells, an outline): written only where checkerPlane is on.
+    "checkerPlane": ("checker_plane", "bool"),
+    "checkerOutlineWidth": ("checker_outline_width", "float"),
+    "checkerOutlineColor": ("checker_outline_color", "color3f"),
     # A texture-only input: connected to a UsdUVTexture (its scale and bias decode the tangent-space
     # normal), its value unused; unconnected, the surface's own normal.
     "normal": ("normal_texture", "normal3f"),

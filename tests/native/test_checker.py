@@ -128,3 +128,85 @@ def test_checker_inputs_round_trip_through_usd(tmp_path):
     assert set(materials) == {float(np.float32(0.43)), float(np.float32(0.2371))}
     assert materials[float(np.float32(0.43))].checker_color == pytest.approx((0.12, 0.16, 0.3))
     assert np.abs(native.render(back) - native.render(scene)).max() <= 1e-5  # float32 colours in USD
+
+
+# --- The book's PlaneChecker (ch. 24's floors) --------------------------------------------------
+
+PLANE = PhongMaterial(
+    ka=0.3,
+    kd=0.9,
+    ks=0.0,
+    exponent=1.0,
+    diffuse_color=(0.9, 0.8, 0.1),
+    checker_size=2.5,
+    checker_color=(0.1, 0.3, 0.9),
+    checker_plane=True,
+    checker_outline_width=0.4,
+    checker_outline_color=(0.0, 0.6, 0.0),
+)
+
+
+def _book_plane_colour(m: PhongMaterial, p) -> tuple[float, ...]:
+    """Suffern's PlaneChecker::get_color as its code computes it (float x, z, x/s, fx, fz, width;
+    ``1.0 - width`` in double), transcribed with numpy's float32."""
+    f = np.float32
+    x, z, s = f(p[0]), f(p[2]), f(m.checker_size)
+    ix, iz = int(np.floor(x / s)), int(np.floor(z / s))
+    fx, fz = f(x / s - f(ix)), f(z / s - f(iz))
+    width = f(0.5 * float(f(m.checker_outline_width)) / float(s))
+    if fx < width or fx > 1.0 - float(width) or fz < width or fz > 1.0 - float(width):
+        return m.checker_outline_color
+    return m.diffuse_color if (ix + iz) % 2 == 0 else m.checker_color
+
+
+def _plane_scene(material: PhongMaterial = PLANE, numerics: str = "scale-invariant"):
+    """The checker calibration scene with its ground wearing ``material``, seen from above."""
+    scene = R(calibration.checker(), spheres=())
+    ground = R(scene.meshes[0], material=material)
+    settings = R(scene.settings, width=48, height=36, numerics=numerics)
+    return R(scene, meshes=(ground,), settings=settings)
+
+
+def test_plane_cells_and_outlines_are_the_books():
+    scene = _plane_scene()
+    rng = np.random.default_rng(11)
+    points = np.column_stack([rng.uniform(-3, 3, 600), np.zeros(600), rng.uniform(-4, 1, 600)])
+    want = np.array([_book_plane_colour(PLANE, p) for p in points])
+    assert np.array_equal(_ground_colour_at(scene, points), want)
+    assert len({tuple(c) for c in want}) == 3  # both cell colours and the outline seen
+
+
+def test_plane_checker_native_image_equals_the_oracle():
+    scene = _plane_scene()
+    image = native.render(scene)
+    np.testing.assert_allclose(image, oracle.render(scene), rtol=IMAGE_TOLERANCE, atol=1e-30)
+
+
+@pytest.mark.povray
+def test_plane_checker_povray_function_pigment_agrees_with_native():
+    from phongscene import render
+    from phongscene.comparison import compare
+
+    for mapping in ("exact", "classic"):
+        scene = _plane_scene(numerics="povray")
+        settings = R(scene.settings, specular="seed" if mapping == "exact" else "povray-classic")
+        pov = render(scene, "povray", settings, mapping=mapping, explain=False)
+        assert compare(pov, native.render(scene, settings)).ok
+
+
+@pytest.mark.parametrize(
+    "change, field",
+    [({"checker_outline_width": -1.0}, "checker_outline_width"), ({"checker_plane": "yes"}, "checker_plane")],
+)
+def test_bad_plane_checker_values_are_scene_errors_naming_the_field(change, field):
+    scene = _plane_scene(R(PLANE, **change))
+    assert field in {p.attribute for p in validate(scene)}
+
+
+def test_plane_checker_inputs_round_trip_through_usd(tmp_path):
+    scene = _plane_scene()
+    read = load_usd(write_usd(scene, tmp_path / "plane.usda"))
+    m = read.meshes[0].material
+    assert (m.checker_plane, m.checker_size, m.checker_outline_width) == (True, 2.5, pytest.approx(0.4))
+    assert m.checker_outline_color == pytest.approx(PLANE.checker_outline_color)
+    assert m.checker_color == pytest.approx(PLANE.checker_color)

@@ -368,6 +368,9 @@ class _Geometry:
     interior_filter: np.ndarray  # (M, 3)
     checker_size: np.ndarray  # (M,) the book's Checker3D cell size; 0: none
     checker_color: np.ndarray  # (M, 3) its second colour
+    checker_plane: np.ndarray  # (M,) bool: the book's PlaneChecker instead
+    checker_outline_width: np.ndarray  # (M,)
+    checker_outline_color: np.ndarray  # (M, 3)
 
     def medium_transmittance(self, medium: np.ndarray, distance: np.ndarray) -> np.ndarray:
         """interior_filter[medium]^distance per ray, 1 where medium < 0 (none). (N, 3)."""
@@ -456,6 +459,9 @@ def _prepare(scene: Scene) -> _Geometry:
         interior_filter=np.array([m.interior_filter for m in materials], dtype=np.float64).reshape(-1, 3),
         checker_size=np.array([m.checker_size for m in materials], dtype=np.float64),
         checker_color=np.array([m.checker_color for m in materials], dtype=np.float64).reshape(-1, 3),
+        checker_plane=np.array([bool(m.checker_plane) for m in materials], dtype=bool),
+        checker_outline_width=np.array([m.checker_outline_width for m in materials], dtype=np.float64),
+        checker_outline_color=np.array([m.checker_outline_color for m in materials], dtype=np.float64).reshape(-1, 3),
     )
 
 
@@ -716,6 +722,20 @@ def _checker_colours(geo: _Geometry, o, d, t, material, colour) -> None:
     cells = np.floor((p + CHECKER_SHIFT) / geo.checker_size[m][:, None]).sum(axis=1)
     odd = (np.abs(cells) < 2.0**31) & (np.mod(cells, 2.0) == 1.0)
     colour[hit] = np.where(odd[:, None], geo.checker_color[m], geo.cd[m])
+    # The book's PlaneChecker, in its float arithmetic (Textures/PlaneChecker.cpp: x, z, x/s, the
+    # fractions and the half width stored as float; 1 − w a double).
+    plane = geo.checker_plane[m]
+    if plane.any():
+        rows, mp = hit[plane], m[plane]
+        s = geo.checker_size[mp].astype(np.float32)
+        x, z = p[plane, 0].astype(np.float32), p[plane, 2].astype(np.float32)
+        ix, iz = np.floor(x / s), np.floor(z / s)
+        fx, fz = x / s - ix, z / s - iz
+        w = (0.5 * geo.checker_outline_width[mp].astype(np.float32).astype(np.float64) / s).astype(np.float32)
+        outline = (fx < w) | (fx > 1.0 - w.astype(np.float64)) | (fz < w) | (fz > 1.0 - w.astype(np.float64))
+        odd_cell = np.mod(ix.astype(np.float64) + iz.astype(np.float64), 2.0) != 0.0
+        cd = np.where(odd_cell[:, None], geo.checker_color[mp], geo.cd[mp])
+        colour[rows] = np.where(outline[:, None], geo.checker_outline_color[mp], cd)
 
 
 def _occluded(geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray, casts=None) -> np.ndarray:

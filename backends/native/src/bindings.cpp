@@ -433,6 +433,9 @@ NB_MODULE(_native, m) {
         .def_rw("interior_filter", &Material::interior_filter)
         .def_rw("checker_size", &Material::checker_size)
         .def_rw("instance_color", &Material::instance_color)
+        .def_rw("checker_plane", &Material::checker_plane)
+        .def_rw("checker_outline_width", &Material::checker_outline_width)
+        .def_rw("checker_outline_color", &Material::checker_outline_color)
         .def_rw("checker_color", &Material::checker_color);
 
     nb::enum_<phong::Wrap>(m, "Wrap", "How a texture continues outside [0, 1] (textures.hpp).")

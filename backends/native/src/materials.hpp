@@ -46,6 +46,10 @@ struct Material {
     // diffuse_color and checker_color; 0: no checker.
     double checker_size = 0.0;
     RGB checker_color{0.5, 0.5, 0.5};
+    // The book's PlaneChecker instead (plane_checker_colour below): x–z cells and an outline.
+    bool checker_plane = false;
+    double checker_outline_width = 0.0;
+    RGB checker_outline_color{0.0, 0.0, 0.0};
     // cd is the instance's colour on an instance's hit (InstanceLayer::color_of; phongscene's
     // PhongMaterial.instance_color), diffuse_color elsewhere.
     bool instance_color = false;
@@ -68,6 +72,36 @@ inline RGB checker_colour(const Material& m, const Vec3& p) {
                        std::floor((p.z + kCheckerShift) / s);
     const int32_t cells = std::fabs(sum) < 2147483648.0 ? int32_t(sum) : INT32_MIN;
     return (cells & 1) != 0 ? m.checker_color : m.diffuse_color;
+}
+
+// cd of a PlaneChecker material at world-space point p (Suffern's PlaneChecker::get_color):
+// checker_outline_color where x/s − floor(x/s) or z/s − floor(z/s) is below w or above 1 − w,
+// w = ½·outline/s; else diffuse_color where floor(x/s) + floor(z/s) is even, checker_color where
+// odd. `book_float`: the book's arithmetic, x, z, x/s, the fractions and w in float (its code
+// stores them as float; its 1 − w is a double); otherwise double throughout, as POV-Ray's
+// function pigment computes it. The parity is that of the floors' sum (the book's int cast is
+// undefined beyond 2^31 cells; the true parity is taken there).
+inline RGB plane_checker_colour(const Material& m, const Vec3& p, bool book_float) {
+    double qx, qz, fx, fz, w;
+    if (book_float) {
+        const float s = float(m.checker_size);
+        const float x = float(p.x), z = float(p.z);
+        const float ix = std::floor(x / s), iz = std::floor(z / s);
+        qx = ix;
+        qz = iz;
+        fx = float(x / s - ix);
+        fz = float(z / s - iz);
+        w = float(0.5 * double(float(m.checker_outline_width)) / s);
+    } else {
+        const double s = m.checker_size;
+        qx = std::floor(p.x / s);
+        qz = std::floor(p.z / s);
+        fx = p.x / s - qx;
+        fz = p.z / s - qz;
+        w = 0.5 * m.checker_outline_width / s;
+    }
+    if (fx < w || fx > 1.0 - w || fz < w || fz > 1.0 - w) return m.checker_outline_color;
+    return std::fmod(qx + qz, 2.0) != 0.0 ? m.checker_color : m.diffuse_color;
 }
 
 // What a ray keeps of its radiance over `distance` inside `medium` (nullptr: outside every

@@ -250,8 +250,10 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
             material = &textured;
         }
     }
-    if (material->checker_size > 0.0) {  // the book's Checker3D: cd by the cell of p (world space)
-        const RGB cd = checker_colour(*material, p);
+    if (material->checker_size > 0.0) {  // the book's Checker3D or PlaneChecker: cd by the cell of p (world space)
+        const RGB cd = material->checker_plane
+                           ? plane_checker_colour(*material, p, settings.numerics == Numerics::kScaleInvariant)
+                           : checker_colour(*material, p);
         if (material != &textured) textured = *material;
         textured.diffuse_color = cd;
         material = &textured;
