@@ -82,6 +82,9 @@ def test_usd_validators_report_nothing_with_the_plugin_folder(usd_files):
     assert result["known"]
     assert result["inputs"] == [
         "checkerColor",
+        "checkerOutlineColor",
+        "checkerOutlineWidth",
+        "checkerPlane",
         "checkerSize",
         "diffuseColor",
         "emissiveColor",
