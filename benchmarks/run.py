@@ -226,7 +226,7 @@ def in_process_table(args, names, thread_counts) -> dict:
         for threads in thread_counts:
             settings = dataclasses.replace(scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping])
             camera, native_settings = native._camera(scene.camera), native._settings(settings)
-            t_build, built = best_time(lambda: native.build(scene), args.repeat)
+            t_build, built = best_time(lambda: native.build(scene, threads), args.repeat)
             t_render, image = best_time(lambda: built.render(camera=camera, settings=native_settings), args.repeat)
             t_native, image = best_time(lambda: native.render(scene, settings), args.repeat)
             render_times[name, threads] = t_render
@@ -262,7 +262,7 @@ def compiled_peers_table(args, names, thread_counts) -> None:
         for threads in thread_counts:
             settings = dataclasses.replace(scene.settings, threads=threads, specular=SPECULAR_OF_MAPPING[args.mapping])
             camera, native_settings = native._camera(scene.camera), native._settings(settings)
-            t_build, built = best_time(lambda: native.build(scene), args.repeat)
+            t_build, built = best_time(lambda: native.build(scene, threads), args.repeat)
             t_render, _ = best_time(lambda: built.render(camera=camera, settings=native_settings), args.repeat)
             print(
                 f"{name:<8}{threads:>8}  {'native (' + str(built.walk_width) + '-wide walk)':<22}{'':>8}{t_build:>9.3f}"

@@ -11,7 +11,8 @@ thread pool. This module is the only code that knows both sides.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -393,11 +394,24 @@ def linkable(scene: Scene) -> Scene:
     return scene
 
 
-def build(scene: Scene) -> _native.Scene:
-    """The C++ scene (geometry, materials, lights and BVH) of a validated ``scene``."""
+@contextmanager
+def build_threads(threads: int) -> Iterator[None]:
+    """Scene builds inside use at most ``threads`` threads (0: every core), as a render's
+    ``RenderSettings.threads`` caps its render (the cap is the extension's, process-wide)."""
+    _native.set_build_threads(max(0, int(threads)))
+    try:
+        yield
+    finally:
+        _native.set_build_threads(0)
+
+
+def build(scene: Scene, threads: int = 0) -> _native.Scene:
+    """The C++ scene (geometry, materials, lights and BVH) of a validated ``scene``, built on at
+    most ``threads`` threads (0: every core)."""
     scene = linkable(scene)
-    native = _finish(_native.Scene(**scene_arrays(scene)), scene)
-    add_instances(native, scene, "scale-invariant")
+    with build_threads(threads):
+        native = _finish(_native.Scene(**scene_arrays(scene)), scene)
+        add_instances(native, scene, "scale-invariant")
     return native
 
 
@@ -496,8 +510,9 @@ def prepare(
     arrays = scene_arrays(scene)
     if s.numerics != "scale-invariant":
         arrays = _as_povray_stores(arrays, scene)
-    native = _finish(_native.Scene(**arrays), scene, povray_numerics=s.numerics != "scale-invariant")
-    add_instances(native, scene, s.numerics)
+    with build_threads(s.threads):  # the render's thread count caps its build too
+        native = _finish(_native.Scene(**arrays), scene, povray_numerics=s.numerics != "scale-invariant")
+        add_instances(native, scene, s.numerics)
     settings_ = _settings(s)
     if s.transmission == "povray":
         # Camera rays start in the interior of the transparent object around the camera (POV-Ray).

@@ -20,6 +20,7 @@
 #include <utility>
 #include <vector>
 
+#include "build_threads.hpp"
 #include "camera.hpp"
 #include "lights.hpp"
 #include "materials.hpp"
@@ -385,6 +386,10 @@ NB_MODULE(_native, m) {
           "limit surface, their limit normals (V, 3), triangles (T, 3), base_face (T) (the cage face of each), "
           "uvs (U, 2) and uv_triangles (T, 3) (empty without uvs). Hole faces give no triangles.");
     m.doc() = "phongscene native ray tracer (C++17)";
+    m.def(
+        "set_build_threads", [](unsigned threads) { phong::build_thread_cap().store(threads); }, "threads"_a,
+        "Caps the threads a scene build uses (0: every core), for builds started afterwards in this process.");
+    m.def("build_threads", [] { return phong::build_threads(); }, "The threads a scene build uses now.");
     m.def(
         "hardware_threads", [] { return std::thread::hardware_concurrency(); },
         "Number of hardware threads the tracer uses when threads=0.");

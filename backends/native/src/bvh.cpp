@@ -3,6 +3,8 @@
 // hierarchies", 2007), flattened depth-first.
 #include "bvh.hpp"
 
+#include "build_threads.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -195,9 +197,8 @@ struct Builder {
 
     void bin(Bins& bins, uint32_t begin, uint32_t end, const BinGrid& grid, bool parallel) const {
         const uint32_t n = end - begin;
-        // hardware_concurrency() reads sysfs: asked only of the few nodes large enough.
-        const unsigned threads =
-            parallel && n >= kParallelBinningMinPrimitives ? std::thread::hardware_concurrency() : 1;
+        // build_threads() may read sysfs: asked only of the few nodes large enough.
+        const unsigned threads = parallel && n >= kParallelBinningMinPrimitives ? build_threads() : 1;
         if (threads < 2) {
             bins.add(prims.data(), begin, end, grid);
             return;
@@ -471,9 +472,10 @@ void Bvh::build(std::vector<PrimRef> prims) {
     // shrink_to_fit (its copy would double the nodes' peak memory).
     nodes.reserve(2 * size_t(n));
     Builder builder{prims};
-    // Up to two subtrees per hardware thread (the halves of a split are rarely equal).
-    int parallel_splits = 1;
-    for (unsigned threads = std::thread::hardware_concurrency(); threads > 1; threads /= 2) parallel_splits++;
+    // Up to two subtrees per build thread (the halves of a split are rarely equal); none with one.
+    const unsigned threads = build_threads();
+    int parallel_splits = threads > 1 ? 1 : 0;
+    for (unsigned t = threads; t > 1; t /= 2) parallel_splits++;
     Box4 bounds, centres;
     builder.measure(0, n, bounds, centres);
     nodes.emplace_back();

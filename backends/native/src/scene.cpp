@@ -3,6 +3,7 @@
 // (shadow-ray bundles: shadow_bundles.cpp).
 #include "scene.hpp"
 
+#include "build_threads.hpp"
 #include "simd_dispatch.hpp"
 
 #include <emmintrin.h>
@@ -49,7 +50,7 @@ void check_area_light_samples(const Light& light) {
         light);
 }
 
-// Runs fn(begin, end) over [0, n) in one chunk per hardware thread when n is large enough to
+// Runs fn(begin, end) over [0, n) in one chunk per build thread when n is large enough to
 // pay for the threads (1M triangles: ~0.1 s of serial copying per pass), else in one piece. The
 // first exception in chunk order is rethrown once every chunk has finished, so errors are the
 // same as a serial loop's.
@@ -57,7 +58,7 @@ constexpr size_t kParallelCopyMinItems = size_t(1) << 16;
 
 template <class Fn>
 void for_chunks(size_t n, Fn&& fn) {
-    const size_t chunks = n >= kParallelCopyMinItems ? std::max(1u, std::thread::hardware_concurrency()) : 1;
+    const size_t chunks = n >= kParallelCopyMinItems ? build_threads() : 1;
     std::vector<std::future<void>> rest;
     for (size_t c = 1; c < chunks; ++c)
         rest.push_back(
