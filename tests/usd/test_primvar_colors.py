@@ -180,3 +180,31 @@ def test_povray_renders_each_copy_in_its_colour(tmp_path):
     scene = load_usd(path)
     pov, native = render(scene, "povray", explain=False), render(scene, "native", explain=False)
     assert compare(pov, native).ok
+
+
+def test_nested_copies_take_their_inner_instancers_colours(tmp_path):
+    """Instanceable references of an asset holding a tinted PointInstancer: every outer copy
+    repeats the inner instancer's colours, in the composed order (outer k, inner j) -> k·J + j,
+    which the transforms follow too."""
+    from support.instanced_stages import _material, nested_stage
+
+    outer, inner = 3, 4
+    path = nested_stage(tmp_path / "nested.usda", outer=outer, inner=inner)
+    stage = Usd.Stage.Open(path)
+    material = _material(stage, "/Asset/Looks/Tinted", (1.0, 1.0, 1.0))
+    _read_tint(stage, "/Asset/Looks/Tinted")
+    torus = stage.GetPrimAtPath("/Asset/Scatter/Prototypes/Torus")
+    UsdShade.MaterialBindingAPI.Apply(torus).Bind(material)
+    colours = _colours(inner, seed=12)
+    UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Asset/Scatter")).CreatePrimvar(
+        "tint", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.vertex
+    ).Set(Vt.Vec3fArray.FromNumpy(colours.astype(np.float32)))
+    stage.GetRootLayer().Save()
+    scene = load_usd(path)
+    (group,) = scene.instances
+    assert len(group) == outer * inner
+    np.testing.assert_array_equal(group.colors, np.tile(colours, (outer, 1)))
+    # Copy k·J + j sits where outer copy k puts inner copy j: its colour goes with its place.
+    centres = group.world_from_prototype[:, :3, 3]
+    firsts = centres[::inner]
+    assert len({round(float(x), 6) for x in firsts[:, 0]}) == outer  # one outer copy each
