@@ -191,6 +191,49 @@ def test_bvh_closest_hit_equals_brute_force():
     assert (count > 0).sum() > 500  # the test exercises many hits
 
 
+# Large enough for the build's paths that only big nodes take (bvh.cpp: two alternating bin
+# sets from 1024 primitives, the branch-free partition at every level): the trees of these
+# layouts must find exactly the brute-force closest hits.
+LARGE_BUILD_TRIANGLES = 20_000
+
+
+def _large_layout(kind: str, rng: np.random.Generator) -> TriangleMesh:
+    n = LARGE_BUILD_TRIANGLES
+    if kind == "mesh order":  # neighbours in the list are neighbours in space, as in a real mesh
+        grid = jittered_grid(100)
+        points = grid.points * 0.1 - [5.0, 5.0, 0.0]
+        points[:, 2] = np.sin(points[:, 0]) * np.cos(points[:, 1])
+        return TriangleMesh(points=points, triangles=grid.triangles)
+    corners = rng.uniform(-1, 1, size=(n, 3))
+    if kind == "scales from 1e-3 to 1e3":  # exponentially spaced clusters
+        corners *= 10.0 ** rng.uniform(-3, 3, size=(n, 1))
+        size = np.abs(corners).max(axis=1, keepdims=True) * 0.05
+    else:  # "coincident centroids": half the triangles share one centroid (unbinnable nodes)
+        corners *= 5.0
+        corners[: n // 2] = 0.0
+        size = np.full((n, 1), 0.3)
+    offsets = rng.normal(size=(n, 2, 3)) * size[:, None, :]
+    v = np.concatenate([corners[:, None, :] + offsets, (corners - offsets.sum(axis=1))[:, None, :]], axis=1)
+    return TriangleMesh(points=v.reshape(-1, 3), triangles=np.arange(3 * n).reshape(-1, 3))
+
+
+@pytest.mark.parametrize("kind", ["mesh order", "scales from 1e-3 to 1e3", "coincident centroids"])
+def test_large_builds_find_the_brute_force_closest_hits(kind):
+    rng = np.random.default_rng(29)
+    mesh = _large_layout(kind, rng)
+    assert len(mesh.triangles) >= LARGE_BUILD_TRIANGLES * 0.98
+    built = native.build(Scene(meshes=(mesh,)))
+    extent = np.abs(mesh.points).max()
+    targets = mesh.points[rng.integers(0, len(mesh.points), 3000)]
+    origins = targets + unit(rng.normal(size=(3000, 3))) * extent * rng.uniform(0.01, 2.0, size=(3000, 1))
+    d = unit(targets - origins + rng.normal(scale=1e-3, size=(3000, 3)) * np.abs(targets - origins))
+    t, prim = built.intersect(origins, d)
+    count, t_brute = built.count_hits(origins, d)
+    assert np.array_equal(t, t_brute)
+    assert np.array_equal(prim >= 0, count > 0)
+    assert (count > 0).sum() > 1000  # aimed at the triangles: most rays hit
+
+
 def test_coincident_primitives_resolve_to_the_lowest_id_whatever_the_bvh():
     # The same surface listed twice is hit at exactly the same t by both copies. The closest
     # hit is then the lower primitive id, not whichever copy the BVH happens to visit first

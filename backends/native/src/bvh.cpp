@@ -108,6 +108,10 @@ constexpr uint32_t kParallelBuildMinPrimitives = 1u << 15;
 // one pass's: counts add, boxes unite).
 constexpr uint32_t kParallelBinningMinPrimitives = 1u << 16;
 
+// Ranges this large bin into two alternating sets (Bins::add); below, copying the second set's
+// 1.7 KB of empty bins would cost more than it saves.
+constexpr uint32_t kTwoBinSetsMinPrimitives = 1024;
+
 // Twice a primitive's centroid (lo + hi): the build only compares and bins centroids, so the
 // halving would change nothing but cost a multiply.
 inline Float4 centroid2(const PrimRef& p) { return load_lo(p) + load_hi(p); }
@@ -158,14 +162,35 @@ struct Bins {
         r.hi = max4(r.hi, h);
     }
 
-    void add(const PrimRef* prims, uint32_t begin, uint32_t end, const BinGrid& grid) {
-        for (uint32_t i = begin; i < end; ++i) {
-            const Float4 l = load_lo(prims[i]), h = load_hi(prims[i]);
-            const Int4 b = grid.bin(l + h);
-            for (int axis = 0; axis < 3; ++axis) {
-                count[axis][b[axis]]++;
-                grow(box[axis][b[axis]], l, h);
+    // Bins one primitive: a count and a box on each axis.
+    void add_one(const PrimRef& p, const BinGrid& grid) {
+        const Float4 l = load_lo(p), h = load_hi(p);
+        const Int4 b = grid.bin(l + h);
+        for (int axis = 0; axis < 3; ++axis) {
+            count[axis][b[axis]]++;
+            grow(box[axis][b[axis]], l, h);
+        }
+    }
+    // Bins prims[begin, end). Large ranges alternate between these bins and a second set:
+    // neighbouring primitives of a mesh mostly fall in the same bins, and each bin update waits
+    // for the store of the one before; two sets halve that chain (merged, they are the same as
+    // one pass's: counts add, boxes unite). Not inlined: inside build() the loop was compiled
+    // to ~10 % slower code. (S2's build, one thread: 0.51 -> 0.49 s and 0.57 -> 0.52 s, best
+    // of 10 in alternating processes.) The prefetch runs ~1 KiB ahead (2-3 % on S2's build).
+    __attribute__((noinline)) void add(const PrimRef* prims, uint32_t begin, uint32_t end, const BinGrid& grid) {
+        uint32_t i = begin;
+        if (end - begin >= kTwoBinSetsMinPrimitives) {
+            Bins odd = Bins::empty();
+            for (; i + 1 < end; i += 2) {
+                __builtin_prefetch(prims + i + 32);
+                add_one(prims[i], grid);
+                odd.add_one(prims[i + 1], grid);
             }
+            add(odd);
+        }
+        for (; i < end; ++i) {
+            __builtin_prefetch(prims + i + 32);
+            add_one(prims[i], grid);
         }
     }
     void add(const Bins& other) {
@@ -432,32 +457,34 @@ struct Builder {
     // Moves the primitives whose bin along `axis` is below `split` to the front and returns
     // where the others start; collects both sides' centroid bounds on the way (the pass the
     // children would otherwise spend measuring them).
+    //
+    // Branch-free, in Lomuto's scheme: each primitive in turn swaps with the first of the right
+    // side, whose start advances when the primitive went left. Below the top levels the side a
+    // primitive goes to is close to random, and the two-ended scheme this replaced (a branch
+    // per primitive) spent as long in mispredictions as the binning pass takes in all: S2's
+    // build 0.69 -> 0.52 s at one thread, 0.41 -> 0.32 s at two (best of 10, alternating).
     uint32_t partition(uint32_t begin, uint32_t end, const BinGrid& grid, int axis, int split, Box4& left_centres,
                        Box4& right_centres) {
-        auto goes_left = [&](const PrimRef& p, Float4& c) {
-            c = centroid2(p);
-            return grid.bin(c)[axis] < split;
-        };
-        uint32_t i = begin, j = end;
-        Float4 c;
-        while (true) {
-            while (i < j && goes_left(prims[i], c)) {
-                left_centres.grow(c, c);
-                ++i;
-            }
-            while (i < j && !goes_left(prims[j - 1], c)) {
-                right_centres.grow(c, c);
-                --j;
-            }
-            if (i >= j) return i;
-            // prims[i] goes right and prims[j - 1] left: swap them into place.
-            std::swap(prims[i], prims[j - 1]);
-            const Float4 cl = centroid2(prims[i]), cr = centroid2(prims[j - 1]);
-            left_centres.grow(cl, cl);
-            right_centres.grow(cr, cr);
-            ++i;
-            --j;
+        // grid.bin(c)[axis] < split in scalar arithmetic along the one axis: the same IEEE
+        // operations as that vector lane, so the same bins. Clamping to [0, kBins - 1] cannot
+        // change the answer for 1 <= split <= kBins - 1, and a NaN (bin 0) goes left.
+        const float lo = grid.lo[axis], scale = grid.scale[axis], limit = float(split);
+        const Float4 inf = {kHugeF, kHugeF, kHugeF, kHugeF};
+        PrimRef* const p = prims.data();
+        uint32_t mid = begin;
+        for (uint32_t i = begin; i < end; ++i) {
+            const bool left = !(((p[i].lo[axis] + p[i].hi[axis]) - lo) * scale >= limit);
+            const PrimRef moved = p[i];
+            p[i] = p[mid];
+            p[mid] = moved;
+            mid += left;
+            // The centroid grows its side's bounds and leaves the other's (selects, no branch).
+            const Float4 c = centroid2(moved);
+            const Int4 goes_left = left ? Int4{-1, -1, -1, -1} : Int4{0, 0, 0, 0};
+            left_centres.grow(goes_left ? c : inf, goes_left ? c : -inf);
+            right_centres.grow(goes_left ? inf : c, goes_left ? -inf : c);
         }
+        return mid;
     }
 };
 
