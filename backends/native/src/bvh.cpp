@@ -4,6 +4,7 @@
 #include "bvh.hpp"
 
 #include "build_threads.hpp"
+#include "huge_pages.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -371,7 +372,7 @@ struct Builder {
         if (parallel_splits > 0 && std::min(mid - begin, end - mid) >= kParallelBuildMinPrimitives) {
             // The right subtree into its own array on another thread, spliced after the left.
             std::vector<BvhNode> right_nodes(1);
-            right_nodes.reserve(2 * size_t(end - mid));
+            reserve_huge(right_nodes, 2 * size_t(end - mid));
             auto right_built = std::async(std::launch::async, [&] {
                 build(right_nodes, 0, mid, end, depth + 1, right_bounds, right_centres, parallel_splits - 1, false);
             });
@@ -497,7 +498,7 @@ void Bvh::build(std::vector<PrimRef> prims) {
     const uint32_t n = uint32_t(prims.size());
     // At most 2n - 1 nodes; capacity that is never written is never resident, so no
     // shrink_to_fit (its copy would double the nodes' peak memory).
-    nodes.reserve(2 * size_t(n));
+    reserve_huge(nodes, 2 * size_t(n));
     Builder builder{prims};
     // Up to two subtrees per build thread (the halves of a split are rarely equal); none with one.
     const unsigned threads = build_threads();
@@ -507,7 +508,7 @@ void Bvh::build(std::vector<PrimRef> prims) {
     builder.measure(0, n, bounds, centres);
     nodes.emplace_back();
     builder.build(nodes, 0, 0, n, 0, bounds, centres, parallel_splits, true);
-    order.resize(n);
+    resize_huge(order, n);
     for (uint32_t k = 0; k < n; ++k) order[k] = prims[k].id;
 }
 

@@ -4,6 +4,7 @@
 #include "bvh4.hpp"
 
 #include "bvh8.hpp"
+#include "huge_pages.hpp"
 
 namespace phong {
 
@@ -85,7 +86,7 @@ std::vector<Bvh4Node> collapse_to_bvh4(const std::vector<BvhNode>& binary) {
     // leaf at the root: one). Reserved capacity that is never written is never resident, while a
     // reallocation holds the old nodes and a copy at once (10M triangles: +355 MiB at the peak,
     // benchmarks/README.md), so reserve the bound rather than an estimate.
-    wide.reserve(binary.size() / 2 + 1);
+    reserve_huge(wide, binary.size() / 2 + 1);
     Collapser<Bvh4Node, 4>{binary, wide}.collapse(0);
     return wide;
 }
@@ -94,7 +95,7 @@ std::vector<Bvh8Node> collapse_to_bvh8(const std::vector<BvhNode>& binary) {
     std::vector<Bvh8Node> wide;
     if (binary.empty()) return wide;
     // The bound, as for the 4-wide tree.
-    wide.reserve(binary.size() / 2 + 1);
+    reserve_huge(wide, binary.size() / 2 + 1);
     Collapser<Bvh8Node, 8>{binary, wide}.collapse(0);
     return wide;
 }

@@ -4,6 +4,7 @@
 #include "scene.hpp"
 
 #include "build_threads.hpp"
+#include "huge_pages.hpp"
 #include "simd_dispatch.hpp"
 
 #include <emmintrin.h>
@@ -136,7 +137,8 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         n_balls += set.count;
     }
     const size_t first_ball_id = n_spheres + n_triangles + n_intrinsics;
-    std::vector<PrimRef> prims(first_ball_id + n_balls);
+    std::vector<PrimRef> prims;
+    resize_huge(prims, first_ball_id + n_balls);
     for (size_t q = 0; q < n_intrinsics; ++q) {
         Bounds b;
         b.lo = intrinsics[q].bounds_lo;
@@ -235,7 +237,7 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     std::vector<uint32_t> sphere_positions;
     for (size_t k = 0; k < order.size(); ++k)
         if (order[k] < n_spheres || order[k] >= n_spheres + n_triangles) sphere_positions.push_back(uint32_t(k));
-    refs_.resize(order.size());
+    resize_huge(refs_, order.size());
     // Float corners when every vertex is a float (triangle_store.hpp): the same doubles.
     bool every_vertex_float = true;
     for (const MeshArrays& mesh : in.meshes)
@@ -244,9 +246,9 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     triangles.resize(n_triangles, every_vertex_float);
     bool any_vertex_normals = false;
     for (const MeshArrays& mesh : in.meshes) any_vertex_normals = any_vertex_normals || mesh.normal_indices;
-    if (any_vertex_normals) triangle_normals.resize(n_triangles);
-    triangle_source.resize(n_triangles);
-    if (in.povray_triangles) povray_triangles.resize(n_triangles);
+    if (any_vertex_normals) resize_huge(triangle_normals, n_triangles);
+    resize_huge(triangle_source, n_triangles);
+    if (in.povray_triangles) resize_huge(povray_triangles, n_triangles);
     for_chunks(order.size(), [&](size_t begin, size_t end) {
         size_t spheres_before =
             size_t(std::lower_bound(sphere_positions.begin(), sphere_positions.end(), uint32_t(begin)) -

@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "huge_pages.hpp"
 #include "math.hpp"
 #include "shapes.hpp"
 
@@ -38,9 +39,9 @@ class TriangleStore {
     void resize(size_t n, bool single_precision) {
         single_precision_ = single_precision;
         if (single_precision)
-            narrow_.resize(n);
+            resize_huge(narrow_, n);
         else
-            wide_.resize(n);
+            resize_huge(wide_, n);
     }
     // Stores slot k's corners (float_exact when single_precision()).
     void set(size_t k, const TriangleShape& t) {
@@ -75,9 +76,9 @@ class Vec3Store {
         std::vector<float>().swap(narrow_);
         std::vector<Vec3>().swap(wide_);
         if (single_precision_)
-            narrow_.reserve(3 * count);
+            reserve_huge(narrow_, 3 * count);
         else
-            wide_.reserve(count);
+            reserve_huge(wide_, count);
         for (const auto& [rows, n] : parts)
             for (size_t i = 0; i < n; ++i) {
                 if (single_precision_)
