@@ -15,31 +15,6 @@
 
 namespace phong {
 
-// Plain comparisons, not std::fmin/fmax: those are libm calls without -ffast-math (their NaN
-// rules have no single x86 instruction), and a validated scene has no NaN.
-static inline double min_of(double a, double b) { return b < a ? b : a; }
-static inline double max_of(double a, double b) { return b > a ? b : a; }
-
-void Bounds::grow(const Vec3& p) {
-    lo = {min_of(lo.x, p.x), min_of(lo.y, p.y), min_of(lo.z, p.z)};
-    hi = {max_of(hi.x, p.x), max_of(hi.y, p.y), max_of(hi.z, p.z)};
-}
-
-// Corner-wise, so that an empty b (lo = +inf, hi = -inf) changes nothing. (Growing by b.lo
-// and b.hi as points made an empty bin's union infinite, which priced every split beside an
-// empty bin at an infinite SAH cost: a 1M-triangle torus over a ground quad kept the quad's
-// 100 x 100 box on every level of half the tree.)
-void Bounds::grow(const Bounds& b) {
-    lo = {min_of(lo.x, b.lo.x), min_of(lo.y, b.lo.y), min_of(lo.z, b.lo.z)};
-    hi = {max_of(hi.x, b.hi.x), max_of(hi.y, b.hi.y), max_of(hi.z, b.hi.z)};
-}
-
-double Bounds::half_area() const {
-    if (empty()) return 0.0;
-    const Vec3 e = hi - lo;
-    return e.x * e.y + e.y * e.z + e.z * e.x;
-}
-
 namespace {
 
 // Four floats in one SSE register (a GCC/Clang vector extension, so no intrinsics and no

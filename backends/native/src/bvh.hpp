@@ -13,13 +13,35 @@
 
 namespace phong {
 
+// Plain comparisons, not std::fmin/fmax: those are libm calls without -ffast-math (their NaN
+// rules have no single x86 instruction), and a validated scene has no NaN.
+inline double min_of(double a, double b) { return b < a ? b : a; }
+inline double max_of(double a, double b) { return b > a ? b : a; }
+
+// Inline: the scene build grows a box by every corner of every triangle (S2's pass over its
+// 1M triangles took 0.040 s with these as calls into bvh.cpp, 0.015 s inlined, one thread).
 struct Bounds {
     Vec3 lo{HUGE_VAL, HUGE_VAL, HUGE_VAL};
     Vec3 hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
 
-    void grow(const Vec3& p);
-    void grow(const Bounds& b);
-    double half_area() const;  // half the surface area (the SAH only needs ratios)
+    void grow(const Vec3& p) {
+        lo = {min_of(lo.x, p.x), min_of(lo.y, p.y), min_of(lo.z, p.z)};
+        hi = {max_of(hi.x, p.x), max_of(hi.y, p.y), max_of(hi.z, p.z)};
+    }
+    // Corner-wise, so that an empty b (lo = +inf, hi = -inf) changes nothing. (Growing by b.lo
+    // and b.hi as points made an empty bin's union infinite, which priced every split beside
+    // an empty bin at an infinite SAH cost: a 1M-triangle torus over a ground quad kept the
+    // quad's 100 x 100 box on every level of half the tree.)
+    void grow(const Bounds& b) {
+        lo = {min_of(lo.x, b.lo.x), min_of(lo.y, b.lo.y), min_of(lo.z, b.lo.z)};
+        hi = {max_of(hi.x, b.hi.x), max_of(hi.y, b.hi.y), max_of(hi.z, b.hi.z)};
+    }
+    // Half the surface area (the SAH only needs ratios).
+    double half_area() const {
+        if (empty()) return 0.0;
+        const Vec3 e = hi - lo;
+        return e.x * e.y + e.y * e.z + e.z * e.x;
+    }
     bool empty() const { return lo.x > hi.x; }
 };
 

@@ -34,10 +34,14 @@ namespace {
 
 Vec3 row3(const double* p) { return {p[0], p[1], p[2]}; }
 
-void check_index(int64_t i, size_t count, const char* what) {
-    if (i < 0 || size_t(i) >= count)
-        throw std::invalid_argument(std::string(what) + " index " + std::to_string(i) + " out of range [0, " +
-                                    std::to_string(count) + ")");
+[[noreturn]] __attribute__((noinline, cold)) void index_out_of_range(int64_t i, size_t count, const char* what) {
+    throw std::invalid_argument(std::string(what) + " index " + std::to_string(i) + " out of range [0, " +
+                                std::to_string(count) + ")");
+}
+
+// The test inline, the message out of line: it runs for every corner of every triangle.
+inline void check_index(int64_t i, size_t count, const char* what) {
+    if (i < 0 || size_t(i) >= count) index_out_of_range(i, count, what);
 }
 
 // An area light's grid weighs its samples by 1/(samples − 1) per axis (lights.hpp).
