@@ -320,3 +320,13 @@ def test_mesh_lists_of_different_lengths_are_an_error_not_a_crash():
         native._native.Scene(**dict(arrays, normals=[]))
     with pytest.raises(ValueError, match="one row per triangle"):
         native._native.Scene(**dict(arrays, normal_indices=[np.zeros((1, 3), np.int32)]))
+
+
+@pytest.mark.parametrize("bad", [-1, 9])  # the 3x3 grid has points 0..8
+def test_a_triangle_index_out_of_range_is_an_error_not_a_crash(bad):
+    # The C++ build checks every corner (Python validates first; this is the assertion behind it).
+    arrays = native.scene_arrays(Scene(meshes=(jittered_grid(2),)))
+    triangles = arrays["triangles"][0].copy()
+    triangles[5, 1] = bad
+    with pytest.raises(ValueError, match=f"triangle vertex index {bad} out of range"):
+        native._native.Scene(**dict(arrays, triangles=[triangles]))
