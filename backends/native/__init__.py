@@ -327,8 +327,9 @@ def scene_arrays(scene: Scene) -> dict:
         "normals": [c(np.zeros((0, 3)) if m.normals is None else m.normals, np.float64) for m in meshes],
         "normal_indices": [no_rows3 if m.normals is None else c(m.normal_indices, np.int32) for m in meshes],
         "mesh_material": np.array([material_id(m.material) for m in meshes], dtype=np.int32),
-        # Each mesh is one POV-Ray object, whose shadow test the POV-Ray numerics reproduce.
-        "mesh_origins": c(np.array([m.local_origin() for m in meshes]).reshape(-1, 3), np.float64),
+        # Each mesh's frame: only POV-Ray's mesh2 numerics use it (_as_povray_stores sets it),
+        # and finding it takes a pass over the points (26 ms of S2's 1M-triangle build).
+        "mesh_origins": np.zeros((len(meshes), 3)),
         "intrinsics": intrinsic_parts(scene, material_id),
         # Points sets: the model's arrays, read in place; each set one object after the intrinsics.
         "ball_centers": [c(p.centers, np.float64) for p in scene.points],
@@ -537,10 +538,11 @@ def _as_povray_stores(arrays: dict, scene: Scene) -> dict:
     and renormalised (at parse time), triangles whose three normals are equal shaded flat
     (normal index -1), and triangles tested as mesh2 tests them (``povray_triangles``: a plane
     with a float32 normal, not watertight; src/povray_triangle.hpp)."""
-    out = dict(arrays, povray_triangles=True)
+    origins = np.array([m.local_origin() for m in scene.meshes]).reshape(-1, 3)
+    out = dict(arrays, povray_triangles=True, mesh_origins=origins)
     out["points"] = [
-        np.ascontiguousarray((m.points - m.local_origin()).astype(np.float32).astype(np.float64) + m.local_origin())
-        for m in scene.meshes
+        np.ascontiguousarray((m.points - o).astype(np.float32).astype(np.float64) + o)
+        for m, o in zip(scene.meshes, origins)
     ]
     out["normals"], out["normal_indices"] = [], []
     for normals, ni in zip(arrays["normals"], arrays["normal_indices"]):
