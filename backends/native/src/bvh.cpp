@@ -99,10 +99,10 @@ constexpr uint32_t kTwoBinSetsMinPrimitives = 1024;
 inline Float4 centroid2(const PrimRef& p) { return load_lo(p) + load_hi(p); }
 
 // Bins along the three axes of a node whose doubled centroids span [lo, lo + bins / scale)
-// (bins: kBins, or kFewBins for a small node).
-// bin() is the binning's classification, and partition() computes the same one along the split
-// axis (so a split's sides hold exactly its bins' primitives). An unbinned axis (zero extent) has scale 0: every
-// centroid falls in bin 0. A NaN (only from an input that escaped validation) goes to bin 0 too, and anything past the
+// (bins: kBins, or kFewBins for a small node). bin() is the binning's classification, and
+// partition() computes the same one along the split axis (so a split's sides hold exactly its
+// bins' primitives). An unbinned axis (zero extent) has scale 0: every centroid falls in bin 0.
+// A NaN (only from an input that escaped validation) goes to bin 0 too, and anything past the
 // end to the last bin: never out of range.
 struct BinGrid {
     Float4 lo, scale, last;  // last: the number of bins - 1 in every lane
