@@ -79,6 +79,9 @@ constexpr int kMaxSahDepth = 40;
 // Nodes of at most this many primitives evaluate every split instead of binning (each such
 // split removes at least one primitive: at most kExactSahMaxPrimitives - 1 more levels).
 constexpr uint32_t kExactSahMaxPrimitives = 8;
+// The leaf bound's safety factor (Builder::no_split_pays): its float sum of at most 8 areas is
+// within ~8 float roundings (~5e-7 relative) of the exact sum, far inside this.
+constexpr float kLeafBoundMargin = 1.0f - 1e-4f;
 
 // Subtrees of at least this many primitives build on their own thread (the two children of a
 // node are independent: disjoint ranges of the primitives, separate node arrays spliced
@@ -388,6 +391,10 @@ struct Builder {
                      const Box4& bounds, int parallel_splits, bool alone) {
         const uint32_t n = end - begin;
         PrimRef* p = prims.data() + begin;
+        if (n <= kMaxLeafSize && no_split_pays(p, n, bounds.half_area())) {
+            make_leaf(nodes[size_t(index)], begin, end);
+            return;
+        }
         float best_cost = kHugeF;
         int best_axis = -1;
         uint32_t best_count = 0;
@@ -432,6 +439,27 @@ struct Builder {
         nodes.emplace_back();
         build(nodes, right, mid, end, depth + 1, right_bounds, right_centres, parallel_splits, alone);
         nodes[size_t(index)].offset = right;
+    }
+
+    // Whether the exact SAH below would make the n primitives a leaf, decided without sorting:
+    // a split costs at least kTraversalCost + kIntersectionCost * (sum of the primitives' areas)
+    // / area, since each side's box holds each of its primitives' boxes. When n is no more
+    // than that bound, no split can pay. On S2, 307k of the 577k nodes of at most 8 primitives
+    // end here (0 of them split by the full test), their build 0.395 -> 0.388 s at one thread
+    // (best of 8 in alternating processes; ~2 %). The same leaves as the full test's
+    // (kLeafBoundMargin covers the float sums' rounding); only their order within a leaf
+    // differs, and hits do not depend on it.
+    static bool no_split_pays(const PrimRef* p, uint32_t n, float area) {
+        if (area == 0.0f) return true;       // the full test: a split's cost is then infinite
+        if (!(area < kHugeF)) return false;  // overflowed: leave it to the full test
+        float sum = 0.0f;
+        for (uint32_t i = 0; i < n; ++i) {
+            Box4 box;
+            box.grow(load_lo(p[i]), load_hi(p[i]));
+            sum += box.half_area();
+        }
+        if (!(sum < kHugeF)) return false;  // overflowed: leave it to the full test
+        return kIntersectionCost * float(n) <= kTraversalCost + kIntersectionCost * kLeafBoundMargin * sum / area;
     }
 
     // Insertion sort (n is small) by doubled centroid along `axis`; stable, so ties keep their order.
