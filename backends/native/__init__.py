@@ -129,9 +129,10 @@ def texture_arrays(scene: Scene, *, half_texels: bool = False, frame: UvFrame | 
         else np.zeros((len(m.triangles), 3, 2))
         for m in scene.meshes
     ]
-    images = [t.image.astype(np.float16).astype(np.float32) if half_texels else t.image for t in textures.values()]
     out = {
-        "images": [np.ascontiguousarray(i, dtype=np.float32) for i in images],
+        # The model's arrays, held by C++ (no copy); rounded to half floats there when asked.
+        "images": [np.ascontiguousarray(t.image, dtype=np.float32) for t in textures.values()],
+        "half_texels": half_texels,
         "wrap_s": [_WRAPS[t.wrap_s] for t in textures.values()],
         "wrap_t": [_WRAPS[t.wrap_t] for t in textures.values()],
         "corner_uv": np.ascontiguousarray(

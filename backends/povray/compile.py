@@ -42,7 +42,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
-from dataclasses import dataclass, replace
+from dataclasses import astuple, dataclass, replace
 
 import numpy as np
 
@@ -203,28 +203,45 @@ def uv_frame(scene: Scene) -> UvFrame:
     return UvFrame(g_u, int(lo[0]), int(n[0]), g_v, int(lo[1]), int(n[1]))
 
 
-def texture_file_name(image: np.ndarray) -> str:
-    """The file name an image is written to beside the SDL: from a hash of its texels, so that
-    it is deterministic, and scenes batched into one run share equal images."""
-    digest = hashlib.sha1(np.ascontiguousarray(image).tobytes())
-    digest.update(repr(image.shape).encode("ascii"))
-    return f"phongscene-texture-{digest.hexdigest()[:16]}.exr"
+@dataclass(frozen=True, slots=True)
+class PovImage:
+    """The image POV-Ray reads for a texture: the texture's own, or extended over a UvFrame.
+    Made only when its file is written (``pixels``), one at a time: a scene's textures can be
+    gigabytes, and each extended copy is as large as its texture."""
+
+    texture: Texture
+    frame: UvFrame
+
+    def pixels(self) -> np.ndarray:
+        return self.texture.image if self.frame.identity else self.frame.tile(self.texture)
+
+    def file_name(self) -> str:
+        """The file name it is written to beside the SDL: from a hash of the texels and of how
+        they are extended (which determine the pixels), so that it is deterministic and scenes
+        batched into one run share equal images. The texels are hashed in place, not copied."""
+        image = np.ascontiguousarray(self.texture.image)
+        digest = hashlib.sha1(memoryview(image).cast("B"))
+        digest.update(repr(image.shape).encode("ascii"))
+        if not self.frame.identity:
+            t = self.texture
+            digest.update(repr((astuple(self.frame), t.wrap_s, t.wrap_t)).encode("ascii"))
+        return f"phongscene-texture-{digest.hexdigest()[:16]}.exr"
 
 
-def pov_images(scene: Scene) -> tuple[UvFrame, dict[int, tuple[str, np.ndarray]]]:
+def pov_images(scene: Scene) -> tuple[UvFrame, dict[int, tuple[str, PovImage]]]:
     """The scene's UvFrame and, by ``id(texture)``, the file name and image POV-Ray reads for
-    each texture (tiled over the frame)."""
+    each texture (extended over the frame when its file is written)."""
     frame = uv_frame(scene)
-    out: dict[int, tuple[str, np.ndarray]] = {}
+    out: dict[int, tuple[str, PovImage]] = {}
     for obj in (*scene.spheres, *all_meshes(scene)):
         for t in obj.material.colour_textures:
             if id(t) not in out:
-                image = t.image if frame.identity else frame.tile(t)
-                out[id(t)] = (texture_file_name(image), image)
+                image = PovImage(t, frame)
+                out[id(t)] = (image.file_name(), image)
     return frame, out
 
 
-def texture_files(scene: Scene) -> dict[str, np.ndarray]:
+def texture_files(scene: Scene) -> dict[str, PovImage]:
     """The image files the SDL of ``scene`` reads (``image_map``), by file name: write each
     image there as a half-float EXR (``PovJob.write_textures``) before rendering."""
     return dict(pov_images(scene)[1].values())

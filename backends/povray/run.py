@@ -39,7 +39,7 @@ from phongscene.held_signals import held_signals
 from phongscene.images import read_image, write_image
 from phongscene.scene import POVRAY_SAMPLE_PATTERNS, RenderSettings, Scene
 
-from .compile import compile_body, compile_pov, pass_count, resolve_mapping, texture_files
+from .compile import PovImage, compile_body, compile_pov, pass_count, resolve_mapping, texture_files
 
 # The largest value of POV-Ray's half-float EXR output; brighter pixels are written as inf.
 HALF_MAX = 65504.0
@@ -66,11 +66,12 @@ class PovJob:
     supersample: int  # "grid" anti-aliasing: average supersample² blocks (1 = none)
     switches: tuple[str, ...]  # everything except input, output and frames
     # The image files the SDL reads, by file name: written beside it (write_textures).
-    textures: tuple[tuple[str, np.ndarray], ...] = ()
+    textures: tuple[tuple[str, PovImage], ...] = ()
 
     def write_textures(self, directory: str | os.PathLike) -> list[Path]:
-        """Write each image the SDL reads beside it as the half-float EXR it names (atomically)."""
-        return [write_image(Path(directory) / name, image, half=True) for name, image in self.textures]
+        """Write each image the SDL reads beside it as the half-float EXR it names (atomically),
+        one image's pixels at a time."""
+        return [write_image(Path(directory) / name, image.pixels(), half=True) for name, image in self.textures]
 
     def frame_switches(self) -> tuple[str, ...]:
         return ("+KFI0", f"+KFF{self.frames - 1}") if self.frames > 1 else ()

@@ -149,10 +149,12 @@ void check_textures(const phong::Scene& scene) {
         throw std::invalid_argument("textured materials need corner_uv for every triangle (call set_textures)");
 }
 
-// Copies the textures and the per-corner uvs into the scene, checking what C++ indexes with.
+// Gives the scene its textures (the caller's arrays, held, not copied; with half_texels a copy
+// rounded to half floats, as POV-Ray holds an EXR's texels) and copies the per-corner uvs,
+// checking what C++ indexes with.
 void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, const std::vector<phong::Wrap>& wrap_s,
                   const std::vector<phong::Wrap>& wrap_t, const CornerUv& corner_uv, std::array<double, 2> uv_origin,
-                  std::array<double, 2> uv_span) {
+                  std::array<double, 2> uv_span, bool half_texels) {
     if (wrap_s.size() != images.size() || wrap_t.size() != images.size())
         throw std::invalid_argument("one wrap_s and wrap_t per texture");
     bool textured = false;
@@ -170,7 +172,17 @@ void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, 
         if (image.shape(0) < 1 || image.shape(1) < 1) throw std::invalid_argument("a texture has no texels");
         textures[i].height = int(image.shape(0));
         textures[i].width = int(image.shape(1));
-        textures[i].texels.assign(image.data(), image.data() + image.size());
+        if (half_texels) {
+            auto rounded = std::make_shared<std::vector<float>>(image.size());
+            for (size_t k = 0; k < image.size(); ++k) (*rounded)[k] = phong::round_to_half(image.data()[k]);
+            textures[i].texels = rounded->data();
+            textures[i].owner = std::move(rounded);
+        } else {
+            // The ndarray holds a reference to the Python array; nanobind takes the GIL to
+            // release it, wherever the scene is destroyed.
+            textures[i].texels = image.data();
+            textures[i].owner = std::make_shared<TextureImage>(image);
+        }
         textures[i].wrap_s = wrap_s[i];
         textures[i].wrap_t = wrap_t[i];
     }
@@ -393,6 +405,16 @@ NB_MODULE(_native, m) {
     m.def(
         "hardware_threads", [] { return std::thread::hardware_concurrency(); },
         "Number of hardware threads the tracer uses when threads=0.");
+    m.def(
+        "round_to_half",
+        [](const In<float, nb::shape<-1>>& values) {
+            const size_t n = values.shape(0);
+            float* out = new float[n];
+            for (size_t i = 0; i < n; ++i) out[i] = phong::round_to_half(values.data()[i]);
+            nb::capsule owner(out, [](void* p) noexcept { delete[] static_cast<float*>(p); });
+            return nb::ndarray<nb::numpy, float, nb::shape<-1>>(out, {n}, owner);
+        },
+        "values"_a, "Test-only: each value rounded to a half float and back, as set_textures(half_texels=True) does.");
     m.attr("SHADOW_WINDOW") = phong::kShadowWindow;
     m.attr("PRIMARY_NEAR") = phong::kPrimaryNear;
     m.attr("SELF_HIT_WINDOW") = phong::kSelfHitWindow;
@@ -596,8 +618,9 @@ NB_MODULE(_native, m) {
             "object number) per set.")
         .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
              "uv_origin"_a = std::array<double, 2>{0.0, 0.0}, "uv_span"_a = std::array<double, 2>{1.0, 1.0},
-             "Textures (float32 (H, W, 3), row 0 at the top), indexed by Material.diffuse_texture, "
-             "specular_texture and normal_texture, and the (u, v) "
+             "half_texels"_a = false,
+             "Textures (float32 (H, W, 3), row 0 at the top; held, not copied; with half_texels, copies rounded to "
+             "half floats), indexed by Material.diffuse_texture, specular_texture and normal_texture, and the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order; a lookup takes uv_origin + uv_span * (u, v).")
         .def("set_light_links", &set_light_links, "shadows"_a, "lit"_a, "casts"_a,
              "Per light (one entry each): whether it casts shadow rays, and the objects (spheres 0..S-1, then meshes "

@@ -10,6 +10,8 @@
 #include <cassert>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <memory>
 #include <vector>
 
 #include "math.hpp"
@@ -22,9 +24,44 @@ enum class Wrap { kRepeat, kClamp, kMirror, kBlack };
 // double still has a fraction. Only a degenerate uv (validated finite, but huge) reaches it.
 constexpr double kMaxTexelCoordinate = 1e15;
 
+// x rounded to the nearest half float (IEEE binary16, ties to even) and back: what numpy's
+// astype(float16) keeps, and what POV-Ray holds of a texel it reads from a half-float EXR.
+// Beyond the largest half (65504, up to the midpoint 65520) it is infinite; NaN and infinity
+// stay as they are (Python validates texels finite).
+inline float round_to_half(float x) {
+    uint32_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    const uint32_t sign = bits & 0x80000000u, magnitude = bits & 0x7fffffffu;
+    if (magnitude >= 0x7f800000u) return x;
+    const float a = std::fabs(x);
+    float r;
+    if (a >= 65520.0f) {
+        r = INFINITY;
+    } else if (a < 0x1p-14f) {
+        // Subnormal halves are multiples of 2^-24: scaling by 2^24 is exact, and nearbyint
+        // rounds to the nearest integer, ties to even (the default rounding mode).
+        r = std::nearbyint(a * 0x1p24f) * 0x1p-24f;
+    } else {
+        // A normal half keeps 10 of float's 23 fraction bits: round away the low 13, ties to
+        // even (a carry into the exponent is the right result).
+        uint32_t m = magnitude + 0x0fffu + ((magnitude >> 13) & 1u);
+        m &= ~0x1fffu;
+        std::memcpy(&r, &m, sizeof r);
+    }
+    uint32_t out;
+    std::memcpy(&out, &r, sizeof out);
+    out |= sign;
+    std::memcpy(&r, &out, sizeof r);
+    return r;
+}
+
 struct Texture {
     int width = 0, height = 0;
-    std::vector<float> texels;  // (height, width, 3), row 0 at the top (v = 1)
+    // (height, width, 3), row 0 at the top (v = 1): the caller's array, held by `owner` as long
+    // as the texture lives (not copied: a scene's textures can be gigabytes, the chess set's
+    // 2048² maps among them), or the texture's own copy rounded to half floats.
+    const float* texels = nullptr;
+    std::shared_ptr<const void> owner;
     Wrap wrap_s = Wrap::kRepeat, wrap_t = Wrap::kRepeat;
 
     // The texel index `i` (any integer) maps to along an axis of n texels, or -1 for black.
@@ -51,13 +88,13 @@ struct Texture {
     RGB texel(int64_t i, int64_t j) const {
         const int64_t x = wrap_index(i, width, wrap_s), y = wrap_index(j, height, wrap_t);
         if (x < 0 || y < 0) return RGB{};
-        const float* p = texels.data() + 3 * (size_t(y) * size_t(width) + size_t(x));
+        const float* p = texels + 3 * (size_t(y) * size_t(width) + size_t(x));
         return RGB{p[0], p[1], p[2]};
     }
 
     // The colour at texture coordinates (u, v).
     RGB lookup(double u, double v) const {
-        assert(width > 0 && height > 0 && texels.size() == size_t(width) * size_t(height) * 3);
+        assert(width > 0 && height > 0 && texels != nullptr);
         // Continuous texel coordinates with texel centres at integers (rows count down from v = 1).
         const double x = u * width - 0.5, y = (1.0 - v) * height - 0.5;
         if (!(std::fabs(x) < kMaxTexelCoordinate && std::fabs(y) < kMaxTexelCoordinate)) return RGB{};
