@@ -150,7 +150,7 @@ void check_textures(const phong::Scene& scene) {
 }
 
 // Gives the scene its textures (the caller's arrays, held, not copied; with half_texels a copy
-// rounded to half floats, as POV-Ray holds an EXR's texels) and copies the per-corner uvs,
+// in half floats, as POV-Ray holds an EXR's texels) and copies the per-corner uvs,
 // checking what C++ indexes with.
 void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, const std::vector<phong::Wrap>& wrap_s,
                   const std::vector<phong::Wrap>& wrap_t, const CornerUv& corner_uv, std::array<double, 2> uv_origin,
@@ -173,10 +173,10 @@ void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, 
         textures[i].height = int(image.shape(0));
         textures[i].width = int(image.shape(1));
         if (half_texels) {
-            auto rounded = std::make_shared<std::vector<float>>(image.size());
-            for (size_t k = 0; k < image.size(); ++k) (*rounded)[k] = phong::round_to_half(image.data()[k]);
-            textures[i].texels = rounded->data();
-            textures[i].owner = std::move(rounded);
+            auto halves = std::make_shared<std::vector<uint16_t>>(image.size());
+            for (size_t k = 0; k < image.size(); ++k) (*halves)[k] = phong::to_half(image.data()[k]);
+            textures[i].halves = halves->data();
+            textures[i].owner = std::move(halves);
         } else {
             // The ndarray holds a reference to the Python array; nanobind takes the GIL to
             // release it, wherever the scene is destroyed.
@@ -619,8 +619,8 @@ NB_MODULE(_native, m) {
         .def("set_textures", &set_textures, "images"_a, "wrap_s"_a, "wrap_t"_a, "corner_uv"_a,
              "uv_origin"_a = std::array<double, 2>{0.0, 0.0}, "uv_span"_a = std::array<double, 2>{1.0, 1.0},
              "half_texels"_a = false,
-             "Textures (float32 (H, W, 3), row 0 at the top; held, not copied; with half_texels, copies rounded to "
-             "half floats), indexed by Material.diffuse_texture, specular_texture and normal_texture, and the (u, v) "
+             "Textures (float32 (H, W, 3), row 0 at the top; held, not copied; with half_texels, copies in half "
+             "floats), indexed by Material.diffuse_texture, specular_texture and normal_texture, and the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order; a lookup takes uv_origin + uv_span * (u, v).")
         .def("set_light_links", &set_light_links, "shadows"_a, "lit"_a, "casts"_a,
              "Per light (one entry each): whether it casts shadow rays, and the objects (spheres 0..S-1, then meshes "
