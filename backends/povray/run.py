@@ -340,13 +340,25 @@ def _run(
     return images
 
 
+# The SDL is written this many characters at a time: each piece is encoded to a bytes object
+# of its own size, where writing the whole string would encode a copy of all of it (gigabytes
+# for the chess set's 12.8M triangles).
+SDL_WRITE_CHUNK = 1 << 26
+
+
+def _write_sdl(path: Path, sdl: str) -> None:
+    with open(path, "w", encoding="ascii") as out:
+        for start in range(0, len(sdl), SDL_WRITE_CHUNK):
+            out.write(sdl[start : start + SDL_WRITE_CHUNK])
+
+
 def _run_in(
     job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_done, phase, sums: PassSums, keep: bool
 ) -> list[np.ndarray]:
     workdir.mkdir(parents=True, exist_ok=True)
     pov, output, log = workdir / f"{stem}.pov", workdir / f"{stem}.exr", workdir / f"{stem}.log"
     try:
-        pov.write_text(job.sdl, encoding="ascii")
+        _write_sdl(pov, job.sdl)
         job.write_textures(workdir)
         (workdir / f"{stem}.ini").write_text(job.ini(pov.name, output.name), encoding="ascii")
     except OSError as e:  # a full disk: say where (Python's write error names no file)

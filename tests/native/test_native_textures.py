@@ -91,3 +91,21 @@ def test_half_texels_are_a_rounded_copy_that_holds_nothing():
     gc.collect()
     assert sys.getrefcount(held) == before  # the rounded copy is the scene's own
     del built
+
+
+def test_the_corner_uvs_are_held_not_copied_and_filled_mesh_by_mesh():
+    image = np.random.default_rng(5).random((8, 8, 3)).astype(np.float32)
+    quad = _textured_quad(image).meshes[0]
+    plain = TriangleMesh(points=quad.points + 2.0, triangles=quad.triangles)  # no uvs: zeros
+    scene = Scene(meshes=(quad, plain, quad))
+    textures = native.texture_arrays(scene)
+    corner_uv = textures["corner_uv"]
+    expected = np.concatenate([quad.uvs[quad.uv_indices], np.zeros((2, 3, 2)), quad.uvs[quad.uv_indices]])
+    assert np.array_equal(corner_uv, expected)
+    before = sys.getrefcount(corner_uv)
+    built = _native.Scene(**native.scene_arrays(scene))
+    built.set_textures(**textures)
+    assert sys.getrefcount(corner_uv) > before  # held by the C++ scene
+    del built
+    gc.collect()
+    assert sys.getrefcount(corner_uv) == before

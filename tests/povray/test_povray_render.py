@@ -250,3 +250,12 @@ def test_passes_are_summed_as_they_arrive_in_memory_independent_of_the_light_cou
         tracemalloc.stop()
     np.testing.assert_array_equal(image, reference)
     assert peak <= FRAMES_OF_MEMORY * size * size * 3 * 4, peak / (size * size * 12)
+
+
+def test_the_sdl_is_written_a_piece_at_a_time_and_whole(tmp_path, monkeypatch):
+    # Pieces of SDL_WRITE_CHUNK characters (a large SDL is not encoded into one bytes copy);
+    # the file is the whole string, across piece boundaries and for an empty string.
+    monkeypatch.setattr(run, "SDL_WRITE_CHUNK", 7)
+    for sdl in ("", "#version 3.7;\n", "sphere { <0, 0, 0>, 1 }\n" * 11):
+        run._write_sdl(tmp_path / "scene.pov", sdl)
+        assert (tmp_path / "scene.pov").read_text(encoding="ascii") == sdl

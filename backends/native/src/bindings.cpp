@@ -145,7 +145,7 @@ void check_textures(const phong::Scene& scene) {
             throw std::invalid_argument("a material's texture index is out of range (call set_textures)");
         textured |= m.diffuse_texture >= 0 || m.specular_texture >= 0 || m.normal_texture >= 0;
     }
-    if (textured && scene.corner_uv.size() != 6 * scene.triangles.size())
+    if (textured && scene.corner_uv_rows != scene.triangles.size())
         throw std::invalid_argument("textured materials need corner_uv for every triangle (call set_textures)");
 }
 
@@ -187,7 +187,9 @@ void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, 
         textures[i].wrap_t = wrap_t[i];
     }
     scene.textures = std::move(textures);
-    scene.corner_uv.assign(corner_uv.data(), corner_uv.data() + corner_uv.size());
+    scene.corner_uv = corner_uv.data();
+    scene.corner_uv_rows = corner_uv.shape(0);
+    scene.corner_uv_owner = std::make_shared<CornerUv>(corner_uv);
     for (int k = 0; k < 2; ++k) {
         if (!std::isfinite(uv_origin[k]) || !std::isfinite(uv_span[k]) || uv_span[k] == 0.0)
             throw std::invalid_argument("uv_origin and uv_span must be finite, uv_span non-zero");

@@ -223,7 +223,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         material = &surface.materials[size_t(surface.triangle_material(size_t(hit.ref)))];
         if (material->diffuse_texture >= 0 || material->specular_texture >= 0 || material->normal_texture >= 0) {
             // cd and cs from the textures at the hit's (u, v), interpolated like the normals.
-            const double* uv = surface.corner_uv.data() + 6 * size_t(surface.triangle_source[size_t(hit.ref)]);
+            const double* uv = surface.corner_uv + 6 * size_t(surface.triangle_source[size_t(hit.ref)]);
             double u, v;
             if (!surface.povray_triangles.empty() && hit.instance < 0) {
                 // POV-Ray's own weights on the SDL's uvs, mapped back (povray_mesh_uv).
