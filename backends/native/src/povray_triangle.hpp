@@ -35,52 +35,67 @@ inline double round_to_float(double x) {
     return f;
 }
 
+// Held per triangle (80 bytes; the float32 values in floats, exactly, and read back as doubles:
+// in doubles it took 144, 1.8 GB of the chess set's 12.8M triangles in POV-Ray's numerics).
 struct PovrayTriangle {
-    double p[3][3];    // P1, P2, P3 in mesh space (float32 values), after POV-Ray's reordering
-    double normal[3];  // float32-rounded unit plane normal
-    double distance;   // float32-rounded −n·P1, with the unrounded normal
     double origin[3];  // the mesh's frame: world = mesh + origin
-    int a, b;          // the two axes other than the dominant one, in POV-Ray's order
+    float p[3][3];     // P1, P2, P3 in mesh space (float32 values), after POV-Ray's reordering
+    float normal[3];   // float32-rounded unit plane normal
+    float distance;    // float32-rounded −n·P1, with the unrounded normal
+    int8_t a, b;       // the two axes other than the dominant one, in POV-Ray's order
     bool swapped;      // P1 and P2 exchanged (to map barycentrics back to v0, v1, v2)
     bool degenerate;   // zero normal: POV-Ray drops the triangle
+
+    // The corners as doubles (exact: each is a float32 value).
+    void corners(double (&P)[3][3]) const {
+        for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) P[i][k] = p[i][k];
+    }
 };
+
+static_assert(sizeof(PovrayTriangle) == 80, "PovrayTriangle's layout: 80 bytes a triangle");
 
 // `world` holds float32 mesh-space vertices plus `origin` (rounded to float64); subtracting the
 // origin and rounding to float32 recovers them exactly (the error is far below a float32 ulp).
 inline PovrayTriangle make_povray_triangle(const TriangleShape& world, const Vec3& origin) {
     PovrayTriangle t{};
     const Vec3* v[3] = {&world.v0, &world.v1, &world.v2};
+    double P[3][3];
     for (int i = 0; i < 3; ++i) {
-        t.p[i][0] = round_to_float(v[i]->x - origin.x);
-        t.p[i][1] = round_to_float(v[i]->y - origin.y);
-        t.p[i][2] = round_to_float(v[i]->z - origin.z);
+        P[i][0] = round_to_float(v[i]->x - origin.x);
+        P[i][1] = round_to_float(v[i]->y - origin.y);
+        P[i][2] = round_to_float(v[i]->z - origin.z);
     }
     t.origin[0] = origin.x;
     t.origin[1] = origin.y;
     t.origin[2] = origin.z;
-    const Vec3 p1{t.p[0][0], t.p[0][1], t.p[0][2]}, p2{t.p[1][0], t.p[1][1], t.p[1][2]},
-        p3{t.p[2][0], t.p[2][1], t.p[2][2]};
+    const Vec3 p1{P[0][0], P[0][1], P[0][2]}, p2{P[1][0], P[1][1], P[1][2]}, p3{P[2][0], P[2][1], P[2][2]};
+    auto store_corners = [&] {
+        for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) t.p[i][k] = float(P[i][k]);
+    };
     Vec3 n = cross(p3 - p1, p2 - p1);
     const double len = length(n);
     if (len == 0.0) {
         t.degenerate = true;
+        store_corners();
         return t;
     }
     n = n / len;
-    t.distance = round_to_float(-dot(n, p1));
+    t.distance = float(round_to_float(-dot(n, p1)));
     const double x = std::fabs(n.x), y = std::fabs(n.y), z = std::fabs(n.z);
     const int dominant = x > y ? (x > z ? 0 : 2) : (y > z ? 1 : 2);
-    t.a = dominant == 0 ? 1 : 0;
-    t.b = dominant == 2 ? 1 : 2;
+    t.a = int8_t(dominant == 0 ? 1 : 0);
+    t.b = int8_t(dominant == 2 ? 1 : 2);
     const int a = t.a, b = t.b;
-    auto& P = t.p;
     if ((P[1][a] - P[2][a]) * (P[1][b] - P[0][b]) < (P[1][b] - P[2][b]) * (P[1][a] - P[0][a])) {
         for (int k = 0; k < 3; ++k) std::swap(P[0][k], P[1][k]);
         t.swapped = true;
     }
-    t.normal[0] = round_to_float(n.x);
-    t.normal[1] = round_to_float(n.y);
-    t.normal[2] = round_to_float(n.z);
+    t.normal[0] = float(round_to_float(n.x));
+    t.normal[1] = float(round_to_float(n.y));
+    t.normal[2] = float(round_to_float(n.z));
+    store_corners();
     return t;
 }
 
@@ -92,15 +107,16 @@ inline bool intersect_povray_triangle(const PovrayTriangle& tri, const Ray& ray,
     const double len = length(ray.dir);
     const double o[3] = {ray.origin.x - tri.origin[0], ray.origin.y - tri.origin[1], ray.origin.z - tri.origin[2]};
     const double d[3] = {ray.dir.x / len, ray.dir.y / len, ray.dir.z / len};
-    const double* n = tri.normal;
+    const double n[3] = {tri.normal[0], tri.normal[1], tri.normal[2]};
     const double n_dot_d = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
     if (std::fabs(n_dot_d) < kPovrayParallelCosine) return false;
     const double n_dot_o = n[0] * o[0] + n[1] * o[1] + n[2] * o[2];
-    const double depth = -(tri.distance + n_dot_o) / n_dot_d;
+    const double depth = -(double(tri.distance) + n_dot_o) / n_dot_d;
     if (depth < kPovrayMeshMinDepth || depth > kPovrayMaxDistance) return false;
     const int a = tri.a, b = tri.b;
     const double s = o[a] + depth * d[a], u = o[b] + depth * d[b];
-    const auto& P = tri.p;
+    double P[3][3];
+    tri.corners(P);
     // Inner side of each edge P2→P1, P3→P2, P1→P3 (POV-Ray's order).
     for (int e = 0; e < 3; ++e) {
         const double* q = P[(e + 1) % 3];
@@ -132,7 +148,8 @@ inline bool intersect_povray_triangle(const PovrayTriangle& tri, const Ray& ray,
 inline void povray_mesh_uv(const PovrayTriangle& tri, const Vec3& world_point, const double* corner_uv, double& u,
                            double& v) {
     const double p[3] = {world_point.x - tri.origin[0], world_point.y - tri.origin[1], world_point.z - tri.origin[2]};
-    const auto& P = tri.p;
+    double P[3][3];
+    tri.corners(P);
     // One weight: the vertex `at`, the side from `from` to `to` opposite it (POV-Ray's Side1), and
     // Side2 = to − at.
     auto weight = [&](int at, int from, int to) {
