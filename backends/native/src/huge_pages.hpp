@@ -3,7 +3,7 @@
 // the leaf-order copies). A scene build writes ~130 MiB of fresh memory at 1M triangles: in
 // 4 KiB pages that is ~33,000 page faults, each taking the kernel's locks, which two build
 // threads then queue on. Where THP is in "madvise" mode (Debian's default) a region asked for
-// faults in 2 MiB at a time: S2's C++ build 0.49 -> 0.44 s at one thread and 0.31 -> 0.26 s at
+// faults in 2 MiB at a time: S2's C++ build 0.49 -> 0.45 s at one thread, 0.31 -> 0.26-0.30 s at
 // two (benchmarks/README.md, "Issue 25.5"). Only memory that is written becomes resident, so
 // capacity reserved and never written stays free; a region partly written holds at most one
 // more 2 MiB page than it would in small pages.
