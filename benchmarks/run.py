@@ -323,7 +323,7 @@ def whole_process_table(args, names, threads: int) -> None:
                 if name == "tiny":
                     settings = dataclasses.replace(settings, width=TINY_SIZE[0], height=TINY_SIZE[1])
                 job = prepare(scene, settings, args.mapping)
-                (work / "scene.pov").write_text(job.sdl, encoding="ascii")
+                job.save_sdl(work / "scene.pov")
                 # +GS: the statistics stream on (the compiler's -GS silences it), for the trace time
                 cmd_pov = ["+GS" if s == "-GS" else s for s in job.command("scene.pov", "scene.exr")]
                 t_pov, rss_pov, t_trace = best_povray_process(cmd_pov, args.repeat, work)

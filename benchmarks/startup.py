@@ -143,7 +143,7 @@ def povray_job(work: Path) -> list[str]:
         scene.settings, threads=2, width=TINY_SIZE[0], height=TINY_SIZE[1], specular=SPECULAR_OF_MAPPING["classic"]
     )
     job = prepare(scene, settings, "classic")
-    (work / "scene.pov").write_text(job.sdl, encoding="ascii")
+    job.save_sdl(work / "scene.pov")
     return job.command("scene.pov", "scene.exr")
 
 

@@ -145,15 +145,16 @@ def render_frame(scene: str, frame: int, output: str, backend: str, overrides: R
 def compile_frame(scene: str, frame: int, output: str, overrides: RenderOverrides) -> dict:
     """Compile ``scene`` at time ``frame`` to ``output`` (.pov) and its .ini (atomically)."""
     from .backends.povray import prepare
-    from .files import write_text_atomic
+    from .files import atomic_files
     from .rendering import check_settings
 
     loaded, settings, warnings, load_seconds = _load(scene, frame, overrides)
     start = _time.perf_counter()
     out = Path(output)
     job = prepare(loaded, check_settings(loaded, settings), overrides.mapping)
-    write_text_atomic(out, job.sdl, encoding="ascii")
-    write_text_atomic(out.with_suffix(".ini"), job.ini(out.name, out.with_suffix(".exr").name), encoding="ascii")
+    with atomic_files(out, out.with_suffix(".ini")) as (tmp_pov, tmp_ini):  # both appear, or neither
+        job.save_sdl(tmp_pov)
+        tmp_ini.write_text(job.ini(out.name, out.with_suffix(".exr").name), encoding="ascii")
     return {
         "frame": frame,
         "output": output,

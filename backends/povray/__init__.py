@@ -25,6 +25,7 @@ _LAZY_EXPORTS = {
     "pass_count": "compile",
     "pass_scenes": "compile",
     "sanitize_comment": "compile",
+    "write_pov": "compile",
     "INSTALL_HINT": "run",
     "PovJob": "run",
     "pov_quoted": "run",
@@ -35,7 +36,7 @@ _LAZY_EXPORTS = {
 }
 
 if TYPE_CHECKING:
-    from .compile import compile_pov, pass_count, pass_scenes, sanitize_comment
+    from .compile import compile_pov, pass_count, pass_scenes, sanitize_comment, write_pov
     from .run import INSTALL_HINT, PovJob, pov_quoted, prepare, render, render_many, render_switches
 
 
@@ -68,4 +69,5 @@ __all__ = [
     "resolve_mapping",
     "sanitize_comment",
     "specular_of",
+    "write_pov",
 ]

@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Compile a ``Scene`` to POV-Ray 3.7 SDL: a pure, deterministic function ``Scene -> str``.
+"""Compile a ``Scene`` to POV-Ray 3.7 SDL: a pure, deterministic function ``Scene -> str``
+(``compile_pov``), or written to a stream as it is compiled (``write_pov``).
 
 The reference is ``docs/povray-3.7-semantics.md`` (cited as "ref §n"). Two mappings:
 
@@ -41,8 +42,11 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import io
 import math
+from collections.abc import Iterable
 from dataclasses import astuple, dataclass, replace
+from typing import TextIO
 
 import numpy as np
 
@@ -302,7 +306,8 @@ def pass_scenes(scene: Scene, mapping: str) -> tuple[Scene, ...]:
 
 
 def compile_pov(scene: Scene, settings: RenderSettings | None = None, mapping: str | None = None) -> str:
-    """Compile ``scene`` to POV-Ray 3.7 SDL.
+    """Compile ``scene`` to POV-Ray 3.7 SDL, as one string (``write_pov`` streams it to a file,
+    which is what a large scene needs: its SDL can be gigabytes).
 
     Args:
         scene: a validated scene (``phongscene.compile_pov`` validates first; here only
@@ -320,9 +325,17 @@ def compile_pov(scene: Scene, settings: RenderSettings | None = None, mapping: s
     Raises:
         SceneError: a number is not finite in the SDL (naming the prim and model field).
     """
+    out = io.StringIO()
+    write_pov(out, scene, settings, mapping)
+    return out.getvalue()
+
+
+def write_pov(out: TextIO, scene: Scene, settings: RenderSettings | None = None, mapping: str | None = None) -> None:
+    """Write ``scene``'s SDL (``compile_pov``'s text) to ``out`` as it is compiled: the file is
+    never held whole in memory. On a ``SceneError`` part of it has been written: write to a
+    temporary file (``phongscene.files.atomic_path``)."""
     settings = scene.settings if settings is None else settings
     mapping = resolve_mapping(settings, mapping)
-    body = compile_body(scene, settings, mapping)
     source = sanitize_comment(scene.source_file) if scene.source_file else "(built in Python)"
     passes = pass_count(scene, mapping)
     header = [
@@ -333,26 +346,53 @@ def compile_pov(scene: Scene, settings: RenderSettings | None = None, mapping: s
     ]
     if mapping == "exact":
         header.append("#declare Pass = frame_number;")
-    return "\n".join(header) + "\n" + body
+    _SdlLines(out).extend(header)
+    write_body(out, scene, settings, mapping)
 
 
-def compile_body(scene: Scene, settings: RenderSettings, mapping: str) -> str:
-    """Everything after ``#version``; the exact mapping switches on the identifier ``Pass``
-    (0-based), which the caller declares (``run`` batches several scenes in one file).
+def write_body(out: TextIO, scene: Scene, settings: RenderSettings, mapping: str) -> None:
+    """Everything after ``#version``, written to ``out``; the exact mapping switches on the
+    identifier ``Pass`` (0-based), which the caller declares (``run`` batches several scenes in
+    one file).
 
     The scene is not range-checked here (validation is the caller's job, and POV-Ray renders
     out-of-range coefficients faithfully), but every number is checked for being finite as it is
     written: a NaN or inf (also a derived one) raises ``SceneError`` naming the prim and field.
     """
-    return _Compiler(scene, settings, mapping).run()
+    _Compiler(scene, settings, mapping, _SdlLines(out)).run()
+
+
+# A line longer than this many characters (a mesh's vertex block: hundreds of megabytes on the
+# chess set) is written in pieces of it: a text file encodes what it is given into one bytes
+# object, and this bounds that copy.
+SDL_WRITE_CHUNK = 1 << 26
+
+
+class _SdlLines:
+    """The SDL's lines, written to a text stream as the compiler appends them (each followed by
+    a newline): a list's ``append`` and ``extend`` without the list, so the SDL of a scene with
+    millions of triangles is never held whole (it was: the lines, their join, and the header
+    joined to that, 12 GB at the peak on the chess set)."""
+
+    def __init__(self, out: TextIO):
+        self.out = out
+
+    def append(self, line: str) -> None:
+        for start in range(0, len(line), SDL_WRITE_CHUNK):
+            self.out.write(line[start : start + SDL_WRITE_CHUNK])
+        self.out.write("\n")
+
+    def extend(self, lines: Iterable[str]) -> None:
+        for line in lines:
+            self.append(line)
 
 
 class _Compiler:
-    def __init__(self, scene: Scene, settings: RenderSettings, mapping: str):
+    def __init__(self, scene: Scene, settings: RenderSettings, mapping: str, lines: _SdlLines):
         self.scene = scene
         self.settings = settings
         self.exact = mapping == "exact"
-        self.lines: list[str] = []
+        self.lines = lines
         self.materials: dict[PhongMaterial, str] = {}
         # Lights with diffuse/specular multipliers other than 1: the exact mapping declares them
         # per pass (Light_Diffuse, Light_Specular) and every finish scales its terms by them.
@@ -474,7 +514,7 @@ class _Compiler:
 
     # -- the file ------------------------------------------------------------------------------
 
-    def run(self) -> str:
+    def run(self) -> None:
         self.camera()
         if self.exact:
             self.exact_passes()
@@ -504,7 +544,6 @@ class _Compiler:
             self.comment(points, "points", i)
             self.lines.append(self.points(points))
         self.instances()
-        return "\n".join(self.lines) + "\n"
 
     def camera(self) -> None:
         cam = self.scene.camera

@@ -20,6 +20,7 @@ POV-Ray facts cite ``docs/povray-3.7-semantics.md`` as "ref §n".
 
 from __future__ import annotations
 
+import io
 import os
 import re
 import shutil
@@ -30,7 +31,9 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
@@ -39,7 +42,7 @@ from phongscene.held_signals import held_signals
 from phongscene.images import read_image, write_image
 from phongscene.scene import POVRAY_SAMPLE_PATTERNS, RenderSettings, Scene
 
-from .compile import PovImage, compile_body, compile_pov, pass_count, resolve_mapping, texture_files
+from .compile import PovImage, pass_count, resolve_mapping, texture_files, write_body, write_pov
 
 # The largest value of POV-Ray's half-float EXR output; brighter pixels are written as inf.
 HALF_MAX = 65504.0
@@ -57,9 +60,13 @@ POLL_SECONDS = 0.05  # how often a running render is checked for finished frames
 
 @dataclass(frozen=True, slots=True)
 class PovJob:
-    """One POV-Ray invocation: the SDL, its frames, and the switches to render it."""
+    """One POV-Ray invocation: the SDL, its frames, and the switches to render it.
 
-    sdl: str
+    The SDL is compiled as it is written (``write_sdl``, ``save_sdl``), never held whole: a scene
+    with millions of triangles has gigabytes of it. A compile error (``SceneError``) is therefore
+    raised when it is written."""
+
+    write_sdl: Callable[[TextIO], None]  # writes the SDL to a text stream
     frames: int  # animation frames (render passes) in the SDL
     width: int  # POV-Ray image size: the output size times ``supersample``
     height: int
@@ -67,6 +74,19 @@ class PovJob:
     switches: tuple[str, ...]  # everything except input, output and frames
     # The image files the SDL reads, by file name: written beside it (write_textures).
     textures: tuple[tuple[str, PovImage], ...] = ()
+
+    @property
+    def sdl(self) -> str:
+        """The SDL as one string (small scenes, tests)."""
+        out = io.StringIO()
+        self.write_sdl(out)
+        return out.getvalue()
+
+    def save_sdl(self, path: str | os.PathLike) -> None:
+        """Write the SDL to ``path`` (not atomically: write to a temporary file, as ``_run_in``
+        and the CLI do)."""
+        with open(path, "w", encoding="ascii") as out:
+            self.write_sdl(out)
 
     def write_textures(self, directory: str | os.PathLike) -> list[Path]:
         """Write each image the SDL reads beside it as the half-float EXR it names (atomically),
@@ -167,7 +187,13 @@ def prepare(scene: Scene, settings: RenderSettings | None = None, mapping: str |
     width, height, k, switches = render_switches(settings, scene.source_file)
     textures = tuple(texture_files(scene).items())
     return PovJob(
-        compile_pov(scene, settings, mapping), pass_count(scene, mapping), width, height, k, switches, textures
+        partial(write_pov, scene=scene, settings=settings, mapping=mapping),
+        pass_count(scene, mapping),
+        width,
+        height,
+        k,
+        switches,
+        textures,
     )
 
 
@@ -235,9 +261,9 @@ def render_many(
             phase("compiling the SDL")  # a million triangles take ~1 s
         if len(members) == 1:
             scene, settings, mapping, _ = jobs[members[0]]
-            sdl = compile_pov(scene, settings, mapping)
+            sdl = partial(write_pov, scene=scene, settings=settings, mapping=mapping)
         else:
-            sdl = _batch_sdl([jobs[i][:3] for i in members])
+            sdl = partial(_write_batch, items=[jobs[i][:3] for i in members])
         passes = [pass_count(jobs[i][0], jobs[i][2]) for i in members]
         textures: dict = {}
         for i in members:
@@ -260,24 +286,20 @@ def render_many(
     return images  # type: ignore[return-value]
 
 
-def _batch_sdl(items: list[tuple[Scene, RenderSettings, str]]) -> str:
+def _write_batch(out: TextIO, items: list[tuple[Scene, RenderSettings, str]]) -> None:
     """Several scenes in one file: scene i owns a range of frames, and its own passes count
-    from 0 within it (the identifier ``Pass`` of ``compile_body``)."""
-    out = [
-        f"// phongscene: {len(items)} scenes as frames of one POV-Ray run",
-        "#version 3.7;",
-        "#switch (frame_number)",
-    ]
+    from 0 within it (the identifier ``Pass`` of ``write_body``)."""
+    out.write(
+        f"// phongscene: {len(items)} scenes as frames of one POV-Ray run\n#version 3.7;\n#switch (frame_number)\n"
+    )
     first = 0
     for scene, settings, mapping in items:
         last = first + pass_count(scene, mapping) - 1
-        out.append(f"#range ({first}, {last})")
-        out.append(f"#declare Pass = frame_number - {first};")
-        out.append(compile_body(scene, settings, mapping))
-        out.append("#break")
+        out.write(f"#range ({first}, {last})\n#declare Pass = frame_number - {first};\n")
+        write_body(out, scene, settings, mapping)
+        out.write("#break\n")
         first = last + 1
-    out.append("#end")
-    return "\n".join(out) + "\n"
+    out.write("#end\n")
 
 
 class PassSums:
@@ -340,25 +362,17 @@ def _run(
     return images
 
 
-# The SDL is written this many characters at a time: each piece is encoded to a bytes object
-# of its own size, where writing the whole string would encode a copy of all of it (gigabytes
-# for the chess set's 12.8M triangles).
-SDL_WRITE_CHUNK = 1 << 26
-
-
-def _write_sdl(path: Path, sdl: str) -> None:
-    with open(path, "w", encoding="ascii") as out:
-        for start in range(0, len(sdl), SDL_WRITE_CHUNK):
-            out.write(sdl[start : start + SDL_WRITE_CHUNK])
-
-
 def _run_in(
     job: PovJob, workdir: Path, stem: str, timeout: float | None, frame_done, phase, sums: PassSums, keep: bool
 ) -> list[np.ndarray]:
     workdir.mkdir(parents=True, exist_ok=True)
     pov, output, log = workdir / f"{stem}.pov", workdir / f"{stem}.exr", workdir / f"{stem}.log"
     try:
-        _write_sdl(pov, job.sdl)
+        try:
+            job.save_sdl(pov)
+        except BaseException:  # a compile error half way: no half-written .pov kept
+            pov.unlink(missing_ok=True)
+            raise
         job.write_textures(workdir)
         (workdir / f"{stem}.ini").write_text(job.ini(pov.name, output.name), encoding="ascii")
     except OSError as e:  # a full disk: say where (Python's write error names no file)

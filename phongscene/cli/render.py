@@ -194,7 +194,7 @@ def run_compile(args) -> int:
     job = prepare(scene, check_settings(scene, settings), args.mapping)
     print_warnings(ImageChecks.of(scene, settings).model_warnings())  # the image to come shows nothing
     with atomic_files(out, ini) as (tmp_pov, tmp_ini):  # both appear, or neither
-        tmp_pov.write_text(job.sdl, encoding="ascii")
+        job.save_sdl(tmp_pov)  # compiled as it is written: never held whole
         tmp_ini.write_text(job.ini(out.name, image.name), encoding="ascii")
     for texture in job.write_textures(out.parent):
         print(f"{texture}: a texture the scene reads (keep it beside {out.name})")

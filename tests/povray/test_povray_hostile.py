@@ -224,6 +224,18 @@ def test_compile_cli_writes_atomically(tmp_path, monkeypatch, capsys):
     assert cli.main(["compile", "scene.usda", "-o", str(out)]) == 2
     assert sorted(tmp_path.iterdir()) == before
     assert "/World/Key.xformOp" in capsys.readouterr().err
+    # The SDL is compiled as it is written: a mesh the compiler refuses half way through the
+    # file (after the camera and lights: 1e100 passes validation, not float32) leaves nothing
+    # behind either.
+    huge = TriangleMesh([[0, 0, 0], [1e100, 0, 0], [0, 1, 0]], [[0, 1, 2]], source="/World/Huge")
+    monkeypatch.setattr(
+        rendering,
+        "load_scene",
+        lambda path, time=None, camera=None, sandbox=None, subdivision_level=None: (_simple(meshes=(huge,)), []),
+    )
+    assert cli.main(["compile", "scene.usda", "-o", str(out)]) == 2
+    assert sorted(tmp_path.iterdir()) == before
+    assert "/World/Huge.points: " in (err := capsys.readouterr().err) and "float32" in err
     # An interrupted write never leaves a half file either.
     monkeypatch.setattr(files.os, "replace", lambda a, b: (_ for _ in ()).throw(OSError("disk full")))
     with pytest.raises(OSError):

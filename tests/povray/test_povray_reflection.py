@@ -271,7 +271,8 @@ def measured() -> dict[str, np.ndarray]:
         body += [f"#case ({i})", sdl, "#break"]
     body.append("#end")
     switches = ("+FE", f"+W{SIZE}", f"+H{SIZE}", "-D", "-V", "-GD", "-GR", "-GS", "+Q9", "-J", "-A")
-    job = PovJob("\n".join(body) + "\n", len(CASES), SIZE, SIZE, 1, switches)
+    text = "\n".join(body) + "\n"
+    job = PovJob(lambda out: out.write(text), len(CASES), SIZE, SIZE, 1, switches)
     frames = _run(job, "semantics", None, None, lambda _: None)
     return {name: frame[SIZE // 2, SIZE // 2].astype(np.float64) for (name, _, _), frame in zip(CASES, frames)}
 

@@ -19,8 +19,8 @@ import pytest
 
 from phongscene.backends import povray
 from phongscene.backends.povray import run
-from phongscene.errors import BackendError
-from phongscene.scene import PhongMaterial, PointLight, RenderSettings, Scene, Sphere
+from phongscene.errors import BackendError, SceneError
+from phongscene.scene import PhongMaterial, PointLight, RenderSettings, Scene, Sphere, TriangleMesh
 from support import calibration, oracle
 
 # POV-Ray writes half-float EXR (ref §2): round-to-nearest half is within 2^-11 relative of the
@@ -134,9 +134,21 @@ def test_missing_povray_is_one_clear_line(monkeypatch, tmp_path):
 
 
 @pytest.mark.povray
+def test_a_compile_error_while_the_sdl_is_written_keeps_no_half_file(tmp_path):
+    # The SDL is compiled into the .pov as it is written; a number the compiler refuses after
+    # the camera and lights are out (float32 overflow) removes the partial file, kept folder or not.
+    huge = TriangleMesh([[0, 0, 0], [1e100, 0, 0], [0, 1, 0]], [[0, 1, 2]], source="/World/Huge")
+    scene = dataclasses.replace(_two_light_scene(), meshes=(huge,))
+    kept = tmp_path / "kept"
+    with pytest.raises(SceneError, match=r"/World/Huge\.points"):
+        povray.render(scene, keep_dir=str(kept))
+    assert not list(kept.glob("*.pov"))
+
+
+@pytest.mark.povray
 def test_povray_failure_reports_the_tail_and_keeps_the_pov(monkeypatch, tmp_path):
     monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
-    monkeypatch.setattr(run, "compile_pov", lambda *a, **k: "#version 3.7;\nsphere { <0, 0, 0>, 1 oops }\n")
+    monkeypatch.setattr(run, "write_pov", lambda out, **k: out.write("#version 3.7;\nsphere { <0, 0, 0>, 1 oops }\n"))
     with pytest.raises(BackendError) as e:
         povray.render(_two_light_scene())
     assert "POV-Ray failed" in str(e.value)
@@ -252,10 +264,28 @@ def test_passes_are_summed_as_they_arrive_in_memory_independent_of_the_light_cou
     assert peak <= FRAMES_OF_MEMORY * size * size * 3 * 4, peak / (size * size * 12)
 
 
-def test_the_sdl_is_written_a_piece_at_a_time_and_whole(tmp_path, monkeypatch):
-    # Pieces of SDL_WRITE_CHUNK characters (a large SDL is not encoded into one bytes copy);
-    # the file is the whole string, across piece boundaries and for an empty string.
-    monkeypatch.setattr(run, "SDL_WRITE_CHUNK", 7)
-    for sdl in ("", "#version 3.7;\n", "sphere { <0, 0, 0>, 1 }\n" * 11):
-        run._write_sdl(tmp_path / "scene.pov", sdl)
-        assert (tmp_path / "scene.pov").read_text(encoding="ascii") == sdl
+def test_the_sdl_is_written_as_it_is_compiled_in_pieces_and_whole(tmp_path, monkeypatch):
+    # The compiler writes each line to the stream as it goes (lines longer than
+    # SDL_WRITE_CHUNK in pieces: a large SDL is never encoded into one bytes copy); the file is
+    # compile_pov's whole string, across piece boundaries, for the render path's save too.
+    from phongscene.backends.povray import compile as pov_compile
+
+    scene = calibration.smooth_mesh()  # a mesh2: lines of many pieces
+    whole = povray.compile_pov(scene)
+    writes: list[int] = []
+
+    class Recording:
+        def __init__(self, out):
+            self.out = out
+
+        def write(self, text: str) -> int:
+            writes.append(len(text))
+            return self.out.write(text)
+
+    monkeypatch.setattr(pov_compile, "SDL_WRITE_CHUNK", 7)
+    with open(tmp_path / "scene.pov", "w", encoding="ascii") as out:
+        povray.write_pov(Recording(out), scene)
+    assert (tmp_path / "scene.pov").read_text(encoding="ascii") == whole
+    assert max(writes) <= 7 and len(writes) > len(whole) / 7
+    povray.prepare(scene).save_sdl(tmp_path / "saved.pov")
+    assert (tmp_path / "saved.pov").read_text(encoding="ascii") == whole

@@ -58,7 +58,8 @@ def test_phong_inc_macro_renders_the_classic_mapping(tmp_path):
     declared = next(line for line in sdl.splitlines() if line.startswith("#declare Material_0 = "))
     cd = ", ".join(repr(c) for c in material.diffuse_color)
     macro = f'#include "phong.inc"\n#declare Material_0 = PhongSurface({material.ka!r}, {material.kd!r}, {material.ks!r}, {material.exponent!r}, <{cd}>)'
-    with_macro = dataclasses.replace(job, sdl=sdl.replace(declared, macro))
+    edited = sdl.replace(declared, macro)
+    with_macro = dataclasses.replace(job, write_sdl=lambda out: out.write(edited))
     shutil.copy(SCHEMAS / "phong.inc", tmp_path / "phong.inc")
     (compiled,) = run._run(job, "compiled", None, str(tmp_path), lambda n: None)
     (from_macro,) = run._run(with_macro, "macro", None, str(tmp_path), lambda n: None)
