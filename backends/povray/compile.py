@@ -44,7 +44,7 @@ import dataclasses
 import hashlib
 import io
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import astuple, dataclass, replace
 from typing import TextIO
 
@@ -362,10 +362,21 @@ def write_body(out: TextIO, scene: Scene, settings: RenderSettings, mapping: str
     _Compiler(scene, settings, mapping, _SdlLines(out)).run()
 
 
+# mesh2 lists are formatted this many rows at a time (a multiple of int_vectors' four entries a
+# line, so the text is the same as formatting all rows at once): ~13 MB of numpy intermediates
+# and text per slice, where a whole list took ~200 bytes a vertex (S2's 0.5M: 100 MB).
+MESH_ROWS_PER_PIECE = 1 << 16
+
 # A line longer than this many characters (a mesh's vertex block: hundreds of megabytes on the
 # chess set) is written in pieces of it: a text file encodes what it is given into one bytes
 # object, and this bounds that copy.
 SDL_WRITE_CHUNK = 1 << 26
+
+
+def _int_pieces(indices: np.ndarray) -> Iterator[str]:
+    """(M, 3) indices as mesh2 text, MESH_ROWS_PER_PIECE rows a piece."""
+    for start in range(0, len(indices), MESH_ROWS_PER_PIECE):
+        yield int_vectors(indices[start : start + MESH_ROWS_PER_PIECE])
 
 
 class _SdlLines:
@@ -385,6 +396,18 @@ class _SdlLines:
     def extend(self, lines: Iterable[str]) -> None:
         for line in lines:
             self.append(line)
+
+    def block(self, opening: str, pieces: Iterable[str], closing: str) -> None:
+        """``opening``, the pieces joined by ",\\n" (a mesh2 list formatted a slice of rows at
+        a time, so not even one mesh's list is held whole), and ``closing``, on lines of their own."""
+        self.append(opening)
+        for k, piece in enumerate(pieces):
+            if k:
+                self.out.write(",\n")
+            for start in range(0, len(piece), SDL_WRITE_CHUNK):
+                self.out.write(piece[start : start + SDL_WRITE_CHUNK])
+        self.out.write("\n")
+        self.append(closing)
 
 
 class _Compiler:
@@ -1002,11 +1025,22 @@ class _Compiler:
             side = f" cone {{ <0, 0, -{h}>, {rb}, <0, 0, {h}>, {rt} open }}"
         return f"union {{{ends}{side}" + tail
 
-    def float32_block(self, mesh: TriangleMesh, attribute: str, values: np.ndarray) -> str:
-        try:
-            return float32_vectors(values)
-        except NonFiniteNumber as e:
-            raise self._error(mesh, attribute, f"cannot be written to mesh2: {e}") from None
+    def float32_pieces(self, mesh: TriangleMesh, attribute: str, values: np.ndarray) -> Iterator[str]:
+        """``values`` as mesh2 vectors at float32 precision, MESH_ROWS_PER_PIECE rows a piece."""
+        for start in range(0, len(values), MESH_ROWS_PER_PIECE):
+            try:
+                yield float32_vectors(values[start : start + MESH_ROWS_PER_PIECE])
+            except NonFiniteNumber as e:
+                raise self._error(mesh, attribute, f"cannot be written to mesh2: {e}") from None
+
+    def uv_pieces(self, mesh: TriangleMesh) -> Iterator[str]:
+        """The mesh's uvs in the SDL's frame, each number exactly, MESH_ROWS_PER_PIECE a piece."""
+        for start in range(0, len(mesh.uvs), MESH_ROWS_PER_PIECE):
+            rows = self.uv_frame.apply(mesh.uvs[start : start + MESH_ROWS_PER_PIECE])
+            try:
+                yield ",\n".join(f"<{sdl_float(u)}, {sdl_float(v)}>" for u, v in rows)
+            except NonFiniteNumber as e:
+                raise self._error(mesh, "uvs", f"cannot be written to mesh2: {e}") from None
 
     def instances(self) -> None:
         """Each prototype's meshes ``#declare``d once (without a texture), then one ``object``
@@ -1058,30 +1092,27 @@ class _Compiler:
             self.lines.append("// (no triangles)")
             return
         origin = mesh.local_origin()
-        vertices = self.float32_block(mesh, "points", mesh.points - origin if origin.any() else mesh.points)
-        normals = self.float32_block(mesh, "normals", mesh.normals) if mesh.normals is not None else None
+        points = mesh.points - origin if origin.any() else mesh.points
         out = self.lines
         out.append(f"#declare {declare} = mesh2 {{" if declare else "mesh2 {")
-        out.append(f"  vertex_vectors {{ {len(mesh.points)},\n{vertices}\n  }}")
+        out.block(f"  vertex_vectors {{ {len(mesh.points)},", self.float32_pieces(mesh, "points", points), "  }")
         same_indices = (
-            normals is not None
+            mesh.normals is not None
             and len(mesh.normals) == len(mesh.points)
             and np.array_equal(mesh.normal_indices, mesh.triangles)
         )
-        if normals is not None:
-            out.append(f"  normal_vectors {{ {len(mesh.normals)},\n{normals}\n  }}")
+        if mesh.normals is not None:
+            out.block(
+                f"  normal_vectors {{ {len(mesh.normals)},", self.float32_pieces(mesh, "normals", mesh.normals), "  }"
+            )
         if mesh.uvs is not None:
-            try:
-                uvs = ",\n".join(f"<{sdl_float(u)}, {sdl_float(v)}>" for u, v in self.uv_frame.apply(mesh.uvs))
-            except NonFiniteNumber as e:
-                raise self._error(mesh, "uvs", f"cannot be written to mesh2: {e}") from None
-            out.append(f"  uv_vectors {{ {len(mesh.uvs)},\n{uvs}\n  }}")
-        out.append(f"  face_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.triangles)}\n  }}")
-        if normals is not None and not same_indices:
+            out.block(f"  uv_vectors {{ {len(mesh.uvs)},", self.uv_pieces(mesh), "  }")
+        out.block(f"  face_indices {{ {len(mesh.triangles)},", _int_pieces(mesh.triangles), "  }")
+        if mesh.normals is not None and not same_indices:
             # Without normal_indices POV uses the face indices (ref §7); only write them when they differ.
-            out.append(f"  normal_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.normal_indices)}\n  }}")
+            out.block(f"  normal_indices {{ {len(mesh.triangles)},", _int_pieces(mesh.normal_indices), "  }")
         if mesh.uvs is not None:
-            out.append(f"  uv_indices {{ {len(mesh.triangles)},\n{int_vectors(mesh.uv_indices)}\n  }}")
+            out.block(f"  uv_indices {{ {len(mesh.triangles)},", _int_pieces(mesh.uv_indices), "  }")
         if mesh.material.transmits:
             # A mesh has an inside (for its interior's refraction) only with an inside_vector;
             # any direction does for a closed mesh (POV-Ray counts crossings along it). It is part

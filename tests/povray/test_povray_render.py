@@ -289,3 +289,28 @@ def test_the_sdl_is_written_as_it_is_compiled_in_pieces_and_whole(tmp_path, monk
     assert max(writes) <= 7 and len(writes) > len(whole) / 7
     povray.prepare(scene).save_sdl(tmp_path / "saved.pov")
     assert (tmp_path / "saved.pov").read_text(encoding="ascii") == whole
+
+
+def test_mesh_lists_formatted_a_slice_at_a_time_are_the_whole_lists():
+    # MESH_ROWS_PER_PIECE rows a piece, joined with ",\n": the same text as formatting a list at
+    # once (int_vectors puts four entries a line, so the slice must be a multiple of four).
+    from phongscene.backends.povray import compile as pov_compile
+
+    scene = calibration.smooth_mesh()
+    mesh = scene.meshes[0]  # the icosphere, with normals
+    n = len(mesh.points)
+    uvs = np.stack([np.linspace(0.0, 1.0, n), np.linspace(1.0, 0.0, n)], axis=1)
+    # normal_indices other than the faces' (so they are written), uvs indexed per triangle
+    textured = dataclasses.replace(
+        mesh, uvs=uvs, uv_indices=mesh.triangles[::-1].copy(), normal_indices=mesh.triangles[:, ::-1].copy()
+    )
+    scene = dataclasses.replace(scene, meshes=(textured, *scene.meshes[1:]))
+    whole = povray.compile_pov(scene)
+    assert len(mesh.triangles) > 8 and "uv_vectors" in whole and "normal_indices" in whole
+    old = pov_compile.MESH_ROWS_PER_PIECE
+    try:
+        for rows in (4, 8):
+            pov_compile.MESH_ROWS_PER_PIECE = rows
+            assert povray.compile_pov(scene) == whole
+    finally:
+        pov_compile.MESH_ROWS_PER_PIECE = old
