@@ -39,3 +39,17 @@ def test_a_point_whose_ray_crosses_no_face_is_outside():
     quad = calibration.ground_quad(0.0, GLASS)
     assert not mesh_contains(quad, np.array([0.0, 1.0, 0.0]))  # above it, the ray crosses nothing
     assert mesh_contains(quad, np.array([0.0, -1.0, 0.0]))  # below, once: parity says inside
+
+
+@pytest.mark.parametrize("per_slice", [1, 5])
+def test_the_parity_is_counted_across_slices_of_triangles(monkeypatch, per_slice):
+    # A large glass mesh is tested CONTAINMENT_TRIANGLES_PER_SLICE triangles at a time (bounded
+    # memory); the crossings of every slice add up to the whole mesh's parity.
+    from phongscene import containment
+
+    box = calibration.box_mesh((-1.0, -2.0, -3.0), (1.0, 2.0, 3.0), GLASS)
+    points = np.random.default_rng(7).uniform(-4.0, 4.0, size=(200, 3))
+    whole = [mesh_contains(box, p) for p in points]
+    assert 0 < sum(whole) < len(points)
+    monkeypatch.setattr(containment, "CONTAINMENT_TRIANGLES_PER_SLICE", per_slice)
+    assert [mesh_contains(box, p) for p in points] == whole
