@@ -26,6 +26,7 @@ from phongscene.scene import (
     RectAreaLight,
     RenderSettings,
     Scene,
+    Sphere,
     TriangleMesh,
 )
 from phongscene.validate import check
@@ -106,6 +107,59 @@ def test_slab_shifts_the_view_by_snells_law(render, convention):
         )
     )
     assert np.any(np.abs(straight - image) > 0.1)
+
+
+@pytest.mark.parametrize("render", _renderers())
+@pytest.mark.parametrize("slabs", [1, 3])
+def test_povray_continues_a_ray_between_equal_indices_without_using_a_depth(render, slabs):
+    """Slabs of ior 1 (kt 0.8) before a self-lit backdrop, at max_depth 1: in POV-Ray's
+    convention every crossing between equal indices is a continued ray at the same depth (POV-Ray's
+    trace.cpp; ref §18), so the backdrop shows through all of them, kt per crossing; the book counts
+    each crossing as a level, so the first slab's far side, at depth 1, traces nothing (black)."""
+    colour = np.array([0.9, 0.3, 0.1])
+    air_glass = dataclasses.replace(GLASS_ONLY, ior=1.0)
+    meshes = [
+        calibration.box_mesh((-50.0, -50.0, -3.0 * k - 2.0), (50.0, 50.0, -3.0 * k - 1.0), air_glass)
+        for k in range(slabs)
+    ]
+    camera = Camera(
+        position=(0.0, 0.0, 3.0),
+        forward=(0.0, 0.0, -1.0),
+        up=(0.0, 1.0, 0.0),
+        projection="orthographic",
+        ortho_width=4.0,
+    )
+    scene = Scene(
+        camera=camera,
+        ambient=AmbientLight((1.0, 1.0, 1.0)),
+        meshes=(*meshes, _rect_z(-60, 60, -60, 60, -20.0, _self_lit(tuple(colour)))),
+        settings=RenderSettings(width=8, height=6, background=BACKGROUND, max_depth=1, transmission="povray"),
+    )
+    expected = colour * GLASS_ONLY.kt ** (2 * slabs)
+    image = render(scene)
+    assert np.all(np.abs(image - expected) <= FLOAT32_TWO_ULPS * expected)
+    book = render(dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, transmission="book")))
+    assert np.all(book == 0.0)
+
+
+@pytest.mark.povray
+def test_povray_renders_the_continued_ray_as_native():
+    from phongscene import render
+    from phongscene.comparison import compare
+
+    air_glass = dataclasses.replace(GLASS_ONLY, ior=1.0)
+    scene = Scene(
+        camera=calibration.look_at((0.0, 0.0, 6.0), (0.0, 0.0, 0.0)),
+        ambient=AmbientLight((1.0, 1.0, 1.0)),
+        spheres=(
+            Sphere.at((0.0, 0.0, 0.0), 1.5, air_glass),
+            Sphere.at((0.4, 0.3, -4.0), 2.0, _self_lit((0.9, 0.3, 0.1))),
+        ),
+        settings=RenderSettings(width=32, height=24, background=BACKGROUND, max_depth=1, transmission="povray"),
+    )
+    image = native.render(scene)
+    assert image.max() > 0.5 * 0.9 * GLASS_ONLY.kt**2  # the red ball shows through the ior-1 ball
+    assert compare(render(scene, "povray"), image).ok
 
 
 # ---------------------------------------------------------------------------------------------

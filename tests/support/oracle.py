@@ -83,6 +83,8 @@ material's interior, POV-Ray's interior list); η = ior entering, 1/ior leaving;
 cos_i = −d·n, Snell gives cos²θt = 1 − (1 − cos_i²)/η². cos²θt < 0 (total internal reflection):
 L += L(P, r) at full weight (no kr term). Otherwise L += kr·cr·L(P, r) + w·L(P, t) with
 t = d/η − (cos θt − cos_i/η)·n and w = kt/η² (settings.transmission "book") or kt ("povray").
+In the "povray" convention a crossing with |η − 1| < 1e-10 sends t = d at depth k, not k + 1 (POV-Ray's
+continued ray uses no trace level); the book counts it.
 A ``fresnel`` material (the dielectric, Suffern ch. 28) replaces kr by F·kr and kt by (1 − F)·kt
 with F = ½(r_s² + r_p²), r_s = (cos_i − η cos θt)/(cos_i + η cos θt), r_p = (η cos_i − cos θt)/(η
 cos_i + cos θt) (cos θt = 0 where Snell has no solution, so F = 1 there).
@@ -121,6 +123,7 @@ MIN_ISECT_DEPTH = 1e-4  # a primary hit needs t >= this (POV's near clip for eve
 MAX_DISTANCE = 1e7  # every hit needs t < this
 SHADOW_TOLERANCE = 1e-3  # a shadow hit counts only for SHADOW_TOLERANCE < t < dist - SHADOW_TOLERANCE
 EPSILON = 1e-10  # n·l gate; sphere half-chord² must exceed it; |n̂·d| below it = ray parallel to a triangle
+POVRAY_SAME_IOR = 1e-10  # |η − 1| below it: POV-Ray continues the ray unrefracted, using no trace level (ref §18)
 
 # --- POV-Ray's phong cut-off (ref §4: I = 0 if phong_size >= 60 and k <= 0.0008) ---------------
 PHONG_CUTOFF_SIZE = 60.0
@@ -1003,9 +1006,19 @@ def _reflected(
         e, c = eta[rows, None], cos_i[rows, None]
         t = d[rows] / e - (np.sqrt(cos_t2[rows, None]) - c / e) * n[rows]
         w = kt[rows] / eta[rows] ** 2 if settings.transmission == "book" else kt[rows]
-        out[rows] += (
-            w[:, None] * carried[rows] * _trace(geo, scene, settings, p[rows], t, depth + 1, refracted_medium[rows])
-        )
+        # "povray": between equal indices (|η − 1| < POVRAY_SAME_IOR) the ray goes straight on at
+        # this depth (POV-Ray's continued ray, ref §18); the book counts every crossing.
+        same = np.abs(eta[rows] - 1.0) < POVRAY_SAME_IOR
+        if settings.transmission == "book":
+            same[:] = False
+        t[same] = d[rows][same]
+        for part, level in ((~same, depth + 1), (same, depth)):
+            if part.any():
+                out[rows[part]] += (
+                    w[part, None]
+                    * carried[rows[part]]
+                    * _trace(geo, scene, settings, p[rows[part]], t[part], level, refracted_medium[rows[part]])
+                )
     return out
 
 

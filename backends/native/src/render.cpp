@@ -35,6 +35,10 @@ constexpr int kPovrayBlockSize = 32;
 // POV-Ray's Antialias_Gamma default (view.cpp): the +A threshold compares colours encoded as
 // max(c, 0)^(1/2.5), in float (colourspace.cpp: PowerLawGammaCurve).
 constexpr float kPovrayAntialiasEncodingExponent = 1.0f / 2.5f;
+// POV-Ray passes a ray between two media whose indices differ by less than its EPSILON (1e-10,
+// configbackend.h) straight on, as a continued ray that uses no trace level (trace.cpp,
+// ComputeRefraction: TraceRay(..., continuedRay = true); ref §18).
+constexpr double kPovraySameIorEpsilon = 1e-10;
 
 // The native "stratified" pixel estimator's points: low_discrepancy.hpp.
 
@@ -381,6 +385,9 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     double cos_t = 1.0;
     const double eta = leaving ? 1.0 / material->ior : material->ior;
     const bool refracts = material->kt > 0.0 && refract_direction(ray.dir, n, eta, refracted, cos_t);
+    const bool book = settings.transmission_convention == TransmissionConvention::kBook;
+    // POV-Ray's continued ray: unrefracted, at this ray's depth (the book counts every crossing).
+    const bool continued = !book && refracts && std::fabs(eta - 1.0) < kPovraySameIorEpsilon;
     // The interiors the secondary rays travel in (not nested): a reflected ray stays on the side it
     // came from, a refracted one crosses into this material's interior or out of it.
     const Material* interior = material->kt > 0.0 ? &material_of(scene, hit) : nullptr;
@@ -390,7 +397,6 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     // POV-Ray only what a transparent surface transmits (refracted, or internally reflected),
     // over the incoming ray's path inside (ref §18: its reflections and opaque hits inside are
     // not faded).
-    const bool book = settings.transmission_convention == TransmissionConvention::kBook;
     const RGB carried = book ? RGB{1.0, 1.0, 1.0} : medium_transmittance(medium, hit.t);
     if (material->kt > 0.0 && !refracts)
         return color + hadamard(trace_secondary(context, Ray{p, mirror_direction(ray.dir, n)}, depth + 1, candidates,
@@ -413,9 +419,11 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     if (refracts) {
         const double kt = material->fresnel ? material->kt * (1.0 - reflectance) : material->kt;
         const double weight = book ? kt / (eta * eta) : kt;
-        color +=
-            hadamard(trace_secondary(context, Ray{p, refracted}, depth + 1, candidates, refracted_medium), carried) *
-            weight;
+        const Ray transmitted{p, continued ? ray.dir : refracted};
+        color += hadamard(trace_secondary(context, transmitted, continued ? depth : depth + 1, candidates,
+                                          refracted_medium),
+                          carried) *
+                 weight;
     }
     return color;
 }
