@@ -88,7 +88,29 @@ def _scene(kind: str, name: str) -> Scene:
 # Examples the exact mapping cannot render (backends.povray.exact_mapping_obstacle: a transmissive
 # material with a highlight, as the book's Dielectric has): compared in the classic mapping only,
 # as `diff` does. test_examples_without_the_exact_mapping_are_those_it_cannot_render keeps the set true.
-EXAMPLES_CLASSIC_ONLY = {"book_28_5a.usda", "book_28_5b.usda"}
+EXAMPLES_CLASSIC_ONLY = {
+    "book_28_5a.usda",
+    "book_28_5b.usda",
+    # ch. 27: every figure's glass has a highlight (examples/book_27.py)
+    *(
+        f"book_27_{figure}.usda"
+        for figure in (
+            "12",
+            "13a",
+            "13b",
+            "13c",
+            "14a",
+            "14b",
+            "15b",
+            "15b_transparent",
+            "19a",
+            "23a",
+            "23b",
+            "24a",
+            "28",
+        )
+    ),
+}
 
 CASES = (
     [("calibration", name, m) for name in sorted(SCENES) for m in MAPPINGS]
