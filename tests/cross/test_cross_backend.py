@@ -103,7 +103,6 @@ EXAMPLES_CLASSIC_ONLY = {
             "14b",
             "15b",
             "15b_transparent",
-            "19a",
             "23a",
             "23b",
             "24a",

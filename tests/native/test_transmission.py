@@ -21,6 +21,7 @@ from phongscene.rendering import settings_for
 from phongscene.scene import (
     AmbientLight,
     Camera,
+    Linking,
     PhongMaterial,
     PointLight,
     RectAreaLight,
@@ -140,6 +141,29 @@ def test_povray_continues_a_ray_between_equal_indices_without_using_a_depth(rend
     assert np.all(np.abs(image - expected) <= FLOAT32_TWO_ULPS * expected)
     book = render(dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, transmission="book")))
     assert np.all(book == 0.0)
+
+
+@pytest.mark.parametrize("render", _renderers())
+def test_the_book_lights_glass_seen_from_inside_with_its_outward_normal(render):
+    """A camera at the centre of a glass ball (kd 0.6, ka 0, kt 0.5) looks at its inner surface,
+    behind which a shadowless point light sits on the axis, at depth 0 (no secondary rays): the
+    book's Phong::shade takes the unflipped normal, n·l = 1, so the centre pixel is kd·cd/π·L
+    (Suffern's figure 27.23 shows this highlight); POV-Ray's convention faces the normal to the
+    ray, n·l = −1, and the pixel is black."""
+    cd, light = np.array([0.9, 0.6, 0.3]), 2.0
+    glass = PhongMaterial(ka=0.0, kd=0.6, ks=0.0, exponent=1.0, diffuse_color=tuple(cd), kt=0.5, ior=1.5)
+    scene = Scene(
+        camera=Camera(position=(0.0, 0.0, 0.0), forward=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0), horizontal_fov_deg=1.0),
+        ambient=AmbientLight((0.0, 0.0, 0.0)),
+        lights=(PointLight((0.0, 0.0, -10.0), (light,) * 3, linking=Linking(shadows=False)),),
+        spheres=(Sphere.at((0.0, 0.0, 0.0), 2.0, glass),),
+        settings=RenderSettings(width=3, height=3, background=BACKGROUND, max_depth=0, transmission="book"),
+    )
+    centre = render(scene)[1, 1]
+    expected = 0.6 * cd / math.pi * light
+    assert np.all(np.abs(centre - expected) <= FLOAT32_TWO_ULPS * expected)  # the centre ray is the axis
+    povray = render(dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, transmission="povray")))
+    assert np.all(povray[1, 1] == 0.0)
 
 
 @pytest.mark.povray

@@ -860,6 +860,10 @@ def _shade(
     medium: np.ndarray | None = None,
 ) -> np.ndarray:
     n = np.where((np.einsum("ij,ij->i", normal, d) > 0.0)[:, None], -normal, normal)  # face the viewer
+    if settings.transmission == "book":
+        # The book lights a transparent surface with its unflipped (outward) normal, also seen
+        # from inside (Suffern's Sphere::hit, Phong::shade): a light outside can reach it there.
+        n = np.where((geo.kt[material] > 0.0)[:, None], normal, n)
     wo = -d
     ka, kd, ks, e = geo.ka[material], geo.kd[material], geo.ks[material], geo.exponent[material]
     radiance = ka[:, None] * cd * np.asarray(scene.ambient.color, dtype=np.float64) + geo.emission[material]

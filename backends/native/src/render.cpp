@@ -285,7 +285,15 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         settings.transmission_convention == TransmissionConvention::kPovray && material->kt > 0.0;
     const bool leaving = povray_interiors ? medium != nullptr && medium == &material_of(scene, hit) : back_facing;
     if (normal_mapped) n = mapped_normal;
+    // The book lights a transparent surface with its unflipped normal, also where a ray inside
+    // meets it (Suffern's Sphere::hit does not turn the normal; Phong::shade takes n·wi > 0): a
+    // light outside can then add a highlight seen from within, unless a shadow ray is blocked
+    // (figure 27.23, whose light casts no shadows). POV-Ray, and every other surface here, shade
+    // with the normal facing the ray.
+    const bool book_inside_glass =
+        back_facing && material->kt > 0.0 && settings.transmission_convention == TransmissionConvention::kBook;
     if (back_facing) n = -n;
+    const Vec3 lighting_normal = book_inside_glass ? -n : n;
     const Vec3 wo = -ray.dir;
 
     RGB color = ambient_term(*material, scene.ambient);
@@ -303,7 +311,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         std::visit(
             [&](const auto& light) {
                 centre = sample_light_centre(light, p);
-                n_dot_l = dot(n, centre.l);
+                n_dot_l = dot(lighting_normal, centre.l);
                 // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at
                 // the point (d = 0: the model's answer there is the ambient term only).
                 if (!(n_dot_l >= kMinCosineToLight)) return;
@@ -373,8 +381,8 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
             },
             scene.lights[j]);
         if (fraction == 0.0) continue;  // unlit, or wholly in shadow
-        color += shade_phong(*material, settings.specular_convention, n, wo, centre.l, n_dot_l, centre.color * fraction,
-                             terms->diffuse, terms->specular);
+        color += shade_phong(*material, settings.specular_convention, lighting_normal, wo, centre.l, n_dot_l,
+                             centre.color * fraction, terms->diffuse, terms->specular);
     }
     // Secondary rays; one that would be deeper than max_depth returns black, so it is not traced.
     // (A seed material, kr = kt = 0, stops here.)
@@ -420,10 +428,10 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         const double kt = material->fresnel ? material->kt * (1.0 - reflectance) : material->kt;
         const double weight = book ? kt / (eta * eta) : kt;
         const Ray transmitted{p, continued ? ray.dir : refracted};
-        color += hadamard(trace_secondary(context, transmitted, continued ? depth : depth + 1, candidates,
-                                          refracted_medium),
-                          carried) *
-                 weight;
+        color +=
+            hadamard(trace_secondary(context, transmitted, continued ? depth : depth + 1, candidates, refracted_medium),
+                     carried) *
+            weight;
     }
     return color;
 }
