@@ -5,7 +5,7 @@ BVH, the render, the EXR write, and between them the model and the C++ scene dro
 ``malloc_trim``), printing after each the process's peak (VmHWM) and current (VmRSS) resident memory
 from /proc/self/status (Linux) and the stage's wall time.
 
-    .venv/bin/python benchmarks/memory_stages.py [S2]     # any make_scenes.FILES name; default S2
+    .venv/bin/python benchmarks/memory_stages.py [S2] [--sdl]   # any make_scenes.FILES name; default S2
 
 The peak is monotone: the stage where it jumps is the one to look at. Figures: benchmarks/README.md.
 """
@@ -35,6 +35,11 @@ def resident_mib() -> tuple[float, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("scene", nargs="?", default="S2", help="a make_scenes.FILES name (default S2)")
+    parser.add_argument(
+        "--sdl",
+        action="store_true",
+        help="also compile the POV-Ray SDL to a file after the load (what render/diff's POV-Ray side adds)",
+    )
     args = parser.parse_args()
     print(f"{'stage':<28}{'peak MiB':>10}{'now MiB':>10}{'s':>8}")
     start = time.perf_counter()
@@ -62,6 +67,12 @@ def main() -> None:
     stage("load_usd")
     release_free_heap()
     stage("malloc_trim")
+    if args.sdl:
+        from phongscene.backends.povray import prepare
+
+        with tempfile.TemporaryDirectory() as tmp:
+            prepare(scene).save_sdl(Path(tmp) / "scene.pov")  # written as it is compiled
+        stage("POV-Ray SDL written")
     render = prepare_render(scene, "native")
     stage("native scene + BVH")
     del scene
