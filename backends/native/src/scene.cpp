@@ -55,6 +55,11 @@ void check_area_light_samples(const Light& light) {
         light);
 }
 
+// The leaf-order copy's prefetch distances (positions ahead of the one being copied): the index
+// triple first, its points once the triple has arrived. Tuned on S2 (benchmarks/README.md).
+constexpr size_t kCopyIndexAhead = 32;
+constexpr size_t kCopyPointAhead = 16;
+
 // Runs fn(begin, end) over [0, n) in one chunk per build thread when n is large enough to
 // pay for the threads (1M triangles: ~0.1 s of serial copying per pass), else in one piece. The
 // first exception in chunk order is rethrown once every chunk has finished, so errors are the
@@ -253,11 +258,36 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     if (any_vertex_normals) resize_huge(triangle_normals, n_triangles);
     resize_huge(triangle_source, n_triangles);
     if (in.povray_triangles) resize_huge(povray_triangles, n_triangles);
+    // Leaf order is spatial, not the meshes' order: each triangle's indices, points and normal
+    // indices are random reads. Two prefetch stages hide them: the index triple kCopyIndexAhead
+    // positions ahead, the three points it names kCopyPointAhead ahead (their indices have
+    // arrived by then).
+    auto triangle_at = [&](size_t k, const MeshArrays*& mesh, size_t& local) {
+        const uint32_t id = order[k];
+        if (id < n_spheres || id >= n_spheres + n_triangles) return false;
+        const size_t i = id - n_spheres, m = n_meshes == 1 ? 0 : mesh_of(i);
+        mesh = &in.meshes[m];
+        local = i - first_triangle[m];
+        return true;
+    };
+    auto prefetch_ahead = [&](size_t k, size_t end) {
+        const MeshArrays* mesh;
+        size_t local;
+        if (k + kCopyIndexAhead < end && triangle_at(k + kCopyIndexAhead, mesh, local)) {
+            __builtin_prefetch(mesh->triangles + 3 * local);
+            if (mesh->normal_indices) __builtin_prefetch(mesh->normal_indices + 3 * local);
+        }
+        if (k + kCopyPointAhead < end && triangle_at(k + kCopyPointAhead, mesh, local)) {
+            const int32_t* t = mesh->triangles + 3 * local;
+            for (int c = 0; c < 3; ++c) __builtin_prefetch(mesh->points + 3 * size_t(t[c]));
+        }
+    };
     for_chunks(order.size(), [&](size_t begin, size_t end) {
         size_t spheres_before =
             size_t(std::lower_bound(sphere_positions.begin(), sphere_positions.end(), uint32_t(begin)) -
                    sphere_positions.begin());
         for (size_t k = begin; k < end; ++k) {
+            prefetch_ahead(k, end);
             const uint32_t id = order[k];
             if (id < n_spheres) {
                 refs_[k] = ~int32_t(id);
