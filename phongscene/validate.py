@@ -338,17 +338,21 @@ def validate(scene: Scene) -> list[Problem]:
             c.add(intrinsic, "material", "a textured material needs texture coordinates, which only meshes carry")
     for material in _unique(materials):
         _check_material(c, material)
-    if any(_number(m.kt) and m.kt > 0 for m in materials):  # a kt that is not a number: reported above
-        # Filtered shadows (through transmissive objects): an area light's grid samples are
-        # filtered (all of them, or POV-Ray's `adaptive n` recursion on their colours); the
-        # native cells estimator, which answers visibility only, does not apply.
+    transmission = getattr(scene.settings, "transmission", None)  # a hostile value: reported below
+    filtered_shadows = isinstance(transmission, str) and transmission == "povray"
+    if filtered_shadows and any(_number(m.kt) and m.kt > 0 for m in materials):  # a bad kt: reported above
+        # POV-Ray's convention filters shadows through transmissive objects: an area light's grid
+        # samples are filtered (all of them, or POV-Ray's `adaptive n` recursion on their colours);
+        # the native cells estimator, which answers visibility only, does not apply. (In the
+        # book's convention glass casts opaque shadows: visibility is the whole answer.)
         for light in scene.lights:
             if isinstance(light, (RectAreaLight, SphereAreaLight)) and light.cell_samples is not None:
                 c.add(
                     light,
                     "cell_samples",
-                    "in a scene with transmissive materials (kt > 0) an area light's shadows are "
-                    "filtered at its grid samples, which the cells estimator does not do: unset it",
+                    "in POV-Ray's transmission convention an area light's shadows through transmissive "
+                    "materials (kt > 0) are filtered at its grid samples, which the cells estimator does "
+                    "not do: unset it, or render in the book's convention (glass casts opaque shadows)",
                 )
     return c.problems
 

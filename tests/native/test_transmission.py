@@ -318,18 +318,66 @@ def test_transmissive_material_out_of_range_is_a_scene_error(change, field):
 
 
 def test_area_lights_with_transmissive_materials_take_the_grid_or_adaptive_not_cells():
-    """Grid samples' shadow rays are filtered (all of them, or POV-Ray's adaptive recursion on
-    their colours: calibration glass_under_*_light and adaptive_glass_* against POV-Ray); the
-    cells estimator, which answers visibility only, is a clear error there."""
+    """In POV-Ray's convention grid samples' shadow rays are filtered (all of them, or POV-Ray's
+    adaptive recursion on their colours: calibration glass_under_*_light and adaptive_glass_*
+    against POV-Ray); the cells estimator, which answers visibility only, is a clear error there.
+    In the book's convention glass casts opaque shadows, and the cells estimator applies."""
     scene = calibration.glass_sphere()
+    povray = dataclasses.replace(scene.settings, transmission="povray")
     light = RectAreaLight(
         center=(3.0, 5.0, 3.0), axis_u=(1.0, 0.0, 0.0), axis_v=(0.0, 0.0, 1.0), color=(3.0, 3.0, 3.0), samples=3
     )
-    check(dataclasses.replace(scene, lights=(light,)))
-    check(dataclasses.replace(scene, lights=(dataclasses.replace(light, adaptive=1),)))
+    for settings in (scene.settings, povray):
+        check(dataclasses.replace(scene, lights=(light,), settings=settings))
+        check(dataclasses.replace(scene, lights=(dataclasses.replace(light, adaptive=1),), settings=settings))
+    cells = dataclasses.replace(light, cell_samples=2)
     with pytest.raises(SceneError, match="which the cells estimator does not do") as error:
-        check(dataclasses.replace(scene, lights=(dataclasses.replace(light, cell_samples=2),)))
+        check(dataclasses.replace(scene, lights=(cells,), settings=povray))
     assert any(p.attribute == "cell_samples" for p in error.value.problems)
+    assert scene.settings.transmission == "book"
+    check(dataclasses.replace(scene, lights=(cells,)))
+
+
+def test_in_the_book_convention_the_cells_estimator_sees_glass_as_an_opaque_occluder():
+    """A glass ball between a rect area light and the floor, out of the camera's view (the camera
+    looks down from below it): with the cells estimator the floor's soft shadow is exactly that of
+    an opaque ball in the same place (the book's shadow rays stop at glass), and it is a partial
+    shadow, so the cells' inner points were traced."""
+    glass = dataclasses.replace(GLASS_ONLY, kd=0.5)
+    floor = PhongMaterial(ka=0.1, kd=0.8, ks=0.0, exponent=1.0, diffuse_color=(0.8, 0.8, 0.8))
+    light = RectAreaLight(
+        center=(0.0, 6.0, 0.0),
+        axis_u=(2.0, 0.0, 0.0),
+        axis_v=(0.0, 0.0, 2.0),
+        color=(4.0, 4.0, 4.0),
+        samples=5,
+        cell_samples=4,
+    )
+    camera = Camera(
+        position=(0.0, 1.0, 0.0),
+        forward=(0.0, -1.0, 0.0),
+        up=(0.0, 0.0, -1.0),
+        projection="orthographic",
+        ortho_width=8.0,
+    )
+    scene = Scene(
+        camera=camera,
+        ambient=AmbientLight((1.0, 1.0, 1.0)),
+        lights=(light,),
+        spheres=(Sphere.at((0.0, 3.0, 0.0), 1.0, glass),),
+        meshes=(calibration.ground_quad(0.0, floor),),
+        settings=RenderSettings(width=24, height=24, background=BACKGROUND, max_depth=2, transmission="book"),
+    )
+    image = native.render(check(scene))
+    opaque = native.render(
+        dataclasses.replace(scene, spheres=(Sphere.at((0.0, 3.0, 0.0), 1.0, dataclasses.replace(glass, kt=0.0)),))
+    )
+    assert np.array_equal(image, opaque)
+    lit = native.render(dataclasses.replace(scene, spheres=()))
+    darker = image.mean(axis=2) < lit.mean(axis=2)
+    assert darker.any() and not darker.all()
+    full_shadow = image.mean(axis=2) <= 0.1 * 0.8 + 1e-6  # the ambient term only
+    assert (darker & ~full_shadow).any()  # a penumbra: partial cells
 
 
 def test_transmissive_sdl_compensates_povrays_att_and_declares_the_interior():
