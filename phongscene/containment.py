@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Which transparent object a point (the camera) is inside, as POV-Ray decides it: POV-Ray keeps
+"""Which transparent objects a point (the camera) is inside, as POV-Ray decides it: POV-Ray keeps
 the list of interiors each ray is in, and a camera ray starts in those of the objects containing
 the camera. The native tracer's "povray" transmission convention starts its camera rays there
 too (the "book" convention has no such list: it decides by the normal at each hit).
@@ -25,19 +25,39 @@ INSIDE_VECTOR = (0.2718281828, 0.5772156649, 0.7853981634)
 CONTAINMENT_TRIANGLES_PER_SLICE = 1 << 16
 
 
-def containing_interior(scene: Scene, point) -> PhongMaterial | None:
-    """The material of the first transparent (kt > 0) sphere or mesh that contains ``point``, or
-    None (media are not nested: one interior at a time)."""
+def containing_interiors(scene: Scene, point) -> list[tuple[int, PhongMaterial]]:
+    """The transparent (kt > 0) spheres and meshes that contain ``point``, as (object, material)
+    with objects numbered as ``Scene.objects`` (spheres, then meshes): the interiors a camera ray
+    starts in, outermost first (the larger enclosed volume first; equal volumes in object order).
+    POV-Ray orders a camera's interiors by its bounding tree instead (measured: a water ball in a
+    glass ball, in either order in the SDL, gives one image, which changes when the water moves
+    along z), so the two agree on one containing object, or on nested ones where its tree
+    happens to list the outer first."""
     p = np.asarray(point, dtype=np.float64)
-    for sphere in scene.spheres:
+    found = []
+    for k, sphere in enumerate(scene.spheres):
         if sphere.material.kt > 0:
             q = np.linalg.solve(sphere.world_from_object[:3, :3], p - sphere.world_from_object[:3, 3])
             if float(q @ q) < 1.0:
-                return sphere.material
-    for mesh in scene.meshes:
+                volume = abs(np.linalg.det(sphere.world_from_object[:3, :3])) * 4.0 * np.pi / 3.0
+                found.append((volume, k, sphere.material))
+    for k, mesh in enumerate(scene.meshes):
         if mesh.material.kt > 0 and mesh_contains(mesh, p):
-            return mesh.material
-    return None
+            found.append((enclosed_volume(mesh), len(scene.spheres) + k, mesh.material))
+    found.sort(key=lambda entry: (-entry[0], entry[1]))
+    return [(k, material) for _, k, material in found]
+
+
+def enclosed_volume(mesh: TriangleMesh) -> float:
+    """The volume a closed mesh encloses: |sum of its triangles' signed tetrahedra with the
+    origin|, taken about the mesh's first point so that far-off meshes keep their precision."""
+    total = 0.0
+    origin = mesh.points[0]
+    for start in range(0, len(mesh.triangles), CONTAINMENT_TRIANGLES_PER_SLICE):
+        t = mesh.triangles[start : start + CONTAINMENT_TRIANGLES_PER_SLICE]
+        a, b, c = (mesh.points[t[:, k]] - origin for k in range(3))
+        total += float(np.einsum("ij,ij->", a, np.cross(b, c)))
+    return abs(total) / 6.0
 
 
 def mesh_contains(mesh: TriangleMesh, point: np.ndarray) -> bool:

@@ -522,14 +522,14 @@ def prepare(
         add_instances(native, scene, s.numerics)
     settings_ = _settings(s)
     if s.transmission == "povray":
-        # Camera rays start in the interior of the transparent object around the camera (POV-Ray).
-        from phongscene.containment import containing_interior
+        # Camera rays start in the interiors of the transparent objects around the camera (POV-Ray).
+        from phongscene.containment import containing_interiors
 
-        inside = containing_interior(scene, scene.camera.position)
-        if inside is not None:
+        inside = containing_interiors(scene, scene.camera.position)
+        if inside:
             order = list(dict.fromkeys(o.material for o in scene.objects))
             assert len(order) == len(arrays["materials"])  # scene_arrays numbers them so
-            settings_.camera_medium = order.index(inside)
+            settings_.camera_interiors = [(k, order.index(m)) for k, m in inside]
     return PreparedRender(native, _camera(scene.camera), settings_, progress)
 
 

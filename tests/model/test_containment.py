@@ -10,7 +10,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from phongscene.containment import containing_interior, mesh_contains
+from phongscene.containment import containing_interiors, enclosed_volume, mesh_contains
 from phongscene.scene import PhongMaterial, Scene, Sphere
 from support import calibration
 
@@ -24,15 +24,36 @@ def test_a_box_mesh_contains_what_is_inside_it(scale):
         assert mesh_contains(box, np.asarray(point, dtype=np.float64) * scale) == inside, point
 
 
-def test_the_camera_medium_is_the_transparent_object_around_it():
+def test_the_camera_interiors_are_the_transparent_objects_around_it():
     ball = Sphere.at((0.0, 0.0, 0.0), 2.0, GLASS)
     opaque = Sphere.at((5.0, 0.0, 0.0), 2.0, PhongMaterial())
     box = calibration.box_mesh((9.0, -1.0, -1.0), (11.0, 1.0, 1.0), dataclasses.replace(GLASS, ior=1.33))
     scene = Scene(spheres=(ball, opaque), meshes=(box,))
-    assert containing_interior(scene, (0.5, 0.5, 0.5)) is ball.material
-    assert containing_interior(scene, (5.0, 0.0, 0.0)) is None  # opaque: no interior
-    assert containing_interior(scene, (10.0, 0.0, 0.0)) is box.material
-    assert containing_interior(scene, (3.0, 0.0, 0.0)) is None
+    assert containing_interiors(scene, (0.5, 0.5, 0.5)) == [(0, ball.material)]
+    assert containing_interiors(scene, (5.0, 0.0, 0.0)) == []  # opaque: no interior
+    assert containing_interiors(scene, (10.0, 0.0, 0.0)) == [(2, box.material)]  # objects: spheres, meshes
+    assert containing_interiors(scene, (3.0, 0.0, 0.0)) == []
+
+
+def test_nested_objects_each_contain_the_camera():
+    water = dataclasses.replace(GLASS, ior=1.33)
+    glass = Sphere.at((0.0, 0.0, 0.0), 3.0, GLASS)
+    drop = Sphere.at((0.0, 0.0, 0.0), 1.0, water)
+    scene = Scene(spheres=(glass, drop))
+    assert containing_interiors(scene, (0.1, 0.0, 0.0)) == [(0, GLASS), (1, water)]
+    assert containing_interiors(scene, (2.0, 0.0, 0.0)) == [(0, GLASS)]
+    # outermost first, whatever the scene's order: the larger enclosed volume first
+    scene = Scene(spheres=(drop, glass))
+    assert containing_interiors(scene, (0.1, 0.0, 0.0)) == [(1, GLASS), (0, water)]
+    cube = calibration.box_mesh((-2.0, -2.0, -2.0), (2.0, 2.0, 2.0), GLASS)  # 64 > the drop's 4π/3
+    scene = Scene(spheres=(drop,), meshes=(cube,))
+    assert containing_interiors(scene, (0.1, 0.0, 0.0)) == [(1, GLASS), (0, water)]
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e6])
+def test_the_enclosed_volume_of_a_box_mesh(offset):
+    box = calibration.box_mesh((offset - 1.0, -2.0, -3.0), (offset + 1.0, 2.0, 3.0), GLASS)
+    assert enclosed_volume(box) == pytest.approx(48.0, rel=1e-12)
 
 
 def test_a_point_whose_ray_crosses_no_face_is_outside():

@@ -78,8 +78,10 @@ are not traced: they return black (ref §18: ``max_trace_level`` = max_depth + 1
 
 Transparency (Suffern ch. 27, Transparent::shade; ref §18), at a hit of depth k < max_depth on a
 material with kt > 0: the unflipped normal points out of the interior, so the ray is leaving when
-it meets the normal from behind (settings.transmission "book"; "povray": when it travels in that
-material's interior, POV-Ray's interior list); η = ior entering, 1/ior leaving; with n facing the ray and
+it meets the normal from behind (settings.transmission "book"), η = ior entering, 1/ior leaving;
+"povray": each ray keeps the list of the interiors it is in (POV-Ray's; objects, not materials),
+and η is the ratio of the indices on the two sides by POV-Ray's rules (_reflected; ref §18:
+nested and overlapping interiors); with n facing the ray and
 cos_i = −d·n, Snell gives cos²θt = 1 − (1 − cos_i²)/η². cos²θt < 0 (total internal reflection):
 L += L(P, r) at full weight (no kr term). Otherwise L += kr·cr·L(P, r) + w·L(P, t) with
 t = d/η − (cos θt − cos_i/η)·n and w = kt/η² (settings.transmission "book") or kt ("povray").
@@ -88,13 +90,15 @@ continued ray uses no trace level); the book counts it.
 A ``fresnel`` material (the dielectric, Suffern ch. 28) replaces kr by F·kr and kt by (1 − F)·kt
 with F = ½(r_s² + r_p²), r_s = (cos_i − η cos θt)/(cos_i + η cos θt), r_p = (η cos_i − cos θt)/(η
 cos_i + cos θt) (cos θt = 0 where Snell has no solution, so F = 1 there).
-Beer-Lambert: each ray travels in a medium, the interior of a transmissive material or none (the
-camera's); in the "book" convention its radiance is multiplied by interior_filter^t over the
-distance t to its hit (a miss: t = ∞); in the "povray" one only the refracted or internally
-reflected term of a transparent surface, by the incoming ray's interior_filter^t (ref §18). A refracted ray enters the interior of the surface it crosses, or leaves it for none (not
-nested); a reflected ray keeps its side (the interior when the hit is from inside, else the
-incoming ray's medium). A shadow ray starts in the shaded ray's medium and toggles the interior
-of every transmissive surface it crosses, filtered likewise over each segment.
+Beer-Lambert: in the "book" convention a ray travels in one medium, the interior of a transmissive
+object or none (the camera's), and its radiance is multiplied by interior_filter^t over the
+distance t to its hit (a miss: t = ∞); a refracted ray enters the interior of the surface it
+crosses or leaves it for none, a reflected ray keeps its side. In the "povray" one only the
+refracted or internally reflected term of a transparent surface is, by that surface's
+interior_filter^t when the incoming ray is in its interior (ref §18); a reflected ray keeps its
+list. A shadow ray starts with the shaded ray's interiors and, at every transmissive surface it
+crosses, is filtered by the surface's interior over the stretch since the last crossing when it
+is in it, then leaves that interior or enters it.
 Shadow rays in a scene with a transmissive material, in the "povray" transmission convention,
 are traced segment by segment (each with the shadow window, from the last crossing): an opaque
 hit blocks the light, a transmissive one multiplies it by kt (no refraction). In the "book"
@@ -639,9 +643,10 @@ def _intrinsic_hits(intrinsic, o: np.ndarray, d: np.ndarray, accept) -> tuple[np
 def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
     """Nearest hit with MIN_ISECT_DEPTH <= t < MAX_DISTANCE (or as ``accept(t, rows)`` says):
     (t, material, unflipped normal, cd and cs at the hit: the material's, or its textures' at the
-    hit's uv, and the prim of the object hit); t = inf on a miss."""
+    hit's uv, the prim of the object hit, and the object: _object_id); t = inf on a miss."""
     n = len(o)
     source = np.full(n, "", dtype=object)
+    obj = np.full(n, -1, dtype=np.int64)
     best_t = np.full(n, np.inf)
     material = np.full(n, -1, dtype=np.int64)
     normal = np.zeros((n, 3))
@@ -653,8 +658,8 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
         def accept(t, _rows):
             return (t >= MIN_ISECT_DEPTH) & (t < MAX_DISTANCE)
 
-    for inverse, normal_matrix, mat, sphere_source in zip(
-        geo.sphere_object_from_world, geo.sphere_normal_matrix, geo.sphere_material, geo.sphere_source
+    for k, (inverse, normal_matrix, mat, sphere_source) in enumerate(
+        zip(geo.sphere_object_from_world, geo.sphere_normal_matrix, geo.sphere_material, geo.sphere_source)
     ):
         near, far, hit = _sphere_roots(inverse, o, d)
         t = np.where(hit & accept(near, None), near, np.where(hit & accept(far, None), far, np.inf))
@@ -664,12 +669,13 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
         best_t[closer] = t[closer]
         material[closer] = mat
         source[closer] = sphere_source
+        obj[closer] = _object_id("sphere", k)
         colour[closer] = geo.cd[mat]
         specular[closer] = geo.cs[mat]
         p_object = (o[closer] + t[closer, None] * d[closer]) @ inverse[:3, :3].T + inverse[:3, 3]
         nw = p_object @ normal_matrix.T
         normal[closer] = nw / np.linalg.norm(nw, axis=1, keepdims=True)
-    for mesh in geo.meshes:
+    for k, mesh in enumerate(geo.meshes):
         t, tri, u, v = _mesh_hits(mesh, o, d, accept)
         closer = t < best_t
         if not closer.any():
@@ -677,6 +683,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
         best_t[closer] = t[closer]
         material[closer] = mesh.material
         source[closer] = mesh.source
+        obj[closer] = _object_id("mesh", k)
         tri, u, v = tri[closer], u[closer], v[closer]
         colour[closer] = geo.cd[mesh.material]
         specular[closer] = geo.cs[mesh.material]
@@ -699,7 +706,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
             texel = sample_texture(mesh.normal_texture, st[:, 0], st[:, 1])
             nw = normal_mapped(nw, mesh.e1[tri], mesh.e2[tri], mesh.corner_uv[tri], texel)
         normal[closer] = nw
-    for intrinsic, mat in zip(geo.intrinsics, geo.intrinsic_material):
+    for k, (intrinsic, mat) in enumerate(zip(geo.intrinsics, geo.intrinsic_material)):
         t, nw = _intrinsic_hits(intrinsic, o, d, accept)
         closer = t < best_t
         best_t[closer] = t[closer]
@@ -707,9 +714,65 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
         colour[closer] = geo.cd[mat]
         specular[closer] = geo.cs[mat]
         source[closer] = intrinsic.source
+        obj[closer] = _object_id("intrinsic", k)
         normal[closer] = nw[closer]
     _checker_colours(geo, o, d, best_t, material, colour)
-    return best_t, material, normal, colour, specular, source
+    return best_t, material, normal, colour, specular, source, obj
+
+
+_OBJECT_KINDS = ("sphere", "mesh", "intrinsic")
+_OBJECTS_PER_KIND = 1 << 32
+
+
+def _object_id(kind: str, k: int) -> int:
+    """An object's identity (its interior's, POV-Ray's interior list): the k-th of its kind."""
+    return _OBJECT_KINDS.index(kind) * _OBJECTS_PER_KIND + k
+
+
+# --- A ray's interiors (POV-Ray's interior list; ref §18) ---------------------------------------
+# Per ray, up to MAX_INTERIORS (object, material) pairs, innermost last, -1 in the free slots: the
+# objects it has entered and not left. The "book" convention keeps at most one.
+MAX_INTERIORS = 16  # the native tracer's bound (interiors.hpp); no scene here nests deeper
+
+
+def no_interiors(n: int) -> np.ndarray:
+    return np.full((n, MAX_INTERIORS, 2), -1, dtype=np.int64)
+
+
+def _interior_count(inside: np.ndarray) -> np.ndarray:
+    return (inside[:, :, 0] >= 0).sum(axis=1)
+
+
+def _innermost(inside: np.ndarray) -> np.ndarray:
+    """The innermost (object, material) per ray, (-1, -1) outside every object. (N, 2)."""
+    last = np.maximum(_interior_count(inside) - 1, 0)
+    out = inside[np.arange(len(inside)), last].copy()
+    out[_interior_count(inside) == 0] = -1
+    return out
+
+
+def _contains(inside: np.ndarray, obj: np.ndarray) -> np.ndarray:
+    return np.any(inside[:, :, 0] == obj[:, None], axis=1)
+
+
+def _removed(inside: np.ndarray, obj: np.ndarray) -> np.ndarray:
+    """``inside`` without ``obj`` per ray (order kept)."""
+    out = no_interiors(len(inside))
+    for r in range(len(inside)):
+        kept = [e for e in inside[r] if e[0] >= 0 and e[0] != obj[r]]
+        if kept:
+            out[r, : len(kept)] = kept
+    return out
+
+
+def _appended(inside: np.ndarray, obj: np.ndarray, material: np.ndarray) -> np.ndarray:
+    out = inside.copy()
+    count = _interior_count(inside)
+    room = count < MAX_INTERIORS
+    rows = np.nonzero(room)[0]
+    out[rows, count[rows], 0] = obj[rows]
+    out[rows, count[rows], 1] = material[rows]
+    return out
 
 
 def _checker_colours(geo: _Geometry, o, d, t, material, colour) -> None:
@@ -857,7 +920,7 @@ def _shade(
     cd,
     cs,
     source,
-    medium: np.ndarray | None = None,
+    inside: np.ndarray | None = None,
 ) -> np.ndarray:
     n = np.where((np.einsum("ij,ij->i", normal, d) > 0.0)[:, None], -normal, normal)  # face the viewer
     if settings.transmission == "book":
@@ -877,12 +940,11 @@ def _shade(
             continue
         nl = n_dot_l[lit]
         if geo.transmissive and settings.transmission == "povray" and light.linking.shadows:
-            start = np.full(len(lit), -1, dtype=np.int64) if medium is None else medium[lit].copy()
+            # The shadow ray starts in the shaded ray's interiors (POV-Ray's light source ray is
+            # a copy of the eye ray); one that casts no shadow is never crossed, so never fades.
+            start = no_interiors(len(lit)) if inside is None else inside[lit].copy()
             shadowed_by = light.linking.shadowed_by
             casts = None if shadowed_by is None else shadowed_by.__contains__
-            if casts is not None:  # inside an object that casts none of its shadows: no filter from it
-                leaving = np.einsum("ij,ij->i", normal[lit], d[lit]) > 0.0
-                start[leaving & ~np.array([bool(casts(s)) for s in source[lit]], dtype=bool)] = -1
             if isinstance(light, (PointLight, DirectionalLight)):
                 light_colour = lc[lit] * _shadow_filter(geo, p[lit], l[lit], dist[lit], start, casts)
             else:
@@ -927,13 +989,13 @@ def _trace(
     origins,
     directions,
     depth: int = 0,
-    medium: np.ndarray | None = None,
+    inside: np.ndarray | None = None,
 ) -> np.ndarray:
     o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
-    medium = np.full(len(o), -1, dtype=np.int64) if medium is None else medium
-    t, material, normal, colour, specular, source = _closest_hit(geo, o, d)
+    inside = no_interiors(len(o)) if inside is None else inside
+    t, material, normal, colour, specular, source, obj = _closest_hit(geo, o, d)
     radiance = np.empty((len(o), 3))
     radiance[:] = np.asarray(settings.background, dtype=np.float64)
     hit = np.isfinite(t)
@@ -950,13 +1012,15 @@ def _trace(
             colour[hit],
             specular[hit],
             source[hit],
-            medium[hit],
+            inside[hit],
         )
         if depth < settings.max_depth:
             radiance[hit] += _reflected(
-                geo, scene, settings, p, d[hit], normal[hit], material[hit], depth, medium[hit], t[hit]
+                geo, scene, settings, p, d[hit], normal[hit], material[hit], obj[hit], depth, inside[hit], t[hit]
             )
-    return radiance * geo.medium_transmittance(medium, t) if settings.transmission == "book" else radiance
+    if settings.transmission != "book":
+        return radiance
+    return radiance * geo.medium_transmittance(_innermost(inside)[:, 1], t)
 
 
 def _reflected(
@@ -967,8 +1031,9 @@ def _reflected(
     d,
     normal,
     material,
+    obj,
     depth: int,
-    medium: np.ndarray,
+    inside: np.ndarray,
     t_hit: np.ndarray,
 ) -> np.ndarray:
     """The secondary rays' radiance at each hit (zero where none is traced): kr·cr·L(P, r) with r
@@ -977,33 +1042,70 @@ def _reflected(
     kr, cr, kt, ior = geo.kr[material], geo.cr[material], geo.kt[material], geo.ior[material]
     along = np.einsum("ij,ij->i", normal, d)
     transmits = kt > 0.0
-    # "book": leaving where the ray meets the normal from behind; "povray": where the ray is in
-    # this material's interior (POV-Ray's interior list; they differ at a smooth mesh's silhouette).
-    leaving = along > 0.0
-    if settings.transmission == "povray":
-        leaving = np.where(transmits, medium == material, leaving)
     n = np.where((along > 0.0)[:, None], -normal, normal)  # facing the ray
+    # The book (and any opaque surface): leaving where the ray meets the normal from behind,
+    # η = ior entering, 1/ior leaving; a refracted ray enters this object's interior or leaves it
+    # for none; a reflected one keeps its side.
+    leaving = along > 0.0
     eta = np.where(leaving, 1.0 / ior, ior)
+    fresnel_eta = eta.copy()
+    entered = _appended(no_interiors(len(p)), obj, material)
+    refracted_inside = np.where((transmits & ~leaving)[:, None, None], entered, no_interiors(len(p)))
+    reflected_inside = inside.copy()
+    if settings.transmission == "book":
+        back = transmits & leaving
+        reflected_inside[back] = _appended(no_interiors(int(back.sum())), obj[back], material[back])
+    else:
+        # POV-Ray's interior list (trace.cpp ComputeRefraction; ComputeRelativeIOR for Fresnel):
+        # outside every object the ray enters (ior); leaving the innermost it goes into the next
+        # one out (n_next/ior, or 1/ior), where Fresnel sees a ratio of 1 when there is a next one;
+        # leaving an object that is not the innermost, the ray continues unrefracted (ratio 1)
+        # and Fresnel sees n_innermost/ior; entering while inside: ior/n_innermost.
+        rows = np.nonzero(transmits)[0]
+        inner = _innermost(inside[rows])
+        count = _interior_count(inside[rows])
+        contains = _contains(inside[rows], obj[rows])
+        removed = _removed(inside[rows], obj[rows])
+        appended = _appended(inside[rows], obj[rows], material[rows])
+        outer = _innermost(removed)
+        own = ior[rows]
+        empty = count == 0
+        last = ~empty & (inner[:, 0] == obj[rows])
+        overlap = contains & ~last
+        entering = ~empty & ~contains
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inner_ior = np.where(inner[:, 1] >= 0, geo.ior[np.maximum(inner[:, 1], 0)], 1.0)
+            outer_ior = np.where(outer[:, 1] >= 0, geo.ior[np.maximum(outer[:, 1], 0)], 1.0)
+            e = np.select([empty, last, overlap], [own, outer_ior / own, np.ones_like(own)], own / inner_ior)
+            f = np.select(
+                [empty, last & (count == 1), last, overlap],
+                [own, 1.0 / own, np.ones_like(own), inner_ior / own],
+                own / inner_ior,
+            )
+        eta[rows], fresnel_eta[rows] = e, f
+        refracted_inside[rows] = np.where((empty | entering)[:, None, None], appended, removed)
     cos_i = np.abs(along)
     cos_t2 = 1.0 - (1.0 - cos_i**2) / eta**2
     tir = transmits & (cos_t2 < 0.0)
-    cos_t = np.sqrt(np.maximum(cos_t2, 0.0))
-    rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
-    rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    cos_tf = np.sqrt(np.maximum(1.0 - (1.0 - cos_i**2) / fresnel_eta**2, 0.0))
+    rs = (cos_i - fresnel_eta * cos_tf) / (cos_i + fresnel_eta * cos_tf)
+    rp = (fresnel_eta * cos_i - cos_tf) / (fresnel_eta * cos_i + cos_tf)
     reflectance = np.where(geo.fresnel[material], 0.5 * (rs**2 + rp**2), 1.0)
     kt = np.where(geo.fresnel[material], kt * (1.0 - reflectance), kt)
     # "povray": Beer-Lambert only on what a transparent surface transmits (refracted or internally
-    # reflected), over the incoming ray's path inside; "book": every ray's path (in _trace).
-    carried = np.ones((len(p), 3)) if settings.transmission == "book" else geo.medium_transmittance(medium, t_hit)
+    # reflected), over the incoming ray's path inside this surface's interior; "book": every
+    # ray's path (in _trace).
+    carried = np.ones((len(p), 3))
+    if settings.transmission != "book":
+        faded = transmits & _contains(inside, obj)
+        carried[faded] = geo.medium_transmittance(material[faded], t_hit[faded])
     weight = np.where(tir[:, None], carried, (kr * reflectance)[:, None] * cr)
-    reflected_medium = np.where(leaving & transmits, material, medium)
-    refracted_medium = np.where(leaving, -1, material)
     mirror_rows = np.nonzero(tir | ((kr > 0.0) & np.any(cr > 0.0, axis=1)))[0]
     if len(mirror_rows):
         dr, nr = d[mirror_rows], n[mirror_rows]
         r = dr - 2.0 * np.einsum("ij,ij->i", dr, nr)[:, None] * nr
         out[mirror_rows] += weight[mirror_rows] * _trace(
-            geo, scene, settings, p[mirror_rows], r, depth + 1, reflected_medium[mirror_rows]
+            geo, scene, settings, p[mirror_rows], r, depth + 1, reflected_inside[mirror_rows]
         )
     rows = np.nonzero(transmits & ~tir)[0]
     if len(rows):
@@ -1021,21 +1123,24 @@ def _reflected(
                 out[rows[part]] += (
                     w[part, None]
                     * carried[rows[part]]
-                    * _trace(geo, scene, settings, p[rows[part]], t[part], level, refracted_medium[rows[part]])
+                    * _trace(geo, scene, settings, p[rows[part]], t[part], level, refracted_inside[rows[part]])
                 )
     return out
 
 
 def _shadow_filter(
-    geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray, medium: np.ndarray, casts=None
+    geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray, inside: np.ndarray, casts=None
 ) -> np.ndarray:
     """The light reaching each P along unit l from distance dist through transmissive objects:
     segment by segment, each hit in the shadow window (ref §6) from the last crossing; an opaque
-    one blocks, a transmissive one multiplies by kt (ref §18). An object outside the light's
-    shadow link (``casts(prim)`` false) is crossed as if it were not there. (N, 3)."""
+    one blocks, a transmissive one multiplies by kt (ref §18) and, when the ray is in its
+    interior, by the fade over the stretch since the last crossing; the ray then leaves that
+    interior, or enters it. An object outside the light's shadow link (``casts(prim)`` false) is
+    crossed as if it were not there. (N, 3)."""
     filt = np.ones((len(p), 3))
     origin, remaining = p.copy(), dist.astype(np.float64).copy()
-    medium = medium.copy()
+    inside = inside.copy()
+    segment = np.zeros(len(p))
     active = np.arange(len(p))
     while len(active):
         upper = np.minimum(remaining[active] - SHADOW_TOLERANCE, MAX_DISTANCE)
@@ -1044,17 +1149,24 @@ def _shadow_filter(
             hi = upper if rows is None else upper[rows]
             return (t > SHADOW_TOLERANCE) & (t < hi)
 
-        t, material, _, _, _, source = _closest_hit(geo, origin[active], l[active], accept)
+        t, material, _, _, _, source, obj = _closest_hit(geo, origin[active], l[active], accept)
         hit = np.isfinite(t)
-        # the segment to the hit (or, where none, to the light) inside the current medium
-        filt[active] *= geo.medium_transmittance(medium[active], np.where(hit, t, remaining[active]))
+        segment[active[hit]] += t[hit]
         casting = hit if casts is None else hit & np.array([bool(casts(s)) for s in source], dtype=bool)
         opaque = casting & ~(geo.kt[material] > 0.0)
         filt[active[opaque]] = 0.0
         filtering = casting & ~opaque
-        filt[active[filtering]] *= geo.kt[material[filtering], None]
-        crossed = material[filtering]
-        medium[active[filtering]] = np.where(medium[active[filtering]] == crossed, -1, crossed)
+        rows = active[filtering]
+        crossed, crossed_material = obj[filtering], material[filtering]
+        faded = _contains(inside[rows], crossed)
+        filt[rows[faded]] *= geo.medium_transmittance(crossed_material[faded], segment[rows[faded]])
+        filt[rows] *= geo.kt[crossed_material, None]
+        inside[rows] = np.where(
+            faded[:, None, None],
+            _removed(inside[rows], crossed),
+            _appended(inside[rows], crossed, crossed_material),
+        )
+        segment[rows] = 0.0
         through = hit & ~opaque
         origin[active[through]] += t[through, None] * l[active[through]]
         remaining[active[through]] -= t[through]
@@ -1081,28 +1193,36 @@ def render(scene: Scene, settings: RenderSettings | None = None) -> np.ndarray:
     sy = rows[..., None] + offsets[:, 1]
     origins, directions = camera_rays(scene.camera, width, height, sx, sy)
     geo = _prepare(scene)
-    medium = np.full(len(origins.reshape(-1, 3)), _camera_medium(geo, scene, settings), dtype=np.int64)
-    radiance = _trace(geo, scene, settings, origins, directions, medium=medium)
+    inside = np.repeat(_camera_interiors(geo, scene, settings)[None], len(origins.reshape(-1, 3)), axis=0)
+    radiance = _trace(geo, scene, settings, origins, directions, inside=inside)
     return np.einsum("hwkc,k->hwc", radiance.reshape(height, width, len(weights), 3), weights)
 
 
-def _camera_medium(geo: _Geometry, scene: Scene, settings: RenderSettings) -> int:
-    """The interior camera rays start in: in the "povray" convention that of the transparent
-    sphere or mesh containing the camera (POV-Ray's interior list), found here by the sphere's
+def _camera_interiors(geo: _Geometry, scene: Scene, settings: RenderSettings) -> np.ndarray:
+    """The interiors camera rays start in: in the "povray" convention those of the transparent
+    spheres and meshes containing the camera (POV-Ray's interior list), found here by the sphere's
     equation and a closed mesh's winding number (the triangles' solid angles seen from the camera,
-    Van Oosterom-Strackee, summed over 4π: ±1 inside, 0 outside; not the backend's ray parity);
-    else none (-1)."""
+    Van Oosterom-Strackee, summed over 4π: ±1 inside, 0 outside; not the backend's ray parity),
+    outermost first: by the volume they enclose (a sphere's 4π/3·|det|, a mesh's by the
+    divergence theorem), larger first, ties spheres then meshes; else none. (MAX_INTERIORS, 2)."""
+    out = no_interiors(1)
     if settings.transmission != "povray":
-        return -1
+        return out[0]
     eye = np.asarray(scene.camera.position, dtype=np.float64)
-    for inverse, material in zip(geo.sphere_object_from_world, geo.sphere_material):
+    found = []
+    for k, (inverse, material) in enumerate(zip(geo.sphere_object_from_world, geo.sphere_material)):
         q = inverse[:3, :3] @ eye + inverse[:3, 3]
         if geo.kt[material] > 0 and float(q @ q) < 1.0:
-            return int(material)
-    for model, mesh in zip([m for m in scene.meshes if len(m.triangles)], geo.meshes):
+            found.append((4.0 * math.pi / 3.0 / abs(np.linalg.det(inverse[:3, :3])), _object_id("sphere", k), material))
+    meshes = [m for m in scene.meshes if len(m.triangles)]
+    for k, (model, mesh) in enumerate(zip(meshes, geo.meshes)):
         if geo.kt[mesh.material] > 0 and abs(_winding_number(model, eye)) > 0.5:
-            return int(mesh.material)
-    return -1
+            corners = model.points[model.triangles]
+            volume = abs(np.sum(np.cross(corners[:, 0], corners[:, 1]) * corners[:, 2])) / 6.0
+            found.append((volume, _object_id("mesh", k), mesh.material))
+    for _, obj, material in sorted(found, key=lambda entry: (-entry[0], entry[1])):
+        out = _appended(out, np.array([obj]), np.array([material]))
+    return out[0]
 
 
 def _winding_number(mesh, eye: np.ndarray) -> float:

@@ -7,6 +7,7 @@
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/array.h>
 #include <nanobind/stl/optional.h>
+#include <nanobind/stl/pair.h>
 #include <nanobind/stl/variant.h>
 #include <nanobind/stl/vector.h>
 
@@ -224,8 +225,12 @@ Image render(const phong::Scene& scene, const phong::CameraDescription& camera_d
         throw std::invalid_argument("width, height and samples must be >= 1");
     if (settings.max_depth < 0 || settings.max_depth > phong::kMaxDepth)
         throw std::invalid_argument("max_depth must be in 0.." + std::to_string(phong::kMaxDepth));
-    if (settings.camera_medium < -1 || settings.camera_medium >= int32_t(scene.materials.size()))
-        throw std::invalid_argument("camera_medium must be -1 or a material index");
+    if (settings.camera_interiors.size() > size_t(phong::kMaxInteriors))
+        throw std::invalid_argument("camera_interiors: at most " + std::to_string(phong::kMaxInteriors));
+    for (const auto& [object, material] : settings.camera_interiors)
+        if (object < 0 || size_t(object) >= scene.object_count() || material < 0 ||
+            size_t(material) >= scene.materials.size())
+            throw std::invalid_argument("camera_interiors: (object, material) out of range");
     // The Python model validates these (phongscene.validate); a direct caller gets an error, not
     // a 2^(n-1)-sized +AM2 buffer or a NaN threshold.
     const bool native_pattern = settings.sample_pattern == phong::SamplePattern::kStratified ||
@@ -584,7 +589,7 @@ NB_MODULE(_native, m) {
         .def_rw("aa_threshold", &RenderSettings::aa_threshold)
         .def_rw("max_depth", &RenderSettings::max_depth)
         .def_rw("transmission_convention", &RenderSettings::transmission_convention)
-        .def_rw("camera_medium", &RenderSettings::camera_medium)
+        .def_rw("camera_interiors", &RenderSettings::camera_interiors)
         .def_rw("threads", &RenderSettings::threads)
         .def_rw("background", &RenderSettings::background)
         .def_rw("specular_convention", &RenderSettings::specular_convention);

@@ -3,6 +3,7 @@
 #include "render.hpp"
 
 #include "adaptive_pixels.hpp"
+#include "interiors.hpp"
 #include "low_discrepancy.hpp"
 #include "normal_maps.hpp"
 
@@ -109,9 +110,9 @@ struct ShadowQuery {
     }
 };
 
-// `medium`: the interior the ray travels in (a material of the scene), or nullptr outside.
+// `inside`: the interiors the ray travels in (interiors.hpp).
 RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std::vector<BundleCandidate>& candidates,
-                    const Material* medium);
+                    const Interiors& inside);
 
 const Material& material_of(const Scene& world, const Hit& hit) {
     const Scene& scene = world.surface_of(hit);  // an instance's primitives are its prototype's
@@ -120,6 +121,11 @@ const Material& material_of(const Scene& world, const Hit& hit) {
                       : hit.ref < 0            ? scene.intrinsic(hit.ref).material
                                                : scene.triangle_material(size_t(hit.ref));
     return scene.materials[size_t(m)];
+}
+
+// The interior of the object hit (interiors.hpp): an instance's copy is its own.
+Interior interior_of(const Scene& world, const Hit& hit) {
+    return Interior{hit.instance, world.surface_of(hit).object_of(hit.ref), &material_of(world, hit)};
 }
 
 // POV-Ray's shadow cache (ref §6) seen through glass: the thread's cached opaque occluder is
@@ -145,13 +151,16 @@ bool opaque_behind_glass(const TraceContext& context, const Ray& ray, double t_m
 // POV-Ray computes it (ref §18): the shadow ray goes straight (no refraction), an opaque object
 // blocks it, and each crossing of a transmissive surface multiplies it by kt. Each segment
 // counts hits in the shadow window, as an opaque shadow ray does, from the last crossing on.
-// Inside an interior the light is filtered by Beer-Lambert (POV-Ray's fade, ref §18); the ray
-// starts in `medium` and enters or leaves a transmissive object at each of its surfaces (closed,
-// not nested: the straight line alternates). With the light's shadow link (`casts`, or nullptr:
-// every object casts) an object outside it is passed through untouched, neither blocking nor
-// filtering nor entering its interior: POV-Ray's `no_shadow` in the exact mapping's pass.
-// (Instances all cast, as in Scene::occluded_linked.)
-RGB shadow_filter(const TraceContext& context, const Vec3& p, const Vec3& l, double distance, const Material* medium,
+// The ray starts in the shaded ray's interiors and, at each transmissive surface, leaves that
+// object's interior if it is in it, else enters it (POV-Ray's ComputeShadowMedia). A crossing of
+// a surface whose interior the ray is in is faded by Beer-Lambert over the segment since the
+// last crossing (POV-Ray's fade, ComputeShadowTexture, ref §18); nothing else is: not an
+// enclosing interior's stretch before a nested object, nor the last stretch to a light inside
+// glass (no surface there). With the light's shadow link (`casts`, or nullptr: every object
+// casts) an object outside it is passed through untouched, neither blocking nor filtering nor
+// entering its interior: POV-Ray's `no_shadow` in the exact mapping's pass, which its shadow rays
+// never meet. (Instances all cast, as in Scene::occluded_linked.)
+RGB shadow_filter(const TraceContext& context, const Vec3& p, const Vec3& l, double distance, Interiors inside,
                   const unsigned char* casts) {
     const double window = context.tolerances.shadow_window;
     if (context.settings.numerics == Numerics::kPovrayShadowCache &&
@@ -160,22 +169,25 @@ RGB shadow_filter(const TraceContext& context, const Vec3& p, const Vec3& l, dou
     RGB filter{1.0, 1.0, 1.0};
     Vec3 from = p;
     double remaining = distance;
+    double segment = 0.0;  // since the last crossing of a casting surface
     for (int crossings = 0; crossings <= kMaxShadowCrossings; ++crossings) {
         Hit hit;
         const Ray ray{from, l};
         const bool found = context.povray_walk
                                ? context.scene.closest_hit_povray_walk(ray, window, remaining - window, hit)
                                : context.scene.closest_hit(ray, window, remaining - window, hit);
-        if (!found) return medium == nullptr ? filter : hadamard(filter, medium_transmittance(medium, remaining));
+        if (!found) return filter;
         const Material& m = material_of(context.scene, hit);
         const bool casts_shadow =
             casts == nullptr || hit.instance >= 0 || casts[size_t(context.scene.object_of(hit.ref))];
+        segment += hit.t;
         if (casts_shadow) {
             if (!(m.kt > 0.0)) return RGB{};
-            filter = hadamard(filter, medium_transmittance(medium, hit.t)) * m.kt;
-            medium = medium == &m ? nullptr : &m;
-        } else if (medium != nullptr) {
-            filter = hadamard(filter, medium_transmittance(medium, hit.t));  // still inside
+            const Interior crossed = interior_of(context.scene, hit);
+            if (inside.contains(crossed)) filter = hadamard(filter, medium_transmittance(&m, segment));
+            filter = filter * m.kt;
+            inside.toggle(crossed);
+            segment = 0.0;
         }
         from = ray.at(hit.t);
         remaining -= hit.t;
@@ -185,7 +197,7 @@ RGB shadow_filter(const TraceContext& context, const Vec3& p, const Vec3& l, dou
 
 // The colour of `hit` on `ray`, a ray of depth `depth` (the camera's: 0).
 RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::vector<BundleCandidate>& candidates,
-              int depth, const Material* medium) {
+              int depth, const Interiors& inside) {
     const Scene& scene = context.scene;
     const RenderSettings& settings = context.settings;
     const double window = context.tolerances.shadow_window;
@@ -276,14 +288,12 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     // Two-sided: the shading normal faces the viewer (as POV-Ray). The unflipped normal points
     // out of a closed object, so a ray meeting it from behind is leaving the interior (the book's
     // rule, Suffern's Dielectric). POV-Ray instead knows which interiors a ray is in (its
-    // history): a transmissive surface is left only by a ray inside its interior. The two differ
-    // where an interpolated normal turns away from a ray entering near a smooth mesh's
-    // silhouette; in the POV-Ray convention its rule decides. (The side is the surface's, not the
-    // normal map's: a map tilting the normal past the view ray does not turn the surface inside out.)
+    // history, interiors.hpp): a transmissive surface is left only by a ray inside its interior.
+    // The two differ where an interpolated normal turns away from a ray entering near a smooth
+    // mesh's silhouette, and wherever transparent objects nest or overlap; in the POV-Ray
+    // convention its rule decides. (The side is the surface's, not the normal map's: a map tilting
+    // the normal past the view ray does not turn the surface inside out.)
     const bool back_facing = dot(n, ray.dir) > 0.0;
-    const bool povray_interiors =
-        settings.transmission_convention == TransmissionConvention::kPovray && material->kt > 0.0;
-    const bool leaving = povray_interiors ? medium != nullptr && medium == &material_of(scene, hit) : back_facing;
     if (normal_mapped) n = mapped_normal;
     // The book lights a transparent surface with its unflipped normal, also where a ray inside
     // meets it (Suffern's Sphere::hit does not turn the normal; Phong::shade takes n·wi > 0): a
@@ -330,13 +340,11 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                         assert(light.cell_samples == 0);
                         const unsigned char* casts =
                             link != nullptr && !link->casts.empty() ? link->casts.data() : nullptr;
-                        const bool inside_a_non_caster =
-                            casts != nullptr && leaving && object >= 0 && !casts[size_t(object)];
                         const AreaLightGrid& grid = context.grids[j];
                         auto filter_of = [&](size_t k) {
                             const Vec3 v = area_light_sample(light, grid, centre.l, k) - p;
                             const double d = length(v);
-                            return shadow_filter(context, p, v / d, d, inside_a_non_caster ? nullptr : medium, casts);
+                            return shadow_filter(context, p, v / d, d, inside, casts);
                         };
                         RGB filtered{};
                         if (light.adaptive != kFullSubdivision) {
@@ -364,13 +372,10 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                     if (context.filtered_shadows) {  // filtered by transmissive occluders
                         const unsigned char* casts =
                             link != nullptr && !link->casts.empty() ? link->casts.data() : nullptr;
-                        // From inside an object that casts none of this light's shadows its
-                        // interior does not filter the light either: the ray starts outside it.
-                        const bool inside_a_non_caster =
-                            casts != nullptr && leaving && object >= 0 && !casts[size_t(object)];
+                        // (Inside an object that casts none of this light's shadows the ray never
+                        // crosses its surface, so its interior does not filter the light.)
                         centre.color =
-                            hadamard(centre.color, shadow_filter(context, p, centre.l, centre.distance,
-                                                                 inside_a_non_caster ? nullptr : medium, casts));
+                            hadamard(centre.color, shadow_filter(context, p, centre.l, centre.distance, inside, casts));
                         fraction = 1.0;
                         return;
                     }
@@ -389,39 +394,80 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     if (depth >= settings.max_depth || !(material->kr > 0.0 || material->kt > 0.0)) return color;
     // Transparency (transmission.hpp): under total internal reflection the mirror ray at full
     // weight replaces both the kr and the kt terms.
+    const bool book = settings.transmission_convention == TransmissionConvention::kBook;
+    const bool transmissive = material->kt > 0.0;
+    // The index ratio across the surface in the ray's direction (n_to / n_from) for the refracted
+    // ray (eta) and for the Fresnel split (fresnel_eta), and the interiors of the refracted and
+    // the reflected rays. A reflected ray keeps its side.
+    double eta, fresnel_eta;
+    Interiors refracted_inside;  // the book's: none, or this object's
+    Interiors reflected_inside = inside;
+    if (book || !transmissive) {
+        const bool leaving = back_facing;
+        eta = fresnel_eta = leaving ? 1.0 / material->ior : material->ior;
+        if (transmissive && !leaving) refracted_inside.append(interior_of(scene, hit));
+        if (book && transmissive && leaving) {  // the reflected ray stays inside (Suffern)
+            reflected_inside = Interiors{};
+            reflected_inside.append(interior_of(scene, hit));
+        }
+    } else {
+        // POV-Ray's rules (trace.cpp ComputeRefraction for the ray, ComputeRelativeIOR for
+        // Fresnel; 3.7.0.8, ref §18), with (X / X) a ray entering / leaving X:
+        //   outside every object: enter (ior)
+        //   leaving the innermost: into the next one out (n_next / ior; 1 / ior to the outside);
+        //     Fresnel takes the innermost twice when there is a next one out: ratio 1, F = 0
+        //   leaving an object that is not the innermost, (A (B A): ratio 1, the ray continues
+        //     unrefracted into B; Fresnel takes B / A
+        //   entering while inside: ior / n_innermost (the innermost is left "for" the new one)
+        const Interior here = interior_of(scene, hit);
+        const double ior = here.material->ior;
+        refracted_inside = inside;
+        if (inside.empty()) {
+            eta = fresnel_eta = ior;
+            refracted_inside.append(here);
+        } else if (inside.innermost().same_object(here)) {
+            refracted_inside.remove(here);
+            eta = refracted_inside.empty() ? 1.0 / ior : refracted_inside.innermost().material->ior / ior;
+            fresnel_eta = inside.size() == 1 ? 1.0 / ior : 1.0;
+        } else if (refracted_inside.remove(here)) {
+            eta = 1.0;
+            fresnel_eta = inside.innermost().material->ior / ior;
+        } else {
+            eta = fresnel_eta = ior / inside.innermost().material->ior;
+            refracted_inside.append(here);
+        }
+    }
     Vec3 refracted;
     double cos_t = 1.0;
-    const double eta = leaving ? 1.0 / material->ior : material->ior;
-    const bool refracts = material->kt > 0.0 && refract_direction(ray.dir, n, eta, refracted, cos_t);
-    const bool book = settings.transmission_convention == TransmissionConvention::kBook;
+    const bool refracts = transmissive && refract_direction(ray.dir, n, eta, refracted, cos_t);
     // POV-Ray's continued ray: unrefracted, at this ray's depth (the book counts every crossing).
     const bool continued = !book && refracts && std::fabs(eta - 1.0) < kPovraySameIorEpsilon;
-    // The interiors the secondary rays travel in (not nested): a reflected ray stays on the side it
-    // came from, a refracted one crosses into this material's interior or out of it.
-    const Material* interior = material->kt > 0.0 ? &material_of(scene, hit) : nullptr;
-    const Material* reflected_medium = leaving && interior ? interior : medium;
-    const Material* refracted_medium = leaving ? nullptr : interior;
     // Beer-Lambert: the book filters every ray over its path inside an interior (trace_secondary);
     // POV-Ray only what a transparent surface transmits (refracted, or internally reflected),
-    // over the incoming ray's path inside (ref §18: its reflections and opaque hits inside are
-    // not faded).
-    const RGB carried = book ? RGB{1.0, 1.0, 1.0} : medium_transmittance(medium, hit.t);
-    if (material->kt > 0.0 && !refracts)
+    // over the incoming ray's path inside this surface's interior (ref §18: its reflections and
+    // opaque hits inside are not faded, nor is the stretch of an enclosing interior before a
+    // nested object).
+    RGB carried{1.0, 1.0, 1.0};
+    if (!book && transmissive && inside.contains(interior_of(scene, hit)))
+        carried = medium_transmittance(&material_of(scene, hit), hit.t);
+    if (transmissive && !refracts)
         return color + hadamard(trace_secondary(context, Ray{p, mirror_direction(ray.dir, n)}, depth + 1, candidates,
-                                                reflected_medium),
+                                                reflected_inside),
                                 carried);
     // The dielectric's Fresnel split. An opaque fresnel material reflects as the surface of an ior
     // interior (as POV-Ray); where Snell has no solution cos θt = 0, so F = 1.
     double reflectance = 1.0;
     if (material->fresnel) {
         const double cos_i = dot(n, wo);
-        if (!refracts) cos_t = std::sqrt(std::fmax(0.0, 1.0 - (1.0 - cos_i * cos_i) / (eta * eta)));
-        reflectance = fresnel_reflectance(cos_i, cos_t, eta);
+        const bool own_ratio = fresnel_eta != eta;  // only where POV-Ray's two rules differ
+        if (!refracts || own_ratio)
+            cos_t = std::sqrt(std::fmax(0.0, 1.0 - (1.0 - cos_i * cos_i) / (fresnel_eta * fresnel_eta)));
+        reflectance = fresnel_reflectance(cos_i, cos_t, fresnel_eta);
     }
     // Mirror reflection on top of the Phong terms (ref §18: POV-Ray adds it the same way).
     if (material->kr > 0.0) {
         const Ray reflected{p, mirror_direction(ray.dir, n)};
-        const RGB seen = trace_secondary(context, reflected, depth + 1, candidates, reflected_medium);
+        const RGB seen = trace_secondary(context, reflected, depth + 1, candidates, reflected_inside);
         color += hadamard(material->reflective_color, seen) * (material->kr * reflectance);
     }
     if (refracts) {
@@ -429,7 +475,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         const double weight = book ? kt / (eta * eta) : kt;
         const Ray transmitted{p, continued ? ray.dir : refracted};
         color +=
-            hadamard(trace_secondary(context, transmitted, continued ? depth : depth + 1, candidates, refracted_medium),
+            hadamard(trace_secondary(context, transmitted, continued ? depth : depth + 1, candidates, refracted_inside),
                      carried) *
             weight;
     }
@@ -438,13 +484,14 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
 
 // The colour seen along a secondary ray leaving a surface (a miss: the background).
 RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std::vector<BundleCandidate>& candidates,
-                    const Material* medium) {
+                    const Interiors& inside) {
     Hit hit;
     const bool book = context.settings.transmission_convention == TransmissionConvention::kBook;
+    const Material* medium = inside.innermost_material();  // the book's: at most one
     if (!context.scene.closest_hit(ray, context.tolerances.secondary_near, HUGE_VAL, hit))
         return book ? hadamard(context.settings.background, medium_transmittance(medium, HUGE_VAL))
                     : context.settings.background;
-    const RGB seen = shade_hit(context, ray, hit, candidates, depth, medium);
+    const RGB seen = shade_hit(context, ray, hit, candidates, depth, inside);
     return medium == nullptr || !book ? seen : hadamard(seen, medium_transmittance(medium, hit.t));
 }
 
@@ -460,6 +507,10 @@ TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_,
             for (const Material& m : scene.instances->prototype(p).materials) transmissive = transmissive || m.kt > 0.0;
     filtered_shadows = transmissive && settings.transmission_convention == TransmissionConvention::kPovray;
     povray_walk = settings.numerics != Numerics::kScaleInvariant;
+    for (const auto& [object, material] : settings.camera_interiors) {
+        assert(material >= 0 && size_t(material) < scene.materials.size());  // bindings.cpp checks it
+        camera_inside.append(Interior{-1, object, &scene.materials[size_t(material)]});
+    }
 }
 
 RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch,
@@ -469,9 +520,7 @@ RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<Bundl
     if (!(origin ? context.scene.closest_hit(ray, *origin, near, HUGE_VAL, hit)
                  : context.scene.closest_hit(ray, near, HUGE_VAL, hit)))
         return context.settings.background;
-    const int32_t inside = context.settings.camera_medium;
-    assert(inside < int32_t(context.scene.materials.size()));  // bindings.cpp checks it
-    return shade_hit(context, ray, hit, scratch, 0, inside >= 0 ? &context.scene.materials[size_t(inside)] : nullptr);
+    return shade_hit(context, ray, hit, scratch, 0, context.camera_inside);
 }
 
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,

@@ -4,9 +4,11 @@
 #pragma once
 
 #include <functional>
+#include <utility>
 #include <vector>
 
 #include "camera.hpp"
+#include "interiors.hpp"
 #include "materials.hpp"
 #include "scene.hpp"
 #include "transmission.hpp"
@@ -38,9 +40,10 @@ struct RenderSettings {
     // than this returns black (POV-Ray's max_trace_level max_depth + 1).
     int max_depth = 5;
     TransmissionConvention transmission_convention = TransmissionConvention::kBook;
-    // The material (Scene::materials) of the transparent object containing the camera, whose
-    // interior camera rays start in (POV-Ray's rule; phongscene/containment.py), or -1: outside.
-    int32_t camera_medium = -1;
+    // The transparent objects containing the camera, whose interiors camera rays start in
+    // (POV-Ray's rule; phongscene/containment.py), outermost first: (object in Scene::object_of's
+    // numbering, its material in Scene::materials). Empty: outside every object.
+    std::vector<std::pair<int32_t, int32_t>> camera_interiors;
 };
 
 // The deepest max_depth a render accepts (phongscene/limits.py MAX_DEPTH: POV-Ray's limit); the
@@ -71,6 +74,8 @@ struct TraceContext {
     bool filtered_shadows = false;
     // POV-Ray numerics: shadow rays see meshes as POV-Ray's mesh walk reports them (povray_walk.cpp).
     bool povray_walk = false;
+    // The interiors camera rays start in (RenderSettings::camera_interiors).
+    Interiors camera_inside;
 
     TraceContext(const Scene& scene, const RenderSettings& settings, const RayTolerances& tolerances);
 };
