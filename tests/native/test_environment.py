@@ -214,3 +214,19 @@ def test_environment_validation():
     assert all(p.prim in ("/World/Dome", "") for p in problems)
     wrong = validate(Scene(environment="a dome"))  # type: ignore[arg-type]
     assert [p.attribute for p in wrong] == ["environment"]
+
+
+def test_image_checks_do_not_count_the_environment_as_objects():
+    """The image diagnostics tell objects from misses by the background colour; with an
+    environment every pixel differs from it, which says nothing about objects in view."""
+    from phongscene.diagnostics import explain_image
+
+    camera = Camera(position=(0.0, 0.0, 0.0), forward=(0.0, 0.0, 1.0), up=(0.0, 1.0, 0.0))
+    scene = Scene(
+        camera=camera,
+        spheres=(Sphere.at((0.0, 0.0, -4.0), 0.5),),  # behind the camera
+        environment=Environment(Texture(IMAGE)),
+        settings=RenderSettings(width=8, height=6),
+    )
+    warnings = explain_image(scene, native.render(scene))
+    assert len(warnings) == 1 and warnings[0].startswith("nothing in view:"), warnings
