@@ -146,3 +146,12 @@ def test_domes_it_cannot_model_are_their_mean(tmp_path):
     assert any("pole on Z" in w for w in result.warnings)
     path.write_text(path.read_text().replace('"Z"', '"Y"'))
     assert read_usd(str(path)).scene.environment is not None
+
+
+def test_info_shows_the_environment(tmp_path, capsys):
+    from phongscene.cli import main
+
+    _stage(tmp_path)
+    assert main(["info", "--no-sandbox", str(tmp_path / "scene.usda")]) == 0
+    out = capsys.readouterr().out
+    assert "environment: /Sky: 16x8 lat-long, scale (4, 2, 1)" in out
