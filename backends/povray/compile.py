@@ -741,7 +741,7 @@ class _Compiler:
 
     def sky_sphere(self) -> str:
         """The environment (model ``Environment``) as a sky_sphere, which replaces the background
-        wherever a ray misses (ref §21): POV-Ray's spherical image map (``map_type 1``) takes the
+        wherever a ray misses (ref §19): POV-Ray's spherical image map (``map_type 1``) takes the
         longitude from +X towards +Z and puts column 0 there, so the sphere's ``matrix`` M turns
         the dome's frame by M⁻¹ = P·dome_from_world, P: (x, y, z) → (−z, y, x), which lands UsdLux's
         column 0 (longitude +π, along −Z) on POV-Ray's. The scale is the sky_sphere's emission."""

@@ -3,7 +3,7 @@
 ``sky_sphere { pigment { image_map { exr … map_type 1 interpolate 2 } } emission … matrix … }``
 against the native tracer in POV-Ray's numerics, camera rays that miss and a mirror sphere
 reflecting it, turned domes, both mappings (the exact one carries it in pass 0 only). The native
-lookup itself: tests/native/test_environment.py; the measured semantics: ref §21."""
+lookup itself: tests/native/test_environment.py; the measured semantics: ref §19."""
 
 from __future__ import annotations
 

@@ -134,7 +134,7 @@ def test_environment_between_texels_is_the_bilinear_reference():
 
 def test_environment_povray_numerics_repeat_across_the_pole():
     """POV-Ray's lookup wraps the row index too: straight up it blends the top row with the bottom
-    one, half and half (docs/povray-3.7-semantics.md §21); the default clamps to the top row."""
+    one, half and half (docs/povray-3.7-semantics.md §19); the default clamps to the top row."""
     environment = Environment(Texture(IMAGE))
     up = (0.0, 1.0, 0.0)
     np.testing.assert_allclose(_look(up, environment, "scale-invariant")[1], 0.0, atol=TEXEL_TOLERANCE)

@@ -3,7 +3,7 @@
 // sees along its direction, looked up in a lat-long map in the OpenEXR layout UsdLux specifies
 // (longitude 0 along +Z, +π/2 along +X, the top row +Y; phongscene/scene.py: Environment).
 // POV-Ray numerics reproduce POV-Ray 3.7's `sky_sphere { pigment { image_map { map_type 1
-// interpolate 2 } } }` (docs/povray-3.7-semantics.md §21, measured), which differs only within
+// interpolate 2 } } }` (docs/povray-3.7-semantics.md §19, measured), which differs only within
 // half a texel of the poles, where POV-Ray's lookup repeats the image vertically (the top row
 // blends with the bottom one) while the default clamps to the pole row.
 #pragma once
@@ -52,8 +52,8 @@ struct Environment {
 
     // POV-Ray's spherical image map (imageutil.cpp: spherical_image_map, map_pos, Interp with
     // bilinear factors) on the direction the compiler's sky_sphere matrix maps d_dome to,
-    // (−z, y, x): there POV-Ray's longitude, measured from +X towards +Z, is the lat-long map's
-    // u·2π − π/2, so its column 0 lands where UsdLux's does.
+    // (−z, y, x): there POV-Ray's u, its longitude from +X towards +Z over 2π, is the lat-long
+    // map's u (UsdLux's column 0, along −Z, lands on POV-Ray's, along +X).
     RGB povray_texel(const Vec3& d_dome) const {
         Vec3 p{-d_dome.z, d_dome.y, d_dome.x};
         p = p / length(p);
