@@ -100,3 +100,47 @@ def test_sky_sphere_only_with_an_environment_and_in_pass_zero():
     assert sdl.index("sky_sphere {") < case_one and "sky_sphere {" not in sdl[case_one:]
     passes = pass_scenes(scene, "exact")
     assert passes[0].environment is scene.environment and all(p.environment is None for p in passes[1:])
+
+
+# Texel (i, j) of a 16×8 map holds (i, j, i²): a blend of two columns tells which two they are.
+W, H = 16, 8
+INDEX_MAP = np.stack(
+    np.broadcast_arrays(
+        np.arange(W, dtype=np.float32)[None, :],
+        np.arange(H, dtype=np.float32)[:, None],
+        np.arange(W, dtype=np.float32)[None, :] ** 2,
+    ),
+    axis=-1,
+).astype(np.float32)
+# (i, j, i²) values are small integers and halves: exact in half floats (POV-Ray's EXR output).
+INDEX_TOLERANCE = 1e-6
+
+
+@pytest.mark.parametrize(
+    ("direction", "seen"),
+    [
+        pytest.param((1.0, 0.0, 0.0), (7.5, 3.5, 112.5), id="+X-seam-columns-15-0"),
+        pytest.param((0.0, 0.0, 1.0), (3.5, 3.5, 12.5), id="+Z-columns-3-4"),
+        pytest.param((-1.0, 0.0, 0.0), (7.5, 3.5, 56.5), id="-X-columns-7-8"),
+        pytest.param((0.0, 0.0, -1.0), (11.5, 3.5, 132.5), id="-Z-columns-11-12"),
+        pytest.param((0.0, 1.0, 0.0), (7.5, 3.5, 112.5), id="+Y-rows-0-7"),
+        pytest.param((0.0, -1.0, 0.0), (7.5, 3.5, 112.5), id="-Y-rows-7-0"),
+    ],
+)
+def test_povray_spherical_map_as_measured(direction, seen):
+    """POV-Ray's own map_type 1 (ref §19), through an environment whose frame makes the SDL's
+    matrix the identity (dome_from_world = Pᵀ): u from +X towards +Z, and at the poles the rows
+    repeat (top and bottom blend) at the seam's longitude."""
+    to_povray = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
+    d = np.asarray(direction)
+    up = np.array([1.0, 0.0, 0.0]) if abs(d[1]) > 0.5 else np.array([0.0, 1.0, 0.0])
+    scene = Scene(
+        camera=Camera(position=(0.0, 0.0, 0.0), forward=direction, up=tuple(up), horizontal_fov_deg=1e-3),
+        environment=Environment(Texture(INDEX_MAP), dome_from_world=to_povray.T),
+        settings=RenderSettings(width=1, height=1),
+    )
+    sdl = compile_pov(scene, mapping="classic")
+    assert "matrix <1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0>" in sdl.replace("-0.0", "0.0")
+    np.testing.assert_allclose(
+        render(scene, "povray", mapping="classic", explain=False)[0, 0], seen, atol=INDEX_TOLERANCE
+    )
