@@ -69,6 +69,9 @@ class ImageChecks:
     nothing_in_view: str = ""  # why the camera sees no object ("" when it may see one)
     causes: tuple[str, ...] = ()  # what in the scene makes what the camera sees dark
     light_count: int = 0
+    # Rays that miss see the environment (model Environment), not the background colour: every
+    # pixel shows something, and which show an object cannot be told from their colour.
+    environment: bool = False
 
     @staticmethod
     def of(scene: Scene, settings: RenderSettings | None = None, reader_warnings=()) -> ImageChecks:
@@ -92,6 +95,7 @@ class ImageChecks:
             nothing_in_view=nothing_in_view,
             causes=tuple(causes),
             light_count=len(scene.lights),
+            environment=scene.environment is not None,
         )
 
     def model_warnings(self) -> list[str]:
@@ -104,9 +108,12 @@ class ImageChecks:
         pixels = np.asarray(image, dtype=np.float32)
         largest = pixels.max(axis=2)
         black = 100.0 * float(np.count_nonzero(largest < BLACK_RADIANCE)) / largest.size
-        shows = np.any(pixels != np.asarray(self.background, dtype=np.float32), axis=2)
+        if self.environment:
+            shows = np.ones(largest.shape, dtype=bool)
+        else:
+            shows = np.any(pixels != np.asarray(self.background, dtype=np.float32), axis=2)
         if self.nothing_in_view:
-            seen = int(np.count_nonzero(shows))
+            seen = 0 if self.environment else int(np.count_nonzero(shows))
             detail = f" ({seen} of {largest.size} pixels show anything)" if seen else ""
             return [f"nothing in view{detail}: {self.nothing_in_view}"]
         bright = _percentile(largest[shows], BRIGHT_PERCENTILE) if shows.any() else 0.0

@@ -442,6 +442,36 @@ class AmbientLight:
         _as_triples(self, "color")
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class Environment:
+    """The environment at infinity (USD: a textured DomeLight): the radiance a ray that hits
+    nothing sees along its direction d, in place of ``RenderSettings.background``.
+
+    ``texture.image`` is a lat-long map in the OpenEXR layout UsdLux specifies: in the dome's
+    frame, d_dome = ``dome_from_world`` · d, longitude φ = atan2(x, z) (0 along +Z, π/2 along
+    +X) and latitude θ = asin(y) (+Y the top pole). The lookup is ``texture``'s bilinear one
+    at u = ½ − φ/2π (the left edge is φ = +π, the centre column +Z), v = ½ + θ/π (the top row
+    is +Y), repeating around the longitude and clamped at the poles; the result is scaled by
+    ``scale`` (UsdLux's color · intensity · 2^exposure). Compares and hashes by identity."""
+
+    texture: Texture  # the lat-long image (its wraps are not used: see above)
+    scale: RGB = (1.0, 1.0, 1.0)  # linear RGB multiplier, >= 0
+    # (3, 3) float64, orthogonal: the dome's frame from world space (the inverse, the transpose,
+    # of the rotation of its transform)
+    dome_from_world: np.ndarray = field(default_factory=lambda: np.eye(3))
+    source: str = ""  # the DomeLight prim
+
+    def __post_init__(self) -> None:
+        _as_triples(self, "scale")
+        m = np.array(_real_array(self.dome_from_world, "Environment", "dome_from_world", self.source), dtype=np.float64)
+        if m.shape != (3, 3):
+            raise _bad_value(
+                "Environment", "dome_from_world", self.source, f"expected a 3x3 matrix, got shape {m.shape}"
+            )
+        m.setflags(write=False)
+        object.__setattr__(self, "dome_from_world", m)
+
+
 @dataclass(frozen=True, slots=True)
 class Cone:
     """A spot light's cone (UsdLux ShapingAPI): along unit ``axis`` the light is unchanged where
@@ -990,6 +1020,8 @@ class Scene:
     # Prototypes placed by transforms (instancing): their meshes are in prototype space.
     instances: tuple[Instances, ...] = ()
     points: tuple[Points, ...] = ()  # UsdGeom.Points: many spheres each, compactly
+    # What rays that hit nothing see, by direction (None: settings.background, one colour).
+    environment: Environment | None = None
 
     @property
     def triangle_count(self) -> int:

@@ -44,6 +44,7 @@ from .scene import (
     Camera,
     Cone,
     DirectionalLight,
+    Environment,
     Instances,
     Intrinsic,
     Linking,
@@ -265,6 +266,17 @@ def _wrong_types(scene: Scene) -> list[Problem]:
             )
     if not isinstance(scene.source_file, str):
         out.append(Problem(f"must be a str, got {type(scene.source_file).__name__}", attribute="source_file"))
+    environment = scene.environment
+    if environment is not None and not (
+        isinstance(environment, Environment) and isinstance(environment.texture, Texture)
+    ):
+        out.append(
+            Problem(
+                f"must be an Environment with a Texture (or None), got {type(environment).__name__}",
+                attribute="environment",
+                file=scene.source_file,
+            )
+        )
     return out
 
 
@@ -310,6 +322,8 @@ def validate(scene: Scene) -> list[Problem]:
     _check_camera(c, scene.camera)
     _check_settings(c, scene.settings)
     c.colour(scene.ambient, "color")
+    if scene.environment is not None:
+        _check_environment(c, scene.environment)
     for light in scene.lights:
         _check_light(c, light)
     materials: list[PhongMaterial] = []
@@ -442,6 +456,18 @@ def _check_texture(c: _Collector, t, signed: bool = False) -> None:
     elif (low < (-MAX_TEXEL if signed else 0)) or high > MAX_TEXEL:
         lowest = f"-{MAX_TEXEL:g}" if signed else "0"
         c.add(t, "image", f"texel values must be in [{lowest}, {MAX_TEXEL:g}], got {low:g}..{high:g}")
+
+
+def _check_environment(c: _Collector, e: Environment) -> None:
+    """The dome's image (as a texture's), its scale (a colour) and its frame: a rotation, or a
+    mirrored one (orthogonal to UNIT_TOLERANCE: the lookup takes the direction as it is)."""
+    _check_texture(c, e.texture)
+    c.colour(e, "scale")
+    m = e.dome_from_world
+    if not np.all(np.isfinite(m)):
+        c.add(e, "dome_from_world", "must be finite")
+    elif np.max(np.abs(m @ m.T - np.eye(3))) > UNIT_TOLERANCE:
+        c.add(e, "dome_from_world", "must be orthogonal (a rotation, possibly mirrored)")
 
 
 def _check_camera(c: _Collector, cam: Camera) -> None:

@@ -373,7 +373,7 @@ def light_link_arrays(scene: Scene) -> dict | None:
 
 
 def _finish(native: _native.Scene, scene: Scene, *, povray_numerics: bool = False) -> _native.Scene:
-    """Textures and light links onto a built C++ scene."""
+    """Textures, the environment and light links onto a built C++ scene."""
     if povray_numerics:
         # The uvs the SDL holds are the compiler's to say (imported here: a plain render needs
         # no POV-Ray compiler, tests/cli/test_startup_costs.py).
@@ -384,6 +384,16 @@ def _finish(native: _native.Scene, scene: Scene, *, povray_numerics: bool = Fals
         textures = texture_arrays(scene)
     if textures is not None:
         native.set_textures(**textures)
+    environment = scene.environment
+    if environment is not None:
+        native.set_environment(
+            # The model's array, held by C++ (no copy); in POV-Ray numerics rounded to half
+            # floats there, as POV-Ray reads the EXR the compiler writes.
+            image=np.ascontiguousarray(environment.texture.image, dtype=np.float32),
+            scale=environment.scale,
+            dome_from_world=[float(x) for x in environment.dome_from_world.reshape(-1)],
+            half_texels=povray_numerics,
+        )
     links = light_link_arrays(scene)
     if links is not None:
         native.set_light_links(**links)

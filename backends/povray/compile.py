@@ -234,7 +234,8 @@ class PovImage:
 
 def pov_images(scene: Scene) -> tuple[UvFrame, dict[int, tuple[str, PovImage]]]:
     """The scene's UvFrame and, by ``id(texture)``, the file name and image POV-Ray reads for
-    each texture (extended over the frame when its file is written)."""
+    each texture (extended over the frame when its file is written); the environment's, by
+    ``id(scene.environment)``."""
     frame = uv_frame(scene)
     out: dict[int, tuple[str, PovImage]] = {}
     for obj in (*scene.spheres, *all_meshes(scene)):
@@ -242,6 +243,9 @@ def pov_images(scene: Scene) -> tuple[UvFrame, dict[int, tuple[str, PovImage]]]:
             if id(t) not in out:
                 image = PovImage(t, frame)
                 out[id(t)] = (image.file_name(), image)
+    if scene.environment is not None:  # the sky_sphere's lat-long map, never extended: by id(environment)
+        image = PovImage(scene.environment.texture, UvFrame())
+        out[id(scene.environment)] = (image.file_name(), image)
     return frame, out
 
 
@@ -275,7 +279,7 @@ def pass_count(scene: Scene, mapping: str) -> int:
 def pass_scenes(scene: Scene, mapping: str) -> tuple[Scene, ...]:
     """What each render pass of ``mapping`` draws, as scenes whose linear images add up to the
     picture: for ``exact`` with several lights, one light each, pass 0 with the ambient light and
-    the background, the others with neither (as the SDL's ``#switch (Pass)``); else the scene."""
+    the background (or environment), the others with neither (as the SDL's ``#switch (Pass)``); else the scene."""
     if pass_count(scene, mapping) == 1:
         return (scene,)
     dark = AmbientLight((0.0, 0.0, 0.0), scene.ambient.source)
@@ -296,6 +300,7 @@ def pass_scenes(scene: Scene, mapping: str) -> tuple[Scene, ...]:
             lights=(light,),
             ambient=scene.ambient if i == 0 else dark,
             settings=scene.settings if i == 0 else replace(scene.settings, background=(0.0, 0.0, 0.0)),
+            environment=scene.environment if i == 0 else None,
             spheres=scene.spheres if i == 0 or not unlit else dark_spheres,
             meshes=scene.meshes if i == 0 or not unlit else dark_meshes,
             intrinsics=scene.intrinsics if i == 0 or not unlit else dark_intrinsics,
@@ -550,6 +555,8 @@ class _Compiler:
             self.lines.append(
                 f"background {{ color rgb {self.rgb(self.settings.background, self.settings, 'background')} }}"
             )
+            if self.scene.environment is not None:
+                self.lines.append(self.sky_sphere())
             for i, light in enumerate(self.scene.lights):
                 self.comment(light, "light", i)
                 self.lines.append(self.light_source(light))
@@ -713,6 +720,8 @@ class _Compiler:
             first = i == 0
             self.lines.append(f"  global_settings {{ ambient_light rgb {ambient if first else '<0, 0, 0>'} }}")
             self.lines.append(f"  background {{ color rgb {background if first else '<0, 0, 0>'} }}")
+            if first and self.scene.environment is not None:
+                self.lines.append("  " + self.sky_sphere())
             if self.emission:
                 self.lines.append(f"  #declare Emission = {1 if first else 0};")
             if light is None:
@@ -729,6 +738,23 @@ class _Compiler:
                     )
             self.lines.append("#break")
         self.lines.append("#end")
+
+    def sky_sphere(self) -> str:
+        """The environment (model ``Environment``) as a sky_sphere, which replaces the background
+        wherever a ray misses (ref §19): POV-Ray's spherical image map (``map_type 1``) takes the
+        longitude from +X towards +Z and puts column 0 there, so the sphere's ``matrix`` M turns
+        the dome's frame by M⁻¹ = P·dome_from_world, P: (x, y, z) → (−z, y, x), which lands UsdLux's
+        column 0 (longitude +π, along −Z) on POV-Ray's. The scale is the sky_sphere's emission."""
+        e = self.scene.environment
+        to_povray = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
+        m = np.eye(4)
+        m[:3, :3] = (to_povray @ e.dome_from_world).T  # orthogonal: its inverse
+        name = self.images[id(e)][0]
+        comment = sanitize_comment(e.source) if e.source else "environment"
+        return (
+            f'sky_sphere {{ pigment {{ image_map {{ exr "{name}" map_type 1 interpolate 2 }} }} '
+            f"emission rgb {self.rgb(e.scale, e, 'scale')} {self.matrix(e, m)} }}  // {comment}"
+        )
 
     def comment_text(self, node, kind: str, index: int) -> str:
         source = getattr(node, "source", "")

@@ -103,6 +103,12 @@ def run_info(args) -> int:
                 terms.append("fresnel")
             print(f"  {m.source or '(material)'}: {', '.join(terms)}")
     print(f"ambient: {_vector(scene.ambient.color)}")
+    if scene.environment is not None:
+        e = scene.environment
+        print(
+            f"environment: {e.source or '(built in Python)'}: {e.texture.width}x{e.texture.height} lat-long, "
+            f"scale {_vector(e.scale)} (seen by rays that miss, in place of the background)"
+        )
     cam = scene.camera
     extent = (
         f"hfov {cam.horizontal_fov_deg:.6g} deg" if cam.projection == "perspective" else f"width {cam.ortho_width:.6g}"

@@ -15,14 +15,25 @@ semantics: only the shadows are sampled).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 from pxr import Usd, UsdLux
 
-from ..limits import MAX_RADIANCE
-from ..scene import AmbientLight, Cone, DirectionalLight, PointLight, RectAreaLight, SphereAreaLight
+from ..limits import MAX_RADIANCE, MAX_TEXEL
+from ..scene import (
+    AmbientLight,
+    Cone,
+    DirectionalLight,
+    Environment,
+    PointLight,
+    RectAreaLight,
+    SphereAreaLight,
+    Texture,
+)
+from ..tolerances import SINGULAR_RELATIVE_DET
 from . import names
 from .context import ReadContext, unit
 from .layers import not_regular
@@ -180,14 +191,15 @@ class _Common:
     falloff: str
 
 
-def read_light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) -> None:
+def read_light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list, environments: list | None = None) -> None:
     """One UsdLux light into the model, in UsdLux's units (see README: lights) unless it asks for
     the seed's light. The emitted luminance L (normalized by the emitting area when
     ``inputs:normalize``) becomes: for a SphereLight of world radius r the radiant intensity
     I = L·πr² (= L/4 when normalized; treatAsPoint or r = 0: a point light with that I), for a
     RectLight of world area A the intensity along its normal I = L·A (= L when normalized), for
     a DistantLight the irradiance E = L·π·sin²(angle/2) (= L when normalized or angle = 0), for
-    an untextured DomeLight the ambient radiance La = L."""
+    an untextured DomeLight the ambient radiance La = L; a textured one its mean radiance, and in
+    ``environments`` the dome as an environment (``_environment``)."""
     path = str(prim.GetPath())
     world = ctx.world(prim)
     centre = tuple(float(c) for c in world[:3, 3])
@@ -201,6 +213,8 @@ def read_light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) ->
     terms = _terms(ctx, prim)
     common = _Common(path, world, centre, seed, luminance, terms, "none" if seed else "inverse-square")
     first_light, first_ambient = len(lights), len(ambient)
+    if read is _dome_light:
+        read = functools.partial(_dome_light, environments=environments)
     read(ctx, prim, common, lights, ambient)
     for made in (*lights[first_light:], *ambient[first_ambient:]):
         if max(made.color) > MAX_RADIANCE:
@@ -218,18 +232,58 @@ def read_light(ctx: ReadContext, prim: Usd.Prim, lights: list, ambient: list) ->
             break
 
 
-def _dome_light(ctx: ReadContext, prim: Usd.Prim, light: _Common, lights: list, ambient: list) -> None:
+def _dome_light(
+    ctx: ReadContext, prim: Usd.Prim, light: _Common, lights: list, ambient: list, environments: list | None = None
+) -> None:
     luminance = light.luminance
     texture = prim.GetAttribute("inputs:texture:file")
     asset = texture.Get(ctx.time) if texture else None
     if asset and asset.path:
-        mean = _texture_mean(ctx, prim, asset)
-        if mean is None:
+        read = _texture_mean(ctx, prim, asset)
+        if read is None:
             return
+        mean, image = read
+        if image is not None and environments is not None:
+            environment = _environment(ctx, prim, light, image, asset)
+            if environment is not None:
+                environments.append(environment)
         luminance = luminance * mean
     # The ambient term is diffuse light: the dome's diffuse multiplier scales it.
     ambient.append(AmbientLight(_rgb(luminance * light.terms["diffuse"]), light.path))
     ctx.nodes.append((light.path, "AmbientLight"))
+
+
+def _environment(ctx: ReadContext, prim: Usd.Prim, light: _Common, image: np.ndarray, asset) -> Environment | None:
+    """The textured dome as the environment rays that miss may see (the reader decides whether
+    they do: reader.py), or None with a warning when it cannot be one and only its mean is used.
+    Its frame is the rotation of the dome's transform (the polar factor: a dome at infinity has
+    no size or shear); UsdLux puts the texture's top pole on the frame's +Y, which DomeLight_1
+    moves with poleAxis (only +Y is modelled)."""
+    path = light.path
+    pole = prim.GetAttribute("poleAxis")
+    axis = pole.Get(ctx.time) if pole and pole.HasAuthoredValue() else "scene"
+    if prim.GetTypeName() == "DomeLight_1" and not (axis == "Y" or (axis == "scene" and not ctx.z_up)):
+        ctx.unsupported["DomeLight_1 with its pole on Z (its mean is the background)"].append(path)
+        return None
+    high = float(image.max())
+    if not (np.isfinite(high) and float(image.min()) >= 0.0 and high <= MAX_TEXEL):
+        ctx.unsupported[f"dome textures with texels outside [0, {MAX_TEXEL:g}] (their mean is the background)"].append(
+            path
+        )
+        return None
+    if high * float(np.max(light.luminance)) > MAX_RADIANCE:
+        ctx.unsupported["dome textures brighter than the renderers' radiance (their mean is the background)"].append(
+            path
+        )
+        return None
+    linear = light.world[:3, :3]
+    u, sigma, vt = np.linalg.svd(linear)
+    if sigma[-1] <= SINGULAR_RELATIVE_DET * sigma[0] or not np.all(np.isfinite(sigma)):
+        ctx.unsupported["domes with a degenerate transform (their mean is the background)"].append(path)
+        return None
+    world_from_dome = u @ vt
+    file = asset.resolvedPath or asset.path
+    return Environment(Texture(image, source=path, file=file), _rgb(light.luminance), world_from_dome.T, path)
 
 
 def _sphere_light(ctx: ReadContext, prim: Usd.Prim, light: _Common, lights: list, ambient: list) -> None:
@@ -380,11 +434,11 @@ _READERS = (
 _READERS_BY_NAME = {"DomeLight_1": _dome_light}
 
 
-def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
+def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> tuple[np.ndarray, np.ndarray | None] | None:
     """The mean radiance of a DomeLight's texture (OpenImageIO), over texels weighted by the
-    solid angle they cover in a lat-long map (cos of the latitude), with a warning; 1 (an
-    untextured dome) with a warning when it cannot be read; None (and a problem) when it is
-    not a regular file."""
+    solid angle they cover in a lat-long map (cos of the latitude), with a warning, and the
+    image (read-only float32); 1 (an untextured dome) and no image, with a warning, when it
+    cannot be read; None (and a problem) when it is not a regular file."""
     from ..errors import PhongSceneError
     from ..images import read_image  # OpenImageIO: only for a scene with a textured dome
     from ..memory_model import announce, texture_model_bytes
@@ -407,7 +461,8 @@ def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
         return None
     except (PhongSceneError, TextureRefused) as e:
         ctx.warn(f"{prim.GetPath()}.inputs:texture:file: cannot read the texture: {e} (the dome lights untextured)")
-        return np.ones(3)
+        return np.ones(3), None
+    image.setflags(write=False)  # owned and frozen: the model keeps it without a copy
     rows = image.shape[0]
     latitude = (np.arange(rows) + 0.5) / rows * math.pi - math.pi / 2
     weights = np.cos(latitude)[:, None] * np.ones(image.shape[1])
@@ -415,4 +470,4 @@ def _texture_mean(ctx: ReadContext, prim: Usd.Prim, asset) -> np.ndarray | None:
     ctx.unsupported["textured DomeLights (their mean radiance is the ambient light)"].append(
         f"{prim.GetPath()} (mean {', '.join(f'{c:.4g}' for c in mean)})"
     )
-    return mean
+    return mean, image

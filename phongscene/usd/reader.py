@@ -25,7 +25,17 @@ from pxr import Tf, Usd, UsdGeom, UsdLux
 
 from ..errors import Problem, SceneError, SceneFileNotFoundError
 from ..limits import MAX_SUBDIVISION_LEVEL
-from ..scene import AmbientLight, Camera, Intrinsic, Points, RenderSettings, Scene, framing_camera, head_light
+from ..scene import (
+    AmbientLight,
+    Camera,
+    Environment,
+    Intrinsic,
+    Points,
+    RenderSettings,
+    Scene,
+    framing_camera,
+    head_light,
+)
 from ..validate import validate
 from . import curves, geometry
 from .camera import choose_camera, conform_to_aperture, read_camera, read_render_settings
@@ -205,9 +215,10 @@ def _read(
     settings, camera_prim = read_render_settings(ctx)
     named_camera = camera_prim is not None  # the RenderSettings' camera
     camera, lights, ambient, spheres, meshes, cameras = None, [], [], [], [], []
+    environments: list[Environment] = []  # textured domes that can be the environment
     # Each light and gprim is read through ``parts``: anew, or replayed from a stage's first read.
     materials = parts.materials(ctx)
-    parts.start(ctx, (lights, ambient, spheres, meshes))
+    parts.start(ctx, (lights, ambient, spheres, meshes, environments))
 
     it = iter(Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
     renderable = _Renderable(ctx)
@@ -230,7 +241,7 @@ def _read(
             if camera_prim is None:
                 camera_prim = prim
         elif prim.HasAPI(UsdLux.LightAPI):
-            parts.read(prim, lambda: read_light(ctx, prim, lights, ambient))
+            parts.read(prim, lambda: read_light(ctx, prim, lights, ambient, environments))
         elif prim.IsA(UsdGeom.PointInstancer):
             it.PruneChildren()  # its prototypes may be anywhere: read at every time
             parts.read(prim, lambda: instancing.instancer(prim, ctx.world(prim)), keep=False)
@@ -251,6 +262,7 @@ def _read(
         if camera is not None:
             settings = conform_to_aperture(ctx, camera_prim, settings)
     ambient_color = tuple(float(sum(a.color[i] for a in ambient)) for i in range(3)) if ambient else (0.0, 0.0, 0.0)
+    environment = None
     if (
         ambient
         and settings.background == RenderSettings().background
@@ -258,8 +270,17 @@ def _read(
     ):
         # A DomeLight is the environment at infinity: what a mirror or a glass (and a camera ray
         # that misses) sees there, as every USD renderer shows it. Only scenes with secondary rays
-        # (and no phong:background of their own) get it, so that no other image changes.
-        settings = replace(settings, background=ambient_color)
+        # (and no phong:background of their own) get it, so that no other image changes. A
+        # textured dome, the only one, is seen texel by texel (model Environment); otherwise
+        # the domes' summed radiance (a textured one's mean) is the background colour.
+        if len(ambient) == 1 and len(environments) == 1 and environments[0].source == ambient[0].source:
+            environment = environments[0]
+        else:
+            settings = replace(settings, background=ambient_color)
+            for e in environments:
+                ctx.unsupported["textured DomeLights beside other DomeLights (their mean is the background)"].append(
+                    e.source
+                )
     scene = Scene(
         camera=camera or Camera(),
         ambient=AmbientLight(ambient_color, ambient[0].source if len(ambient) == 1 else ""),
@@ -271,6 +292,7 @@ def _read(
         source_file=file,
         instances=instances,
         points=tuple(s for s in spheres if isinstance(s, Points)),
+        environment=environment,
     )
     if camera is None:
         scene = replace(scene, camera=framing_camera(scene))

@@ -11,6 +11,7 @@
 #include <nanobind/stl/variant.h>
 #include <nanobind/stl/vector.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -197,6 +198,30 @@ void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, 
         scene.uv_origin[k] = uv_origin[k];
         scene.uv_span[k] = uv_span[k];
     }
+}
+
+// Gives the scene its environment (a lat-long map: the caller's array, held, not copied; with
+// half_texels a copy in half floats, as POV-Ray holds an EXR's texels).
+void set_environment(phong::Scene& scene, const TextureImage& image, const phong::RGB& scale,
+                     const std::array<double, 9>& dome_from_world, bool half_texels) {
+    if (image.shape(0) < 1 || image.shape(1) < 1) throw std::invalid_argument("the environment has no texels");
+    phong::Texture texture;
+    texture.height = int(image.shape(0));
+    texture.width = int(image.shape(1));
+    texture.wrap_s = phong::Wrap::kRepeat;  // around the longitude
+    texture.wrap_t = phong::Wrap::kClamp;   // at the poles
+    if (half_texels) {
+        auto halves = std::make_shared<std::vector<uint16_t>>(image.size());
+        for (size_t k = 0; k < image.size(); ++k) (*halves)[k] = phong::to_half(image.data()[k]);
+        texture.halves = halves->data();
+        texture.owner = std::move(halves);
+    } else {
+        texture.texels = image.data();
+        texture.owner = std::make_shared<TextureImage>(image);
+    }
+    scene.environment.texture = std::move(texture);
+    scene.environment.scale = scale;
+    std::copy(dome_from_world.begin(), dome_from_world.end(), scene.environment.dome_from_world);
 }
 
 using Flags = In<uint8_t, nb::shape<-1>>;
@@ -629,6 +654,10 @@ NB_MODULE(_native, m) {
              "Textures (float32 (H, W, 3), row 0 at the top; held, not copied; with half_texels, copies in half "
              "floats), indexed by Material.diffuse_texture, specular_texture and normal_texture, and the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order; a lookup takes uv_origin + uv_span * (u, v).")
+        .def("set_environment", &set_environment, "image"_a, "scale"_a, "dome_from_world"_a, "half_texels"_a = false,
+             "The environment rays that hit nothing see (phongscene.scene.Environment): a lat-long image, float32 "
+             "(H, W, 3), row 0 at the top (held, not copied; with half_texels, a copy in half floats), its RGB "
+             "scale and the dome's frame from world space (row-major 3x3, orthogonal).")
         .def("set_light_links", &set_light_links, "shadows"_a, "lit"_a, "casts"_a,
              "Per light (one entry each): whether it casts shadow rays, and the objects (spheres 0..S-1, then meshes "
              "S + m) it illuminates and that cast its shadows, as uint8 arrays of one flag per object (empty: all).")

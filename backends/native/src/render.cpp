@@ -482,15 +482,23 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     return color;
 }
 
-// The colour seen along a secondary ray leaving a surface (a miss: the background).
+// What a ray that hits nothing sees: the environment along its direction, else the background.
+RGB miss(const TraceContext& context, const Ray& ray) {
+    const Environment& environment = context.scene.environment;
+    if (!environment.present()) return context.settings.background;
+    return environment.lookup(ray.dir, context.settings.numerics != Numerics::kScaleInvariant);
+}
+
+// The colour seen along a secondary ray leaving a surface (a miss: miss()).
 RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std::vector<BundleCandidate>& candidates,
                     const Interiors& inside) {
     Hit hit;
     const bool book = context.settings.transmission_convention == TransmissionConvention::kBook;
     const Material* medium = inside.innermost_material();  // the book's: at most one
-    if (!context.scene.closest_hit(ray, context.tolerances.secondary_near, HUGE_VAL, hit))
-        return book ? hadamard(context.settings.background, medium_transmittance(medium, HUGE_VAL))
-                    : context.settings.background;
+    if (!context.scene.closest_hit(ray, context.tolerances.secondary_near, HUGE_VAL, hit)) {
+        const RGB missed = miss(context, ray);
+        return book ? hadamard(missed, medium_transmittance(medium, HUGE_VAL)) : missed;
+    }
     const RGB seen = shade_hit(context, ray, hit, candidates, depth, inside);
     return medium == nullptr || !book ? seen : hadamard(seen, medium_transmittance(medium, hit.t));
 }
@@ -519,7 +527,7 @@ RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<Bundl
     const double near = context.tolerances.primary_near;
     if (!(origin ? context.scene.closest_hit(ray, *origin, near, HUGE_VAL, hit)
                  : context.scene.closest_hit(ray, near, HUGE_VAL, hit)))
-        return context.settings.background;
+        return miss(context, ray);
     return shade_hit(context, ray, hit, scratch, 0, context.camera_inside);
 }
 

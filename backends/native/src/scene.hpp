@@ -21,6 +21,7 @@
 #include "math.hpp"
 #include "povray_triangle.hpp"
 #include "shapes.hpp"
+#include "environment.hpp"
 #include "textures.hpp"
 #include "triangle_store.hpp"
 
@@ -233,6 +234,9 @@ class Scene {
     // textures), the caller's array held by corner_uv_owner (48 bytes a triangle: 614 MB for the
     // chess set's 12.8M, not copied).
     std::vector<Texture> textures;
+    // What rays that hit nothing see, by direction (a textured DomeLight); absent: the
+    // settings' background colour.
+    Environment environment;
     const double* corner_uv = nullptr;
     size_t corner_uv_rows = 0;
     std::shared_ptr<const void> corner_uv_owner;
