@@ -301,6 +301,13 @@ class PhongMaterial:
     # texels are signed, (0, 0, 1) the unperturbed normal. Meshes with uvs only. POV-Ray 3.7 has
     # no such map (its bump_map is a height field in a world-fixed frame): the SDL leaves it out.
     normal_texture: Texture | None = None
+    # A cut-out mask (UsdPreviewSurface's masked mode: ``opacity`` from a texture, ``opacityThreshold``
+    # > 0): where the texture's first channel, looked up as the colours are, is below
+    # opacity_threshold the surface is not there: rays pass it unchanged, at their depth, and
+    # shadow rays too. Meshes with uvs only. POV-Ray: a texture_map stepping from a clear texture
+    # to the surface's at the threshold, over the mask as an image_pattern.
+    opacity_texture: Texture | None = None
+    opacity_threshold: float = 0.0  # in (0, 1] with an opacity_texture (0: none)
     # The book's Checker3D (Suffern's 3D checker texture, the cd of its SV_Matte and SV_Phong
     # materials): cd is diffuse_color (its color1) or checker_color (color2) by the parity of
     # floor((x + ε)/s) + floor((y + ε)/s) + floor((z + ε)/s) at the world-space hit point,
@@ -350,9 +357,18 @@ class PhongMaterial:
         )
 
     @property
+    def cut_out(self) -> bool:
+        """Whether a texture masks the surface out where its opacity is below the threshold."""
+        return self.opacity_texture is not None
+
+    @property
     def textures(self) -> tuple[Texture, ...]:
-        """The textures the material samples (diffuse, specular, normal)."""
-        return tuple(t for t in (self.diffuse_texture, self.specular_texture, self.normal_texture) if t is not None)
+        """The textures the material samples (diffuse, specular, normal, opacity)."""
+        return tuple(
+            t
+            for t in (self.diffuse_texture, self.specular_texture, self.normal_texture, self.opacity_texture)
+            if t is not None
+        )
 
     @property
     def colour_textures(self) -> tuple[Texture, ...]:
@@ -361,7 +377,14 @@ class PhongMaterial:
 
     def without_textures(self) -> PhongMaterial:
         """The same material with its constant colours only (the textures' fallbacks)."""
-        return replace(self, diffuse_texture=None, specular_texture=None, normal_texture=None)
+        return replace(
+            self,
+            diffuse_texture=None,
+            specular_texture=None,
+            normal_texture=None,
+            opacity_texture=None,
+            opacity_threshold=0.0,
+        )
 
 
 DEFAULT_MATERIAL = PhongMaterial()

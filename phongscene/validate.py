@@ -368,6 +368,17 @@ def validate(scene: Scene) -> list[Problem]:
                     "materials (kt > 0) are filtered at its grid samples, which the cells estimator does "
                     "not do: unset it, or render in the book's convention (glass casts opaque shadows)",
                 )
+    if any(m.opacity_texture is not None for m in materials):
+        # Light passes a mask's cut-out texels: shadow rays go surface by surface, which an area
+        # light's grid samples do and the cells estimator (visibility of whole cells) does not.
+        for light in scene.lights:
+            if isinstance(light, (RectAreaLight, SphereAreaLight)) and light.cell_samples is not None:
+                c.add(
+                    light,
+                    "cell_samples",
+                    "light passes the cut-out texels of a material's mask (opacity_texture), which the "
+                    "cells estimator does not see: unset it (the area light's grid is traced instead)",
+                )
     return c.problems
 
 
@@ -430,7 +441,16 @@ def _check_material(c: _Collector, m: PhongMaterial) -> None:
     c.colour(m, "checker_outline_color")
     if _number(m.checker_size) and m.checker_size > 0 and m.diffuse_texture is not None:
         c.add(m, "checker_size", "a checker and a diffuse texture both give cd: use one of them")
-    for field in ("diffuse_texture", "specular_texture", "normal_texture"):
+    if c.real(m, "opacity_threshold", m.opacity_threshold):
+        if m.opacity_texture is not None and not 0.0 < m.opacity_threshold <= 1.0:
+            c.add(
+                m, "opacity_threshold", f"must be in (0, 1] with an opacity_texture, got {_show(m.opacity_threshold)}"
+            )
+        elif m.opacity_texture is None and m.opacity_threshold != 0.0:
+            c.add(m, "opacity_threshold", "needs an opacity_texture (the mask it thresholds)")
+    if m.opacity_texture is not None and _number(m.kt) and m.kt > 0:
+        c.add(m, "opacity_texture", "a cut-out mask on a transmissive material (kt > 0) is not modelled")
+    for field in ("diffuse_texture", "specular_texture", "normal_texture", "opacity_texture"):
         t = getattr(m, field)
         if t is None:
             continue

@@ -92,6 +92,9 @@ def _materials(models) -> list[_native.Material]:
             native.specular_texture = texture_ids.setdefault(id(m.specular_texture), len(texture_ids))
         if m.normal_texture is not None:
             native.normal_texture = texture_ids.setdefault(id(m.normal_texture), len(texture_ids))
+        if m.opacity_texture is not None:
+            native.opacity_texture = texture_ids.setdefault(id(m.opacity_texture), len(texture_ids))
+            native.opacity_threshold = m.opacity_threshold
         out.append(native)
     return out
 
@@ -119,7 +122,7 @@ def texture_arrays(scene: Scene, *, half_texels: bool = False, frame: UvFrame | 
         models.setdefault(obj.material, None)
     textures: dict[int, object] = {}
     for m in models:
-        for t in m.textures:  # diffuse, specular, normal: as _materials numbers them
+        for t in m.textures:  # diffuse, specular, normal, opacity: as _materials numbers them
             textures.setdefault(id(t), t)
     if not textures:
         return None

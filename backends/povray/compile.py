@@ -184,13 +184,18 @@ def all_meshes(scene: Scene) -> tuple[TriangleMesh, ...]:
     return (*scene.meshes, *(m for p in scene.prototypes for m in p.meshes))
 
 
+def _uv_mapped(m: PhongMaterial) -> tuple[Texture, ...]:
+    """The textures the SDL looks up on a mesh's uvs: the colours' and the cut-out mask."""
+    return (*m.colour_textures, *((m.opacity_texture,) if m.opacity_texture is not None else ()))
+
+
 def uv_frame(scene: Scene) -> UvFrame:
     """The scene's UvFrame: identity if every texture repeats (or none is used), else the box
     around every textured mesh's uvs and [0, 1]², widened by 1/g on each side (beyond the half
     texel a bilinear lookup reaches), unless an extended image would exceed MAX_TILED_TEXELS
     (then identity: POV-Ray's ``once`` is exact for clamp and mirror inside [0, 1]² only)."""
-    textured = [m for m in all_meshes(scene) if m.material.colour_textures and m.uvs is not None and len(m.triangles)]
-    textures = {id(t): t for m in (*scene.spheres, *all_meshes(scene)) for t in m.material.colour_textures}
+    textured = [m for m in all_meshes(scene) if _uv_mapped(m.material) and m.uvs is not None and len(m.triangles)]
+    textures = {id(t): t for m in (*scene.spheres, *all_meshes(scene)) for t in _uv_mapped(m.material)}
     if all((t.wrap_s, t.wrap_t) == ("repeat", "repeat") for t in textures.values()) or not textured:
         return UvFrame()
     used = np.concatenate([m.uvs[np.unique(m.uv_indices)] for m in textured])
@@ -215,9 +220,13 @@ class PovImage:
 
     texture: Texture
     frame: UvFrame
+    # A cut-out mask: the first channel in all three, so that the image_pattern's grey value
+    # (0.297 r + 0.589 g + 0.114 b, in double, rounded to float) is that channel exactly.
+    grey: bool = False
 
     def pixels(self) -> np.ndarray:
-        return self.texture.image if self.frame.identity else self.frame.tile(self.texture)
+        image = self.texture.image if self.frame.identity else self.frame.tile(self.texture)
+        return np.repeat(image[..., :1], 3, axis=2) if self.grey else image
 
     def file_name(self) -> str:
         """The file name it is written to beside the SDL: from a hash of the texels and of how
@@ -229,6 +238,8 @@ class PovImage:
         if not self.frame.identity:
             t = self.texture
             digest.update(repr((astuple(self.frame), t.wrap_s, t.wrap_t)).encode("ascii"))
+        if self.grey:
+            digest.update(b"grey")
         return f"phongscene-texture-{digest.hexdigest()[:16]}.exr"
 
 
@@ -243,6 +254,11 @@ def pov_images(scene: Scene) -> tuple[UvFrame, dict[int, tuple[str, PovImage]]]:
             if id(t) not in out:
                 image = PovImage(t, frame)
                 out[id(t)] = (image.file_name(), image)
+    for mesh in all_meshes(scene):  # the cut-out masks, grey, by ("mask", id(texture))
+        t = mesh.material.opacity_texture
+        if t is not None and ("mask", id(t)) not in out:
+            image = PovImage(t, frame, grey=True)
+            out[("mask", id(t))] = (image.file_name(), image)
     if scene.environment is not None:  # the sky_sphere's lat-long map, never extended: by id(environment)
         image = PovImage(scene.environment.texture, UvFrame())
         out[id(scene.environment)] = (image.file_name(), image)
@@ -774,9 +790,37 @@ class _Compiler:
         self.materials[m] = name
         self.lines.append(self.comment_text(m, "material", len(self.materials) - 1))
         texture = self.texture(m, name)
+        if m.cut_out:
+            self.lines.append(f"#declare {name}_Surface = {texture}")
+            texture = self.cut_out(m, f"{name}_Surface")
         self.lines.append(f"#declare {name} = {texture}")
         if unlit:
-            self.lines.append(f"#declare {name}_Unlit = {self.unlit_texture(m)}")
+            unlit_texture = self.unlit_texture(m)
+            if m.cut_out:
+                self.lines.append(f"#declare {name}_Unlit_Surface = {unlit_texture}")
+                unlit_texture = self.cut_out(m, f"{name}_Unlit_Surface")
+            self.lines.append(f"#declare {name}_Unlit = {unlit_texture}")
+
+    def cut_out(self, m: PhongMaterial, surface: str) -> str:
+        """The declared texture ``surface`` cut out by ``m``'s mask: a texture_map over the mask
+        as an image_pattern (its grey value: the opacity, PovImage.grey) that steps from a clear
+        texture (transmit 1: no ambient, diffuse, highlight or mirror term, the ray continues at
+        its depth, a shadow ray passes) to ``surface`` at the threshold: with two entries of one
+        value POV-Ray takes the first below it and the last from it on (pattern.cpp
+        Search_Blend_Map), so the clear one where p < threshold, as the native tracer decides."""
+        if m.transmits:
+            raise self._error(
+                m, "opacity_texture", "a cut-out mask on a transmissive material (kt > 0) is not modelled"
+            )
+        t = m.opacity_texture
+        once = "" if self.uv_frame.identity and (t.wrap_s, t.wrap_t) == ("repeat", "repeat") else " once"
+        name = self.images[("mask", id(t))][0]
+        step = self.coef(m.opacity_threshold, m, "opacity_threshold")
+        clear = "pigment { rgbt <0, 0, 0, 1> } finish { ambient 0 diffuse 0 }"  # an entry: a body
+        return (
+            f'texture {{ uv_mapping image_pattern {{ exr "{name}" interpolate 2{once} }} '
+            f"texture_map {{ [{step} {clear}] [{step} {surface}] }} }}"
+        )
 
     def diffuse_pigment(self, m: PhongMaterial) -> str:
         """cd as a pigment: a colour, or the texture as an ``image_map`` on the mesh's uvs. The

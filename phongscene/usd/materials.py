@@ -363,7 +363,8 @@ class MaterialReader:
                 material = dataclasses.replace(material, ks=top)
                 specular = Connected(cs, material.specular_color, ks.st)
         textured = self._textured(material, connected["diffuseColor"], specular)
-        return self._with_normal_map(textured, self._normal_map(shader, "normal"))
+        mapped = self._with_normal_map(textured, self._normal_map(shader, "normal"))
+        return self._with_opacity_mask(mapped, shader, material.opacity_threshold)
 
     def _preview_emission(self, shader: UsdShade.Shader) -> tuple[float, float, float]:
         """UsdPreviewSurface's emissiveColor: Le, added to the shaded colour (the model's
@@ -407,8 +408,34 @@ class MaterialReader:
         return float(value)
 
     def _preview_opacity(self, shader: UsdShade.Shader) -> tuple[float, float]:
-        """UsdPreviewSurface's (opacity, opacityThreshold), constants in [0, 1]."""
-        return self._preview_scalar(shader, "opacity", 1.0), self._preview_scalar(shader, "opacityThreshold", 0.0)
+        """UsdPreviewSurface's (opacity, opacityThreshold), constants in [0, 1]. A textured
+        opacity with a threshold > 0 is the masked mode's cut-out (_with_opacity_mask): its
+        constant here is 1 (the texture decides)."""
+        threshold = self._preview_scalar(shader, "opacityThreshold", 0.0)
+        inp = shader.GetInput("opacity")
+        if threshold > 0 and inp and inp.HasConnectedSource():
+            return 1.0, threshold
+        return self._preview_scalar(shader, "opacity", 1.0), threshold
+
+    def _with_opacity_mask(self, material: PhongMaterial, shader: UsdShade.Shader, threshold: float) -> PhongMaterial:
+        """``material`` cut out by the texture on ``shader``'s opacity input where it is below
+        ``threshold`` (UsdPreviewSurface's masked mode; our shader's opacity and
+        opacityThreshold). Without a threshold, or a texture, as it is; an image that could not
+        be read leaves its fallback as a constant opacity (below the threshold: nothing of the
+        gprims is hit, as a constant cut-out)."""
+        inp = shader.GetInput("opacity")
+        if not (threshold > 0 and inp and inp.HasConnectedSource()):
+            return dataclasses.replace(material, opacity_threshold=0.0) if material.opacity_threshold else material
+        connected = self.textures.connected(shader, "opacity")
+        plain = dataclasses.replace(material, opacity_threshold=0.0)
+        if connected is None or connected.texture is None:
+            fallback = 1.0 if connected is None else float(connected.fallback[0])
+            if fallback < threshold:
+                self.cut_out.add(material.source)
+            return plain
+        masked = dataclasses.replace(material, opacity_texture=connected.texture, opacity_threshold=float(threshold))
+        self.st_of[masked] = self.st_of.get(material, connected.st)
+        return masked
 
     def _preview(self, shader: UsdShade.Shader) -> PhongMaterial:
         prim = shader.GetPrim()
@@ -495,7 +522,8 @@ class MaterialReader:
             material = dataclasses.replace(material, emission=emission)
         if threshold > 0:
             # The spec's masked mode: below the threshold the surface is absent, at or above it
-            # fully opaque (no translucency). Constant opacity only: the gprims are omitted.
+            # fully opaque (no translucency). A constant opacity omits the gprims; a textured one
+            # is a cut-out mask (_with_opacity_mask).
             if opacity < threshold:
                 self.cut_out.add(material.source)
         elif opacity < 1:
@@ -503,8 +531,12 @@ class MaterialReader:
         metal = None if metallic_texture is None else metallic_texture.texture
         if metal is not None and not int(values["useSpecularWorkflow"]):
             if diffuse_texture is None or diffuse_texture.texture is None:
-                return self._with_normal_map(
-                    self._metallic_textured(material, metallic_texture, values, specular_level), normal_map
+                return self._with_opacity_mask(
+                    self._with_normal_map(
+                        self._metallic_textured(material, metallic_texture, values, specular_level), normal_map
+                    ),
+                    shader,
+                    threshold,
                 )
             self.ctx.unsupported["textured metallic over a textured diffuseColor (the mean metallic is used)"].append(
                 str(prim.GetPath())
@@ -518,7 +550,8 @@ class MaterialReader:
                 specular_texture = self.textures.connected(shader, "specularColor", factor)
             else:
                 specular_texture = None  # the metallic workflow does not read specularColor
-        return self._with_normal_map(self._textured(material, diffuse_texture, specular_texture), normal_map)
+        mapped = self._with_normal_map(self._textured(material, diffuse_texture, specular_texture), normal_map)
+        return self._with_opacity_mask(mapped, shader, threshold)
 
     def _normal_map(self, shader: UsdShade.Shader, name: str) -> Connected | None:
         """The tangent-space normal map feeding input ``name`` of ``shader`` (a texture whose

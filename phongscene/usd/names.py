@@ -45,9 +45,12 @@ PHONG_INPUTS: dict[str, tuple[str, str]] = {
     # A texture-only input: connected to a UsdUVTexture (its scale and bias decode the tangent-space
     # normal), its value unused; unconnected, the surface's own normal.
     "normal": ("normal_texture", "normal3f"),
+    # A cut-out mask: opacity connected to a UsdUVTexture (its first channel), thresholded.
+    "opacity": ("opacity_texture", "float"),
+    "opacityThreshold": ("opacity_threshold", "float"),
 }
 # The inputs that only a connected texture gives a value (no constant in PhongMaterial).
-PHONG_MAP_INPUTS = ("normal",)
+PHONG_MAP_INPUTS = ("normal", "opacity")
 # The inputs every authored Phong shader carries (the seed's); the others only when not default.
 PHONG_SEED_INPUTS = ("ka", "kd", "ks", "exponent", "diffuseColor", "specularColor")
 

@@ -139,6 +139,13 @@ def define_phong_material(
         t = material.normal_texture
         normal_map = _texture_shader(stage, f"{path}/NormalTexture", t, texture_file(t), (0.0, 0.0, 1.0))
         phong.CreateInput("normal", Sdf.ValueTypeNames.Normal3f).ConnectToSource(normal_map.ConnectableAPI(), "rgb")
+    mask = None
+    if material.opacity_texture is not None:
+        # The cut-out mask: its first channel, thresholded (the fallback: opaque).
+        t = material.opacity_texture
+        mask = _texture_shader(stage, f"{path}/OpacityTexture", t, texture_file(t), (1.0, 1.0, 1.0))
+        mask.CreateOutput("r", Sdf.ValueTypeNames.Float)
+        phong.CreateInput("opacity", Sdf.ValueTypeNames.Float).ConnectToSource(mask.ConnectableAPI(), "r")
     mat.CreateSurfaceOutput(PHONG_RENDER_CONTEXT).ConnectToSource(phong.ConnectableAPI(), "surface")
 
     # Preview fallback (for other tools): Lambert albedo kd·cd, and the reader's mapping
@@ -166,6 +173,9 @@ def define_phong_material(
         preview.GetInput("diffuseColor").ConnectToSource(albedo_texture.ConnectableAPI(), "rgb")
     if normal_map is not None:
         preview.CreateInput("normal", Sdf.ValueTypeNames.Normal3f).ConnectToSource(normal_map.ConnectableAPI(), "rgb")
+    if mask is not None:  # the spec's masked mode
+        preview.CreateInput("opacity", Sdf.ValueTypeNames.Float).ConnectToSource(mask.ConnectableAPI(), "r")
+        preview.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(float(material.opacity_threshold))
     mat.CreateSurfaceOutput().ConnectToSource(preview.ConnectableAPI(), "surface")
     return mat
 

@@ -300,6 +300,8 @@ class _Mesh:
     specular_texture: object = None  # ... and specular Texture
     source: str = ""  # the mesh's prim (light and shadow linking)
     normal_texture: object = None  # the material's tangent-space normal map
+    opacity_texture: object = None  # the material's cut-out mask (its first channel) ...
+    opacity_threshold: float = 0.0  # ... below which the surface is not there
 
 
 def normal_mapped(n: np.ndarray, e1: np.ndarray, e2: np.ndarray, uv: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -392,6 +394,10 @@ class _Geometry:
     def transmissive(self) -> bool:
         return bool(np.any(self.kt > 0.0))
 
+    @property
+    def cut_outs(self) -> bool:
+        return any(m.opacity_texture is not None for m in self.meshes)
+
 
 def _prepare(scene: Scene) -> _Geometry:
     materials: list = []
@@ -440,6 +446,8 @@ def _prepare(scene: Scene) -> _Geometry:
                 specular,
                 mesh.source,
                 normal_map,
+                mesh.material.opacity_texture,
+                float(mesh.material.opacity_threshold),
             )
         )
     intrinsic_materials = [material_index(i.material) for i in scene.intrinsics]
@@ -647,6 +655,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
     n = len(o)
     source = np.full(n, "", dtype=object)
     obj = np.full(n, -1, dtype=np.int64)
+    cut = np.zeros(n, dtype=bool)  # the hit is on a cut-out texel (the surface is not there)
     best_t = np.full(n, np.inf)
     material = np.full(n, -1, dtype=np.int64)
     normal = np.zeros((n, 3))
@@ -670,6 +679,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
         material[closer] = mat
         source[closer] = sphere_source
         obj[closer] = _object_id("sphere", k)
+        cut[closer] = False
         colour[closer] = geo.cd[mat]
         specular[closer] = geo.cs[mat]
         p_object = (o[closer] + t[closer, None] * d[closer]) @ inverse[:3, :3].T + inverse[:3, 3]
@@ -685,6 +695,7 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
         source[closer] = mesh.source
         obj[closer] = _object_id("mesh", k)
         tri, u, v = tri[closer], u[closer], v[closer]
+        cut[closer] = False
         colour[closer] = geo.cd[mesh.material]
         specular[closer] = geo.cs[mesh.material]
         if mesh.corner_uv is not None:
@@ -694,6 +705,9 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
                 colour[closer] = sample_texture(mesh.texture, st[:, 0], st[:, 1])
             if mesh.specular_texture is not None:
                 specular[closer] = sample_texture(mesh.specular_texture, st[:, 0], st[:, 1])
+            if mesh.opacity_texture is not None:
+                opacity = sample_texture(mesh.opacity_texture, st[:, 0], st[:, 1])[:, 0]
+                cut[closer] = opacity < mesh.opacity_threshold
         if mesh.corner_normals is None:
             nw = mesh.flat_normal[tri]
         else:
@@ -715,9 +729,10 @@ def _closest_hit(geo: _Geometry, o: np.ndarray, d: np.ndarray, accept=None):
         specular[closer] = geo.cs[mat]
         source[closer] = intrinsic.source
         obj[closer] = _object_id("intrinsic", k)
+        cut[closer] = False
         normal[closer] = nw[closer]
     _checker_colours(geo, o, d, best_t, material, colour)
-    return best_t, material, normal, colour, specular, source, obj
+    return best_t, material, normal, colour, specular, source, obj, cut
 
 
 _OBJECT_KINDS = ("sphere", "mesh", "intrinsic")
@@ -939,14 +954,15 @@ def _shade(
         if len(lit) == 0:
             continue
         nl = n_dot_l[lit]
-        if geo.transmissive and settings.transmission == "povray" and light.linking.shadows:
+        glass_filters = settings.transmission == "povray"
+        if ((geo.transmissive and glass_filters) or geo.cut_outs) and light.linking.shadows:
             # The shadow ray starts in the shaded ray's interiors (POV-Ray's light source ray is
             # a copy of the eye ray); one that casts no shadow is never crossed, so never fades.
             start = no_interiors(len(lit)) if inside is None else inside[lit].copy()
             shadowed_by = light.linking.shadowed_by
             casts = None if shadowed_by is None else shadowed_by.__contains__
             if isinstance(light, (PointLight, DirectionalLight)):
-                light_colour = lc[lit] * _shadow_filter(geo, p[lit], l[lit], dist[lit], start, casts)
+                light_colour = lc[lit] * _shadow_filter(geo, p[lit], l[lit], dist[lit], start, casts, glass_filters)
             else:
                 # An area light: each grid sample's shadow ray filtered, the colours weighted.
                 offsets, weights = area_light_offsets(light, l[lit])
@@ -955,7 +971,9 @@ def _shade(
                     to_sample = np.asarray(light.center, dtype=np.float64) + offsets[:, k] - p[lit]
                     sample_dist = np.linalg.norm(to_sample, axis=1)
                     sample_dir = to_sample / sample_dist[:, None]
-                    filtered += weight * _shadow_filter(geo, p[lit], sample_dir, sample_dist, start.copy(), casts)
+                    filtered += weight * _shadow_filter(
+                        geo, p[lit], sample_dir, sample_dist, start.copy(), casts, glass_filters
+                    )
                 light_colour = lc[lit] * filtered
         else:
             fraction = _visible_fraction(geo, light, p[lit], l[lit], dist[lit])
@@ -995,10 +1013,15 @@ def _trace(
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
     inside = no_interiors(len(o)) if inside is None else inside
-    t, material, normal, colour, specular, source, obj = _closest_hit(geo, o, d)
+    t, material, normal, colour, specular, source, obj, cut = _closest_hit(geo, o, d)
     radiance = np.empty((len(o), 3))
     radiance[:] = np.asarray(settings.background, dtype=np.float64)
-    hit = np.isfinite(t)
+    hit = np.isfinite(t) & ~cut
+    if cut.any():
+        # A cut-out texel: the ray goes on from the hit, unchanged, at its depth (POV-Ray's
+        # continued ray through a texel that transmits all).
+        rows = np.nonzero(cut)[0]
+        radiance[rows] = _trace(geo, scene, settings, o[rows] + t[rows, None] * d[rows], d[rows], depth, inside[rows])
     if hit.any():
         p = o[hit] + t[hit, None] * d[hit]
         radiance[hit] = _shade(
@@ -1129,14 +1152,21 @@ def _reflected(
 
 
 def _shadow_filter(
-    geo: _Geometry, p: np.ndarray, l: np.ndarray, dist: np.ndarray, inside: np.ndarray, casts=None
+    geo: _Geometry,
+    p: np.ndarray,
+    l: np.ndarray,
+    dist: np.ndarray,
+    inside: np.ndarray,
+    casts=None,
+    glass_filters: bool = True,
 ) -> np.ndarray:
     """The light reaching each P along unit l from distance dist through transmissive objects:
     segment by segment, each hit in the shadow window (ref §6) from the last crossing; an opaque
     one blocks, a transmissive one multiplies by kt (ref §18) and, when the ray is in its
     interior, by the fade over the stretch since the last crossing; the ray then leaves that
     interior, or enters it. An object outside the light's shadow link (``casts(prim)`` false) is
-    crossed as if it were not there. (N, 3)."""
+    crossed as if it were not there, as is a cut-out texel; with ``glass_filters`` false (the
+    book's convention) a transmissive object blocks as an opaque one does. (N, 3)."""
     filt = np.ones((len(p), 3))
     origin, remaining = p.copy(), dist.astype(np.float64).copy()
     inside = inside.copy()
@@ -1149,11 +1179,12 @@ def _shadow_filter(
             hi = upper if rows is None else upper[rows]
             return (t > SHADOW_TOLERANCE) & (t < hi)
 
-        t, material, _, _, _, source, obj = _closest_hit(geo, origin[active], l[active], accept)
+        t, material, _, _, _, source, obj, cut = _closest_hit(geo, origin[active], l[active], accept)
         hit = np.isfinite(t)
         segment[active[hit]] += t[hit]
         casting = hit if casts is None else hit & np.array([bool(casts(s)) for s in source], dtype=bool)
-        opaque = casting & ~(geo.kt[material] > 0.0)
+        casting &= ~cut
+        opaque = casting & ~((geo.kt[material] > 0.0) & glass_filters)
         filt[active[opaque]] = 0.0
         filtering = casting & ~opaque
         rows = active[filtering]

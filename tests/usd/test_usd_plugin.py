@@ -98,6 +98,8 @@ def test_usd_validators_report_nothing_with_the_plugin_folder(usd_files):
         "ks",
         "kt",
         "normal",
+        "opacity",
+        "opacityThreshold",
         "reflectiveColor",
         "specularColor",
     ]

@@ -143,9 +143,9 @@ void check_textures(const phong::Scene& scene) {
     bool textured = false;
     for (const phong::Material& m : scene.materials) {
         const int64_t count = int64_t(scene.textures.size());
-        if (m.diffuse_texture >= count || m.specular_texture >= count || m.normal_texture >= count)
+        if (m.last_texture() >= count)
             throw std::invalid_argument("a material's texture index is out of range (call set_textures)");
-        textured |= m.diffuse_texture >= 0 || m.specular_texture >= 0 || m.normal_texture >= 0;
+        textured |= m.textured();
     }
     if (textured && scene.corner_uv_rows != scene.triangles.size())
         throw std::invalid_argument("textured materials need corner_uv for every triangle (call set_textures)");
@@ -162,9 +162,8 @@ void set_textures(phong::Scene& scene, const std::vector<TextureImage>& images, 
     bool textured = false;
     for (const phong::Material& m : scene.materials) {
         const int64_t count = int64_t(images.size());
-        if (m.diffuse_texture >= count || m.specular_texture >= count || m.normal_texture >= count)
-            throw std::invalid_argument("a material's texture index is out of range");
-        textured |= m.diffuse_texture >= 0 || m.specular_texture >= 0 || m.normal_texture >= 0;
+        if (m.last_texture() >= count) throw std::invalid_argument("a material's texture index is out of range");
+        textured |= m.textured();
     }
     if (textured && corner_uv.shape(0) != scene.triangles.size())
         throw std::invalid_argument("corner_uv needs one row per triangle");
@@ -483,6 +482,8 @@ NB_MODULE(_native, m) {
         .def_rw("diffuse_texture", &Material::diffuse_texture)
         .def_rw("specular_texture", &Material::specular_texture)
         .def_rw("normal_texture", &Material::normal_texture)
+        .def_rw("opacity_texture", &Material::opacity_texture)
+        .def_rw("opacity_threshold", &Material::opacity_threshold)
         .def_rw("emission", &Material::emission)
         .def_rw("kr", &Material::kr)
         .def_rw("reflective_color", &Material::reflective_color)
@@ -652,7 +653,8 @@ NB_MODULE(_native, m) {
              "uv_origin"_a = std::array<double, 2>{0.0, 0.0}, "uv_span"_a = std::array<double, 2>{1.0, 1.0},
              "half_texels"_a = false,
              "Textures (float32 (H, W, 3), row 0 at the top; held, not copied; with half_texels, copies in half "
-             "floats), indexed by Material.diffuse_texture, specular_texture and normal_texture, and the (u, v) "
+             "floats), indexed by Material.diffuse_texture, specular_texture, normal_texture and opacity_texture, and "
+             "the (u, v) "
              "of each triangle corner, (T, 3, 2) in input order; a lookup takes uv_origin + uv_span * (u, v).")
         .def("set_environment", &set_environment, "image"_a, "scale"_a, "dome_from_world"_a, "half_texels"_a = false,
              "The environment rays that hit nothing see (phongscene.scene.Environment): a lat-long image, float32 "

@@ -13,6 +13,7 @@
 // n·l_j >= kMinCosineToLight and the light is not (fully) shadowed; n faces the viewer.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -27,7 +28,17 @@ struct Material {
     int32_t diffuse_texture = -1;   // index into Scene::textures replacing cd, or -1
     int32_t specular_texture = -1;  // ... replacing cs, or -1
     int32_t normal_texture = -1;    // ... a tangent-space normal map perturbing n (normal_maps.hpp), or -1
-    RGB emission{};                 // Le, added where the surface is seen (0: none; x + 0 is exact)
+    // A cut-out mask (UsdPreviewSurface's masked mode): where this texture's first channel is
+    // below opacity_threshold the surface is not there (render.cpp: cut_out), or -1.
+    int32_t opacity_texture = -1;
+    double opacity_threshold = 0.0;
+    bool textured() const {
+        return diffuse_texture >= 0 || specular_texture >= 0 || normal_texture >= 0 || opacity_texture >= 0;
+    }
+    int32_t last_texture() const {
+        return std::max(std::max(diffuse_texture, specular_texture), std::max(normal_texture, opacity_texture));
+    }
+    RGB emission{};  // Le, added where the surface is seen (0: none; x + 0 is exact)
     // Mirror reflection (Suffern ch. 24, PerfectSpecular): kr·cr times the radiance traced along
     // the mirror direction is added to the Phong terms (render.cpp); kr = 0 traces no ray.
     double kr = 0.0;

@@ -123,6 +123,62 @@ const Material& material_of(const Scene& world, const Hit& hit) {
     return scene.materials[size_t(m)];
 }
 
+// The (u, v) of a triangle hit at p on `surface` (the world, or the instance's prototype), as the
+// textures take it: the corner uvs interpolated like the normals.
+void hit_uv(const Scene& surface, const Hit& hit, const Vec3& p, double& u, double& v) {
+    const double* uv = surface.corner_uv + 6 * size_t(surface.triangle_source[size_t(hit.ref)]);
+    if (!surface.povray_triangles.empty() && hit.instance < 0) {
+        // POV-Ray's own weights on the SDL's uvs, mapped back (povray_mesh_uv).
+        povray_mesh_uv(surface.povray_triangles[size_t(hit.ref)], p, uv, u, v);
+        u = surface.uv_origin[0] + surface.uv_span[0] * u;
+        v = surface.uv_origin[1] + surface.uv_span[1] * v;
+    } else {
+        u = uv[0] * hit.bary.b0 + uv[2] * hit.bary.b1 + uv[4] * hit.bary.b2;
+        v = uv[1] * hit.bary.b0 + uv[3] * hit.bary.b1 + uv[5] * hit.bary.b2;
+    }
+}
+
+// Whether `hit` on `ray` falls where a material's cut-out mask removes the surface (its
+// opacity below the threshold, looked up as the colours are). Triangles only: masks are read on
+// meshes with uvs.
+bool cut_out(const Scene& world, const Ray& ray, const Hit& hit) {
+    if (hit.ref < 0) return false;
+    const Scene& surface = world.surface_of(hit);
+    const Material& m = surface.materials[size_t(surface.triangle_material(size_t(hit.ref)))];
+    if (m.opacity_texture < 0) return false;
+    double u, v;
+    hit_uv(surface, hit, ray.at(hit.t), u, v);
+    return surface.textures[size_t(m.opacity_texture)].lookup(u, v).x < m.opacity_threshold;
+}
+
+// A material with a cut-out mask (render.cpp treats its surfaces as never wholly opaque, as
+// POV-Ray treats an object whose texture transmits).
+bool has_cut_out(const Scene& world, const Hit& hit) {
+    if (hit.ref < 0) return false;
+    const Scene& surface = world.surface_of(hit);
+    return surface.materials[size_t(surface.triangle_material(size_t(hit.ref)))].opacity_texture >= 0;
+}
+
+// The first surface along `ray` from `near` on that a cut-out mask does not remove: a cut-out
+// texel passes the ray on unchanged, as a ray continued from the hit at the same depth (POV-Ray's
+// through a texel that transmits all). On return `ray` is the ray the hit is on and `travelled`
+// the distance covered before its origin. More crossings than any scene needs: a miss.
+bool first_surface(const TraceContext& context, Ray& ray, double near, Hit& hit, double& travelled,
+                   const FloatSlabOrigin* origin = nullptr) {
+    travelled = 0.0;
+    if (!(origin ? context.scene.closest_hit(ray, *origin, near, HUGE_VAL, hit)
+                 : context.scene.closest_hit(ray, near, HUGE_VAL, hit)))
+        return false;
+    if (!context.cut_outs) return true;
+    for (int crossings = 0; crossings < kMaxCutOutCrossings; ++crossings) {
+        if (!cut_out(context.scene, ray, hit)) return true;
+        travelled += hit.t;
+        ray = Ray{ray.at(hit.t), ray.dir};
+        if (!context.scene.closest_hit(ray, context.tolerances.secondary_near, HUGE_VAL, hit)) return false;
+    }
+    return false;
+}
+
 // The interior of the object hit (interiors.hpp): an instance's copy is its own.
 Interior interior_of(const Scene& world, const Hit& hit) {
     return Interior{hit.instance, world.surface_of(hit).object_of(hit.ref), &material_of(world, hit)};
@@ -141,7 +197,7 @@ bool opaque_behind_glass(const TraceContext& context, const Ray& ray, double t_m
         Hit hit;
         if (!scene.closest_hit_povray_walk(ray, from, t_max, hit)) return false;
         const bool casts_shadow = casts == nullptr || hit.instance >= 0 || casts[size_t(scene.object_of(hit.ref))];
-        if (casts_shadow && !(material_of(scene, hit).kt > 0.0)) return true;
+        if (casts_shadow && !(material_of(scene, hit).kt > 0.0) && !has_cut_out(scene, hit)) return true;
         from = hit.t;
     }
     return false;
@@ -179,10 +235,12 @@ RGB shadow_filter(const TraceContext& context, const Vec3& p, const Vec3& l, dou
         if (!found) return filter;
         const Material& m = material_of(context.scene, hit);
         const bool casts_shadow =
-            casts == nullptr || hit.instance >= 0 || casts[size_t(context.scene.object_of(hit.ref))];
+            (casts == nullptr || hit.instance >= 0 || casts[size_t(context.scene.object_of(hit.ref))]) &&
+            !(context.cut_outs && cut_out(context.scene, ray, hit));  // a cut-out texel passes the light
         segment += hit.t;
         if (casts_shadow) {
-            if (!(m.kt > 0.0)) return RGB{};
+            // Opaque, or glass in the book's convention (its shadows are opaque): blocked.
+            if (!(m.kt > 0.0) || !context.glass_filters_light) return RGB{};
             const Interior crossed = interior_of(context.scene, hit);
             if (inside.contains(crossed)) filter = hadamard(filter, medium_transmittance(&m, segment));
             filter = filter * m.kt;
@@ -241,15 +299,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
             // cd and cs from the textures at the hit's (u, v), interpolated like the normals.
             const double* uv = surface.corner_uv + 6 * size_t(surface.triangle_source[size_t(hit.ref)]);
             double u, v;
-            if (!surface.povray_triangles.empty() && hit.instance < 0) {
-                // POV-Ray's own weights on the SDL's uvs, mapped back (povray_mesh_uv).
-                povray_mesh_uv(surface.povray_triangles[size_t(hit.ref)], p, uv, u, v);
-                u = surface.uv_origin[0] + surface.uv_span[0] * u;
-                v = surface.uv_origin[1] + surface.uv_span[1] * v;
-            } else {
-                u = uv[0] * hit.bary.b0 + uv[2] * hit.bary.b1 + uv[4] * hit.bary.b2;
-                v = uv[1] * hit.bary.b0 + uv[3] * hit.bary.b1 + uv[5] * hit.bary.b2;
-            }
+            hit_uv(surface, hit, p, u, v);
             if (material->normal_texture >= 0) {
                 Vec3 dpdu, dpdv;
                 if (uv_tangents(tri.v0, tri.v1, tri.v2, uv, dpdu, dpdv)) {
@@ -495,12 +545,14 @@ RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std:
     Hit hit;
     const bool book = context.settings.transmission_convention == TransmissionConvention::kBook;
     const Material* medium = inside.innermost_material();  // the book's: at most one
-    if (!context.scene.closest_hit(ray, context.tolerances.secondary_near, HUGE_VAL, hit)) {
-        const RGB missed = miss(context, ray);
+    Ray on = ray;
+    double travelled;
+    if (!first_surface(context, on, context.tolerances.secondary_near, hit, travelled)) {
+        const RGB missed = miss(context, on);
         return book ? hadamard(missed, medium_transmittance(medium, HUGE_VAL)) : missed;
     }
-    const RGB seen = shade_hit(context, ray, hit, candidates, depth, inside);
-    return medium == nullptr || !book ? seen : hadamard(seen, medium_transmittance(medium, hit.t));
+    const RGB seen = shade_hit(context, on, hit, candidates, depth, inside);
+    return medium == nullptr || !book ? seen : hadamard(seen, medium_transmittance(medium, travelled + hit.t));
 }
 
 }  // namespace
@@ -513,7 +565,15 @@ TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_,
     if (scene.instances)
         for (size_t p = 0; p < scene.instances->prototype_count(); ++p)
             for (const Material& m : scene.instances->prototype(p).materials) transmissive = transmissive || m.kt > 0.0;
-    filtered_shadows = transmissive && settings.transmission_convention == TransmissionConvention::kPovray;
+    glass_filters_light = settings.transmission_convention == TransmissionConvention::kPovray;
+    cut_outs = false;
+    for (const Material& m : scene.materials) cut_outs = cut_outs || m.opacity_texture >= 0;
+    if (scene.instances)
+        for (size_t p = 0; p < scene.instances->prototype_count(); ++p)
+            for (const Material& m : scene.instances->prototype(p).materials)
+                cut_outs = cut_outs || m.opacity_texture >= 0;
+    // Shadow rays go surface by surface where glass filters them or a mask can let light through.
+    filtered_shadows = (transmissive && glass_filters_light) || cut_outs;
     povray_walk = settings.numerics != Numerics::kScaleInvariant;
     for (const auto& [object, material] : settings.camera_interiors) {
         assert(material >= 0 && size_t(material) < scene.materials.size());  // bindings.cpp checks it
@@ -524,11 +584,10 @@ TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_,
 RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch,
                   const FloatSlabOrigin* origin) {
     Hit hit;
-    const double near = context.tolerances.primary_near;
-    if (!(origin ? context.scene.closest_hit(ray, *origin, near, HUGE_VAL, hit)
-                 : context.scene.closest_hit(ray, near, HUGE_VAL, hit)))
-        return miss(context, ray);
-    return shade_hit(context, ray, hit, scratch, 0, context.camera_inside);
+    Ray on = ray;
+    double travelled;
+    if (!first_surface(context, on, context.tolerances.primary_near, hit, travelled, origin)) return miss(context, on);
+    return shade_hit(context, on, hit, scratch, 0, context.camera_inside);
 }
 
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,

@@ -72,6 +72,12 @@ struct TraceContext {
     // the book's convention every object casts an opaque shadow, transparent ones too (Suffern's
     // Whitted tracer: its shadow rays test every object's shadow_hit alike).
     bool filtered_shadows = false;
+    // POV-Ray's convention: glass filters the light of shadow rays crossing it (the book's:
+    // blocks it, as any object).
+    bool glass_filters_light = false;
+    // Some material has a cut-out mask (Material::opacity_texture): rays pass its cut-out texels
+    // (render.cpp: first_surface), shadow rays too (filtered_shadows).
+    bool cut_outs = false;
     // POV-Ray numerics: shadow rays see meshes as POV-Ray's mesh walk reports them (povray_walk.cpp).
     bool povray_walk = false;
     // The interiors camera rays start in (RenderSettings::camera_interiors).
