@@ -144,7 +144,7 @@ constexpr double kPovrayShadowCacheWindow = 1e-4;
 // A filtered shadow ray (render.cpp: shadow_filter) crosses at most this many transmissive
 // surfaces before it counts as blocked: a guard against a loop, far beyond any real scene.
 constexpr int kMaxShadowCrossings = 1024;
-// A ray passes at most this many cut-out texels (render.cpp: first_surface) before it counts as a
+// A ray passes at most this many cut-out texels (render.cpp: past_cut_outs) before it counts as a
 // miss: the same guard (a forest of masked leaves is far below it).
 constexpr int kMaxCutOutCrossings = 1024;
 

@@ -159,17 +159,12 @@ bool has_cut_out(const Scene& world, const Hit& hit) {
     return surface.materials[size_t(surface.triangle_material(size_t(hit.ref)))].opacity_texture >= 0;
 }
 
-// The first surface along `ray` from `near` on that a cut-out mask does not remove: a cut-out
-// texel passes the ray on unchanged, as a ray continued from the hit at the same depth (POV-Ray's
-// through a texel that transmits all). On return `ray` is the ray the hit is on and `travelled`
-// the distance covered before its origin. More crossings than any scene needs: a miss.
-bool first_surface(const TraceContext& context, Ray& ray, double near, Hit& hit, double& travelled,
-                   const FloatSlabOrigin* origin = nullptr) {
+// From `hit` on `ray`, the first surface a cut-out mask does not remove (scenes with a mask only):
+// a cut-out texel passes the ray on unchanged, as a ray continued from the hit at the same depth
+// (POV-Ray's through a texel that transmits all). On return `ray` is the ray the hit is on and
+// `travelled` the distance covered before its origin. More crossings than any scene needs: a miss.
+bool past_cut_outs(const TraceContext& context, Ray& ray, Hit& hit, double& travelled) {
     travelled = 0.0;
-    if (!(origin ? context.scene.closest_hit(ray, *origin, near, HUGE_VAL, hit)
-                 : context.scene.closest_hit(ray, near, HUGE_VAL, hit)))
-        return false;
-    if (!context.cut_outs) return true;
     for (int crossings = 0; crossings < kMaxCutOutCrossings; ++crossings) {
         if (!cut_out(context.scene, ray, hit)) return true;
         travelled += hit.t;
@@ -546,9 +541,10 @@ RGB trace_secondary(const TraceContext& context, const Ray& ray, int depth, std:
     const bool book = context.settings.transmission_convention == TransmissionConvention::kBook;
     const Material* medium = inside.innermost_material();  // the book's: at most one
     Ray on = ray;
-    double travelled;
-    if (!first_surface(context, on, context.tolerances.secondary_near, hit, travelled)) {
-        const RGB missed = miss(context, on);
+    double travelled = 0.0;
+    if (!context.scene.closest_hit(ray, context.tolerances.secondary_near, HUGE_VAL, hit) ||
+        (context.cut_outs && !past_cut_outs(context, on, hit, travelled))) {
+        const RGB missed = miss(context, ray);
         return book ? hadamard(missed, medium_transmittance(medium, HUGE_VAL)) : missed;
     }
     const RGB seen = shade_hit(context, on, hit, candidates, depth, inside);
@@ -584,10 +580,17 @@ TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_,
 RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch,
                   const FloatSlabOrigin* origin) {
     Hit hit;
-    Ray on = ray;
-    double travelled;
-    if (!first_surface(context, on, context.tolerances.primary_near, hit, travelled, origin)) return miss(context, on);
-    return shade_hit(context, on, hit, scratch, 0, context.camera_inside);
+    const double near = context.tolerances.primary_near;
+    if (!(origin ? context.scene.closest_hit(ray, *origin, near, HUGE_VAL, hit)
+                 : context.scene.closest_hit(ray, near, HUGE_VAL, hit)))
+        return miss(context, ray);
+    if (context.cut_outs) {  // the first surface a mask does not remove (past_cut_outs)
+        Ray on = ray;
+        double travelled;
+        if (!past_cut_outs(context, on, hit, travelled)) return miss(context, ray);
+        return shade_hit(context, on, hit, scratch, 0, context.camera_inside);
+    }
+    return shade_hit(context, ray, hit, scratch, 0, context.camera_inside);
 }
 
 bool render_image(const Scene& scene, const Camera& camera, const RenderSettings& settings, float* pixels,

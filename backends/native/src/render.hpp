@@ -76,7 +76,7 @@ struct TraceContext {
     // blocks it, as any object).
     bool glass_filters_light = false;
     // Some material has a cut-out mask (Material::opacity_texture): rays pass its cut-out texels
-    // (render.cpp: first_surface), shadow rays too (filtered_shadows).
+    // (render.cpp: past_cut_outs), shadow rays too (filtered_shadows).
     bool cut_outs = false;
     // POV-Ray numerics: shadow rays see meshes as POV-Ray's mesh walk reports them (povray_walk.cpp).
     bool povray_walk = false;
