@@ -83,6 +83,7 @@ def run_info(args) -> int:
                 ("diffuseColor", m.diffuse_texture),
                 ("specularColor", m.specular_texture),
                 ("normal", m.normal_texture),
+                (f"opacity (cut out below {m.opacity_threshold:g})", m.opacity_texture),
             ):
                 if t is not None:
                     # The file, not t.source: equal textures are shared, and source is the first prim read.

@@ -132,3 +132,12 @@ def test_write_usd_round_trips_a_cut_out_mask(tmp_path):
     assert after.opacity_threshold == before.opacity_threshold
     np.testing.assert_array_equal(after.opacity_texture.image[..., 0], before.opacity_texture.image[..., 0])
     np.testing.assert_allclose(native.render(back), native.render(scene), rtol=ROUND_TRIP_REL, atol=0)
+
+
+def test_info_lists_the_mask_and_its_threshold(tmp_path, capsys):
+    from phongscene.cli import main
+
+    image = png.write_png(tmp_path / "leaf.png", PIXELS)
+    assert main(["info", masked_stage(tmp_path / "s.usda", image, 0.5)]) == 0
+    out = capsys.readouterr().out
+    assert "/World/Looks/Leaf/Surface opacity (cut out below 0.5) <- " in out and "leaf.png, 2x2" in out
