@@ -67,3 +67,22 @@ def test_demo_lists_every_example(tmp_path):
     for name in SEED:
         assert f"{name}.usda:" in run.stdout
     assert (outdir / "index.html").is_file()
+
+
+def test_screen_and_water_regenerates_and_holds_nested_glass_and_a_cut_out_screen(tmp_path, monkeypatch):
+    from phongscene.containment import containing_interiors
+    from phongscene.usd import write_usd
+
+    monkeypatch.syspath_prepend(str(EXAMPLES))
+    module = runpy.run_path(str(EXAMPLES / "screen_and_water.py"))
+    fresh = write_usd(module["build"](), tmp_path / "screen_and_water.usda")
+    assert filecmp.cmp(fresh, EXAMPLES / "screen_and_water.usda", shallow=False), "run examples/screen_and_water.py"
+    scene = read_usd(EXAMPLES / "screen_and_water.usda").scene
+    glass, water = scene.spheres[:2]
+    assert scene.settings.transmission == "povray"  # where media nest
+    centre = water.world_from_object[:3, 3]
+    assert containing_interiors(scene, centre) == [(0, glass.material), (1, water.material)]
+    (screen,) = [m for m in scene.meshes if m.material.cut_out]
+    assert screen.material.opacity_threshold == 0.5
+    mask = screen.material.opacity_texture.image[..., 0]
+    assert mask.min() == 0.0 and mask.max() == 1.0  # holes and screen
