@@ -87,7 +87,8 @@ def _texture_shader(
     ``fallback`` (the material's own colour) where the image is missing."""
     reader = UsdShade.Shader.Define(stage, f"{path}_St")
     reader.SetShaderId("UsdPrimvarReader_float2")
-    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+    # UsdPrimvarReader's varname is a string in its Sdr definition (usdShade validators check it).
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
     reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
     shader = UsdShade.Shader.Define(stage, path)
     shader.SetShaderId("UsdUVTexture")
