@@ -696,6 +696,9 @@ NB_MODULE(_native, m) {
             "walk_width", [](const phong::Scene& s) { return s.walk_width(); },
             "Children per BVH node of the rays' walk: 8 on the AVX2 path, 4 on the SSE2 one (chosen when "
             "the scene is built; PHONGSCENE_NATIVE_SIMD=sse2 forces the portable path).")
+        .def_prop_ro(
+            "leaf_count", [](const phong::Scene& s) { return s.leaf_count(); },
+            "Leaves of the walk's BVH (how the SAH grouped the primitives; a root that is one leaf counts 1).")
         .def("render", &render, "camera"_a, "settings"_a, "progress"_a = nb::none(),
              "The image, float32 (height, width, 3), row 0 at the top. progress(done, total) is called from this "
              "thread while rendering; an exception it raises (or Ctrl-C) stops the render.")

@@ -56,11 +56,17 @@ struct Box4 {
 };
 
 // SAH constants. The binary tree is walked as 4- or 8-wide nodes (bvh4.hpp, bvh8.hpp), one
-// visit testing every child's box at once: a visit costs about two primitive tests, and leaves
-// stop at kMaxLeafSize primitives. Measured against (1, 4) (benchmarks/README.md, memory per
-// triangle): a 10M-triangle mesh's tree 493 -> ~290 MiB (whole process 1303 -> 1103 MiB), S2's
-// build 4% faster, its render 1-2% slower (CPU time); the closest hit does not depend on the
-// tree (ties go to the lower primitive id), so images are the same.
+// visit testing every child's box at once, and leaves stop at kMaxLeafSize primitives. The
+// traversal cost trades render speed against the tree's memory: 1 (a visit costs about one
+// primitive test) gives the fastest render, 2 the smaller tree. Measured (benchmarks/README.md,
+// "Issue 25: the SAH's traversal cost by scene size"): cost 2 makes a 10M-triangle mesh's tree
+// 493 -> ~290 MiB (whole process 1303 -> 1103 MiB, issue 23.4's goal) but renders S1 with 5 %
+// more instructions (its four spheres become two leaves of two: a ray meeting one tests both) and S2 at
+// 100k triangles with 4 % more. At 1M triangles (S2) cost 1 renders 2-3 % faster but builds
+// ~10 % slower, a loss at one sample a pixel; below kSmallTreeTraversalCostBelow primitives the
+// build takes milliseconds and the tree ~21 B a primitive more (under 1.4 MiB), so those
+// scenes take cost 1. The closest hit does not depend on the tree (ties go to the lower
+// primitive id), so images are the same either way.
 constexpr int kBins = 16;
 // Nodes of fewer primitives bin into kFewBins: their cost is mostly per node (emptying and
 // sweeping 3 x kBins bins for 9-31 primitives), and half the bins halve it. S2's build 0.415 ->
@@ -69,7 +75,9 @@ constexpr int kBins = 16;
 constexpr uint32_t kFewBinsBelow = 32;
 constexpr int kFewBins = 8;
 constexpr int kMaxLeafSize = 8;
-constexpr float kTraversalCost = 2.0f;
+constexpr float kLargeTreeTraversalCost = 2.0f;
+constexpr float kSmallTreeTraversalCost = 1.0f;
+constexpr uint32_t kSmallTreeTraversalCostBelow = 1u << 16;
 constexpr float kIntersectionCost = 1.0f;
 // Below this depth the SAH decides; deeper, nodes split at the median on the widest centroid
 // axis, so adversarial inputs (e.g. exponentially spaced primitives) keep the tree depth below
@@ -196,6 +204,7 @@ struct Bins {
 
 struct Builder {
     std::vector<PrimRef>& prims;
+    float traversal_cost;  // the SAH's cost of a node visit, in primitive tests (above)
 
     static void make_leaf(BvhNode& node, uint32_t begin, uint32_t end) {
         node.offset = int32_t(begin);
@@ -338,7 +347,7 @@ struct Builder {
         } else {
             const float area = bounds.half_area();
             const float leaf_cost = kIntersectionCost * float(n);
-            const float split_cost = area > 0.0f ? kTraversalCost + kIntersectionCost * best_cost / area : kHugeF;
+            const float split_cost = area > 0.0f ? traversal_cost + kIntersectionCost * best_cost / area : kHugeF;
             if (n <= kMaxLeafSize && leaf_cost <= split_cost) {
                 make_leaf(node, begin, end);
                 return;
@@ -418,7 +427,7 @@ struct Builder {
             }
         }
         const float area = bounds.half_area();
-        const float split_cost = area > 0.0f ? kTraversalCost + kIntersectionCost * best_cost / area : kHugeF;
+        const float split_cost = area > 0.0f ? traversal_cost + kIntersectionCost * best_cost / area : kHugeF;
         if (n <= kMaxLeafSize && (best_axis < 0 || kIntersectionCost * float(n) <= split_cost)) {
             make_leaf(nodes[size_t(index)], begin, end);
             return;
@@ -442,14 +451,14 @@ struct Builder {
     }
 
     // Whether the exact SAH below would make the n primitives a leaf, decided without sorting:
-    // a split costs at least kTraversalCost + kIntersectionCost * (sum of the primitives' areas)
+    // a split costs at least traversal_cost + kIntersectionCost * (sum of the primitives' areas)
     // / area, since each side's box holds each of its primitives' boxes. When n is no more
     // than that bound, no split can pay. On S2, 307k of the 577k nodes of at most 8 primitives
     // end here (0 of them split by the full test), their build 0.395 -> 0.388 s at one thread
     // (best of 8 in alternating processes; ~2 %). The same leaves as the full test's
     // (kLeafBoundMargin covers the float sums' rounding); only their order within a leaf
     // differs, and hits do not depend on it.
-    static bool no_split_pays(const PrimRef* p, uint32_t n, float area) {
+    bool no_split_pays(const PrimRef* p, uint32_t n, float area) const {
         if (area == 0.0f) return true;       // the full test: a split's cost is then infinite
         if (!(area < kHugeF)) return false;  // overflowed: leave it to the full test
         float sum = 0.0f;
@@ -459,7 +468,7 @@ struct Builder {
             sum += box.half_area();
         }
         if (!(sum < kHugeF)) return false;  // overflowed: leave it to the full test
-        return kIntersectionCost * float(n) <= kTraversalCost + kIntersectionCost * kLeafBoundMargin * sum / area;
+        return kIntersectionCost * float(n) <= traversal_cost + kIntersectionCost * kLeafBoundMargin * sum / area;
     }
 
     // Insertion sort (n is small) by doubled centroid along `axis`; stable, so ties keep their order.
@@ -517,7 +526,7 @@ void Bvh::build(std::vector<PrimRef> prims) {
     // At most 2n - 1 nodes; capacity that is never written is never resident, so no
     // shrink_to_fit (its copy would double the nodes' peak memory).
     reserve_huge(nodes, 2 * size_t(n));
-    Builder builder{prims};
+    Builder builder{prims, n < kSmallTreeTraversalCostBelow ? kSmallTreeTraversalCost : kLargeTreeTraversalCost};
     // Up to two subtrees per build thread (the halves of a split are rarely equal); none with one.
     const unsigned threads = build_threads();
     int parallel_splits = threads > 1 ? 1 : 0;

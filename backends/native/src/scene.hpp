@@ -204,6 +204,15 @@ class Scene {
 
     // Children per node of the walk closest_hit() and occluded() take: 8 (AVX2) or 4 (SSE2).
     int walk_width() const { return bvh8_.empty() ? 4 : 8; }
+    // Leaves of the walk's tree (the SAH's choices, bvh.cpp: a test's view of the tree's shape).
+    size_t leaf_count() const {
+        size_t leaves = 0;
+        for (const Bvh8Node& node : bvh8_)
+            for (int i = 0; i < 8; ++i) leaves += node.count[i] > 0;
+        for (const Bvh4Node& node : bvh4_)
+            for (int i = 0; i < 4; ++i) leaves += node.count[i] > 0;
+        return leaves;
+    }
 
     // The mesh of leaf-order triangle `slot` (from its input row: the POV-Ray walk's rare
     // question needs no per-triangle array).
