@@ -48,13 +48,19 @@ def main() -> None:
     parser.add_argument("--height", type=int, help="image height (default: the scene's)")
     parser.add_argument("--extension", type=Path, metavar="SO", help="another build of the _native extension")
     parser.add_argument(
+        "--wrapper",
+        type=Path,
+        metavar="PY",
+        help="that build's backends/native/__init__.py (when its arguments differ)",
+    )
+    parser.add_argument(
         "--callgrind-render",
         action="store_true",
         help="under valgrind --instr-atstart=no: count the last render call's instructions only",
     )
     args = parser.parse_args()
     if args.extension:
-        use_extension(args.extension)
+        use_extension(args.extension, args.wrapper)
     from phongscene.backends import native
     from phongscene.backends.povray import SPECULAR_OF_MAPPING
     from phongscene.usd import load_usd
