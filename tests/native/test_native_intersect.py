@@ -330,3 +330,25 @@ def test_a_triangle_index_out_of_range_is_an_error_not_a_crash(bad):
     triangles[5, 1] = bad
     with pytest.raises(ValueError, match=f"triangle vertex index {bad} out of range"):
         native._native.Scene(**dict(arrays, triangles=[triangles]))
+
+
+@pytest.mark.parametrize("t_min", [0.0, 1e-9])  # the double-precision and the float box test (bvh4.hpp)
+def test_occluded_answers_whether_a_hit_lies_before_t_max(t_min):
+    # Scene.occluded (the any-hit walk of shadow rays) against the closest hit: blocked exactly
+    # when the closest hit beyond t_min comes before t_max; spheres and triangles, rays that end
+    # just before, at and just after their hit.
+    rng = np.random.default_rng(7)
+    scene = Scene(
+        spheres=tuple(Sphere.at(tuple(rng.uniform(-3, 3, 3)), float(rng.uniform(0.2, 0.8))) for _ in range(6)),
+        meshes=(jittered_grid(8),),
+    )
+    built = native.build(scene)
+    origins = np.column_stack([rng.uniform(-1, 9, 3000), rng.uniform(-1, 9, 3000), rng.uniform(2, 6, 3000)])
+    dirs = unit(np.column_stack([rng.normal(0, 0.5, 3000), rng.normal(0, 0.5, 3000), -np.ones(3000)]))
+    t, _ = built.intersect(origins, dirs, t_min)
+    hit = np.isfinite(t)
+    assert hit.sum() > 1000
+    ends = np.where(hit, t, 10.0)
+    for t_max, blocked in [(np.nextafter(ends, 0), False), (ends, False), (np.nextafter(ends, np.inf), True)]:
+        assert np.array_equal(built.occluded(origins, dirs, t_max, t_min), hit & blocked)
+    assert not built.occluded(origins, dirs, np.full(3000, np.inf), t_min)[~hit].any()

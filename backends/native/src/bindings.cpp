@@ -326,6 +326,26 @@ nb::tuple intersect(const phong::Scene& scene, const Rows3& origins, const Rows3
                           nb::ndarray<nb::numpy, int64_t, nb::shape<-1>>(id, {n}, id_owner));
 }
 
+// Whether each ray is blocked in (t_min, t_max[i]): the any-hit walk of shadow rays.
+nb::ndarray<nb::numpy, bool, nb::shape<-1>> occluded(const phong::Scene& scene, const Rows3& origins, const Rows3& dirs,
+                                                     const Reals1& t_max, double t_min) {
+    const size_t n = origins.shape(0);
+    if (dirs.shape(0) != n || t_max.shape(0) != n)
+        throw std::invalid_argument("origins, dirs and t_max differ in length");
+    if (scene.instances && scene.instances->stale())
+        throw std::invalid_argument("instances were added with rebuild=False and the top level was never built");
+    bool* blocked = new bool[n];
+    nb::capsule owner(blocked, [](void* p) noexcept { delete[] static_cast<bool*>(p); });
+    {
+        nb::gil_scoped_release release;
+        for (size_t i = 0; i < n; ++i) {
+            const phong::Ray ray{{origins(i, 0), origins(i, 1), origins(i, 2)}, {dirs(i, 0), dirs(i, 1), dirs(i, 2)}};
+            blocked[i] = scene.occluded(ray, t_min, t_max(i));
+        }
+    }
+    return nb::ndarray<nb::numpy, bool, nb::shape<-1>>(blocked, {n}, owner);
+}
+
 // Brute force over every primitive: (number of primitives hit, closest t).
 nb::tuple count_hits(const phong::Scene& scene, const Rows3& origins, const Rows3& dirs, double t_min) {
     const size_t n = origins.shape(0);
@@ -704,6 +724,8 @@ NB_MODULE(_native, m) {
              "thread while rendering; an exception it raises (or Ctrl-C) stops the render.")
         .def("intersect", &intersect, "origins"_a, "dirs"_a, "t_min"_a = 0.0,
              "Closest hit per ray (tests): (t, primitive id); spheres are 0..S-1, then triangles.")
+        .def("occluded", &occluded, "origins"_a, "dirs"_a, "t_max"_a, "t_min"_a = 0.0,
+             "Per ray, whether anything is hit in (t_min, t_max): shadow rays' any-hit walk, one thread.")
         .def("count_hits", &count_hits, "origins"_a, "dirs"_a, "t_min"_a = 0.0,
              "Brute-force count of primitives hit per ray, and the closest t (tests).");
 }

@@ -117,7 +117,11 @@ struct Bvh {
 // distance as the smaller of the two, as before, took +inf for a −0 component with the origin on
 // the upper plane: such a ray missed the box and what was inside it.) t_far is widened by
 // kSlabFarWidening so a rounding error in the box test never culls a hit that the exact
-// primitive test would report.
+// primitive test would report, and so is the t_max it is capped by: a primitive hit at
+// t_h < t_max has a computed entry distance up to t_h·(1 + γ(3)), which a cap of t_max itself
+// could cut off (a shadow ray whose occluder lies within an ulp or two of its end; a flat box, as
+// a plane of triangles has, enters where its triangles are hit). fl(t_max·(1 + 4ε)) >=
+// t_max·(1 + 3.4ε) > t_max·(1 + γ(3)) keeps it.
 //
 // Branch-free (compare-and-select, which compiles to minsd/maxsd with the operand order that
 // keeps these NaN rules): the early exit on an empty interval after each axis only decides
@@ -131,7 +135,7 @@ constexpr double kSlabFarWidening = 1.0 + ulps(4);
 
 template <class Box>
 inline bool hit_node(const Box& n, const Vec3& o, const Vec3& inv, double t_min, double t_max, double& t_entry) {
-    double t0 = t_min, t1 = t_max;
+    double t0 = t_min, t1 = t_max * kSlabFarWidening;
     const double os[3] = {o.x, o.y, o.z}, is[3] = {inv.x, inv.y, inv.z};
     for (int k = 0; k < 3; ++k) {
         const bool negative = std::signbit(is[k]);
