@@ -34,7 +34,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from peer_rays import agreement, primary_rays, shadow_targets, sphere_centre_radius
+from peer_rays import SHADOW_OFFSET, agreement, primary_rays, shadow_targets, sphere_centre_radius
 
 HERE = Path(__file__).resolve().parent / "peers"
 MAGIC = 0x52504850  # peer_input.h
@@ -133,6 +133,45 @@ def _answers(path: Path, origins, dirs, targets) -> tuple[np.ndarray, np.ndarray
     for row, i in enumerate(point_lights):
         occluded[i] = bytes_[row][valid] == 1
     return valid, t, points, occluded
+
+
+# The native tracer's smallest hit distance on the peers' rays: positive, as every ray of a native
+# render starts (t_min = 0 would send each ray to the double-precision box test, bvh4.hpp's
+# FloatSlabRay::applies), and far below any hit in the benchmark scenes (distances >= ~1e-4).
+NATIVE_TRACE_T_MIN = 1e-9
+
+
+def native_trace(scene, settings, native_scene, repeat: int) -> dict:
+    """The native tracer on the peers' rays, one thread, tracing only (what the peers do; native's
+    render also shades): the primary rays' closest hits (``Scene.intersect``), then from each hit
+    one shadow ray per target with the peers' offsets (``Scene.occluded``, the any-hit walk of
+    shadow rays). Best of ``repeat``; the time is the two C++ calls' (the shadow rays' origins and
+    directions are made in numpy between them, untimed: ~20 arithmetic operations a ray, which the
+    peers do inside their loops)."""
+    import time
+
+    origins, dirs = (a.astype(np.float64) for a in primary_rays(scene, settings))
+    targets = [shadow_targets(light) for light in scene.lights]
+    best, rays = float("inf"), 0
+    for _ in range(repeat):
+        start = time.perf_counter()
+        t, _ = native_scene.intersect(origins, dirs, NATIVE_TRACE_T_MIN)
+        elapsed = time.perf_counter() - start
+        valid = np.isfinite(t)
+        points = origins[valid] + dirs[valid] * t[valid, None]
+        rays = len(origins)
+        for grid in targets:
+            for target in grid.astype(np.float64):
+                to_light = target - points
+                dist = np.linalg.norm(to_light, axis=1)
+                to_light /= dist[:, None]
+                shadow_origins = points + to_light * SHADOW_OFFSET
+                start = time.perf_counter()
+                native_scene.occluded(shadow_origins, to_light, dist - 2 * SHADOW_OFFSET, NATIVE_TRACE_T_MIN)
+                elapsed += time.perf_counter() - start
+                rays += len(points)
+        best = min(best, elapsed)
+    return {"render": best, "rays": rays}
 
 
 def run_peers(scene, settings, native_scene, threads: int, repeat: int) -> dict[str, dict | str]:

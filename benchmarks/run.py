@@ -269,6 +269,15 @@ def compiled_peers_table(args, names, thread_counts) -> None:
                 f"{'':>7}{t_render:>10.3f}",
                 flush=True,
             )
+            if threads == 1 and compiled_peers.why_not(scene) is None:
+                # The same rays as the peers, traced only (Scene.intersect / Scene.occluded run on
+                # one thread): the ratio is the share of native's render spent tracing them.
+                figures = compiled_peers.native_trace(scene, settings, built, args.repeat)
+                print(
+                    f"{name:<8}{threads:>8}  {'native, tracing only':<22}{figures['rays'] / 1e6:>7.1f}M{'-':>9}{'':>7}"
+                    f"{figures['render']:>10.3f}{figures['render'] / t_render:>6.2f}x",
+                    flush=True,
+                )
             for peer, figures in compiled_peers.run_peers(scene, settings, built, threads, args.repeat).items():
                 if isinstance(figures, str):
                     print(f"{name:<8}{threads:>8}  {peer:<22}- ({figures})")
