@@ -17,46 +17,56 @@
 
 namespace phong {
 
-// A triangle's corners rounded to float (only ever built from float-exact doubles).
-struct FloatTriangleShape {
-    float v[9];  // v0, v1, v2
-
-    explicit FloatTriangleShape(const TriangleShape& t = {})
-        : v{float(t.v0.x), float(t.v0.y), float(t.v0.z), float(t.v1.x), float(t.v1.y),
-            float(t.v1.z), float(t.v2.x), float(t.v2.y), float(t.v2.z)} {}
-
-    TriangleShape widen() const { return {{v[0], v[1], v[2]}, {v[3], v[4], v[5]}, {v[6], v[7], v[8]}}; }
-};
-
 // Whether double(float(x)) == x: a coordinate that float storage keeps exactly. NaN is not (it
 // compares unequal), so such a mesh keeps double storage and its own behaviour.
 inline bool float_exact(double x) { return double(float(x)) == x; }
 
 // Leaf-order triangle corners in one of two precisions, chosen per scene when it is built
 // (float when every mesh vertex is float_exact, else double); read as doubles either way.
+// The floats are held as nine arrays (structure of arrays: corner c's coordinate i of slot k is
+// coordinates(c, i)[k]), so that eight consecutive slots (a BVH leaf's triangles) are one 8-lane
+// load per coordinate (triangle_prefilter.hpp); each array is padded by kTriangleLanePadding
+// slots, so such a load from any slot stays inside it. 36 bytes a triangle, as 9 floats in a row.
+constexpr size_t kTriangleLanePadding = 8;
+
 class TriangleStore {
   public:
     void resize(size_t n, bool single_precision) {
         single_precision_ = single_precision;
-        if (single_precision)
-            resize_huge(narrow_, n);
-        else
+        count_ = n;
+        if (single_precision) {
+            stride_ = n + kTriangleLanePadding;
+            resize_huge(narrow_, 9 * stride_, 0.0f);
+        } else {
             resize_huge(wide_, n);
+        }
     }
     // Stores slot k's corners (float_exact when single_precision()).
     void set(size_t k, const TriangleShape& t) {
-        if (single_precision_)
-            narrow_[k] = FloatTriangleShape(t);
-        else
+        if (!single_precision_) {
             wide_[k] = t;
+            return;
+        }
+        const double v[9] = {t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y, t.v2.z};
+        for (size_t i = 0; i < 9; ++i) narrow_[i * stride_ + k] = float(v[i]);
     }
-    TriangleShape operator[](size_t k) const { return single_precision_ ? narrow_[k].widen() : wide_[k]; }
-    size_t size() const { return single_precision_ ? narrow_.size() : wide_.size(); }
+    TriangleShape operator[](size_t k) const {
+        if (!single_precision_) return wide_[k];
+        const float* p = narrow_.data() + k;
+        const size_t s = stride_;
+        return {{p[0], p[s], p[2 * s]}, {p[3 * s], p[4 * s], p[5 * s]}, {p[6 * s], p[7 * s], p[8 * s]}};
+    }
+    size_t size() const { return count_; }
     bool single_precision() const { return single_precision_; }
+    // Corner c's (0..2) coordinate i (0: x, 1: y, 2: z) of every slot (single_precision() only);
+    // kTriangleLanePadding readable floats follow the last slot.
+    const float* coordinates(int corner, int i) const { return narrow_.data() + size_t(3 * corner + i) * stride_; }
 
   private:
     bool single_precision_ = false;
-    std::vector<FloatTriangleShape> narrow_;
+    size_t count_ = 0;
+    size_t stride_ = 0;          // floats from one coordinate array to the next
+    std::vector<float> narrow_;  // 9 arrays of stride_ floats: v0.x, v0.y, v0.z, v1.x, ..., v2.z
     std::vector<TriangleShape> wide_;
 };
 
