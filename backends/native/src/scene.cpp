@@ -6,6 +6,7 @@
 #include "build_threads.hpp"
 #include "huge_pages.hpp"
 #include "simd_dispatch.hpp"
+#include "triangle_prefilter.hpp"
 
 #include <emmintrin.h>
 
@@ -391,31 +392,40 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool found = false;
     double t_best = t_max, t_test = t_max, t_cull = t_max;
-    auto leaf = [&](int32_t first, int count, double& cull) {
-        for (int k = 0; k < count; ++k) {
-            const int32_t ref = refs_[size_t(first + k)];
-            double t;
-            Barycentric bary{};
-            bool hit_here;
-            if (ref >= 0) {
-                hit_here = hit_triangle(ref, ray, wr, t_min, t_test, t, bary);
-            } else {
-                hit_here = hit_solid(ref, ray, t_min, t_test, t);
-            }
-            if (!hit_here) continue;
-            if (found && !(t < t_best || primitive_id(ref) < primitive_id(hit.ref))) continue;
-            found = true;
-            t_best = t;
-            hit = {t, ref, bary};
-            t_test = next_up(t_best);
-            cull = t_best + std::fabs(t_best) * kTieCullMargin;
+    auto test = [&](int32_t ref, double& cull) __attribute__((always_inline)) {
+        double t;
+        Barycentric bary{};
+        bool hit_here;
+        if (ref >= 0) {
+            hit_here = hit_triangle(ref, ray, wr, t_min, t_test, t, bary);
+        } else {
+            hit_here = hit_solid(ref, ray, t_min, t_test, t);
         }
-        return false;
+        if (!hit_here) return;
+        if (found && !(t < t_best || primitive_id(ref) < primitive_id(hit.ref))) return;
+        found = true;
+        t_best = t;
+        hit = {t, ref, bary};
+        t_test = next_up(t_best);
+        cull = t_best + std::fabs(t_best) * kTieCullMargin;
     };
-    if (!bvh8_.empty())
+    if (!bvh8_.empty()) {
+        // Only the triangles the float prefilter keeps (triangle_prefilter.hpp).
+        TriangleLeafFilter filter(triangles, magnitude, prefilter_applies());
+        auto leaf = [&](int32_t first, int count, double& cull) PHONG_AVX2 __attribute__((flatten)) {
+            const int32_t* refs = refs_.data() + first;
+            for (unsigned kept = filter(refs, count, ray, wr); kept != 0; kept &= kept - 1)
+                test(refs[__builtin_ctz(kept)], cull);
+            return false;
+        };
         traverse_bvh8<true>(bvh8_, magnitude, ray, origin, t_min, t_cull, leaf);
-    else
+    } else {
+        auto leaf = [&](int32_t first, int count, double& cull) {
+            for (int k = 0; k < count; ++k) test(refs_[size_t(first + k)], cull);
+            return false;
+        };
         traverse_bvh4<true>(bvh4_, magnitude, ray, origin, t_min, t_cull, leaf);
+    }
     // Unbounded planes after the tree (outside it), with the same tie rule.
     double t_plane;
     int32_t plane;
@@ -441,28 +451,30 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool blocked = false;
     double t_limit = t_max;
-    auto leaf = [&](int32_t first, int count, double& t_best) {
-        for (int k = 0; k < count; ++k) {
-            const int32_t ref = refs_[size_t(first + k)];
-            double t;
-            bool hit;
-            if (ref >= 0) {
-                Barycentric bary;
-                hit = hit_triangle(ref, ray, wr, t_min, t_best, t, bary);
-            } else {
-                hit = hit_solid(ref, ray, t_min, t_best, t);
-            }
-            if (hit) {
-                blocked = true;
-                return true;  // shadow rays stop at the first hit
-            }
-        }
-        return false;
+    auto test = [&](int32_t ref, double t_best) __attribute__((always_inline)) {
+        double t;
+        if (ref < 0) return hit_solid(ref, ray, t_min, t_best, t);
+        Barycentric bary;
+        return hit_triangle(ref, ray, wr, t_min, t_best, t, bary);
     };
-    if (!bvh8_.empty())
+    if (!bvh8_.empty()) {
+        // Only the triangles the float prefilter keeps (triangle_prefilter.hpp).
+        TriangleLeafFilter filter(triangles, magnitude, prefilter_applies());
+        auto leaf = [&](int32_t first, int count, double& t_best) PHONG_AVX2 __attribute__((flatten)) {
+            const int32_t* refs = refs_.data() + first;
+            for (unsigned kept = filter(refs, count, ray, wr); kept != 0; kept &= kept - 1)
+                if (test(refs[__builtin_ctz(kept)], t_best)) return blocked = true;  // the first hit ends the walk
+            return false;
+        };
         traverse_bvh8<false>(bvh8_, magnitude, ray, origin, t_min, t_limit, leaf);
-    else
+    } else {
+        auto leaf = [&](int32_t first, int count, double& t_best) {
+            for (int k = 0; k < count; ++k)
+                if (test(refs_[size_t(first + k)], t_best)) return blocked = true;  // the first hit ends the walk
+            return false;
+        };
         traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, leaf);
+    }
     if (!blocked && !planes.empty()) {
         double t;
         int32_t plane;

@@ -299,6 +299,12 @@ class Scene {
         return intersect_triangle(triangles[size_t(ref)], ray, *wr, t_min, t_max, t, bary);
     }
 
+    // Whether the rays' leaves take the float prefilter (triangle_prefilter.hpp): on the AVX2
+    // walk, with float corners and the watertight test.
+    bool prefilter_applies() const {
+        return !bvh8_.empty() && triangles.single_precision() && povray_triangles.empty();
+    }
+
     Bvh bvh_;  // the binary tree; its nodes are freed once collapsed
     // What the rays and bundles walk: the 8-wide tree where the CPU has AVX2 (simd_dispatch.hpp),
     // else the 4-wide one; the other is empty.
