@@ -28,7 +28,9 @@
 #include "materials.hpp"
 #include "render.hpp"
 #include "scene.hpp"
+#include "simd_dispatch.hpp"
 #include "subdivision.hpp"
+#include "triangle_prefilter.hpp"
 
 namespace nb = nanobind;
 using namespace nb::literals;
@@ -344,6 +346,50 @@ nb::ndarray<nb::numpy, bool, nb::shape<-1>> occluded(const phong::Scene& scene, 
         }
     }
     return nb::ndarray<nb::numpy, bool, nb::shape<-1>>(blocked, {n}, owner);
+}
+
+// The float prefilter (triangle_prefilter.hpp) against the double test, every ray against every
+// triangle in runs of eight slots: per ray, the number of triangles the prefilter rejected that
+// the double test hits at some t (any t: the prefilter rejects on the edge functions' signs
+// alone), which must be 0, and the number it kept; -1 and -1 where it does not apply (no AVX2,
+// double storage, POV-Ray numerics, a ray outside the bound's range).
+nb::tuple prefilter_check(const phong::Scene& scene, const Rows3& origins, const Rows3& dirs) {
+    const size_t n = origins.shape(0);
+    if (dirs.shape(0) != n) throw std::invalid_argument("origins and dirs differ in length");
+    int64_t* wrong = new int64_t[n];
+    int64_t* kept = new int64_t[n];
+    nb::capsule wrong_owner(wrong, [](void* p) noexcept { delete[] static_cast<int64_t*>(p); });
+    nb::capsule kept_owner(kept, [](void* p) noexcept { delete[] static_cast<int64_t*>(p); });
+    const bool applies = phong::cpu_has_avx2() && scene.triangles.single_precision() && scene.povray_triangles.empty();
+    {
+        nb::gil_scoped_release release;
+        const size_t count = scene.triangles.size();
+        for (size_t i = 0; i < n; ++i) {
+            const phong::Ray ray{{origins(i, 0), origins(i, 1), origins(i, 2)}, {dirs(i, 0), dirs(i, 1), dirs(i, 2)}};
+            const phong::WatertightRay wr(ray.dir);
+            phong::TrianglePrefilter8 prefilter;
+            wrong[i] = kept[i] = -1;
+            if (!applies || !prefilter.set_up(scene.triangles, ray, wr, scene.magnitude)) continue;
+            wrong[i] = kept[i] = 0;
+            for (size_t slot = 0; slot < count; slot += 8) {
+                const int lanes = int(std::min<size_t>(8, count - slot));
+                const unsigned candidates = prefilter.candidates(slot, lanes);
+                for (int j = 0; j < lanes; ++j) {
+                    if (candidates & (1u << j)) {
+                        ++kept[i];
+                        continue;
+                    }
+                    double t;
+                    phong::Barycentric bary;
+                    if (phong::intersect_triangle(scene.triangles[slot + size_t(j)], ray, wr, -HUGE_VAL, HUGE_VAL, t,
+                                                  bary))
+                        ++wrong[i];
+                }
+            }
+        }
+    }
+    return nb::make_tuple(nb::ndarray<nb::numpy, int64_t, nb::shape<-1>>(wrong, {n}, wrong_owner),
+                          nb::ndarray<nb::numpy, int64_t, nb::shape<-1>>(kept, {n}, kept_owner));
 }
 
 // Brute force over every primitive: (number of primitives hit, closest t).
@@ -726,6 +772,10 @@ NB_MODULE(_native, m) {
              "Closest hit per ray (tests): (t, primitive id); spheres are 0..S-1, then triangles.")
         .def("occluded", &occluded, "origins"_a, "dirs"_a, "t_max"_a, "t_min"_a = 0.0,
              "Per ray, whether anything is hit in (t_min, t_max): shadow rays' any-hit walk, one thread.")
+        .def("prefilter_check", &prefilter_check, "origins"_a, "dirs"_a,
+             "The float triangle prefilter against the double test, every ray against every triangle (tests): "
+             "per ray, the triangles it rejected that the double test hits at some t (must be 0), and the "
+             "triangles it kept; -1 where it does not apply.")
         .def("count_hits", &count_hits, "origins"_a, "dirs"_a, "t_min"_a = 0.0,
              "Brute-force count of primitives hit per ray, and the closest t (tests).");
 }
