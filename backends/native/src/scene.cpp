@@ -410,7 +410,10 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
         cull = t_best + std::fabs(t_best) * kTieCullMargin;
     };
     if (!bvh8_.empty()) {
-        // Only the triangles the float prefilter keeps (triangle_prefilter.hpp).
+        // Only the triangles the float prefilter keeps (triangle_prefilter.hpp). The leaf is
+        // compiled for AVX2 with the prefilter and the tests inlined: GCC inlines no default-target
+        // function into a target("avx2") one unless made to (always_inline on `test`, flatten
+        // here); out of line they cost S2 more than the prefilter saves (benchmarks/README.md).
         TriangleLeafFilter filter(triangles, magnitude, prefilter_applies());
         auto leaf = [&](int32_t first, int count, double& cull) PHONG_AVX2 __attribute__((flatten)) {
             const int32_t* refs = refs_.data() + first;
@@ -458,7 +461,7 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
         return hit_triangle(ref, ray, wr, t_min, t_best, t, bary);
     };
     if (!bvh8_.empty()) {
-        // Only the triangles the float prefilter keeps (triangle_prefilter.hpp).
+        // Only the triangles the float prefilter keeps, inlined as in closest_hit.
         TriangleLeafFilter filter(triangles, magnitude, prefilter_applies());
         auto leaf = [&](int32_t first, int count, double& t_best) PHONG_AVX2 __attribute__((flatten)) {
             const int32_t* refs = refs_.data() + first;
