@@ -409,12 +409,12 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
         t_test = next_up(t_best);
         cull = t_best + std::fabs(t_best) * kTieCullMargin;
     };
-    if (!bvh8_.empty()) {
+    if (prefilter_applies()) {
         // Only the triangles the float prefilter keeps (triangle_prefilter.hpp). The leaf is
         // compiled for AVX2 with the prefilter and the tests inlined: GCC inlines no default-target
         // function into a target("avx2") one unless made to (always_inline on `test`, flatten
         // here); out of line they cost S2 more than the prefilter saves (benchmarks/README.md).
-        TriangleLeafFilter filter(triangles, magnitude, prefilter_applies());
+        TriangleLeafFilter filter(triangles, magnitude);
         auto leaf = [&](int32_t first, int count, double& cull) PHONG_AVX2 __attribute__((flatten)) {
             const int32_t* refs = refs_.data() + first;
             for (unsigned kept = filter(refs, count, ray, wr); kept != 0; kept &= kept - 1)
@@ -427,7 +427,10 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
             for (int k = 0; k < count; ++k) test(refs_[size_t(first + k)], cull);
             return false;
         };
-        traverse_bvh4<true>(bvh4_, magnitude, ray, origin, t_min, t_cull, leaf);
+        if (!bvh8_.empty())
+            traverse_bvh8<true>(bvh8_, magnitude, ray, origin, t_min, t_cull, leaf);
+        else
+            traverse_bvh4<true>(bvh4_, magnitude, ray, origin, t_min, t_cull, leaf);
     }
     // Unbounded planes after the tree (outside it), with the same tie rule.
     double t_plane;
@@ -460,9 +463,9 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
         Barycentric bary;
         return hit_triangle(ref, ray, wr, t_min, t_best, t, bary);
     };
-    if (!bvh8_.empty()) {
+    if (prefilter_applies()) {
         // Only the triangles the float prefilter keeps, inlined as in closest_hit.
-        TriangleLeafFilter filter(triangles, magnitude, prefilter_applies());
+        TriangleLeafFilter filter(triangles, magnitude);
         auto leaf = [&](int32_t first, int count, double& t_best) PHONG_AVX2 __attribute__((flatten)) {
             const int32_t* refs = refs_.data() + first;
             for (unsigned kept = filter(refs, count, ray, wr); kept != 0; kept &= kept - 1)
@@ -476,7 +479,10 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
                 if (test(refs_[size_t(first + k)], t_best)) return blocked = true;  // the first hit ends the walk
             return false;
         };
-        traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, leaf);
+        if (!bvh8_.empty())
+            traverse_bvh8<false>(bvh8_, magnitude, ray, origin, t_min, t_limit, leaf);
+        else
+            traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, leaf);
     }
     if (!blocked && !planes.empty()) {
         double t;

@@ -23,6 +23,7 @@
 #include "shapes.hpp"
 #include "environment.hpp"
 #include "textures.hpp"
+#include "triangle_prefilter.hpp"
 #include "triangle_store.hpp"
 
 namespace phong {
@@ -300,9 +301,12 @@ class Scene {
     }
 
     // Whether the rays' leaves take the float prefilter (triangle_prefilter.hpp): on the AVX2
-    // walk, with float corners and the watertight test.
+    // walk, with float corners and the watertight test, in a scene with a leaf it can take
+    // (kMinPrefilterLeaf triangles). Elsewhere the leaves are tested as before it: its AVX2 leaf
+    // loop, every test inlined, rendered S1 (4 spheres, 2 triangles) ~10 % slower in CPU time.
     bool prefilter_applies() const {
-        return !bvh8_.empty() && triangles.single_precision() && povray_triangles.empty();
+        return !bvh8_.empty() && triangles.single_precision() && povray_triangles.empty() &&
+               triangles.size() >= size_t(kMinPrefilterLeaf);
     }
 
     Bvh bvh_;  // the binary tree; its nodes are freed once collapsed

@@ -134,13 +134,12 @@ struct TrianglePrefilter8 {
 };
 
 // The candidates of one ray's leaves by leaf position (bit k: refs[k] must be tested): the
-// prefilter's where it applies, set up at the ray's first leaf of triangles; every bit where it
-// does not (the SSE2 path, double storage, POV-Ray numerics, a leaf with other primitives, a ray
-// outside the bound's range).
+// prefilter's, set up at the ray's first leaf it takes; every bit for a leaf of fewer than
+// kMinPrefilterLeaf triangles or with other primitives, and for a ray outside the bound's range.
+// (Scene::prefilter_applies says where it is used at all: the AVX2 walk over float corners.)
 class TriangleLeafFilter {
   public:
-    TriangleLeafFilter(const TriangleStore& store, double magnitude, bool applies)
-        : store_(store), magnitude_(magnitude), state_(applies ? kUnset : kOff) {}
+    TriangleLeafFilter(const TriangleStore& store, double magnitude) : store_(store), magnitude_(magnitude) {}
 
     PHONG_AVX2 unsigned operator()(const int32_t* refs, int count, const Ray& ray, std::optional<WatertightRay>& wr) {
         const unsigned all = (1u << count) - 1u;
@@ -160,7 +159,7 @@ class TriangleLeafFilter {
     TrianglePrefilter8 prefilter_;
     const TriangleStore& store_;
     double magnitude_;
-    enum { kUnset, kOn, kOff } state_;
+    enum { kUnset, kOn, kOff } state_ = kUnset;
 };
 
 }  // namespace phong
