@@ -56,12 +56,10 @@ static_assert(sizeof(LocalTriangle) == 40, "LocalTriangle's layout: 40 bytes a t
 inline bool float_exact(double x) { return double(float(x)) == x; }
 
 // Leaf-order triangle corners in one of two precisions, chosen per scene when it is built
-// (float when every mesh vertex is float_exact, else double), or in their meshes' frames
-// (POV-Ray numerics); read as world doubles in every mode.
+// (float when every mesh vertex is float_exact, else double); read as doubles either way.
 class TriangleStore {
   public:
     void resize(size_t n, bool single_precision) {
-        mesh_local_ = false;
         single_precision_ = single_precision;
         if (single_precision)
             resize_huge(narrow_, n);
@@ -82,8 +80,10 @@ class TriangleStore {
     size_t size() const { return mesh_local_ ? local_.size() : single_precision_ ? narrow_.size() : wide_.size(); }
     bool single_precision() const { return single_precision_; }
 
-    // The mesh-frame mode: n triangles of meshes placed at `origins`; with keep_world, the world
-    // corners are held too (some point is not its float plus its origin).
+    // The third mode, in POV-Ray's numerics (resize_mesh_local instead of resize): the corners in
+    // their meshes' frames, read as the same world doubles. n triangles of meshes placed at
+    // `origins`; with keep_world, the world corners are held too (some point is not its float
+    // plus its origin).
     void resize_mesh_local(size_t n, std::vector<Vec3> origins, bool keep_world) {
         mesh_local_ = true;
         single_precision_ = false;
