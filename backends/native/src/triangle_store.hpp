@@ -36,6 +36,10 @@ struct FloatTriangleShape {
     TriangleShape widen() const { return {{v[0], v[1], v[2]}, {v[3], v[4], v[5]}, {v[6], v[7], v[8]}}; }
 };
 
+// Whether double(float(x)) == x: a coordinate that float storage keeps exactly. NaN is not (it
+// compares unequal), so such a mesh keeps double storage and its own behaviour.
+inline bool float_exact(double x) { return double(float(x)) == x; }
+
 // A triangle in its mesh's frame (POV-Ray numerics): the corners as POV-Ray's mesh2 holds them,
 // in the caller's order v0, v1, v2, and the number of the mesh whose origin places them.
 struct LocalTriangle {
@@ -50,10 +54,6 @@ struct LocalTriangle {
 };
 
 static_assert(sizeof(LocalTriangle) == 40, "LocalTriangle's layout: 40 bytes a triangle");
-
-// Whether double(float(x)) == x: a coordinate that float storage keeps exactly. NaN is not (it
-// compares unequal), so such a mesh keeps double storage and its own behaviour.
-inline bool float_exact(double x) { return double(float(x)) == x; }
 
 // Leaf-order triangle corners in one of two precisions, chosen per scene when it is built
 // (float when every mesh vertex is float_exact, else double); read as doubles either way.
