@@ -74,8 +74,9 @@ class TriangleStore {
             wide_[k] = t;
     }
     TriangleShape operator[](size_t k) const {
-        if (mesh_local_) return world_.empty() ? local_[k].widen(origins_[local_[k].mesh]) : world_[k];
-        return single_precision_ ? narrow_[k].widen() : wide_[k];
+        if (single_precision_) return narrow_[k].widen();
+        if (!mesh_local_) return wide_[k];
+        return world_.empty() ? local_[k].widen(origins_[local_[k].mesh]) : world_[k];
     }
     size_t size() const { return mesh_local_ ? local_.size() : single_precision_ ? narrow_.size() : wide_.size(); }
     bool single_precision() const { return single_precision_; }
