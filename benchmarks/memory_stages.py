@@ -5,7 +5,10 @@ BVH, the render, the EXR write, and between them the model and the C++ scene dro
 ``malloc_trim``), printing after each the process's peak (VmHWM) and current (VmRSS) resident memory
 from /proc/self/status (Linux) and the stage's wall time.
 
-    .venv/bin/python benchmarks/memory_stages.py [S2] [--sdl]   # any make_scenes.FILES name; default S2
+    .venv/bin/python benchmarks/memory_stages.py [S2] [--sdl] [--numerics povray]
+
+SCENE is a make_scenes.FILES name (default S2) or a USD file's path; --numerics povray builds the
+native scene in POV-Ray's numerics, as ``diff`` does.
 
 The peak is monotone: the stage where it jumps is the one to look at. Figures: benchmarks/README.md.
 """
@@ -16,6 +19,7 @@ import argparse
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -34,11 +38,17 @@ def resident_mib() -> tuple[float, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("scene", nargs="?", default="S2", help="a make_scenes.FILES name (default S2)")
+    parser.add_argument("scene", nargs="?", default="S2", help="a make_scenes.FILES name (default S2) or a USD file")
     parser.add_argument(
         "--sdl",
         action="store_true",
         help="also compile the POV-Ray SDL to a file after the load (what render/diff's POV-Ray side adds)",
+    )
+    parser.add_argument(
+        "--numerics",
+        default="scale-invariant",
+        choices=["scale-invariant", "povray"],
+        help="the native render's numerics (povray: as diff renders it)",
     )
     args = parser.parse_args()
     print(f"{'stage':<28}{'peak MiB':>10}{'now MiB':>10}{'s':>8}")
@@ -59,11 +69,15 @@ def main() -> None:
     from phongscene.rendering import prepare_render
 
     stage("imports (numpy, pxr, ...)")
-    path = HERE / "scenes" / FILES[args.scene]
-    if not path.exists():
-        make(which=(args.scene,))
+    if args.scene in FILES:
+        path = HERE / "scenes" / FILES[args.scene]
+        if not path.exists():
+            make(which=(args.scene,))
+    else:
+        path = Path(args.scene)
     start = time.perf_counter()
     scene = phongscene.usd.load_usd(path)
+    scene = replace(scene, settings=replace(scene.settings, numerics=args.numerics))
     stage("load_usd")
     release_free_heap()
     stage("malloc_trim")

@@ -54,6 +54,12 @@ def main() -> None:
         help="that build's backends/native/__init__.py (when its arguments differ)",
     )
     parser.add_argument(
+        "--numerics",
+        default="scale-invariant",
+        choices=["scale-invariant", "povray"],
+        help="the native numerics (povray: the scene built and rendered as diff does)",
+    )
+    parser.add_argument(
         "--callgrind-render",
         action="store_true",
         help="under valgrind --instr-atstart=no: count the last render call's instructions only",
@@ -72,12 +78,14 @@ def main() -> None:
         specular=SPECULAR_OF_MAPPING["classic"],
         width=args.width or scene.settings.width,
         height=args.height or scene.settings.height,
+        numerics=args.numerics,
     )
+    posed = dataclasses.replace(scene, settings=settings)
     camera, native_settings = native._camera(scene.camera), native._settings(settings)
     build, render = [], []
     for run in range(args.repeat):
         start = time.process_time()
-        built = native.build(scene)
+        built = native.build(scene) if args.numerics == "scale-invariant" else native.prepare(posed)._native
         build.append(time.process_time() - start)
         counted = args.callgrind_render and run == args.repeat - 1
         if counted:

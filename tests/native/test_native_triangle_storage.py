@@ -95,3 +95,58 @@ def test_float_and_double_storage_render_the_same_image(numerics):
     assert np.array_equal(single, native.render(with_double_numbers(scene)))
     if numerics == "scale-invariant":
         assert_matches_oracle(single, oracle.render(scene))
+
+
+def far_meshes(base) -> Scene:
+    """``calibration.far_from_origin`` moved to ``base``, its ball in four stretched copies side by
+    side: five meshes far from the world origin, each with its own local origin (its centre)."""
+    scene = calibration.far_from_origin()
+    offset = np.asarray(base) - np.asarray(calibration.FAR_OFFSET)
+    camera = dataclasses.replace(scene.camera, position=tuple(np.asarray(scene.camera.position) + offset))
+    lights = tuple(dataclasses.replace(l, position=tuple(np.asarray(l.position) + offset)) for l in scene.lights)
+    ball, ground = scene.meshes
+    meshes = [dataclasses.replace(ground, points=ground.points + offset)]
+    for k, shift in enumerate([(-1.3, 0.2, 0.1), (0.0, 0.0, 0.0), (1.4, -0.1, -0.6), (0.3, 1.6, -1.1)]):
+        meshes.append(dataclasses.replace(ball, points=(ball.points + offset) * (1.0, 1.0 + 0.1 * k, 1.0) + shift))
+    settings = dataclasses.replace(scene.settings, numerics="povray")
+    return dataclasses.replace(scene, camera=camera, lights=lights, meshes=tuple(meshes), settings=settings)
+
+
+@pytest.mark.parametrize("base", [(1e3, 0.0, 0.0), (3.3e4, -2e3, 1e4), (1e5, 1e5, -7e4)])
+def test_povray_numerics_hold_corners_in_mesh_frames_as_the_same_doubles(base):
+    # POV-Ray's numerics hold each corner as a float in its mesh's frame plus the mesh's origin
+    # (triangle_store.hpp); read back they must be, bit for bit, the doubles numpy computed
+    # ((p − o) rounded to float32, plus o: backends/native/__init__.py, _as_povray_stores).
+    scene = far_meshes(base)
+    origins = np.array([m.local_origin() for m in scene.meshes])
+    assert len({tuple(o) for o in origins}) == len(scene.meshes) and np.all(np.linalg.norm(origins, axis=1) > 900)
+    expected = np.concatenate(
+        [((m.points - o).astype(np.float32).astype(np.float64) + o)[m.triangles] for m, o in zip(scene.meshes, origins)]
+    )
+    assert not np.array_equal(expected, expected.astype(np.float32))  # world floats would not hold them
+    built = native.prepare(scene)._native
+    assert built.triangle_storage == "mesh frame"
+    corners = built.triangle_corners()
+    assert corners.tobytes() == expected.tobytes()
+
+
+def test_povray_numerics_keep_world_doubles_that_the_mesh_frames_do_not_give_back():
+    # Points that are not float32 values in their mesh's frame (a caller other than
+    # _as_povray_stores) are kept in doubles beside the mesh-frame floats, and read back as given.
+    grid = jittered_grid(6, seed=5)  # float64 random numbers
+    mesh = dataclasses.replace(grid, points=grid.points + (2e4, 0.0, 0.0))
+    scene = Scene(meshes=(mesh,))
+    arrays = dict(native.scene_arrays(scene), povray_triangles=True, mesh_origins=mesh.local_origin().reshape(1, 3))
+    built = native._native.Scene(**arrays)
+    assert built.triangle_storage == "mesh frame and double"
+    assert built.triangle_corners().tobytes() == mesh.points[mesh.triangles].tobytes()
+    rounded = native._native.Scene(**native._as_povray_stores(native.scene_arrays(scene), scene))
+    assert rounded.triangle_storage == "mesh frame"
+    # The hit test reads the mesh-frame floats in both: the same hits.
+    rng = np.random.default_rng(11)
+    origins = np.column_stack([rng.uniform(2e4 - 1, 2e4 + 7, 2000), rng.uniform(-1, 7, 2000), np.full(2000, 3.0)])
+    d = unit(np.column_stack([rng.normal(scale=0.2, size=(2000, 2)), -np.ones(2000)]))
+    t1, prim1 = built.intersect(origins, d)
+    t2, prim2 = rounded.intersect(origins, d)
+    assert (prim1 >= 0).sum() > 1000
+    assert np.array_equal(t1, t2) and np.array_equal(prim1, prim2)

@@ -411,6 +411,24 @@ nb::tuple count_hits(const phong::Scene& scene, const Rows3& origins, const Rows
                           nb::ndarray<nb::numpy, double, nb::shape<-1>>(t, {n}, t_owner));
 }
 
+// The triangles' corners as the scene reads them (tests), (T, 3, 3) by input row.
+nb::ndarray<nb::numpy, double, nb::shape<-1, 3, 3>> triangle_corners(const phong::Scene& scene) {
+    const size_t n = scene.triangles.size();
+    double* corners = new double[9 * n];
+    nb::capsule owner(corners, [](void* p) noexcept { delete[] static_cast<double*>(p); });
+    for (size_t slot = 0; slot < n; ++slot) {
+        const phong::TriangleShape t = scene.triangles[slot];
+        const phong::Vec3 v[3] = {t.v0, t.v1, t.v2};
+        double* row = corners + 9 * size_t(scene.triangle_source[slot]);
+        for (int i = 0; i < 3; ++i) {
+            row[3 * i] = v[i].x;
+            row[3 * i + 1] = v[i].y;
+            row[3 * i + 2] = v[i].z;
+        }
+    }
+    return nb::ndarray<nb::numpy, double, nb::shape<-1, 3, 3>>(corners, {n, 3, 3}, owner);
+}
+
 }  // namespace
 
 // A vector's elements handed to numpy without a copy: the array owns the moved vector.
@@ -755,6 +773,17 @@ NB_MODULE(_native, m) {
         .def_prop_ro(
             "single_precision_triangles", [](const phong::Scene& s) { return s.triangles.single_precision(); },
             "Whether the triangles' corners are held as floats (every vertex a float: the same doubles).")
+        .def_prop_ro(
+            "triangle_storage",
+            [](const phong::Scene& s) {
+                if (!s.triangles.mesh_local()) return s.triangles.single_precision() ? "float" : "double";
+                return s.triangles.keeps_world() ? "mesh frame and double" : "mesh frame";
+            },
+            "How the triangles' corners are held (triangle_store.hpp): 'float' or 'double' (world), or in "
+            "POV-Ray's numerics 'mesh frame' (floats in each mesh's frame plus its origin: the same doubles), "
+            "'mesh frame and double' where some point is not its float plus its origin.")
+        .def("triangle_corners", &triangle_corners,
+             "The triangles' corners as the tracer reads them, float64 (T, 3, 3) by input row (tests).")
         .def_prop_ro(
             "single_precision_normals", [](const phong::Scene& s) { return s.normals.single_precision(); },
             "Whether the meshes' normals are held as floats (every coordinate a float: the same doubles).")

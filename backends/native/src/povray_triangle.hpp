@@ -19,6 +19,7 @@
 
 #include "math.hpp"
 #include "shapes.hpp"
+#include "triangle_store.hpp"
 
 namespace phong {
 
@@ -35,50 +36,71 @@ inline double round_to_float(double x) {
     return f;
 }
 
-// Held per triangle (80 bytes; the float32 values in floats, exactly, and read back as doubles:
-// in doubles it took 144, 1.8 GB of the chess set's 12.8M triangles in POV-Ray's numerics).
+// Held per triangle beside its corners, which the TriangleStore holds in the mesh's frame
+// (LocalTriangle, 40 bytes): 20 bytes, the float32 values in floats, exactly, and read back as
+// doubles. (In doubles, with its own corners and origin, it took 144; with float corners and a
+// double origin 80, beside 72 of world corners.)
 struct PovrayTriangle {
-    double origin[3];  // the mesh's frame: world = mesh + origin
-    float p[3][3];     // P1, P2, P3 in mesh space (float32 values), after POV-Ray's reordering
-    float normal[3];   // float32-rounded unit plane normal
-    float distance;    // float32-rounded −n·P1, with the unrounded normal
-    int8_t a, b;       // the two axes other than the dominant one, in POV-Ray's order
-    bool swapped;      // P1 and P2 exchanged (to map barycentrics back to v0, v1, v2)
-    bool degenerate;   // zero normal: POV-Ray drops the triangle
-
-    // The corners as doubles (exact: each is a float32 value).
-    void corners(double (&P)[3][3]) const {
-        for (int i = 0; i < 3; ++i)
-            for (int k = 0; k < 3; ++k) P[i][k] = p[i][k];
-    }
+    float normal[3];  // float32-rounded unit plane normal
+    float distance;   // float32-rounded −n·P1, with the unrounded normal
+    int8_t a, b;      // the two axes other than the dominant one, in POV-Ray's order
+    bool swapped;     // P1 and P2 exchanged (to map barycentrics back to v0, v1, v2)
+    bool degenerate;  // zero normal: POV-Ray drops the triangle
 };
 
-static_assert(sizeof(PovrayTriangle) == 80, "PovrayTriangle's layout: 80 bytes a triangle");
+static_assert(sizeof(PovrayTriangle) == 20, "PovrayTriangle's layout: 20 bytes a triangle");
 
-// `world` holds float32 mesh-space vertices plus `origin` (rounded to float64); subtracting the
-// origin and rounding to float32 recovers them exactly (the error is far below a float32 ulp).
-inline PovrayTriangle make_povray_triangle(const TriangleShape& world, const Vec3& origin) {
-    PovrayTriangle t{};
-    const Vec3* v[3] = {&world.v0, &world.v1, &world.v2};
-    double P[3][3];
-    for (int i = 0; i < 3; ++i) {
-        P[i][0] = round_to_float(v[i]->x - origin.x);
-        P[i][1] = round_to_float(v[i]->y - origin.y);
-        P[i][2] = round_to_float(v[i]->z - origin.z);
+// POV-Ray's P1, P2, P3 as doubles (exact: each is a float32 value): the mesh-space corners,
+// P1 and P2 exchanged where POV-Ray swapped them.
+inline void povray_corners(const PovrayTriangle& tri, const LocalTriangle& local, double (&P)[3][3]) {
+    const int first = tri.swapped ? 1 : 0;
+    for (int k = 0; k < 3; ++k) {
+        P[0][k] = local.v[3 * first + k];
+        P[1][k] = local.v[3 * (1 - first) + k];
+        P[2][k] = local.v[6 + k];
     }
-    t.origin[0] = origin.x;
-    t.origin[1] = origin.y;
-    t.origin[2] = origin.z;
+}
+
+// One coordinate in its mesh's frame as POV-Ray holds it: x − o rounded to float32.
+inline float mesh_coordinate(double x, double o) { return float(round_to_float(x - o)); }
+
+// Whether a world point is its mesh-frame float plus the origin, double(float(x − o)) + o == x
+// per coordinate (a NaN coordinate counts when it comes back NaN).
+inline bool recovered_from_mesh_frame(const double* point, const Vec3& origin) {
+    const double o[3] = {origin.x, origin.y, origin.z};
+    for (int k = 0; k < 3; ++k) {
+        const double back = double(mesh_coordinate(point[k], o[k])) + o[k];
+        if (!(back == point[k] || (std::isnan(back) && std::isnan(point[k])))) return false;
+    }
+    return true;
+}
+
+// `world` in the frame of mesh number `mesh`, at `origin`: world holds float32 mesh-space
+// vertices plus the origin (rounded to float64); subtracting the origin and rounding to float32
+// recovers them exactly (the error is far below a float32 ulp).
+inline LocalTriangle to_mesh_frame(const TriangleShape& world, const Vec3& origin, uint32_t mesh) {
+    LocalTriangle t{};
+    const Vec3* v[3] = {&world.v0, &world.v1, &world.v2};
+    for (int i = 0; i < 3; ++i) {
+        t.v[3 * i] = mesh_coordinate(v[i]->x, origin.x);
+        t.v[3 * i + 1] = mesh_coordinate(v[i]->y, origin.y);
+        t.v[3 * i + 2] = mesh_coordinate(v[i]->z, origin.z);
+    }
+    t.mesh = mesh;
+    return t;
+}
+
+// POV-Ray's plane, dominant axis and P1/P2 order of the triangle with mesh-space corners `local`.
+inline PovrayTriangle make_povray_triangle(const LocalTriangle& local) {
+    PovrayTriangle t{};
+    double P[3][3];
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) P[i][k] = local.v[3 * i + k];
     const Vec3 p1{P[0][0], P[0][1], P[0][2]}, p2{P[1][0], P[1][1], P[1][2]}, p3{P[2][0], P[2][1], P[2][2]};
-    auto store_corners = [&] {
-        for (int i = 0; i < 3; ++i)
-            for (int k = 0; k < 3; ++k) t.p[i][k] = float(P[i][k]);
-    };
     Vec3 n = cross(p3 - p1, p2 - p1);
     const double len = length(n);
     if (len == 0.0) {
         t.degenerate = true;
-        store_corners();
         return t;
     }
     n = n / len;
@@ -88,24 +110,21 @@ inline PovrayTriangle make_povray_triangle(const TriangleShape& world, const Vec
     t.a = int8_t(dominant == 0 ? 1 : 0);
     t.b = int8_t(dominant == 2 ? 1 : 2);
     const int a = t.a, b = t.b;
-    if ((P[1][a] - P[2][a]) * (P[1][b] - P[0][b]) < (P[1][b] - P[2][b]) * (P[1][a] - P[0][a])) {
-        for (int k = 0; k < 3; ++k) std::swap(P[0][k], P[1][k]);
-        t.swapped = true;
-    }
+    t.swapped = (P[1][a] - P[2][a]) * (P[1][b] - P[0][b]) < (P[1][b] - P[2][b]) * (P[1][a] - P[0][a]);
     t.normal[0] = float(round_to_float(n.x));
     t.normal[1] = float(round_to_float(n.y));
     t.normal[2] = float(round_to_float(n.z));
-    store_corners();
     return t;
 }
 
-// Whether the world ray hits in (t_min, t_max) as POV-Ray finds it; barycentrics of v0, v1, v2.
-inline bool intersect_povray_triangle(const PovrayTriangle& tri, const Ray& ray, double t_min, double t_max,
-                                      double& t_hit, Barycentric& bary) {
+// Whether the world ray hits in (t_min, t_max), as POV-Ray finds it, the triangle of plane `tri`
+// and mesh-space corners `local` (its mesh at `origin`); barycentrics of v0, v1, v2.
+inline bool intersect_povray_triangle(const PovrayTriangle& tri, const LocalTriangle& local, const Vec3& origin,
+                                      const Ray& ray, double t_min, double t_max, double& t_hit, Barycentric& bary) {
     if (tri.degenerate) return false;
     // The ray in mesh space: translated, direction renormalised (POV-Ray's MInvTransRay).
     const double len = length(ray.dir);
-    const double o[3] = {ray.origin.x - tri.origin[0], ray.origin.y - tri.origin[1], ray.origin.z - tri.origin[2]};
+    const double o[3] = {ray.origin.x - origin.x, ray.origin.y - origin.y, ray.origin.z - origin.z};
     const double d[3] = {ray.dir.x / len, ray.dir.y / len, ray.dir.z / len};
     const double n[3] = {tri.normal[0], tri.normal[1], tri.normal[2]};
     const double n_dot_d = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
@@ -116,7 +135,7 @@ inline bool intersect_povray_triangle(const PovrayTriangle& tri, const Ray& ray,
     const int a = tri.a, b = tri.b;
     const double s = o[a] + depth * d[a], u = o[b] + depth * d[b];
     double P[3][3];
-    tri.corners(P);
+    povray_corners(tri, local, P);
     // Inner side of each edge P2→P1, P3→P2, P1→P3 (POV-Ray's order).
     for (int e = 0; e < 3; ++e) {
         const double* q = P[(e + 1) % 3];
@@ -145,11 +164,11 @@ inline bool intersect_povray_triangle(const PovrayTriangle& tri, const Ray& ray,
 // P the hit in mesh space. Barycentrics of the same point differ from these weights by a few
 // ulps, enough to move a lookup across a texel edge where the image jumps (issue 27: 1-19 of
 // 25,600-409,600 pixels on public textured assets). `corner_uv` is (u, v) of v0, v1, v2.
-inline void povray_mesh_uv(const PovrayTriangle& tri, const Vec3& world_point, const double* corner_uv, double& u,
-                           double& v) {
-    const double p[3] = {world_point.x - tri.origin[0], world_point.y - tri.origin[1], world_point.z - tri.origin[2]};
+inline void povray_mesh_uv(const PovrayTriangle& tri, const LocalTriangle& local, const Vec3& origin,
+                           const Vec3& world_point, const double* corner_uv, double& u, double& v) {
+    const double p[3] = {world_point.x - origin.x, world_point.y - origin.y, world_point.z - origin.z};
     double P[3][3];
-    tri.corners(P);
+    povray_corners(tri, local, P);
     // One weight: the vertex `at`, the side from `from` to `to` opposite it (POV-Ray's Side1), and
     // Side2 = to − at.
     auto weight = [&](int at, int from, int to) {

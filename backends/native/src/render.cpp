@@ -129,7 +129,9 @@ void hit_uv(const Scene& surface, const Hit& hit, const Vec3& p, double& u, doub
     const double* uv = surface.corner_uv + 6 * size_t(surface.triangle_source[size_t(hit.ref)]);
     if (!surface.povray_triangles.empty() && hit.instance < 0) {
         // POV-Ray's own weights on the SDL's uvs, mapped back (povray_mesh_uv).
-        povray_mesh_uv(surface.povray_triangles[size_t(hit.ref)], p, uv, u, v);
+        const size_t slot = size_t(hit.ref);
+        povray_mesh_uv(surface.povray_triangles[slot], surface.triangles.local(slot), surface.triangles.origin(slot), p,
+                       uv, u, v);
         u = surface.uv_origin[0] + surface.uv_span[0] * u;
         v = surface.uv_origin[1] + surface.uv_span[1] * v;
     } else {

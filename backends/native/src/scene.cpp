@@ -248,12 +248,25 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     for (size_t k = 0; k < order.size(); ++k)
         if (order[k] < n_spheres || order[k] >= n_spheres + n_triangles) sphere_positions.push_back(uint32_t(k));
     resize_huge(refs_, order.size());
-    // Float corners when every vertex is a float (triangle_store.hpp): the same doubles.
-    bool every_vertex_float = true;
-    for (const MeshArrays& mesh : in.meshes)
-        for (size_t i = 0; i < 3 * mesh.point_count && every_vertex_float; ++i)
-            every_vertex_float = float_exact(mesh.points[i]);
-    triangles.resize(n_triangles, every_vertex_float);
+    if (in.povray_triangles) {
+        // POV-Ray's numerics: the corners in their meshes' frames, as its mesh2 holds them
+        // (triangle_store.hpp), and the world doubles only if those do not give them back.
+        std::vector<Vec3> origins;
+        bool every_point_recovered = true;
+        for (const MeshArrays& mesh : in.meshes) {
+            origins.push_back(mesh.origin);
+            for (size_t i = 0; i < mesh.point_count && every_point_recovered; ++i)
+                every_point_recovered = recovered_from_mesh_frame(mesh.points + 3 * i, mesh.origin);
+        }
+        triangles.resize_mesh_local(n_triangles, std::move(origins), !every_point_recovered);
+    } else {
+        // Float corners when every vertex is a float (triangle_store.hpp): the same doubles.
+        bool every_vertex_float = true;
+        for (const MeshArrays& mesh : in.meshes)
+            for (size_t i = 0; i < 3 * mesh.point_count && every_vertex_float; ++i)
+                every_vertex_float = float_exact(mesh.points[i]);
+        triangles.resize(n_triangles, every_vertex_float);
+    }
     bool any_vertex_normals = false;
     for (const MeshArrays& mesh : in.meshes) any_vertex_normals = any_vertex_normals || mesh.normal_indices;
     if (any_vertex_normals) resize_huge(triangle_normals, n_triangles);
@@ -312,7 +325,13 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
             refs_[k] = int32_t(slot);
             const TriangleShape corners{row3(mesh.points + 3 * size_t(t[0])), row3(mesh.points + 3 * size_t(t[1])),
                                         row3(mesh.points + 3 * size_t(t[2]))};
-            triangles.set(slot, corners);
+            if (in.povray_triangles) {
+                const LocalTriangle local = to_mesh_frame(corners, mesh.origin, uint32_t(m));
+                triangles.set_local(slot, local, corners);
+                povray_triangles[slot] = make_povray_triangle(local);
+            } else {
+                triangles.set(slot, corners);
+            }
             if (any_vertex_normals) {
                 TriangleNormals sh{-1, -1, -1};
                 if (mesh.normal_indices && mesh.normal_indices[3 * local] >= 0) {
@@ -325,7 +344,6 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
                 triangle_normals[slot] = sh;
             }
             triangle_source[slot] = uint32_t(i);
-            if (in.povray_triangles) povray_triangles[slot] = make_povray_triangle(corners, mesh.origin);
         }
     });
     // The balls in leaf order (one pass: a ball's slot is the number of balls before it).

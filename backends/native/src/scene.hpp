@@ -232,9 +232,11 @@ class Scene {
     // Leaf order; empty when no mesh has vertex normals (every triangle flat): 12 bytes a
     // triangle only where a scene needs them (benchmarks/README.md, memory per triangle).
     std::vector<TriangleNormals> triangle_normals;
-    std::vector<uint32_t> triangle_source;         // leaf order -> input row
-    std::vector<PovrayTriangle> povray_triangles;  // leaf order; empty unless built in POV-Ray numerics
-    Vec3Store normals;                             // float when that is exact
+    std::vector<uint32_t> triangle_source;  // leaf order -> input row
+    // Leaf order; empty unless built in POV-Ray numerics (then `triangles` holds the corners in
+    // their meshes' frames: TriangleStore::local).
+    std::vector<PovrayTriangle> povray_triangles;
+    Vec3Store normals;  // float when that is exact
     std::vector<Material> materials;
     std::vector<Light> lights;
     std::vector<LightLinking> light_links;  // empty (every light default), or one per light
@@ -295,7 +297,8 @@ class Scene {
     bool hit_triangle(int32_t ref, const Ray& ray, std::optional<WatertightRay>& wr, double t_min, double t_max,
                       double& t, Barycentric& bary) const {
         if (!povray_triangles.empty())
-            return intersect_povray_triangle(povray_triangles[size_t(ref)], ray, t_min, t_max, t, bary);
+            return intersect_povray_triangle(povray_triangles[size_t(ref)], triangles.local(size_t(ref)),
+                                             triangles.origin(size_t(ref)), ray, t_min, t_max, t, bary);
         if (!wr) wr.emplace(ray.dir);
         return intersect_triangle(triangles[size_t(ref)], ray, *wr, t_min, t_max, t, bary);
     }

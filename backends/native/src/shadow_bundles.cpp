@@ -324,7 +324,8 @@ void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, con
                 const bool hit =
                     watertight
                         ? intersect_triangle(triangles[size_t(box.ref)], ray, sheared[k], t_min, t_max[k], t, bary)
-                        : intersect_povray_triangle(povray_triangles[size_t(box.ref)], ray, t_min, t_max[k], t, bary);
+                        : intersect_povray_triangle(povray_triangles[size_t(box.ref)], triangles.local(size_t(box.ref)),
+                                                    triangles.origin(size_t(box.ref)), ray, t_min, t_max[k], t, bary);
                 if (hit) hits |= 1 << lane;
             }
             if (block(first, hits)) return;

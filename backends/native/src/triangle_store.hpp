@@ -6,9 +6,17 @@
 // doubles, so every test and every image is bit-identical. At 1M triangles this halves the C++
 // scene's largest array (S2: 72 -> 36 MB); USD normals are float32 too (normal3f), so their copy
 // halves as well (S2: 12 -> 6 MB).
+//
+// In POV-Ray's numerics (diff) a third mode holds what POV-Ray's mesh2 holds: each corner as a
+// float in its mesh's frame (world = mesh + origin, one origin per mesh), 40 bytes a triangle with
+// the mesh's number. The caller's world points are those floats plus the origin (the Python side
+// rounds them so: backends/native/__init__.py, _as_povray_stores), and widening gives back the
+// very same doubles; where a point is not recovered so, the world corners are kept in doubles too.
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "huge_pages.hpp"
@@ -20,6 +28,21 @@ namespace phong {
 // Whether double(float(x)) == x: a coordinate that float storage keeps exactly. NaN is not (it
 // compares unequal), so such a mesh keeps double storage and its own behaviour.
 inline bool float_exact(double x) { return double(float(x)) == x; }
+
+// A triangle in its mesh's frame (POV-Ray numerics): the corners as POV-Ray's mesh2 holds them,
+// in the caller's order v0, v1, v2, and the number of the mesh whose origin places them.
+struct LocalTriangle {
+    float v[9];     // v0, v1, v2 in mesh space
+    uint32_t mesh;  // index into the store's origins
+
+    TriangleShape widen(const Vec3& o) const {
+        return {{v[0] + o.x, v[1] + o.y, v[2] + o.z},
+                {v[3] + o.x, v[4] + o.y, v[5] + o.z},
+                {v[6] + o.x, v[7] + o.y, v[8] + o.z}};
+    }
+};
+
+static_assert(sizeof(LocalTriangle) == 40, "LocalTriangle's layout: 40 bytes a triangle");
 
 // Leaf-order triangle corners in one of two precisions, chosen per scene when it is built
 // (float when every mesh vertex is float_exact, else double); read as doubles either way.
@@ -51,16 +74,41 @@ class TriangleStore {
         for (size_t i = 0; i < 9; ++i) narrow_[i * stride_ + k] = float(v[i]);
     }
     TriangleShape operator[](size_t k) const {
-        if (!single_precision_) return wide_[k];
-        const float* p = narrow_.data() + k;
-        const size_t s = stride_;
-        return {{p[0], p[s], p[2 * s]}, {p[3 * s], p[4 * s], p[5 * s]}, {p[6 * s], p[7 * s], p[8 * s]}};
+        if (single_precision_) {
+            const float* p = narrow_.data() + k;
+            const size_t s = stride_;
+            return {{p[0], p[s], p[2 * s]}, {p[3 * s], p[4 * s], p[5 * s]}, {p[6 * s], p[7 * s], p[8 * s]}};
+        }
+        if (!mesh_local_) return wide_[k];
+        return world_.empty() ? local_[k].widen(origins_[local_[k].mesh]) : world_[k];
     }
-    size_t size() const { return count_; }
+    size_t size() const { return mesh_local_ ? local_.size() : count_; }
     bool single_precision() const { return single_precision_; }
     // Corner c's (0..2) coordinate i (0: x, 1: y, 2: z) of every slot (single_precision() only);
     // kTriangleLanePadding readable floats follow the last slot.
     const float* coordinates(int corner, int i) const { return narrow_.data() + size_t(3 * corner + i) * stride_; }
+
+    // The third mode, in POV-Ray's numerics (resize_mesh_local instead of resize): the corners in
+    // their meshes' frames, read as the same world doubles. n triangles of meshes placed at
+    // `origins`; with keep_world, the world corners are held too (some point is not its float
+    // plus its origin).
+    void resize_mesh_local(size_t n, std::vector<Vec3> origins, bool keep_world) {
+        mesh_local_ = true;
+        single_precision_ = false;
+        origins_ = std::move(origins);
+        resize_huge(local_, n);
+        if (keep_world) resize_huge(world_, n);
+    }
+    // Stores slot k: its corners in its mesh's frame and (kept only with keep_world) in the world.
+    void set_local(size_t k, const LocalTriangle& t, const TriangleShape& world) {
+        local_[k] = t;
+        if (!world_.empty()) world_[k] = world;
+    }
+    bool mesh_local() const { return mesh_local_; }
+    // Whether the world corners are held in doubles beside the mesh-frame ones.
+    bool keeps_world() const { return !world_.empty(); }
+    const LocalTriangle& local(size_t k) const { return local_[k]; }
+    const Vec3& origin(size_t k) const { return origins_[local_[k].mesh]; }
 
   private:
     bool single_precision_ = false;
@@ -68,6 +116,10 @@ class TriangleStore {
     size_t stride_ = 0;          // floats from one coordinate array to the next
     std::vector<float> narrow_;  // 9 arrays of stride_ floats: v0.x, v0.y, v0.z, v1.x, ..., v2.z
     std::vector<TriangleShape> wide_;
+    bool mesh_local_ = false;
+    std::vector<LocalTriangle> local_;
+    std::vector<Vec3> origins_;         // by mesh
+    std::vector<TriangleShape> world_;  // empty unless some point is not recovered from its mesh's frame
 };
 
 // Rows of 3 doubles (the meshes' normals), held as floats when every coordinate is
