@@ -37,16 +37,28 @@ def main() -> None:
     if not any(name in os.environ for name in BLAS_THREAD_VARIABLES):
         os.environ["OPENBLAS_NUM_THREADS"] = "1"  # before numpy is imported (the CLI imports it later)
     from .cli import main as cli_main
+    from .cli.process import EXIT_INTERRUPTED
 
-    # SIGINT is KeyboardInterrupt again (cli.main turns it into "interrupted", 130, after its
-    # cleanup); cli.main replaces SIGTERM / SIGHUP's handlers with its own as it starts.
-    signal.signal(signal.SIGINT, signal.default_int_handler)
-    code = cli_main()
-    # The command is done and its status decided: a signal from now on is ignored rather than
-    # kill the process by its default action while the interpreter shuts down (Python restores
-    # SIG_DFL for its handlers as it finalizes; blocking would hold it in this thread only).
-    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-        signal.signal(signum, signal.SIG_IGN)
+    try:
+        # SIGINT is KeyboardInterrupt again (cli.main turns it into "interrupted", 130, after its
+        # cleanup); cli.main replaces SIGTERM / SIGHUP's handlers with its own as it starts. One
+        # raised before cli.main's own handling begins (its first lines import and install
+        # handlers) or after it returned is reported here in the same words: inside this `try`
+        # from the handler's first instant (a CI run once caught a Ctrl-C in cli.main's `import
+        # threading`: a traceback and status -2).
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        code = cli_main()
+        # The command is done and its status decided: a signal from now on is ignored rather than
+        # kill the process by its default action while the interpreter shuts down (Python
+        # restores SIG_DFL for its handlers as it finalizes; blocking would hold it in this
+        # thread only).
+        for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            signal.signal(signum, signal.SIG_IGN)
+    except KeyboardInterrupt:
+        for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            signal.signal(signum, signal.SIG_IGN)
+        os.write(2, b"interrupted\n")
+        code = EXIT_INTERRUPTED
     _exit_without_teardown(code)
 
 

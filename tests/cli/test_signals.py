@@ -306,6 +306,28 @@ def test_a_signal_while_the_interpreter_starts_gets_the_documented_status(tmp_pa
 
 
 @pytest.mark.subprocess
+@pytest.mark.parametrize("when", ["before", "after"])
+def test_a_ctrl_c_outside_cli_mains_handling_is_interrupted_not_a_traceback(when):
+    # The process's main (phongscene/console.py) lets SIGINT be KeyboardInterrupt again just
+    # before cli.main, whose first lines (an import, the handlers) precede its own `except
+    # KeyboardInterrupt`: a Ctrl-C there (timing the start-up sweep above met once under load),
+    # or one escaping cli.main in any other way, exits 130 with one line.
+    raise_it = "raise KeyboardInterrupt" if when == "before" else "import os; os.kill(os.getpid(), 2); return 0"
+    code = textwrap.dedent(
+        f"""
+        import phongscene.cli
+        def cli_main():
+            {raise_it}
+        phongscene.cli.main = cli_main
+        from phongscene.console import main
+        main()
+        """
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=WAIT_SECONDS)
+    assert (done.returncode, done.stderr.strip()) == (EXIT_INTERRUPTED, "interrupted"), done.stderr
+
+
+@pytest.mark.subprocess
 def test_the_command_passes_its_arguments_and_status_through(tmp_path):
     ok = subprocess.run([str(PHONGSCENE), "validate", str(SCENE)], capture_output=True, text=True)
     assert ok.returncode == 0, ok.stderr
