@@ -352,7 +352,7 @@ nb::ndarray<nb::numpy, bool, nb::shape<-1>> occluded(const phong::Scene& scene, 
 // triangle in runs of eight slots: per ray, the number of triangles the prefilter rejected that
 // the double test hits at some t (any t: the prefilter rejects on the edge functions' signs
 // alone), which must be 0, and the number it kept; -1 and -1 where it does not apply (no AVX2,
-// double storage, POV-Ray numerics, a ray outside the bound's range).
+// double storage, corners not in lanes, POV-Ray numerics, a ray outside the bound's range).
 nb::tuple prefilter_check(const phong::Scene& scene, const Rows3& origins, const Rows3& dirs) {
     const size_t n = origins.shape(0);
     if (dirs.shape(0) != n) throw std::invalid_argument("origins and dirs differ in length");
@@ -360,7 +360,7 @@ nb::tuple prefilter_check(const phong::Scene& scene, const Rows3& origins, const
     int64_t* kept = new int64_t[n];
     nb::capsule wrong_owner(wrong, [](void* p) noexcept { delete[] static_cast<int64_t*>(p); });
     nb::capsule kept_owner(kept, [](void* p) noexcept { delete[] static_cast<int64_t*>(p); });
-    const bool applies = phong::cpu_has_avx2() && scene.triangles.single_precision() && scene.povray_triangles.empty();
+    const bool applies = phong::cpu_has_avx2() && scene.triangles.lanes() && scene.povray_triangles.empty();
     {
         nb::gil_scoped_release release;
         const size_t count = scene.triangles.size();

@@ -265,7 +265,8 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         for (const MeshArrays& mesh : in.meshes)
             for (size_t i = 0; i < 3 * mesh.point_count && every_vertex_float; ++i)
                 every_vertex_float = float_exact(mesh.points[i]);
-        triangles.resize(n_triangles, every_vertex_float);
+        // In lanes only where the prefilter can run (prefilter_applies); elsewhere in rows.
+        triangles.resize(n_triangles, every_vertex_float, !bvh8_.empty() && n_triangles >= size_t(kMinPrefilterLeaf));
     }
     bool any_vertex_normals = false;
     for (const MeshArrays& mesh : in.meshes) any_vertex_normals = any_vertex_normals || mesh.normal_indices;

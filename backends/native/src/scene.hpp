@@ -308,7 +308,7 @@ class Scene {
     // (kMinPrefilterLeaf triangles). Elsewhere the leaves are tested as before it: its AVX2 leaf
     // loop, every test inlined, rendered S1 (4 spheres, 2 triangles) ~10 % slower in CPU time.
     bool prefilter_applies() const {
-        return !bvh8_.empty() && triangles.single_precision() && povray_triangles.empty() &&
+        return !bvh8_.empty() && triangles.lanes() && povray_triangles.empty() &&
                triangles.size() >= size_t(kMinPrefilterLeaf);
     }
 

@@ -46,20 +46,39 @@ static_assert(sizeof(LocalTriangle) == 40, "LocalTriangle's layout: 40 bytes a t
 
 // Leaf-order triangle corners in one of two precisions, chosen per scene when it is built
 // (float when every mesh vertex is float_exact, else double); read as doubles either way.
-// The floats are held as nine arrays (structure of arrays: corner c's coordinate i of slot k is
+// The floats are held in one of two layouts, 36 bytes a triangle either way. Where the float
+// prefilter runs (triangle_prefilter.hpp: the AVX2 walk, leaves of kMinPrefilterLeaf triangles
+// or more), as nine arrays (structure of arrays: corner c's coordinate i of slot k is
 // coordinates(c, i)[k]), so that eight consecutive slots (a BVH leaf's triangles) are one 8-lane
-// load per coordinate (triangle_prefilter.hpp); each array is padded by kTriangleLanePadding
-// slots, so such a load from any slot stays inside it. 36 bytes a triangle, as 9 floats in a row.
+// load per coordinate; each array is padded by kTriangleLanePadding slots, so such a load from any
+// slot stays inside it. Elsewhere as nine floats in a row: reading a triangle from nine arrays
+// costs ~20 instructions more, which S1 (two triangles, tested by every ray) paid as 2.4 % of its
+// render without any use for the lanes (benchmarks/README.md, issue 25).
 constexpr size_t kTriangleLanePadding = 8;
+
+// A triangle's corners rounded to float (only ever built from float-exact doubles).
+struct FloatTriangleShape {
+    float v[9];  // v0, v1, v2
+
+    explicit FloatTriangleShape(const TriangleShape& t = {})
+        : v{float(t.v0.x), float(t.v0.y), float(t.v0.z), float(t.v1.x), float(t.v1.y),
+            float(t.v1.z), float(t.v2.x), float(t.v2.y), float(t.v2.z)} {}
+
+    TriangleShape widen() const { return {{v[0], v[1], v[2]}, {v[3], v[4], v[5]}, {v[6], v[7], v[8]}}; }
+};
 
 class TriangleStore {
   public:
-    void resize(size_t n, bool single_precision) {
+    // n slots; float corners when single_precision, then in lanes (nine arrays) when `lanes`.
+    void resize(size_t n, bool single_precision, bool lanes) {
         single_precision_ = single_precision;
+        lanes_ = single_precision && lanes;
         count_ = n;
-        if (single_precision) {
+        if (lanes_) {
             stride_ = n + kTriangleLanePadding;
             resize_huge(narrow_, 9 * stride_, 0.0f);
+        } else if (single_precision) {
+            resize_huge(rows_, n);
         } else {
             resize_huge(wide_, n);
         }
@@ -68,13 +87,16 @@ class TriangleStore {
     void set(size_t k, const TriangleShape& t) {
         if (!single_precision_) {
             wide_[k] = t;
-            return;
+        } else if (!lanes_) {
+            rows_[k] = FloatTriangleShape(t);
+        } else {
+            const double v[9] = {t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y, t.v2.z};
+            for (size_t i = 0; i < 9; ++i) narrow_[i * stride_ + k] = float(v[i]);
         }
-        const double v[9] = {t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y, t.v2.z};
-        for (size_t i = 0; i < 9; ++i) narrow_[i * stride_ + k] = float(v[i]);
     }
     TriangleShape operator[](size_t k) const {
         if (single_precision_) {
+            if (!lanes_) return rows_[k].widen();
             const float* p = narrow_.data() + k;
             const size_t s = stride_;
             return {{p[0], p[s], p[2 * s]}, {p[3 * s], p[4 * s], p[5 * s]}, {p[6 * s], p[7 * s], p[8 * s]}};
@@ -84,7 +106,9 @@ class TriangleStore {
     }
     size_t size() const { return mesh_local_ ? local_.size() : count_; }
     bool single_precision() const { return single_precision_; }
-    // Corner c's (0..2) coordinate i (0: x, 1: y, 2: z) of every slot (single_precision() only);
+    // Whether the floats are in lanes (nine coordinate arrays), for the prefilter.
+    bool lanes() const { return lanes_; }
+    // Corner c's (0..2) coordinate i (0: x, 1: y, 2: z) of every slot (lanes() only);
     // kTriangleLanePadding readable floats follow the last slot.
     const float* coordinates(int corner, int i) const { return narrow_.data() + size_t(3 * corner + i) * stride_; }
 
@@ -114,7 +138,9 @@ class TriangleStore {
     bool single_precision_ = false;
     size_t count_ = 0;
     size_t stride_ = 0;          // floats from one coordinate array to the next
-    std::vector<float> narrow_;  // 9 arrays of stride_ floats: v0.x, v0.y, v0.z, v1.x, ..., v2.z
+    bool lanes_ = false;
+    std::vector<float> narrow_;  // lanes: 9 arrays of stride_ floats: v0.x, v0.y, v0.z, v1.x, ..., v2.z
+    std::vector<FloatTriangleShape> rows_;  // floats not in lanes
     std::vector<TriangleShape> wide_;
     bool mesh_local_ = false;
     std::vector<LocalTriangle> local_;
