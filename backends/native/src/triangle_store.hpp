@@ -95,12 +95,12 @@ class TriangleStore {
         }
     }
     TriangleShape operator[](size_t k) const {
-        if (single_precision_) {
-            if (!lanes_) return rows_[k].widen();
+        if (lanes_) {
             const float* p = narrow_.data() + k;
             const size_t s = stride_;
             return {{p[0], p[s], p[2 * s]}, {p[3 * s], p[4 * s], p[5 * s]}, {p[6 * s], p[7 * s], p[8 * s]}};
         }
+        if (single_precision_) return rows_[k].widen();
         if (!mesh_local_) return wide_[k];
         return world_.empty() ? local_[k].widen(origins_[local_[k].mesh]) : world_[k];
     }
@@ -137,9 +137,9 @@ class TriangleStore {
   private:
     bool single_precision_ = false;
     size_t count_ = 0;
-    size_t stride_ = 0;          // floats from one coordinate array to the next
+    size_t stride_ = 0;  // floats from one coordinate array to the next
     bool lanes_ = false;
-    std::vector<float> narrow_;  // lanes: 9 arrays of stride_ floats: v0.x, v0.y, v0.z, v1.x, ..., v2.z
+    std::vector<float> narrow_;             // lanes: 9 arrays of stride_ floats: v0.x, v0.y, v0.z, v1.x, ..., v2.z
     std::vector<FloatTriangleShape> rows_;  // floats not in lanes
     std::vector<TriangleShape> wide_;
     bool mesh_local_ = false;
