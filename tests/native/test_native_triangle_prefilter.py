@@ -150,3 +150,9 @@ def test_where_the_bound_is_not_guaranteed_the_prefilter_stands_aside():
     built = native.build(Scene(meshes=(double,)))
     assert not built.single_precision_triangles
     assert (built.prefilter_check(origins, dirs)[1] == -1).all()
+    # Fewer triangles than the smallest leaf it takes (kMinPrefilterLeaf, 3): the corners stay in
+    # rows (reading a triangle from nine arrays costs more) and the prefilter never applies.
+    two = TriangleMesh(points=mesh.points[:4], triangles=np.array([[0, 1, 2], [1, 3, 2]]))
+    built = native.build(Scene(meshes=(two,)))
+    assert built.single_precision_triangles
+    assert (built.prefilter_check(origins, dirs)[1] == -1).all()
