@@ -135,3 +135,58 @@ def test_tiny_and_huge_direction_components_equal_brute_force(path):
     origins = targets - 4.0 * dirs
     count = assert_equals_brute_force(built, origins, dirs, T_MINS[path])
     assert (count > 0).sum() > len(targets) // 2
+
+
+def _outward_reference(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The floats nearest to x below and above (bvh.hpp's round_down / round_up) in numpy."""
+    with np.errstate(over="ignore", invalid="ignore"):  # beyond the float range: ±inf, as C's cast
+        f = x.astype(np.float32)
+        down = np.where(f.astype(np.float64) > x, np.nextafter(f, np.float32(-np.inf)), f)
+        up = np.where(f.astype(np.float64) < x, np.nextafter(f, np.float32(np.inf)), f)
+    return down, up
+
+
+def test_a_ray_origin_rounds_outward_in_lanes_as_the_scalar_functions_do():
+    # FloatSlabOrigin rounds the three coordinates in SSE2 lanes; the binding checks each lane
+    # against the scalar round_down / round_up bit for bit, and here both against numpy: floats,
+    # midpoints between floats (ties), signed zeros, subnormals, the float range's edges, beyond
+    # it, infinities and NaN.
+    rng = np.random.default_rng(11)
+    f = rng.standard_normal(3000).astype(np.float32) * np.float32(10.0) ** rng.integers(-40, 39, 3000)
+    f = f.astype(np.float64)
+    specials = np.array(
+        [
+            0.0,
+            -0.0,
+            1e-50,
+            -1e-50,
+            1e-45,
+            -1e-45,
+            2.0**-149,
+            2.0**-150,
+            -(2.0**-150),
+            3.4028234663852886e38,
+            3.4028235677973366e38,
+            -3.4028235677973366e38,
+            1e39,
+            -1e39,
+            np.inf,
+            -np.inf,
+            np.nan,
+            1.0,
+            -1.0,
+        ]
+    )
+    with np.errstate(over="ignore"):
+        midpoints = (f + np.nextafter(f.astype(np.float32), np.float32(np.inf)).astype(np.float64)) / 2
+    values = np.concatenate([f, midpoints, f * (1 + 2.0**-30), specials, np.roll(specials, 5), np.roll(specials, 11)])
+    values = values[: len(values) // 3 * 3]
+    rows = values.reshape(-1, 3)
+    out = native._native.round_outward(rows)
+    down, up = _outward_reference(rows)
+    assert np.array_equal(out[:, :3], down, equal_nan=True)
+    assert np.array_equal(out[:, 3:], up, equal_nan=True)
+    # Signed zeros compare equal above: their bits too.
+    assert np.array_equal(np.signbit(out[:, :3]), np.signbit(down)) and np.array_equal(
+        np.signbit(out[:, 3:]), np.signbit(up)
+    )

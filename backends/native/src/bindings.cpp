@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -530,6 +531,34 @@ NB_MODULE(_native, m) {
             return nb::ndarray<nb::numpy, float, nb::shape<-1>>(out, {n}, owner);
         },
         "values"_a, "Test-only: each value rounded to a half float and back, as set_textures(half_texels=True) does.");
+    m.def(
+        "round_outward",
+        [](const Rows3& rows) {
+            const size_t n = rows.shape(0);
+            float* out = new float[6 * n];
+            for (size_t i = 0; i < n; ++i) {
+                const phong::Vec3 o{rows(i, 0), rows(i, 1), rows(i, 2)};
+                const phong::FloatSlabOrigin simd(o);
+                const float scalar[6] = {phong::round_down(o.x), phong::round_down(o.y), phong::round_down(o.z),
+                                         phong::round_up(o.x),   phong::round_up(o.y),   phong::round_up(o.z)};
+                for (int k = 0; k < 3; ++k) {
+                    out[6 * i + k] = simd.down[k];
+                    out[6 * i + 3 + k] = simd.up[k];
+                }
+                // The lanes must give the scalar functions' floats bit for bit (NaN: any NaN).
+                for (int k = 0; k < 6; ++k) {
+                    const float lane = k < 3 ? simd.down[k] : simd.up[k - 3];
+                    if (std::memcmp(&lane, &scalar[k], sizeof lane) != 0 &&
+                        !(std::isnan(lane) && std::isnan(scalar[k])))
+                        throw std::runtime_error("FloatSlabOrigin differs from round_down/round_up");
+                }
+            }
+            nb::capsule owner(out, [](void* p) noexcept { delete[] static_cast<float*>(p); });
+            return nb::ndarray<nb::numpy, float, nb::shape<-1, 6>>(out, {n, 6}, owner);
+        },
+        "rows"_a,
+        "Test-only: each row's FloatSlabOrigin (down x, y, z, then up), checked against the scalar round_down and "
+        "round_up.");
     m.attr("SHADOW_WINDOW") = phong::kShadowWindow;
     m.attr("PRIMARY_NEAR") = phong::kPrimaryNear;
     m.attr("SELF_HIT_WINDOW") = phong::kSelfHitWindow;
