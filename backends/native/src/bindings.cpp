@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "build_threads.hpp"
+#include "bvh8_packet.hpp"
 #include "camera.hpp"
 #include "lights.hpp"
 #include "materials.hpp"
@@ -347,6 +348,58 @@ nb::ndarray<nb::numpy, bool, nb::shape<-1>> occluded(const phong::Scene& scene, 
         }
     }
     return nb::ndarray<nb::numpy, bool, nb::shape<-1>>(blocked, {n}, owner);
+}
+
+// Closest hits of rays leaving one origin, eight at a time through Scene::closest_hit_packet
+// (`together`) or one by one through closest_hit with the same rounded origin: (t, primitive id,
+// barycentrics (n, 3), packets that walked together). Tests compare the two bit for bit.
+nb::tuple intersect_packets(const phong::Scene& scene, const In<double, nb::shape<3>>& origin, const Rows3& dirs,
+                            double t_min, bool together) {
+    const size_t n = dirs.shape(0);
+    if (scene.instances && scene.instances->stale())
+        throw std::invalid_argument("instances were added with rebuild=False and the top level was never built");
+    double* t = new double[n];
+    int64_t* id = new int64_t[n];
+    double* bary = new double[3 * n];
+    nb::capsule t_owner(t, [](void* p) noexcept { delete[] static_cast<double*>(p); });
+    nb::capsule id_owner(id, [](void* p) noexcept { delete[] static_cast<int64_t*>(p); });
+    nb::capsule bary_owner(bary, [](void* p) noexcept { delete[] static_cast<double*>(p); });
+    int64_t walked_together = 0;
+    {
+        nb::gil_scoped_release release;
+        const phong::Vec3 o{origin(0), origin(1), origin(2)};
+        const phong::FloatSlabOrigin rounded(o);
+        for (size_t first = 0; first < n; first += phong::kPacketRays) {
+            const int count = int(std::min(n - first, size_t(phong::kPacketRays)));
+            phong::Ray rays[phong::kPacketRays];
+            phong::Hit hits[phong::kPacketRays];
+            bool found[phong::kPacketRays];
+            for (int r = 0; r < count; ++r) {
+                const size_t i = first + size_t(r);
+                rays[r] = {o, {dirs(i, 0), dirs(i, 1), dirs(i, 2)}};
+            }
+            if (together) {
+                walked_together += scene.closest_hit_packet(rays, count, rounded, t_min, hits, found);
+            } else {
+                for (int r = 0; r < count; ++r)
+                    found[r] = scene.closest_hit(rays[r], rounded, t_min, HUGE_VAL, hits[r]);
+            }
+            for (int r = 0; r < count; ++r) {
+                const size_t i = first + size_t(r);
+                t[i] = found[r] ? hits[r].t : HUGE_VAL;
+                id[i] = !found[r]               ? -1
+                        : hits[r].instance >= 0 ? -2 - int64_t(scene.instances->instance_id(hits[r].instance))
+                                                : scene.primitive_id(hits[r].ref);
+                const phong::Barycentric b = found[r] ? hits[r].bary : phong::Barycentric{0, 0, 0};
+                bary[3 * i] = b.b0;
+                bary[3 * i + 1] = b.b1;
+                bary[3 * i + 2] = b.b2;
+            }
+        }
+    }
+    return nb::make_tuple(nb::ndarray<nb::numpy, double, nb::shape<-1>>(t, {n}, t_owner),
+                          nb::ndarray<nb::numpy, int64_t, nb::shape<-1>>(id, {n}, id_owner),
+                          nb::ndarray<nb::numpy, double, nb::shape<-1, 3>>(bary, {n, 3}, bary_owner), walked_together);
 }
 
 // The float prefilter (triangle_prefilter.hpp) against the double test, every ray against every
@@ -830,6 +883,9 @@ NB_MODULE(_native, m) {
              "Closest hit per ray (tests): (t, primitive id); spheres are 0..S-1, then triangles.")
         .def("occluded", &occluded, "origins"_a, "dirs"_a, "t_max"_a, "t_min"_a = 0.0,
              "Per ray, whether anything is hit in (t_min, t_max): shadow rays' any-hit walk, one thread.")
+        .def("intersect_packets", &intersect_packets, "origin"_a, "dirs"_a, "t_min"_a = 0.0, "together"_a = true,
+             "Closest hits of rays from one origin, 8 at a time as primary rays are (tests): (t, primitive id, "
+             "barycentrics, packets that walked together); together=False: one by one.")
         .def("prefilter_check", &prefilter_check, "origins"_a, "dirs"_a,
              "The float triangle prefilter against the double test, every ray against every triangle (tests): "
              "per ray, the triangles it rejected that the double test hits at some t (must be 0), and the "

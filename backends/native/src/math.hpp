@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 
 namespace phong {
@@ -56,6 +57,19 @@ struct Ray {
 // relative 1e-15; plain n·ε is exact (n ≤ 2^52), so ulps(n) is the very double its users
 // compare against.
 constexpr double ulps(int n) { return n * std::numeric_limits<double>::epsilon(); }
+
+// std::nextafter(x, +inf) without the libm call (one per primary hit): the next double above x
+// by one step of its bit pattern (up in magnitude when positive, down when negative; ±0 go to
+// the smallest subnormal, +inf and NaN stay).
+inline double next_up(double x) {
+    if (!(x < HUGE_VAL)) return x;
+    if (x == 0.0) return std::numeric_limits<double>::denorm_min();
+    uint64_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    bits = x > 0.0 ? bits + 1 : bits - 1;
+    std::memcpy(&x, &bits, sizeof x);
+    return x;
+}
 
 // ---------------------------------------------------------------------------------------------
 // Tolerances. POV-Ray's are absolute (primary t >= 1e-4, shadow 1e-3 < t < dist - 1e-3), which

@@ -91,5 +91,8 @@ struct TraceContext {
 // `origin`: FloatSlabOrigin(ray.origin) when the caller shares it between rays, else nullptr.
 RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch,
                   const FloatSlabOrigin* origin = nullptr);
+// The colour seen along primary ray `ray` whose closest hit (found or not) is known.
+RGB shade_primary(const TraceContext& context, const Ray& ray, bool found, Hit hit,
+                  std::vector<BundleCandidate>& scratch);
 
 }  // namespace phong

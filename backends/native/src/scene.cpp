@@ -4,6 +4,7 @@
 #include "scene.hpp"
 
 #include "build_threads.hpp"
+#include "closest_search.hpp"
 #include "huge_pages.hpp"
 #include "simd_dispatch.hpp"
 #include "triangle_prefilter.hpp"
@@ -88,19 +89,6 @@ void for_chunks(size_t n, Fn&& fn) {
         }
     }
     if (error) std::rethrow_exception(error);
-}
-
-// std::nextafter(x, +inf) without the libm call (one per primary hit): the next double above x
-// by one step of its bit pattern (up in magnitude when positive, down when negative; ±0 go to
-// the smallest subnormal, +inf and NaN stay).
-inline double next_up(double x) {
-    if (!(x < HUGE_VAL)) return x;
-    if (x == 0.0) return std::numeric_limits<double>::denorm_min();
-    uint64_t bits;
-    std::memcpy(&bits, &x, sizeof bits);
-    bits = x > 0.0 ? bits + 1 : bits - 1;
-    std::memcpy(&x, &bits, sizeof x);
-    return x;
 }
 
 }  // namespace
@@ -401,75 +389,31 @@ int64_t Scene::primitive_id(int32_t ref) const {
 }
 
 bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max, Hit& hit) const {
-    // Exact ties (coincident surfaces hit at the same t) go to the lower primitive id, so the
-    // hit does not depend on the BVH's shape or visiting order: once a hit is found, primitives
-    // are tested up to and including t_best, and boxes up to a little beyond it: a box's entry
-    // distance in the double test errs by < 2ε relative (three roundings of ≤ ε/2, as in
-    // hit_node), and kTieCullMargin = 8ε keeps a 4x margin over it, like kSelfHitError (the float
-    // test widens its limit further by itself: FloatSlabRay).
-    constexpr double kTieCullMargin = ulps(8);
-    std::optional<WatertightRay> wr;  // set up when the first triangle is tested
-    bool found = false;
-    double t_best = t_max, t_test = t_max, t_cull = t_max;
-    auto test = [&](int32_t ref, double& cull) __attribute__((always_inline)) {
-        double t;
-        Barycentric bary{};
-        bool hit_here;
-        if (ref >= 0) {
-            hit_here = hit_triangle(ref, ray, wr, t_min, t_test, t, bary);
-        } else {
-            hit_here = hit_solid(ref, ray, t_min, t_test, t);
-        }
-        if (!hit_here) return;
-        if (found && !(t < t_best || primitive_id(ref) < primitive_id(hit.ref))) return;
-        found = true;
-        t_best = t;
-        hit = {t, ref, bary};
-        t_test = next_up(t_best);
-        cull = t_best + std::fabs(t_best) * kTieCullMargin;
-    };
+    ClosestSearch search(*this, ray, t_min, t_max, hit);
     if (prefilter_applies()) {
         // Only the triangles the float prefilter keeps (triangle_prefilter.hpp). The leaf is
         // compiled for AVX2 with the prefilter and the tests inlined: GCC inlines no default-target
         // function into a target("avx2") one unless made to (always_inline on `test`, flatten
         // here); out of line they cost S2 more than the prefilter saves (benchmarks/README.md).
         TriangleLeafFilter filter(triangles, magnitude);
-        auto leaf = [&](int32_t first, int count, double& cull) PHONG_AVX2 __attribute__((flatten)) {
+        auto leaf = [&](int32_t first, int count, double&) PHONG_AVX2 __attribute__((flatten)) {
             const int32_t* refs = refs_.data() + first;
-            for (unsigned kept = filter(refs, count, ray, wr); kept != 0; kept &= kept - 1)
-                test(refs[__builtin_ctz(kept)], cull);
+            for (unsigned kept = filter(refs, count, ray, search.wr); kept != 0; kept &= kept - 1)
+                search.test(refs[__builtin_ctz(kept)]);
             return false;
         };
-        traverse_bvh8<true>(bvh8_, magnitude, ray, origin, t_min, t_cull, leaf);
+        traverse_bvh8<true>(bvh8_, magnitude, ray, origin, t_min, search.t_cull, leaf);
     } else {
-        auto leaf = [&](int32_t first, int count, double& cull) {
-            for (int k = 0; k < count; ++k) test(refs_[size_t(first + k)], cull);
+        auto leaf = [&](int32_t first, int count, double&) {
+            for (int k = 0; k < count; ++k) search.test(refs_[size_t(first + k)]);
             return false;
         };
         if (!bvh8_.empty())
-            traverse_bvh8<true>(bvh8_, magnitude, ray, origin, t_min, t_cull, leaf);
+            traverse_bvh8<true>(bvh8_, magnitude, ray, origin, t_min, search.t_cull, leaf);
         else
-            traverse_bvh4<true>(bvh4_, magnitude, ray, origin, t_min, t_cull, leaf);
+            traverse_bvh4<true>(bvh4_, magnitude, ray, origin, t_min, search.t_cull, leaf);
     }
-    // Unbounded planes after the tree (outside it), with the same tie rule.
-    double t_plane;
-    int32_t plane;
-    if (!planes.empty() && hit_planes(ray, t_min, found ? next_up(t_best) : t_max, t_plane, plane)) {
-        if (!found || t_plane < t_best || primitive_id(plane) < primitive_id(hit.ref)) {
-            hit = {t_plane, plane, Barycentric{}};
-            t_best = t_plane;
-            found = true;
-        }
-    }
-    // Instances after the world's own primitives: a copy wins only by being closer.
-    if (!instances_empty()) {
-        Hit instance_hit;
-        if (instances->closest_hit(ray, t_min, t_best, instance_hit) && (!found || instance_hit.t < t_best)) {
-            hit = instance_hit;
-            found = true;
-        }
-    }
-    return found;
+    return search.finish(t_max);
 }
 
 bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const {

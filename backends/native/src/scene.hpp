@@ -117,6 +117,12 @@ class Scene {
     // The same, for rays whose shared origin is rounded once: `origin` is FloatSlabOrigin(ray.origin).
     bool closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max, Hit& hit) const;
     bool occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const;
+    // closest_hit(ray, origin, t_min, HUGE_VAL) for `count` <= kPacketRays rays that share their
+    // origin (a perspective camera's primary rays of a block of pixels): found[k] and hits[k] are
+    // ray k's, bit for bit what closest_hit() gives it. The rays walk the 8-wide tree together
+    // where their directions allow (ray_packets.cpp; then it returns true), else one by one.
+    bool closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin& origin, double t_min, Hit* hits,
+                            bool* found) const;
 
     // Shadow-ray bundles (an area light's grid seen from one point). shadow_candidates() walks
     // the BVH once and writes to `candidates` the box of every primitive (in a reached leaf)
@@ -273,6 +279,8 @@ class Scene {
     double magnitude = 0.0;  // largest absolute coordinate of the geometry bounds
 
   private:
+    struct ClosestSearch;  // one ray's closest-hit state and tests (closest_search.hpp)
+
     // The nearest unbounded plane hit in (t_min, t_max) (closest_hit, occluded).
     bool hit_planes(const Ray& ray, double t_min, double t_max, double& t, int32_t& ref) const {
         bool found = false;

@@ -1,0 +1,195 @@
+// SPDX-License-Identifier: Apache-2.0
+// Packets of up to eight rays that share their origin (a perspective camera's primary rays of a
+// 4x2 block of pixels) walking the 8-wide BVH together: a node's eight children are tested once
+// for the whole packet, against the interval of the rays' inverse directions; a leaf is handed to
+// each ray whose own float slab test (FloatSlabRay8's, per lane) enters its box. The walk's node
+// visits are shared by the packet; the leaves' tests stay per ray.
+//
+// Why every ray gets the hit closest_hit() gives it. The single-ray test of a child computes
+// per axis near_k = fl(x · r_k) with x = fl(p − o⁺) (bvh4.hpp), where x depends on the box and
+// the rounded origin only: the same for every ray of a packet whose direction signs agree (the
+// same planes and origin roundings). fl(x · r) is monotonic in r for a fixed x (rounding to
+// nearest is monotonic), so with r_k in [lo_k, hi_k] over the packet,
+//   min(fl(x·lo_k), fl(x·hi_k)) <= near_k(ray) and max(fl(y·lo_k), fl(y·hi_k)) >= far_k(ray);
+// max, min and the product by W are monotonic too, and the packet's far limit is the largest of
+// its rays'. So the packet's t0 <= every ray's t0 and its t1 >= every ray's t1: the packet enters
+// a child whenever one of its rays would. A ray's closest hit lies in boxes its own test enters
+// (its walk relies on that, bvh4.hpp), every box on the way to that leaf is entered by the packet,
+// and the leaf itself is handed to the ray by its own test (bit for bit FloatSlabRay8::hit's lane).
+// The tests inside a leaf are closest_hit()'s (closest_search.hpp), whose result does not depend
+// on the order leaves come in. No NaN arises: the packet is only formed from rays whose float
+// inverse directions are finite and non-zero and whose origin and range the float test covers
+// (FloatSlabRay::applies); else the rays walk one by one.
+#pragma once
+
+#include <immintrin.h>
+
+#include <cfloat>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "bvh4.hpp"
+#include "bvh8.hpp"
+#include "math.hpp"
+
+namespace phong {
+
+// Rays per packet: one per AVX lane of the per-ray leaf test.
+constexpr int kPacketRays = 8;
+
+struct FloatSlabPacket8 {
+    __m256 origin_near[3], origin_far[3];
+    __m256 inv_lo[3], inv_hi[3];  // the interval of the rays' float inverse directions, per axis
+    __m256 inv[3];                // ray k's in lane k (lanes past the packet's rays repeat ray 0's)
+    __m256 t_min;
+    int near_row[3], far_row[3];
+
+    // Sets the packet up for `count` rays leaving `origin`; false when they cannot walk together
+    // (see above): then nothing is set.
+    PHONG_AVX2 bool set_up(const Ray* rays, int count, const FloatSlabOrigin& origin, double t_min_,
+                           double scene_magnitude) {
+        alignas(32) float lanes[3][kPacketRays];
+        for (int r = 0; r < kPacketRays; ++r) {
+            const Ray& ray = rays[r < count ? r : 0];
+            if (r < count && !FloatSlabRay::applies(ray.origin, ray.dir, t_min_, scene_magnitude)) return false;
+            const double d[3] = {ray.dir.x, ray.dir.y, ray.dir.z};
+            for (int k = 0; k < 3; ++k) {
+                if (std::signbit(d[k]) != std::signbit(rays[0].dir[k])) return false;
+                const double inv_d = 1.0 / d[k];
+                if (!(std::fabs(inv_d) <= double(FLT_MAX))) return false;  // d = ±0 or |d| < ~2^-128: NaN/inf lanes
+                lanes[k][r] = float(inv_d);                                // FloatSlabRay8's float(r[k]) for such a ray
+            }
+        }
+        for (int k = 0; k < 3; ++k) {
+            const bool negative = std::signbit(rays[0].dir[k]);
+            near_row[k] = negative ? 3 + k : k;
+            far_row[k] = negative ? k : 3 + k;
+            origin_near[k] = _mm256_set1_ps(negative ? origin.down[k] : origin.up[k]);
+            origin_far[k] = _mm256_set1_ps(negative ? origin.up[k] : origin.down[k]);
+            inv[k] = _mm256_load_ps(lanes[k]);
+            float lo = lanes[k][0], hi = lanes[k][0];
+            for (int r = 1; r < kPacketRays; ++r) {
+                lo = std::min(lo, lanes[k][r]);
+                hi = std::max(hi, lanes[k][r]);
+            }
+            inv_lo[k] = _mm256_set1_ps(lo);
+            inv_hi[k] = _mm256_set1_ps(hi);
+        }
+        t_min = _mm256_set1_ps(round_down(t_min_));
+        return true;
+    }
+
+    // Bit i set when the packet enters child i (one of its rays may); entry[i] a lower bound of
+    // every ray's t0 there. `t_max_up`: the largest of the rays' far limits.
+    PHONG_AVX2 int hit(const Bvh8Node& node, __m256 t_max_up, __m256& entry) const {
+        __m256 t0 = t_min, t1 = _mm256_set1_ps(INFINITY);
+        for (int k = 0; k < 3; ++k) {
+            const __m256 x = _mm256_sub_ps(_mm256_load_ps(node.boxes[near_row[k]]), origin_near[k]);
+            const __m256 y = _mm256_sub_ps(_mm256_load_ps(node.boxes[far_row[k]]), origin_far[k]);
+            t0 = _mm256_max_ps(_mm256_min_ps(_mm256_mul_ps(x, inv_lo[k]), _mm256_mul_ps(x, inv_hi[k])), t0);
+            t1 = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(y, inv_lo[k]), _mm256_mul_ps(y, inv_hi[k])), t1);
+        }
+        t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(kFloatSlabWidening)), t_max_up);
+        entry = t0;
+        return _mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
+    }
+
+    // Bit r set when ray r enters child i of `node`: FloatSlabRay8::hit's lane i for that ray,
+    // the same operations on the same numbers. `t_max_up`: the rays' own far limits, in lanes.
+    PHONG_AVX2 int rays_entering(const Bvh8Node& node, int i, __m256 t_max_up) const {
+        __m256 t0 = t_min, t1 = _mm256_set1_ps(INFINITY);
+        for (int k = 0; k < 3; ++k) {
+            const __m256 near =
+                _mm256_mul_ps(_mm256_sub_ps(_mm256_broadcast_ss(&node.boxes[near_row[k]][i]), origin_near[k]), inv[k]);
+            const __m256 far =
+                _mm256_mul_ps(_mm256_sub_ps(_mm256_broadcast_ss(&node.boxes[far_row[k]][i]), origin_far[k]), inv[k]);
+            t0 = _mm256_max_ps(near, t0);
+            t1 = _mm256_min_ps(far, t1);
+        }
+        t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(kFloatSlabWidening)), t_max_up);
+        return _mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
+    }
+};
+
+// The largest of eight lanes, in every lane.
+PHONG_AVX2 inline __m256 lane_max(__m256 v) {
+    v = _mm256_max_ps(v, _mm256_permute2f128_ps(v, v, 1));
+    v = _mm256_max_ps(v, _mm256_shuffle_ps(v, v, _MM_SHUFFLE(1, 0, 3, 2)));
+    return _mm256_max_ps(v, _mm256_shuffle_ps(v, v, _MM_SHUFFLE(2, 3, 0, 1)));
+}
+
+// The closest-hit walk (traverse_bvh8<true>) for a packet: children nearest first by the
+// packet's entry, a pending child skipped once its entry lies beyond every ray's far limit.
+// `leaf(r, first, count)` tests a leaf's primitives for ray r and returns that ray's far limit
+// for boxes now (t_cull, as a double); `rays` has bit r set for the packet's rays, t_cull[r]
+// their limits to start with.
+template <class LeafFn>
+PHONG_AVX2 void traverse_bvh8_packet(const std::vector<Bvh8Node>& nodes, const FloatSlabPacket8& packet, unsigned rays,
+                                     const double* t_cull, LeafFn&& leaf) {
+    if (nodes.empty()) return;
+    struct Pending {
+        int32_t child, count;
+        float entry;
+        unsigned rays;  // a leaf's: the rays whose own test entered it
+    };
+    Pending stack[kMaxBvh8Stack];
+    int sp = 0;
+    Pending current{0, 0, 0.0f, rays};
+    alignas(32) float far[kPacketRays];
+    for (int r = 0; r < kPacketRays; ++r)
+        far[r] = (rays >> r) & 1 ? round_up(t_cull[r] * double(kFloatSlabWidening)) : -INFINITY;
+    __m256 far_lanes = _mm256_load_ps(far);
+    __m256 far_max = lane_max(far_lanes);
+    float far_max_f = _mm256_cvtss_f32(far_max);
+    while (true) {
+        if (current.count == 0) {
+            const Bvh8Node& node = nodes[size_t(current.child)];
+            alignas(32) float entry[8];
+            __m256 e;
+            int mask = packet.hit(node, far_max, e);
+            _mm256_store_ps(entry, e);
+            if (mask != 0) {
+                Pending hits[8];
+                int n = 0;
+                for (; mask != 0; mask &= mask - 1) {
+                    const int i = __builtin_ctz(unsigned(mask));
+                    Pending p{node.child[i], node.count[i], entry[i], 0};
+                    if (p.count > 0) {
+                        p.rays = unsigned(packet.rays_entering(node, i, far_lanes)) & rays;
+                        if (p.rays == 0) continue;
+                    }
+                    int j = n++;
+                    for (; j > 0 && hits[j - 1].entry > p.entry; --j) hits[j] = hits[j - 1];
+                    hits[j] = p;
+                }
+                if (n > 0) {
+                    for (int j = n - 1; j > 0; --j) stack[sp++] = hits[j];
+                    current = hits[0];
+                    continue;
+                }
+            }
+        } else {
+            bool changed = false;
+            for (unsigned r_bits = current.rays; r_bits != 0; r_bits &= r_bits - 1) {
+                const int r = __builtin_ctz(r_bits);
+                const float limit = round_up(leaf(r, current.child, current.count) * double(kFloatSlabWidening));
+                if (limit != far[r]) {
+                    far[r] = limit;
+                    changed = true;
+                }
+            }
+            if (changed) {
+                far_lanes = _mm256_load_ps(far);
+                far_max = lane_max(far_lanes);
+                far_max_f = _mm256_cvtss_f32(far_max);
+            }
+        }
+        do {
+            if (sp == 0) return;
+            current = stack[--sp];
+        } while (current.entry > far_max_f);
+    }
+}
+
+}  // namespace phong
