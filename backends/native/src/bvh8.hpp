@@ -104,7 +104,7 @@ PHONG_AVX2 void traverse_bvh8(const std::vector<Bvh8Node>& nodes, double scene_m
             if (float_test) {
                 __m256 e;
                 mask = fray.hit(node, t_max_up, e);
-                _mm256_store_ps(entry, e);
+                if (ordered) _mm256_store_ps(entry, e);  // an any-hit walk never reads the entries
             } else {
                 for (int i = 0; i < 8; ++i) {
                     double t_entry;
@@ -113,6 +113,15 @@ PHONG_AVX2 void traverse_bvh8(const std::vector<Bvh8Node>& nodes, double scene_m
                         entry[i] = round_down(t_entry);
                     }
                 }
+            }
+            if (!ordered && mask != 0) {  // children as they come: the first next, the others pending
+                const int first = __builtin_ctz(unsigned(mask));
+                for (mask &= mask - 1; mask != 0; mask &= mask - 1) {
+                    const int i = __builtin_ctz(unsigned(mask));
+                    stack[sp++] = Pending{node.child[i], node.count[i], 0.0f};
+                }
+                current = Pending{node.child[first], node.count[first], 0.0f};
+                continue;
             }
             if (mask != 0) {
                 Pending hits[8];
