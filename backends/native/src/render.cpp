@@ -640,6 +640,43 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         return sum / double(n * n + 1);
     };
 
+    // The primary rays through image positions (sx[k], sy[k]), k < count <= kPacketRays, traced as
+    // one packet (Scene::closest_hit_packet: each ray's hit bit for bit as alone) and shaded one by
+    // one: colour[k] is trace_at(sx[k], sy[k])'s. A perspective camera's only (one origin).
+    auto trace_packet = [&](const double* sx, const double* sy, int count, RGB* colour,
+                            std::vector<BundleCandidate>& scratch) {
+        assert(eye && count >= 1 && count <= kPacketRays);
+        Ray rays[kPacketRays];
+        Hit hits[kPacketRays];
+        bool found[kPacketRays];
+        for (int k = 0; k < count; ++k) rays[k] = camera.generate(sx[k], sy[k], width, height);
+        scene.closest_hit_packet(rays, count, *eye, tolerances.primary_near, hits, found);
+        for (int k = 0; k < count; ++k) colour[k] = shade_primary(context, rays[k], found[k], hits[k], scratch);
+    };
+    // Samples of one pixel gathered into packets, summed in the order given (the sum, and so
+    // the pixel, is the one-by-one loop's to the bit).
+    struct SamplePackets {
+        double sx[kPacketRays], sy[kPacketRays];
+        int pending = 0;
+        RGB sum;
+    };
+    auto add_sample = [&](SamplePackets& s, double sx, double sy, std::vector<BundleCandidate>& scratch) {
+        s.sx[s.pending] = sx;
+        s.sy[s.pending] = sy;
+        if (++s.pending < kPacketRays) return;
+        RGB colour[kPacketRays];
+        trace_packet(s.sx, s.sy, s.pending, colour, scratch);
+        for (int k = 0; k < s.pending; ++k) s.sum += colour[k];
+        s.pending = 0;
+    };
+    auto flush_samples = [&](SamplePackets& s, std::vector<BundleCandidate>& scratch) {
+        if (s.pending == 0) return;
+        RGB colour[kPacketRays];
+        trace_packet(s.sx, s.sy, s.pending, colour, scratch);
+        for (int k = 0; k < s.pending; ++k) s.sum += colour[k];
+        s.pending = 0;
+    };
+
     auto render_pixel = [&](int i, int j, std::vector<BundleCandidate>& scratch) {
         RGB sum;
         int count = 0;
@@ -650,6 +687,13 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         if (n == 1 && settings.sample_pattern == SamplePattern::kGrid) {
             sum += trace_at(i + 0.5, j + 0.5, scratch);
             ++count;
+        } else if (eye && settings.sample_pattern == SamplePattern::kGrid) {  // the n x n grid in packets
+            SamplePackets samples;
+            for (int b = 0; b < n; ++b)
+                for (int a = 0; a < n; ++a) add_sample(samples, i + (a + 0.5) / n, j + (b + 0.5) / n, scratch);
+            flush_samples(samples, scratch);
+            sum = samples.sum;
+            count = n * n;
         } else {
             for (int b = 0; b < n; ++b)
                 for (int a = 0; a < n; ++a) {
@@ -788,10 +832,22 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         RGB sum, previous;
         int count = 0;
         for (int stage = std::min(16, budget);; stage = std::min(stage * 4, budget)) {
-            for (; count < stage; ++count) {
-                const double px = double(reverse_bits(uint32_t(count)) ^ shift_x) * kTwoToMinus32;
-                const double py = double(sobol_second(uint32_t(count)) ^ shift_y) * kTwoToMinus32;
-                sum += trace_at(i + px, j + py, scratch);
+            if (eye) {  // the stage's samples in packets, summed in order
+                SamplePackets samples;
+                samples.sum = sum;
+                for (; count < stage; ++count) {
+                    const double px = double(reverse_bits(uint32_t(count)) ^ shift_x) * kTwoToMinus32;
+                    const double py = double(sobol_second(uint32_t(count)) ^ shift_y) * kTwoToMinus32;
+                    add_sample(samples, i + px, j + py, scratch);
+                }
+                flush_samples(samples, scratch);
+                sum = samples.sum;
+            } else {
+                for (; count < stage; ++count) {
+                    const double px = double(reverse_bits(uint32_t(count)) ^ shift_x) * kTwoToMinus32;
+                    const double py = double(sobol_second(uint32_t(count)) ^ shift_y) * kTwoToMinus32;
+                    sum += trace_at(i + px, j + py, scratch);
+                }
             }
             const RGB mean = sum / double(count);
             if (count >= budget || (settle > 0.0 && count > 16 && colour_l1(mean - previous) < settle))
@@ -821,29 +877,25 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     };
 
     // One sample per pixel at its centre through a perspective camera: the primary rays of each
-    // block of kPacketWidth x kPacketHeight pixels are traced as one packet
-    // (Scene::closest_hit_packet: the same hits as ray by ray), then shaded one by one.
+    // block of kPacketWidth x kPacketHeight pixels are traced as one packet (trace_packet). (More
+    // samples per pixel go in packets of one pixel's samples: render_pixel, stratified_pixel.)
     const bool packets = eye && n == 1 && settings.sample_pattern == SamplePattern::kGrid;
     auto render_block_packets = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
         for (int j0 = y0; j0 < y1; j0 += kPacketHeight)
             for (int i0 = x0; i0 < x1; i0 += kPacketWidth) {
-                Ray rays[kPacketRays];
-                Hit hits[kPacketRays];
-                bool found[kPacketRays];
-                int pixel_i[kPacketRays], pixel_j[kPacketRays];
+                double sx[kPacketRays], sy[kPacketRays];
                 int count = 0;
                 for (int j = j0; j < std::min(y1, j0 + kPacketHeight); ++j)
-                    for (int i = i0; i < std::min(x1, i0 + kPacketWidth); ++i) {
-                        rays[count] = camera.generate(i + 0.5, j + 0.5, width, height);
-                        pixel_i[count] = i;
-                        pixel_j[count] = j;
-                        ++count;
+                    for (int i = i0; i < std::min(x1, i0 + kPacketWidth); ++i, ++count) {
+                        sx[count] = i + 0.5;
+                        sy[count] = j + 0.5;
                     }
-                scene.closest_hit_packet(rays, count, *eye, tolerances.primary_near, hits, found);
-                for (int r = 0; r < count; ++r) {
+                RGB colour[kPacketRays];
+                trace_packet(sx, sy, count, colour, scratch);
+                for (int k = 0; k < count; ++k) {
                     RGB sum;  // render_pixel's arithmetic, to the bit (0 + −0 is +0)
-                    sum += shade_primary(context, rays[r], found[r], hits[r], scratch);
-                    store(pixel_i[r], pixel_j[r], sum / 1.0);
+                    sum += colour[k];
+                    store(int(sx[k]), int(sy[k]), sum / 1.0);
                 }
             }
     };
