@@ -46,6 +46,13 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--width", type=int, help="image width (default: the scene's)")
     parser.add_argument("--height", type=int, help="image height (default: the scene's)")
+    parser.add_argument("--samples", type=int, help="samples per pixel (per axis; default: the scene's)")
+    parser.add_argument(
+        "--sample-pattern",
+        choices=["grid", "povray-am1", "povray-am2", "stratified", "adaptive"],
+        help="the pixel estimator (default: the scene's)",
+    )
+    parser.add_argument("--aa-threshold", type=float, help="its threshold (default: the scene's)")
     parser.add_argument("--extension", type=Path, metavar="SO", help="another build of the _native extension")
     parser.add_argument(
         "--wrapper",
@@ -79,6 +86,9 @@ def main() -> None:
         width=args.width or scene.settings.width,
         height=args.height or scene.settings.height,
         numerics=args.numerics,
+        samples=args.samples or scene.settings.samples,
+        sample_pattern=args.sample_pattern or scene.settings.sample_pattern,
+        aa_threshold=scene.settings.aa_threshold if args.aa_threshold is None else args.aa_threshold,
     )
     posed = dataclasses.replace(scene, settings=settings)
     camera, native_settings = native._camera(scene.camera), native._settings(settings)
