@@ -51,6 +51,8 @@ PHONG_AVX2 inline __m256 lane_min(__m256 v) {
     return _mm256_min_ps(v, _mm256_shuffle_ps(v, v, _MM_SHUFFLE(2, 3, 0, 1)));
 }
 
+// A packet set up for the interval test of a node's eight children at once (hit) and for its
+// rays' own tests of one child, a ray per lane (rays_entering).
 struct FloatSlabPacket8 {
     __m256 origin_near[3], origin_far[3];
     __m256 inv_lo[3], inv_hi[3];  // the interval of the rays' float inverse directions, per axis
