@@ -53,6 +53,12 @@ def main() -> None:
         help="the pixel estimator (default: the scene's)",
     )
     parser.add_argument("--aa-threshold", type=float, help="its threshold (default: the scene's)")
+    parser.add_argument(
+        "--ortho-width",
+        type=float,
+        metavar="W",
+        help="through an orthographic camera W units wide (the scene camera's position and view)",
+    )
     parser.add_argument("--extension", type=Path, metavar="SO", help="another build of the _native extension")
     parser.add_argument(
         "--wrapper",
@@ -90,6 +96,10 @@ def main() -> None:
         sample_pattern=args.sample_pattern or scene.settings.sample_pattern,
         aa_threshold=scene.settings.aa_threshold if args.aa_threshold is None else args.aa_threshold,
     )
+    if args.ortho_width:
+        scene = dataclasses.replace(
+            scene, camera=dataclasses.replace(scene.camera, projection="orthographic", ortho_width=args.ortho_width)
+        )
     posed = dataclasses.replace(scene, settings=settings)
     camera, native_settings = native._camera(scene.camera), native._settings(settings)
     build, render = [], []
