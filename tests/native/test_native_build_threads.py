@@ -47,3 +47,35 @@ def test_a_build_on_one_thread_traces_as_one_on_every_core():
     assert np.isfinite(t1).sum() > 100
     image = native.render(scene)
     assert np.array_equal(native.render(scene, dataclasses.replace(scene.settings, threads=1)), image)
+
+
+# A wavy heightfield of 2·405·405 = 328,050 triangles: large enough that a 4-thread build splits
+# two levels down on other threads (each side of a parallel split holds >= 2^15 primitives).
+HEIGHTFIELD_QUADS = 405
+
+
+def _heightfield_scene():
+    n = HEIGHTFIELD_QUADS
+    u, v = np.meshgrid(np.linspace(-2.0, 2.0, n + 1), np.linspace(-2.0, 2.0, n + 1), indexing="ij")
+    points = np.stack([u, 0.2 * np.sin(3.1 * u) * np.cos(2.3 * v), v], axis=-1).reshape(-1, 3)
+    corner = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
+    quads = np.stack([corner, corner + n + 1, corner + n + 2, corner + 1], axis=1)
+    triangles = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]]).astype(np.int32)
+    scene = calibration.smooth_mesh()
+    field = dataclasses.replace(scene.meshes[1], points=points, triangles=triangles)
+    return dataclasses.replace(scene, meshes=(field,))
+
+
+def test_the_tree_is_the_same_on_any_number_of_threads():
+    """Subtrees built on other threads write their nodes into fixed slots of one array (bvh.cpp),
+    collapsed as one tree: the walk's tree and leaf order equal a one-thread build's for 1 to 4
+    threads, and the digest that says so changes when the tree does."""
+    scene = _heightfield_scene()
+    assert scene.triangle_count == 2 * HEIGHTFIELD_QUADS**2
+    digests = {threads: native.build(scene, threads=threads).tree_digest for threads in (1, 2, 3, 4)}
+    assert len(set(digests.values())) == 1, digests
+    mesh = scene.meshes[0]
+    moved = mesh.points.copy()
+    moved[mesh.triangles[1000, 0], 1] += 0.05  # one corner: that triangle's box, so its leaf, changes
+    other = dataclasses.replace(scene, meshes=(dataclasses.replace(mesh, points=moved),))
+    assert native.build(other, threads=1).tree_digest != digests[1]

@@ -129,9 +129,10 @@ std::unique_ptr<phong::Scene> make_scene(
         n_triangles += mesh.triangle_count;
         a.meshes.push_back(mesh);
     }
-    // Triangles are numbered in int32 (leaf refs) and their ids in uint32 (primitive refs).
-    if (n_spheres + n_triangles + a.intrinsics.size() + n_balls > size_t(INT32_MAX))
-        throw std::invalid_argument("too many primitives");
+    // Triangles are numbered in int32 (leaf refs), their ids in uint32 (primitive refs) and the
+    // BVH's 2n - 1 node slots in int32.
+    if (n_spheres + n_triangles + a.intrinsics.size() + n_balls > phong::kMaxBvhPrimitives)
+        throw std::invalid_argument("too many primitives (at most 2^30)");
     // The arrays stay alive (held by the caller's frame) while the GIL is released.
     nb::gil_scoped_release release;
     return std::make_unique<phong::Scene>(a, std::move(materials), std::move(lights), ambient);
@@ -876,6 +877,9 @@ NB_MODULE(_native, m) {
         .def_prop_ro(
             "leaf_count", [](const phong::Scene& s) { return s.leaf_count(); },
             "Leaves of the walk's BVH (how the SAH grouped the primitives; a root that is one leaf counts 1).")
+        .def_prop_ro(
+            "tree_digest", [](const phong::Scene& s) { return s.tree_digest(); },
+            "A digest of the walk's BVH and leaf order (tests: equal digests, the same tree).")
         .def("render", &render, "camera"_a, "settings"_a, "progress"_a = nb::none(),
              "The image, float32 (height, width, 3), row 0 at the top. progress(done, total) is called from this "
              "thread while rendering; an exception it raises (or Ctrl-C) stops the render.")

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <future>
+#include <stdexcept>
 #include <thread>
 #include <utility>
 
@@ -204,6 +205,7 @@ struct Bins {
 
 struct Builder {
     std::vector<PrimRef>& prims;
+    BvhNode* nodes;        // 2n - 1 slots (Bvh::build)
     float traversal_cost;  // the SAH's cost of a node visit, in primitive tests (above)
 
     static void make_leaf(BvhNode& node, uint32_t begin, uint32_t end) {
@@ -243,10 +245,11 @@ struct Builder {
         }
     }
 
-    // Builds the subtree of prims[begin, end) into nodes[index] (already allocated), appending
-    // its descendants depth-first. `bounds` and `centres` are those of the primitives (centres:
-    // doubled centroids). `alone`: no other thread is building now.
-    void build(std::vector<BvhNode>& nodes, int32_t index, uint32_t begin, uint32_t end, int depth, const Box4& bounds,
+    // Builds the subtree of prims[begin, end) into nodes[index] (already allocated), its
+    // descendants depth-first from nodes[next] on (`next` advances past them; the first child is
+    // nodes[index + 1]). `bounds` and `centres` are those of the primitives (centres: doubled
+    // centroids). `alone`: no other thread is building now.
+    void build(int32_t index, int32_t& next, uint32_t begin, uint32_t end, int depth, const Box4& bounds,
                const Box4& centres, int parallel_splits, bool alone) {
         BvhNode& node = nodes[size_t(index)];
         for (int k = 0; k < 3; ++k) {
@@ -260,7 +263,7 @@ struct Builder {
         }
 
         if (n <= kExactSahMaxPrimitives) {
-            build_small(nodes, index, begin, end, depth, bounds, parallel_splits, alone);
+            build_small(index, next, begin, end, depth, bounds, parallel_splits, alone);
             return;
         }
         const Float4 extent = centres.hi - centres.lo;
@@ -369,35 +372,32 @@ struct Builder {
         }
         nodes[size_t(index)].count = 0;
         nodes[size_t(index)].axis = int16_t(best_axis);
-        const int32_t left = int32_t(nodes.size());
-        nodes.emplace_back();
+        const int32_t left = next++;
         if (parallel_splits > 0 && std::min(mid - begin, end - mid) >= kParallelBuildMinPrimitives) {
-            // The right subtree into its own array on another thread, spliced after the left.
-            std::vector<BvhNode> right_nodes(1);
-            reserve_huge(right_nodes, 2 * size_t(end - mid));
+            // The right subtree on another thread, in the same array past the most the left one
+            // can take (a subtree of m primitives has at most 2m - 1 nodes): no copy to splice
+            // the two, and the unused nodes between them are never written, so never resident.
+            const int32_t right = left + 2 * int32_t(mid - begin) - 1;
+            int32_t right_next = right + 1;
             auto right_built = std::async(std::launch::async, [&] {
-                build(right_nodes, 0, mid, end, depth + 1, right_bounds, right_centres, parallel_splits - 1, false);
+                build(right, right_next, mid, end, depth + 1, right_bounds, right_centres, parallel_splits - 1, false);
             });
-            build(nodes, left, begin, mid, depth + 1, left_bounds, left_centres, parallel_splits - 1, false);
+            build(left, next, begin, mid, depth + 1, left_bounds, left_centres, parallel_splits - 1, false);
             right_built.get();
-            const int32_t right = int32_t(nodes.size());
-            for (BvhNode& child : right_nodes)
-                if (child.count == 0) child.offset += right;  // interior: the second child's index
-            nodes.insert(nodes.end(), right_nodes.begin(), right_nodes.end());
+            next = right_next;
             nodes[size_t(index)].offset = right;
         } else {
-            build(nodes, left, begin, mid, depth + 1, left_bounds, left_centres, parallel_splits, alone);
-            const int32_t right = int32_t(nodes.size());
-            nodes.emplace_back();
-            build(nodes, right, mid, end, depth + 1, right_bounds, right_centres, parallel_splits, alone);
+            build(left, next, begin, mid, depth + 1, left_bounds, left_centres, parallel_splits, alone);
+            const int32_t right = next++;
+            build(right, next, mid, end, depth + 1, right_bounds, right_centres, parallel_splits, alone);
             nodes[size_t(index)].offset = right;
         }
     }
 
     // A node of at most kExactSahMaxPrimitives: the exact SAH over every split of the primitives
     // sorted by centroid, on each axis (cheaper than 48 bins at this size, and no worse a tree).
-    void build_small(std::vector<BvhNode>& nodes, int32_t index, uint32_t begin, uint32_t end, int depth,
-                     const Box4& bounds, int parallel_splits, bool alone) {
+    void build_small(int32_t index, int32_t& next, uint32_t begin, uint32_t end, int depth, const Box4& bounds,
+                     int parallel_splits, bool alone) {
         const uint32_t n = end - begin;
         PrimRef* p = prims.data() + begin;
         if (n <= kMaxLeafSize && no_split_pays(p, n, bounds.half_area())) {
@@ -441,12 +441,10 @@ struct Builder {
         BvhNode& node = nodes[size_t(index)];
         node.count = 0;
         node.axis = int16_t(best_axis);
-        const int32_t left = int32_t(nodes.size());
-        nodes.emplace_back();
-        build(nodes, left, begin, mid, depth + 1, left_bounds, left_centres, parallel_splits, alone);
-        const int32_t right = int32_t(nodes.size());
-        nodes.emplace_back();
-        build(nodes, right, mid, end, depth + 1, right_bounds, right_centres, parallel_splits, alone);
+        const int32_t left = next++;
+        build(left, next, begin, mid, depth + 1, left_bounds, left_centres, parallel_splits, alone);
+        const int32_t right = next++;
+        build(right, next, mid, end, depth + 1, right_bounds, right_centres, parallel_splits, alone);
         nodes[size_t(index)].offset = right;
     }
 
@@ -522,19 +520,21 @@ void Bvh::build(std::vector<PrimRef> prims) {
     nodes.clear();
     order.clear();
     if (prims.empty()) return;
+    if (prims.size() > kMaxBvhPrimitives) throw std::length_error("too many primitives for one BVH");
     const uint32_t n = uint32_t(prims.size());
-    // At most 2n - 1 nodes; capacity that is never written is never resident, so no
+    // At most 2n - 1 nodes; slots that are never written are never resident, so no
     // shrink_to_fit (its copy would double the nodes' peak memory).
-    reserve_huge(nodes, 2 * size_t(n));
-    Builder builder{prims, n < kSmallTreeTraversalCostBelow ? kSmallTreeTraversalCost : kLargeTreeTraversalCost};
+    resize_huge(nodes, 2 * size_t(n) - 1);
+    Builder builder{prims, nodes.data(),
+                    n < kSmallTreeTraversalCostBelow ? kSmallTreeTraversalCost : kLargeTreeTraversalCost};
     // Up to two subtrees per build thread (the halves of a split are rarely equal); none with one.
     const unsigned threads = build_threads();
     int parallel_splits = threads > 1 ? 1 : 0;
     for (unsigned t = threads; t > 1; t /= 2) parallel_splits++;
     Box4 bounds, centres;
     builder.measure(0, n, bounds, centres);
-    nodes.emplace_back();
-    builder.build(nodes, 0, 0, n, 0, bounds, centres, parallel_splits, true);
+    int32_t next = 1;
+    builder.build(0, next, 0, n, 0, bounds, centres, parallel_splits, true);
     resize_huge(order, n);
     for (uint32_t k = 0; k < n; ++k) order[k] = prims[k].id;
 }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "math.hpp"
+#include "uninitialised.hpp"
 
 namespace phong {
 
@@ -99,8 +100,15 @@ struct alignas(16) PrimRef {
           hi{round_up(b.hi.x), round_up(b.hi.y), round_up(b.hi.z)} {}
 };
 
+// The binary tree's nodes: 2n - 1 slots for n primitives, the ones a build uses written
+// (subtrees built on other threads start at fixed slots: bvh.cpp), the rest never touched.
+using BvhNodes = UninitialisedVector<BvhNode>;
+
+// The most primitives one tree holds: its 2n - 1 node slots are numbered in int32.
+constexpr size_t kMaxBvhPrimitives = size_t(1) << 30;
+
 struct Bvh {
-    std::vector<BvhNode> nodes;
+    BvhNodes nodes;
     std::vector<uint32_t> order;  // leaf order: positions index the primitives' ids
 
     // Builds over the primitives (consumed: the build reorders them in place and frees them).

@@ -34,7 +34,7 @@ struct alignas(64) Bvh4Node {
 // Collapses `binary` (Bvh::nodes, root at 0) into 4-wide nodes, root at 0 (empty when `binary`
 // is). Each node takes a binary node's two children, then repeatedly opens the interior child of
 // largest surface area, until it has four. Leaves keep their primitive ranges.
-std::vector<Bvh4Node> collapse_to_bvh4(const std::vector<BvhNode>& binary);
+std::vector<Bvh4Node> collapse_to_bvh4(const BvhNodes& binary);
 
 // Largest number of pending children in a walk: a node replaces itself by at most four, and
 // the collapsed tree is no deeper than the binary one (kMaxTraversalDepth).

@@ -33,7 +33,7 @@ struct alignas(64) Bvh8Node {
 };
 
 // Collapses `binary` into 8-wide nodes as collapse_to_bvh4 does into 4-wide ones (bvh4.cpp).
-std::vector<Bvh8Node> collapse_to_bvh8(const std::vector<BvhNode>& binary);
+std::vector<Bvh8Node> collapse_to_bvh8(const BvhNodes& binary);
 
 // A node replaces itself by at most eight pending children.
 constexpr int kMaxBvh8Stack = 7 * kMaxTraversalDepth + 1;

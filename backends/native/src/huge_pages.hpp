@@ -35,15 +35,15 @@ inline void advise_huge_pages([[maybe_unused]] const void* p, [[maybe_unused]] s
 }
 
 // v.reserve(n) with the new capacity advised (v must be empty: nothing of it written yet).
-template <class T>
-void reserve_huge(std::vector<T>& v, size_t n) {
+template <class T, class Allocator>
+void reserve_huge(std::vector<T, Allocator>& v, size_t n) {
     v.reserve(n);
     advise_huge_pages(v.data(), v.capacity() * sizeof(T));
 }
 
 // v.resize(n) of an empty v, its memory advised before the values are written.
-template <class T, class... Value>
-void resize_huge(std::vector<T>& v, size_t n, const Value&... value) {
+template <class T, class Allocator, class... Value>
+void resize_huge(std::vector<T, Allocator>& v, size_t n, const Value&... value) {
     reserve_huge(v, n);
     v.resize(n, value...);
 }

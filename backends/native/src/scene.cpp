@@ -226,7 +226,7 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         bvh8_ = collapse_to_bvh8(bvh_.nodes);
     else
         bvh4_ = collapse_to_bvh4(bvh_.nodes);
-    std::vector<BvhNode>().swap(bvh_.nodes);
+    BvhNodes().swap(bvh_.nodes);
 
     // Primitive refs and triangle data in leaf order, so leaves read memory sequentially.
     // Leaf position k holds triangle slot k − (spheres before k).

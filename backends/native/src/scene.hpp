@@ -221,6 +221,23 @@ class Scene {
         return leaves;
     }
 
+    // A digest of the walk's tree and leaf order (FNV-1a over the wide nodes, the leaf refs and
+    // each leaf-order triangle's input row): equal digests, the same tree (tests: a build's tree
+    // does not depend on its threads).
+    uint64_t tree_digest() const {
+        uint64_t h = 14695981039346656037ull;
+        auto mix = [&h](const void* data, size_t bytes) {
+            const unsigned char* p = static_cast<const unsigned char*>(data);
+            for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
+        };
+        static_assert(sizeof(Bvh8Node) == 256 && sizeof(Bvh4Node) == 128, "nodes without padding");
+        mix(bvh8_.data(), bvh8_.size() * sizeof(Bvh8Node));
+        mix(bvh4_.data(), bvh4_.size() * sizeof(Bvh4Node));
+        mix(refs_.data(), refs_.size() * sizeof(int32_t));
+        mix(triangle_source.data(), triangle_source.size() * sizeof(uint32_t));
+        return h;
+    }
+
     // The mesh of leaf-order triangle `slot` (from its input row: the POV-Ray walk's rare
     // question needs no per-triangle array).
     int32_t triangle_mesh(size_t slot) const;

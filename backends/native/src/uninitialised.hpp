@@ -1,0 +1,42 @@
+// SPDX-License-Identifier: Apache-2.0
+// Vectors that size without writing. std::vector::resize(n) value-initialises: for a trivial
+// type it zeroes every element. The binary tree's 2n - 1 node slots (bvh.hpp) are sized so that
+// subtrees built on other threads can start at fixed slots; most slots are never used, and
+// zeroing them would fault in pages nothing reads. With this allocator resize(n)
+// default-initialises instead: a trivial element is left as it is, and its page is not touched
+// until the element is written.
+#pragma once
+
+#include <memory>
+#include <new>
+#include <utility>
+#include <vector>
+
+namespace phong {
+
+template <class T>
+struct UninitialisedAllocator : std::allocator<T> {
+    using value_type = T;
+    template <class U>
+    struct rebind {
+        using other = UninitialisedAllocator<U>;
+    };
+    UninitialisedAllocator() noexcept = default;
+    template <class U>
+    UninitialisedAllocator(const UninitialisedAllocator<U>&) noexcept {}
+
+    template <class U>
+    void construct(U* p) noexcept {
+        ::new (static_cast<void*>(p)) U;  // default-initialisation: nothing for a trivial U
+    }
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) {
+        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+};
+
+// A vector whose resize() leaves new trivial elements unwritten.
+template <class T>
+using UninitialisedVector = std::vector<T, UninitialisedAllocator<T>>;
+
+}  // namespace phong
