@@ -416,11 +416,7 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
     return search.finish(t_max);
 }
 
-// The walk, its set-up and the leaf tests in one AVX2 function (flatten: GCC inlines no
-// default-target function into an AVX2 one otherwise, and a call per walk with its arguments cost
-// S1's shadow rays 23 instructions each, S2's at 100k triangles 35).
-PHONG_AVX2 __attribute__((flatten)) bool Scene::occluded_in_bvh8(const Ray& ray, const FloatSlabOrigin& origin,
-                                                                 double t_min, double t_max) const {
+bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const {
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool blocked = false;
     double t_limit = t_max;
@@ -433,7 +429,7 @@ PHONG_AVX2 __attribute__((flatten)) bool Scene::occluded_in_bvh8(const Ray& ray,
     if (prefilter_applies()) {
         // Only the triangles the float prefilter keeps, inlined as in closest_hit.
         TriangleLeafFilter filter(triangles, magnitude);
-        auto leaf = [&](int32_t first, int count, double& t_best) {
+        auto leaf = [&](int32_t first, int count, double& t_best) PHONG_AVX2 __attribute__((flatten)) {
             const int32_t* refs = refs_.data() + first;
             for (unsigned kept = filter(refs, count, ray, wr); kept != 0; kept &= kept - 1)
                 if (test(refs[__builtin_ctz(kept)], t_best)) return blocked = true;  // the first hit ends the walk
@@ -446,38 +442,17 @@ PHONG_AVX2 __attribute__((flatten)) bool Scene::occluded_in_bvh8(const Ray& ray,
                 if (test(refs_[size_t(first + k)], t_best)) return blocked = true;  // the first hit ends the walk
             return false;
         };
-        traverse_bvh8<false>(bvh8_, magnitude, ray, origin, t_min, t_limit, leaf);
+        if (!bvh8_.empty())
+            traverse_bvh8<false>(bvh8_, magnitude, ray, origin, t_min, t_limit, leaf);
+        else
+            traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, leaf);
     }
-    return blocked;
-}
-
-bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const {
-    bool blocked =
-        !bvh8_.empty() ? occluded_in_bvh8(ray, origin, t_min, t_max) : occluded_in_bvh4(ray, origin, t_min, t_max);
     if (!blocked && !planes.empty()) {
         double t;
         int32_t plane;
         blocked = hit_planes(ray, t_min, t_max, t, plane);
     }
     return blocked || (!instances_empty() && instances->occluded(ray, t_min, t_max));
-}
-
-bool Scene::occluded_in_bvh4(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const {
-    std::optional<WatertightRay> wr;  // set up when the first triangle is tested
-    bool blocked = false;
-    double t_limit = t_max;
-    auto leaf = [&](int32_t first, int count, double& t_best) {
-        for (int k = 0; k < count; ++k) {
-            const int32_t ref = refs_[size_t(first + k)];
-            double t;
-            Barycentric bary;
-            if (ref < 0 ? hit_solid(ref, ray, t_min, t_best, t) : hit_triangle(ref, ray, wr, t_min, t_best, t, bary))
-                return blocked = true;  // the first hit ends the walk
-        }
-        return false;
-    };
-    traverse_bvh4<false>(bvh4_, magnitude, ray, origin, t_min, t_limit, leaf);
-    return blocked;
 }
 
 int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const {

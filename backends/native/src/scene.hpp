@@ -312,10 +312,6 @@ class Scene {
         }
         return found;
     }
-    // occluded()'s walk over the 8-wide tree (AVX2) or the 4-wide one, without the unbounded
-    // planes and the instances.
-    bool occluded_in_bvh8(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const;
-    bool occluded_in_bvh4(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const;
     // A sphere's, ball's or intrinsic part's hit test (ref < 0).
     bool hit_solid(int32_t ref, const Ray& ray, double t_min, double t_max, double& t) const {
         if (is_sphere(ref)) return intersect_sphere(spheres[size_t(~ref)], ray, t_min, t_max, t);
