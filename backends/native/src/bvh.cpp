@@ -93,9 +93,9 @@ constexpr uint32_t kExactSahMaxPrimitives = 8;
 constexpr float kLeafBoundMargin = 1.0f - 1e-4f;
 
 // Subtrees of at least this many primitives build on their own thread (the two children of a
-// node are independent: disjoint ranges of the primitives, separate node arrays spliced
-// afterwards, so the tree is the same as a sequential build's). Below it a subtree takes
-// < ~10 ms, next to ~0.1 ms to start a thread.
+// node are independent: disjoint ranges of the primitives and of the node slots, Builder::build,
+// so the collapsed tree is the same as a sequential build's). Below it a subtree takes < ~10 ms,
+// next to ~0.1 ms to start a thread.
 constexpr uint32_t kParallelBuildMinPrimitives = 1u << 15;
 // A node this large, while no other thread builds (the root, before its children split across
 // threads), bins its primitives in one chunk per hardware thread (merged bins are the same as
