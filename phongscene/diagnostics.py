@@ -44,6 +44,11 @@ BRIGHT_PERCENTILE = 99.0
 # The exposure hint brings that brightest 1 % to white, as the reader's hint brings a clipping
 # light's median to 1.
 EXPOSURE_TARGET = 1.0
+# A dark image with no single cause names the light and the materials together when a surface of
+# the most reflective material, facing the brightest light, would return less than this many
+# times DARK_RADIANCE (two stops): surfaces the light meets at an angle (cos θ ~ 0.5-0.7), the
+# usual case in a view, then stay near or under DARK_RADIANCE.
+DIM_LIGHT_ON_GREY = 4.0
 # A scene whose bounds span less than this many pixels across is too far away to be seen.
 SUBPIXEL_SPAN = 1.0
 # An area light larger than the scene's bounding sphere (radius ratio) is named as a cause of a
@@ -89,6 +94,8 @@ class ImageChecks:
                 + _light_causes(scene, boxes, spheres, reader_warnings)
                 + _material_causes(scene)
             )
+            if not causes:  # no one cause: a dim light and grey surfaces together?
+                causes = _light_and_material_cause(scene, spheres)
             nothing_in_view = _nothing_in_view(scene, settings, boxes)
         return ImageChecks(
             background=tuple(map(float, settings.background)),
@@ -480,6 +487,45 @@ def _light_causes(scene: Scene, boxes, spheres: _Spheres, reader_warnings) -> li
                 )
         causes.extend(said)
     return causes
+
+
+def _light_and_material_cause(scene: Scene, spheres: _Spheres) -> list[str]:
+    """Neither the light nor the materials dark enough alone, the two together: the brightest
+    light's white-surface radiance (at the median point of the geometry, as _light_causes takes
+    it) times the largest diffuse reflectance kd·cd of any material, plus its ambient term, within
+    DIM_LIGHT_ON_GREY of DARK_RADIANCE. (What a Phong surface facing that light returns by its
+    diffuse and ambient terms, highlights aside; shadows ignored.)"""
+    points = _sample_points(scene, spheres)
+    if not scene.lights or not len(points):
+        return []
+    levels = [
+        (float(np.partition(r, len(r) // 2)[len(r) // 2]), light)
+        for light in scene.lights
+        if len(r := white_radiance(light, points))
+    ]
+    brightest, light = max(levels, key=lambda level: level[0])
+    objects = (*scene.spheres, *scene.meshes, *scene.points, *scene.intrinsics)
+    materials = {id(o.material): o.material for o in objects}.values()
+    ambient = float(np.max(scene.ambient.color))
+
+    def colour(m) -> float:
+        return max(
+            float(np.max(m.diffuse_texture.image)) if m.diffuse_texture is not None else 0.0, max(m.diffuse_color)
+        )
+
+    best = max(materials, key=lambda m: (m.kd * brightest + m.ka * ambient) * colour(m), default=None)
+    if best is None or not brightest > 0:
+        return []
+    most = (best.kd * brightest + best.ka * ambient) * colour(best)
+    if not 0 < most < DIM_LIGHT_ON_GREY * DARK_RADIANCE:
+        return []
+    name = f"{light.source} (the brightest light)" if light.source else "the brightest light"
+    return [
+        f"{name} lights a white surface facing it to radiance {brightest:.2g} at the median point of the "
+        f"geometry, and the most reflective material returns {100 * best.kd * colour(best):.0f} % of that "
+        f"({best.source or 'a material'}: kd {best.kd:g} × diffuse colour {colour(best):.3g}): {most:.2g} at most "
+        "with its ambient term, less where the light strikes at an angle — a dim light on grey surfaces"
+    ]
 
 
 def _material_causes(scene: Scene) -> list[str]:

@@ -284,3 +284,35 @@ def test_sphere_samples_are_every_strided_row_of_centres_and_tops_made_row_by_ro
             whole = np.concatenate(whole)
             for about in (1, 3, 10, 1024, 5000):
                 assert np.array_equal(spheres.sample_points(about), whole[:: max(1, len(whole) // about)])
+
+
+def test_a_dim_light_on_grey_surfaces_is_named_together():
+    """Neither cause alone (the light makes a white surface 0.23 bright, the floor reflects 30 %):
+    together, the floor lit at 45° stays under DARK_RADIANCE, and the warning says so, naming both
+    numbers, instead of finding no cause (an Isaac Sim scene's sun of intensity 3000 over 1°)."""
+    grey = ps.PhongMaterial(ka=0.1, kd=0.6, ks=0.0, diffuse_color=(0.5, 0.5, 0.5))
+    floor = ps.TriangleMesh(
+        points=np.array([[-5.0, 0, -5], [-5, 0, 5], [5, 0, 5], [5, 0, -5]]),
+        triangles=np.array([[0, 1, 2], [0, 2, 3]], dtype=np.int32),
+        material=grey,
+    )
+    sun = ps.DirectionalLight(direction=(-(0.5**0.5), -(0.5**0.5), 0.0), color=(0.7177, 0.7177, 0.7177))
+    scene = ps.Scene(
+        camera=ps.look_at((0.0, 6.0, 9.0), (0.0, 0.0, 0.0), 50.0),
+        lights=(sun,),
+        meshes=(floor,),
+        settings=ps.RenderSettings(width=WIDTH, height=30),
+    )
+    image = ps.render(scene, explain=False)
+    (text,) = explain_image(scene, image)
+    assert "the image is too dark" in text
+    assert "a dim light on grey surfaces" in text and "30 % of that" in text and "kd 0.6" in text
+    assert "radiance 0.23" in text and "0.069 at most" in text
+    assert "no cause found" not in text
+    brighter = ps.Scene(
+        camera=scene.camera,
+        lights=(ps.DirectionalLight(direction=sun.direction, color=(4.0, 4.0, 4.0)),),
+        meshes=(floor,),
+        settings=scene.settings,
+    )
+    assert explain_image(brighter, ps.render(brighter, explain=False)) == []
