@@ -6,8 +6,10 @@ at half-float precision and, optionally, write the report folder.
 
 A pixel that fails but agrees with a native render in the 1e-4 window of POV-Ray's per-thread
 shadow cache is explained by that cache (which decides such pixels by what the thread rendered
-before): ``diff`` passes when every failing pixel is explained and they are at most
-``POVRAY_SHADOW_CACHE.fail_percent`` % of the image, and lists them.
+before); one that a turn of the camera by a float32 rounding moves beyond the tolerance, with
+POV-Ray's value among those the turn reaches, is explained as ill-conditioned
+(``phongscene.conditioning``). ``diff`` passes when every failing pixel is explained and they
+are at most ``POVRAY_SHADOW_CACHE.fail_percent`` % of the image, and lists them by cause.
 
 POV-Ray's image is the reference ``a`` (it is the one rounded to half floats); the native
 image is ``b``."""
@@ -33,6 +35,7 @@ from .comparison import (
     failing_mask,
     for_povray_passes,
 )
+from .conditioning import ill_conditioned, tilted_cameras
 from .errors import BackendError
 from .overrides import RenderOverrides
 from .progress import ProgressBar
@@ -40,7 +43,9 @@ from .rendering import load_scene, render
 from .scene import RenderSettings, Scene
 
 LABELS = ("povray", "native")
-SHADOW_CACHE_CAUSE = "POV-Ray's shadow cache"  # what explains a failing pixel (see _explain)
+# What explains a failing pixel (see _explain).
+SHADOW_CACHE_CAUSE = "POV-Ray's shadow cache"
+ILL_CONDITIONED_CAUSE = "ill-conditioning (a 2^-24 rad turn of the camera moves it further)"
 
 
 @dataclass(frozen=True)
@@ -68,13 +73,16 @@ class DiffResult:
     # tangent-space normal maps, so both backends are compared without them and these are where
     # the native tracer's picture (with them) departs from the compared one.
     normal_map_pixels: tuple[tuple[int, int], ...] = ()
+    # Failing pixels (x, y) explained as ill-conditioned (phongscene.conditioning).
+    ill_conditioned: tuple[tuple[int, int], ...] = ()
 
     @property
     def ok(self) -> bool:
         if self.report.ok:
             return True
         allowed = POVRAY_SHADOW_CACHE.fail_percent / 100 * self.report.pixels
-        return not self.report.hard_fail and not self.unexplained and 0 < len(self.explained) <= allowed
+        explained = len(self.explained) + len(self.ill_conditioned)
+        return not self.report.hard_fail and not self.unexplained and 0 < explained <= allowed
 
     def _repr_html_(self) -> str:
         """Jupyter's display: the verdict and the report's facts, both images side by side (sRGB
@@ -110,6 +118,14 @@ class DiffResult:
                 " ..." if len(self.explained) > 10 else ""
             )
             lines.append(f"  {len(self.explained)} failing pixels explained by POV-Ray's shadow cache: {shown}")
+        if self.ill_conditioned:
+            shown = ", ".join(f"({x}, {y})" for x, y in self.ill_conditioned[:10]) + (
+                " ..." if len(self.ill_conditioned) > 10 else ""
+            )
+            lines.append(
+                f"  {len(self.ill_conditioned)} failing pixels ill-conditioned (a 2^-24 rad turn of the camera moves "
+                f"the native value further than the backends differ): {shown}"
+            )
         if self.unexplained:
             shown = ", ".join(f"({x}, {y})" for x, y in self.unexplained[:10]) + (
                 " ..." if len(self.unexplained) > 10 else ""
@@ -128,7 +144,7 @@ class DiffResult:
                 f"  {self.numerics_differ} pixels of a plain native render (scale-invariant tolerances) differ "
                 "from the one in POV-Ray's numerics"
             )
-        if self.explained and not self.report.ok:
+        if (self.explained or self.ill_conditioned) and not self.report.ok:
             lines.append("  PASS (every failing pixel explained)" if self.ok else "  FAILURE")
         return "\n".join(lines)
 
@@ -254,7 +270,7 @@ def diff(
         report = compare(images["povray"], images["native"], thresholds)
     except ImageMismatchError as e:
         raise BackendError(f"the backends returned images of different sizes: {e}") from e
-    explained, unexplained = _explain(scene, settings, mapping, images, report, thresholds)
+    explained, ill_conditioned, unexplained = _explain(scene, settings, mapping, images, report, thresholds)
     plain = render_native_as_povray(scene, replace(settings, numerics="scale-invariant"), mapping)
     numerics_differ = int(failing_mask(images["native"], plain, thresholds).sum())
     normal_map_pixels = ()
@@ -279,6 +295,7 @@ def diff(
         numerics_differ,
         image_warnings,
         normal_map_pixels,
+        ill_conditioned,
     )
     if outdir is not None:
         from .files import atomic_folder
@@ -295,8 +312,12 @@ def diff(
                 title=f"phongscene diff: {Path(source).name if source else 'scene'} ({mapping} mapping)",
                 timings=timings,
                 # Failing pixels are classified only when the comparison fails (_explain).
-                explained=None if report.ok else explained,
-                cause=SHADOW_CACHE_CAUSE,
+                explained=None
+                if report.ok
+                else {
+                    **dict.fromkeys(explained, SHADOW_CACHE_CAUSE),
+                    **dict.fromkeys(ill_conditioned, ILL_CONDITIONED_CAUSE),
+                },
                 ok=result.ok,
                 meta={
                     "scene": source,
@@ -308,6 +329,7 @@ def diff(
                     "scene_warnings": warnings,
                     "image_warnings": list(image_warnings),
                     "explained_by_povray_shadow_cache": [list(p) for p in explained],
+                    "ill_conditioned_pixels": [list(p) for p in ill_conditioned],
                     "unexplained_failing_pixels": [list(p) for p in unexplained],
                     "native_numerics_differ_pixels": numerics_differ,
                     "normal_map_pixels": [list(p) for p in normal_map_pixels],
@@ -338,14 +360,40 @@ def render_native_as_povray(scene: Scene, settings: RenderSettings, mapping: str
 def _explain(
     scene: Scene, settings: RenderSettings, mapping: str, images: dict, report: Report, thresholds: Thresholds
 ):
-    """(explained, unexplained) failing pixels: a failing pixel where POV-Ray agrees with a native
-    render in its shadow cache's window is explained by the cache."""
+    """(by the shadow cache, ill-conditioned, unexplained) failing pixels: a failing pixel where
+    POV-Ray agrees with a native render in its shadow cache's window is explained by the cache;
+    of the rest, those ``phongscene.conditioning`` finds ill-conditioned (four more native
+    renders, only when such pixels remain)."""
     if report.ok or not report.failing_pixels:
-        return (), ()
+        return (), (), ()
     failing = failing_mask(images["povray"], images["native"], thresholds)
     cached = render_native_as_povray(scene, replace(settings, numerics="povray-shadow-cache"), mapping)
     by_cache = failing & ~failing_mask(images["povray"], cached, thresholds)
-    return _listed(by_cache), _listed(failing & ~by_cache)
+    rest = failing & ~by_cache
+    if rest.any():
+        tilted = _native_from_cameras(scene, settings, mapping, tilted_cameras(scene.camera))
+        by_conditioning = ill_conditioned(images["povray"], images["native"], tilted, rest, thresholds)
+        rest &= ~by_conditioning
+    else:
+        by_conditioning = np.zeros_like(rest)
+    return _listed(by_cache), _listed(by_conditioning), _listed(rest)
+
+
+def _native_from_cameras(scene: Scene, settings: RenderSettings, mapping: str, cameras) -> list[np.ndarray]:
+    """``render_native_as_povray``'s image from each of ``cameras``, each pass's C++ scene built
+    once (a big mesh's BVH takes longer than a small image's render)."""
+    from .backends import native
+    from .backends.povray import pass_scenes
+
+    adaptive_aa = settings.aa_threshold > 0 and settings.sample_pattern in ("povray-am1", "povray-am2")
+    passes = pass_scenes(scene, mapping) if adaptive_aa else (scene,)
+    totals = [np.zeros((settings.height, settings.width, 3), np.float64) for _ in cameras]
+    for i, one in enumerate(passes):
+        background = settings.background if i == 0 else (0.0, 0.0, 0.0)
+        prepared = native.prepare(one, replace(settings, background=background))
+        for total, camera in zip(totals, cameras):
+            total += prepared(camera)
+    return [total.astype(np.float32) for total in totals]
 
 
 def _listed(mask: np.ndarray) -> tuple[tuple[int, int], ...]:

@@ -17,7 +17,7 @@ import json
 import math
 import os
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -89,7 +89,7 @@ def write_report(
     title: str = "phongscene comparison",
     timings: dict[str, float] | None = None,
     meta: dict | None = None,
-    explained: Iterable[tuple[int, int]] | None = None,
+    explained: Iterable[tuple[int, int]] | Mapping[tuple[int, int], str] | None = None,
     cause: str = "",
     ok: bool | None = None,
 ) -> Path:
@@ -104,10 +104,11 @@ def write_report(
         title: the page title.
         timings: seconds per step (e.g. each backend's render time), recorded in the JSON.
         meta: anything else worth recording (scene file, mapping, settings); JSON-serialisable.
-        explained: failing pixels (x, y) that ``cause`` explains; given (diff), every other
-            failing pixel is marked "not explained"; None (compare): failing pixels are not
-            classified.
-        cause: what explains the ``explained`` pixels, e.g. "POV-Ray's shadow cache".
+        explained: failing pixels (x, y) that ``cause`` explains, or a mapping from each such
+            pixel to what explains it; given (diff), every other failing pixel is marked "not
+            explained"; None (compare): failing pixels are not classified.
+        cause: what explains the ``explained`` pixels when they are not a mapping, e.g.
+            "POV-Ray's shadow cache".
         ok: the verdict when it is not the comparison's (diff passes when every failing pixel
             is explained); default ``report.ok``.
 
@@ -134,9 +135,11 @@ def write_report(
     files["diff_exr"] = FILE_NAMES["diff"]
     thresholds = report.thresholds
     failing = failing_mask(a, b, thresholds)
-    explained_set = None if explained is None else {(int(x), int(y)) for x, y in explained}
+    causes = None if explained is None else _causes(explained, cause)
+    # The causes in the order first met; the one ``cause`` even when it explains no pixel.
+    names = list(dict.fromkeys((causes or {}).values())) or ([cause] if cause and causes is not None else [])
     explained_mask = np.zeros_like(failing)
-    for x, y in explained_set or ():
+    for x, y in causes or ():
         explained_mask[y, x] = True
     ratio = error_ratio(a, b, thresholds)
     write_heat_map(out / FILE_NAMES["heat"], ratio, failing & ~explained_mask, failing & explained_mask)
@@ -144,7 +147,7 @@ def write_report(
     files["metrics"] = FILE_NAMES["metrics"]
 
     space = thresholds.space
-    pixels = _failing_pixels(in_space(a, space), in_space(b, space), ratio, failing, thresholds, explained_set, cause)
+    pixels = _failing_pixels(in_space(a, space), in_space(b, space), ratio, failing, thresholds, causes)
     verdict = report.ok if ok is None else bool(ok)
     metrics = {
         "title": title,
@@ -166,7 +169,7 @@ def write_report(
         **(meta or {}),
     }
     write_text_atomic(out / FILE_NAMES["metrics"], json.dumps(metrics, indent=2, allow_nan=False) + "\n")
-    page = _html_page(title, labels, files, report, verdict, metrics, a.shape[1], a.shape[0], cause, explained_set)
+    page = _html_page(title, labels, files, report, verdict, metrics, a.shape[1], a.shape[0], causes, names)
     return write_text_atomic(out / FILE_NAMES["html"], page)
 
 
@@ -229,7 +232,14 @@ def _css_colour(rgb) -> str:
     return "#" + "".join(f"{int(round(255 * min(max(float(c), 0.0), 1.0))):02x}" for c in rgb)
 
 
-def _failing_pixels(a, b, ratio, failing, thresholds: Thresholds, explained: set | None, cause: str) -> list[dict]:
+def _causes(explained, cause: str) -> dict[tuple[int, int], str]:
+    """Each explained pixel (x, y) and what explains it."""
+    if isinstance(explained, Mapping):
+        return {(int(x), int(y)): str(why) for (x, y), why in explained.items()}
+    return {(int(x), int(y)): cause for x, y in explained}
+
+
+def _failing_pixels(a, b, ratio, failing, thresholds: Thresholds, causes: dict | None) -> list[dict]:
     """Up to FAILING_PIXELS_LISTED failing pixels, worst (largest ratio) first: where, the worst
     channel, both values, the error, the error allowed there, and what explains the pixel."""
     ys, xs = np.nonzero(failing)
@@ -243,10 +253,7 @@ def _failing_pixels(a, b, ratio, failing, thresholds: Thresholds, explained: set
             allowed = np.maximum(thresholds.fail, thresholds.fail_relative * (np.abs(pa) + np.abs(pb)) / 2)
             per_channel = np.where(np.isfinite(err), err / allowed, np.inf)
         c = int(np.nanargmax(np.nan_to_num(per_channel, nan=np.inf)))
-        if explained is None:
-            why = None
-        else:
-            why = cause if (x, y) in explained else "not explained"
+        why = None if causes is None else causes.get((x, y), "not explained")
         out.append(
             {
                 "x": x,
@@ -346,18 +353,19 @@ def _html_page(
     metrics: dict,
     width: int,
     height: int,
-    cause: str,
-    explained: set | None,
+    causes: dict | None,
+    names: list[str],
 ) -> str:
     e = html.escape
     scale = display_scale(width)
     w, h = width * scale, height * scale
     t = report.thresholds
     worst = report.worst
-    n_explained = len(explained or ())
+    classify = causes is not None
+    n_explained = len(causes or ())
     status = '<span class="verdict pass">PASS</span>' if verdict else '<span class="verdict fail">FAIL</span>'
     if verdict and not report.ok:
-        status += f" &nbsp; every failing pixel is explained by {e(cause)}"
+        status += f" &nbsp; every failing pixel is explained by {e(' or '.join(names))}"
     numbers = [
         ("size", f"{report.width} x {report.height} pixels"),
         (
@@ -366,11 +374,9 @@ def _html_page(
             f"allowed {t.fail_percent:g} %)",
         ),
     ]
-    if explained is not None:
-        numbers += [
-            (f"explained by {cause}", n_explained),
-            ("not explained", report.failing_pixels - n_explained),
-        ]
+    if classify:
+        numbers += [(f"explained by {name}", sum(why == name for why in causes.values())) for name in names]
+        numbers += [("not explained", report.failing_pixels - n_explained)]
     numbers += [
         ("max error", report.max_error),
         ("max error at (x, y, channel)", f"({worst.x}, {worst.y}, {CHANNEL_NAMES[worst.channel]})" if worst else "-"),
@@ -398,7 +404,6 @@ def _html_page(
     ]
     listed = metrics["failing_pixels_listed"]
     space_note = "" if t.space == "linear" else f", {e(t.space)}-encoded"
-    classify = explained is not None
     pixel_rows = "\n".join(
         f"<tr><td class=num>{p['x']}</td><td class=num>{p['y']}</td><td>{p['channel']}</td>"
         f"<td>{e(_rgb(float(v) for v in p['a']))}</td><td>{e(_rgb(float(v) for v in p['b']))}</td>"
@@ -441,7 +446,7 @@ def _html_page(
     if classify:
         legend_items.append(
             f'<span class="swatch" style="background:{_css_colour(EXPLAINED_COLOUR)}"></span>'
-            f"failing pixel explained by {e(cause)}"
+            f"failing pixel explained{' by ' + e(' or '.join(names)) if names else ''}"
         )
     radius = marker_radius(width)
     if radius:

@@ -502,8 +502,12 @@ class PreparedRender:
     ):
         self._native, self._camera, self._settings, self._progress = native, camera, settings, progress
 
-    def __call__(self) -> np.ndarray:
-        return self._native.render(camera=self._camera, settings=self._settings, progress=self._progress)
+    def __call__(self, camera: Camera | None = None) -> np.ndarray:
+        """The image, from the scene's camera or from ``camera`` (the same eye point: the
+        interiors the camera rays start in were found for it; ``diff`` turns the camera by
+        2⁻²⁴ rad, phongscene.conditioning)."""
+        chosen = self._camera if camera is None else _camera(camera)
+        return self._native.render(camera=chosen, settings=self._settings, progress=self._progress)
 
 
 def prepare(

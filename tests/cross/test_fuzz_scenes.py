@@ -149,6 +149,8 @@ def test_random_valid_scenes_agree_on_both_backends(scenes):
         thresholds = for_povray_passes(pass_count(s, mapping))  # as `diff` judges them
         report = compare(pov, native, thresholds)
         images = {"povray": pov, "native": native}
-        explained, unexplained = _explain(s, st_, mapping, images, report, thresholds)
-        result = DiffResult(report, None, {}, pov, native, st_, mapping, [], explained, unexplained)
+        explained, ill_conditioned, unexplained = _explain(s, st_, mapping, images, report, thresholds)
+        result = DiffResult(
+            report, None, {}, pov, native, st_, mapping, [], explained, unexplained, ill_conditioned=ill_conditioned
+        )
         assert result.ok, f"scene {i} ({st_.specular}): {report.summary()}\n{result.explanation()}\n{s}"
