@@ -363,14 +363,16 @@ def _explain(
     """(by the shadow cache, ill-conditioned, unexplained) failing pixels: a failing pixel where
     POV-Ray agrees with a native render in its shadow cache's window is explained by the cache;
     of the rest, those ``phongscene.conditioning`` finds ill-conditioned (four more native
-    renders, only when such pixels remain)."""
+    renders, only when such pixels remain and are few enough for ``diff`` to pass)."""
     if report.ok or not report.failing_pixels:
         return (), (), ()
     failing = failing_mask(images["povray"], images["native"], thresholds)
     cached = render_native_as_povray(scene, replace(settings, numerics="povray-shadow-cache"), mapping)
     by_cache = failing & ~failing_mask(images["povray"], cached, thresholds)
     rest = failing & ~by_cache
-    if rest.any():
+    # The probe only where it can change the verdict: more failing pixels than diff allows fail
+    # it whatever explains them, and four renders of a big image cost minutes.
+    if rest.any() and failing.sum() <= POVRAY_SHADOW_CACHE.fail_percent / 100 * report.pixels:
         tilted = _native_from_cameras(scene, settings, mapping, tilted_cameras(scene.camera))
         by_conditioning = ill_conditioned(images["povray"], images["native"], tilted, rest, thresholds)
         rest &= ~by_conditioning
