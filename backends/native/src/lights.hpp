@@ -76,6 +76,28 @@ struct SphereAreaLight {
 
 using Light = std::variant<PointLight, DirectionalLight, RectAreaLight, SphereAreaLight>;
 
+// std::visit(f, light) with f inlined into the caller (which must mark f always_inline or let
+// GCC inline it): in the shading loop, std::visit's invoker stayed out of line, a call per light
+// and shaded point (with visible_fraction() inlined too, S1's render -5.6 % instructions).
+template <class F>
+[[gnu::always_inline]] inline void visit_light(const Light& light, F&& f) {
+    static_assert(std::variant_size_v<Light> == 4, "one case per alternative");
+    switch (light.index()) {
+        case 0:
+            f(*std::get_if<0>(&light));
+            return;
+        case 1:
+            f(*std::get_if<1>(&light));
+            return;
+        case 2:
+            f(*std::get_if<2>(&light));
+            return;
+        default:
+            f(*std::get_if<3>(&light));
+            return;
+    }
+}
+
 // The light as seen from a point, computed from its centre: unit direction l, distance (inf
 // for a directional light) and colour (with POV-Ray's fade where asked for).
 struct LightSample {
@@ -374,8 +396,8 @@ inline void oriented_axes(const SphereAreaLight& L, const Vec3& l, Vec3& a1, Vec
 // returns false when no sample can be shadowed (then no ray is traced, and the fraction is the weights' sum in the same
 // order, so it is bit-identical).
 template <class T, class Shadow>
-double visible_fraction(const T& L, const AreaLightGrid& grid, const Vec3& p, const LightSample& centre,
-                        Shadow&& shadow) {
+[[gnu::always_inline]] inline double visible_fraction(const T& L, const AreaLightGrid& grid, const Vec3& p,
+                                                      const LightSample& centre, Shadow&& shadow) {
     if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
         return shadow(centre.l, centre.distance) ? 0.0 : 1.0;
     } else if constexpr (std::is_same_v<T, RectAreaLight>) {

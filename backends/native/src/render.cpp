@@ -255,6 +255,107 @@ RGB shadow_filter(const TraceContext& context, const Vec3& p, const Vec3& l, dou
     return RGB{};  // more crossings than any scene needs: treated as blocked
 }
 
+// shade_hit's tail: `color` (the hit's Phong terms) plus what its mirror and transmitted rays
+// bring, for a material that traces either (kr > 0 or kt > 0) below max_depth. `n` faces the
+// ray. Out of line: most surfaces trace neither, and inlined, this tail's registers and stack
+// were paid by every shaded point.
+[[gnu::noinline]] RGB add_secondary_rays(const TraceContext& context, const Ray& ray, const Hit& hit, const Vec3& p,
+                                         const Vec3& n, const Material& m, bool back_facing, RGB color, int depth,
+                                         const Interiors& inside, std::vector<BundleCandidate>& candidates) {
+    const Scene& scene = context.scene;
+    const RenderSettings& settings = context.settings;
+    const Material* material = &m;
+    const Vec3 wo = -ray.dir;
+    // Transparency (transmission.hpp): under total internal reflection the mirror ray at full
+    // weight replaces both the kr and the kt terms.
+    const bool book = settings.transmission_convention == TransmissionConvention::kBook;
+    const bool transmissive = material->kt > 0.0;
+    // The index ratio across the surface in the ray's direction (n_to / n_from) for the refracted
+    // ray (eta) and for the Fresnel split (fresnel_eta), and the interiors of the refracted and
+    // the reflected rays. A reflected ray keeps its side.
+    double eta, fresnel_eta;
+    Interiors refracted_inside;  // the book's: none, or this object's
+    Interiors reflected_inside = inside;
+    if (book || !transmissive) {
+        const bool leaving = back_facing;
+        eta = fresnel_eta = leaving ? 1.0 / material->ior : material->ior;
+        if (transmissive && !leaving) refracted_inside.append(interior_of(scene, hit));
+        if (book && transmissive && leaving) {  // the reflected ray stays inside (Suffern)
+            reflected_inside = Interiors{};
+            reflected_inside.append(interior_of(scene, hit));
+        }
+    } else {
+        // POV-Ray's rules (trace.cpp ComputeRefraction for the ray, ComputeRelativeIOR for
+        // Fresnel; 3.7.0.8, ref §18), with (X / X) a ray entering / leaving X:
+        //   outside every object: enter (ior)
+        //   leaving the innermost: into the next one out (n_next / ior; 1 / ior to the outside);
+        //     Fresnel takes the innermost twice when there is a next one out: ratio 1, F = 0
+        //   leaving an object that is not the innermost, (A (B A): ratio 1, the ray continues
+        //     unrefracted into B; Fresnel takes B / A
+        //   entering while inside: ior / n_innermost (the innermost is left "for" the new one)
+        const Interior here = interior_of(scene, hit);
+        const double ior = here.material->ior;
+        refracted_inside = inside;
+        if (inside.empty()) {
+            eta = fresnel_eta = ior;
+            refracted_inside.append(here);
+        } else if (inside.innermost().same_object(here)) {
+            refracted_inside.remove(here);
+            eta = refracted_inside.empty() ? 1.0 / ior : refracted_inside.innermost().material->ior / ior;
+            fresnel_eta = inside.size() == 1 ? 1.0 / ior : 1.0;
+        } else if (refracted_inside.remove(here)) {
+            eta = 1.0;
+            fresnel_eta = inside.innermost().material->ior / ior;
+        } else {
+            eta = fresnel_eta = ior / inside.innermost().material->ior;
+            refracted_inside.append(here);
+        }
+    }
+    Vec3 refracted;
+    double cos_t = 1.0;
+    const bool refracts = transmissive && refract_direction(ray.dir, n, eta, refracted, cos_t);
+    // POV-Ray's continued ray: unrefracted, at this ray's depth (the book counts every crossing).
+    const bool continued = !book && refracts && std::fabs(eta - 1.0) < kPovraySameIorEpsilon;
+    // Beer-Lambert: the book filters every ray over its path inside an interior (trace_secondary);
+    // POV-Ray only what a transparent surface transmits (refracted, or internally reflected),
+    // over the incoming ray's path inside this surface's interior (ref §18: its reflections and
+    // opaque hits inside are not faded, nor is the stretch of an enclosing interior before a
+    // nested object).
+    RGB carried{1.0, 1.0, 1.0};
+    if (!book && transmissive && inside.contains(interior_of(scene, hit)))
+        carried = medium_transmittance(&material_of(scene, hit), hit.t);
+    if (transmissive && !refracts)
+        return color + hadamard(trace_secondary(context, Ray{p, mirror_direction(ray.dir, n)}, depth + 1, candidates,
+                                                reflected_inside),
+                                carried);
+    // The dielectric's Fresnel split. An opaque fresnel material reflects as the surface of an ior
+    // interior (as POV-Ray); where Snell has no solution cos θt = 0, so F = 1.
+    double reflectance = 1.0;
+    if (material->fresnel) {
+        const double cos_i = dot(n, wo);
+        const bool own_ratio = fresnel_eta != eta;  // only where POV-Ray's two rules differ
+        if (!refracts || own_ratio)
+            cos_t = std::sqrt(std::fmax(0.0, 1.0 - (1.0 - cos_i * cos_i) / (fresnel_eta * fresnel_eta)));
+        reflectance = fresnel_reflectance(cos_i, cos_t, fresnel_eta);
+    }
+    // Mirror reflection on top of the Phong terms (ref §18: POV-Ray adds it the same way).
+    if (material->kr > 0.0) {
+        const Ray reflected{p, mirror_direction(ray.dir, n)};
+        const RGB seen = trace_secondary(context, reflected, depth + 1, candidates, reflected_inside);
+        color += hadamard(material->reflective_color, seen) * (material->kr * reflectance);
+    }
+    if (refracts) {
+        const double kt = material->fresnel ? material->kt * (1.0 - reflectance) : material->kt;
+        const double weight = book ? kt / (eta * eta) : kt;
+        const Ray transmitted{p, continued ? ray.dir : refracted};
+        color +=
+            hadamard(trace_secondary(context, transmitted, continued ? depth : depth + 1, candidates, refracted_inside),
+                     carried) *
+            weight;
+    }
+    return color;
+}
+
 // The colour of `hit` on `ray`, a ray of depth `depth` (the camera's: 0).
 RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::vector<BundleCandidate>& candidates,
               int depth, const Interiors& inside) {
@@ -366,77 +467,75 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         const LightLinking* link = linked ? &scene.light_links[j] : nullptr;
         if (object >= 0 && !link->lit.empty() && !link->lit[size_t(object)]) continue;  // not in its light link
         // The light's alternative decides its centre and shadow; the shading is the same for all
-        // (one inlined copy of it, not one per alternative).
+        // (one inlined copy of it, not one per alternative). Always inlined, as visit_light is:
+        // out of line, the call per light and shaded point cost S1's render ~6 % of its instructions.
         LightSample centre;
         double n_dot_l = 0.0, fraction = 0.0;
         const LightTerms* terms = nullptr;
-        std::visit(
-            [&](const auto& light) {
-                centre = sample_light_centre(light, p);
-                n_dot_l = dot(lighting_normal, centre.l);
-                // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at
-                // the point (d = 0: the model's answer there is the ambient term only).
-                if (!(n_dot_l >= kMinCosineToLight)) return;
-                terms = &light.terms;
-                if (link != nullptr && !link->shadows) {
-                    fraction = 1.0;  // shadow:enable off: no shadow ray, the light arrives whole
+        auto shade_light = [&](const auto& light) __attribute__((always_inline)) {
+            centre = sample_light_centre(light, p);
+            n_dot_l = dot(lighting_normal, centre.l);
+            // No contribution and no shadow ray; also for a NaN n·l, from a light exactly at
+            // the point (d = 0: the model's answer there is the ambient term only).
+            if (!(n_dot_l >= kMinCosineToLight)) return;
+            terms = &light.terms;
+            if (link != nullptr && !link->shadows) {
+                fraction = 1.0;  // shadow:enable off: no shadow ray, the light arrives whole
+                return;
+            }
+            using T = std::decay_t<decltype(light)>;
+            if constexpr (std::is_same_v<T, RectAreaLight> || std::is_same_v<T, SphereAreaLight>) {
+                if (context.filtered_shadows) {
+                    // Every grid sample's shadow ray filtered as a point light's is, the
+                    // colours summed with the grid's weights, as POV-Ray averages its samples'
+                    // colours; or, under `adaptive n`, POV-Ray's recursion on those colours
+                    // (Python validates: no cells estimator here).
+                    assert(light.cell_samples == 0);
+                    const unsigned char* casts = link != nullptr && !link->casts.empty() ? link->casts.data() : nullptr;
+                    const AreaLightGrid& grid = context.grids[j];
+                    auto filter_of = [&](size_t k) {
+                        const Vec3 v = area_light_sample(light, grid, centre.l, k) - p;
+                        const double d = length(v);
+                        return shadow_filter(context, p, v / d, d, inside, casts);
+                    };
+                    RGB filtered{};
+                    if (light.adaptive != kFullSubdivision) {
+                        const RGB arriving{double(float(centre.color.x)), double(float(centre.color.y)),
+                                           double(float(centre.color.z))};
+                        const size_t count = size_t(grid.n) * size_t(grid.n);
+                        thread_local std::vector<RGB> samples;
+                        thread_local std::vector<unsigned char> traced;
+                        samples.resize(count);
+                        traced.assign(count, 0);
+                        auto filter_at = [&](int a, int b) {
+                            return filter_of(size_t(a) * size_t(grid.n) + size_t(b));
+                        };
+                        filtered = detail::adaptive_filter(0, 0, grid.n - 1, grid.n - 1, 0, light.adaptive, arriving,
+                                                           grid.n, samples, traced, filter_at);
+                    } else {
+                        for (size_t k = 0; k < grid.weight.size(); ++k) filtered += filter_of(k) * grid.weight[k];
+                    }
+                    centre.color = hadamard(centre.color, filtered);
+                    fraction = 1.0;
                     return;
                 }
-                using T = std::decay_t<decltype(light)>;
-                if constexpr (std::is_same_v<T, RectAreaLight> || std::is_same_v<T, SphereAreaLight>) {
-                    if (context.filtered_shadows) {
-                        // Every grid sample's shadow ray filtered as a point light's is, the
-                        // colours summed with the grid's weights, as POV-Ray averages its samples'
-                        // colours; or, under `adaptive n`, POV-Ray's recursion on those colours
-                        // (Python validates: no cells estimator here).
-                        assert(light.cell_samples == 0);
-                        const unsigned char* casts =
-                            link != nullptr && !link->casts.empty() ? link->casts.data() : nullptr;
-                        const AreaLightGrid& grid = context.grids[j];
-                        auto filter_of = [&](size_t k) {
-                            const Vec3 v = area_light_sample(light, grid, centre.l, k) - p;
-                            const double d = length(v);
-                            return shadow_filter(context, p, v / d, d, inside, casts);
-                        };
-                        RGB filtered{};
-                        if (light.adaptive != kFullSubdivision) {
-                            const RGB arriving{double(float(centre.color.x)), double(float(centre.color.y)),
-                                               double(float(centre.color.z))};
-                            const size_t count = size_t(grid.n) * size_t(grid.n);
-                            thread_local std::vector<RGB> samples;
-                            thread_local std::vector<unsigned char> traced;
-                            samples.resize(count);
-                            traced.assign(count, 0);
-                            auto filter_at = [&](int a, int b) {
-                                return filter_of(size_t(a) * size_t(grid.n) + size_t(b));
-                            };
-                            filtered = detail::adaptive_filter(0, 0, grid.n - 1, grid.n - 1, 0, light.adaptive,
-                                                               arriving, grid.n, samples, traced, filter_at);
-                        } else {
-                            for (size_t k = 0; k < grid.weight.size(); ++k) filtered += filter_of(k) * grid.weight[k];
-                        }
-                        centre.color = hadamard(centre.color, filtered);
-                        fraction = 1.0;
-                        return;
-                    }
+            }
+            if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
+                if (context.filtered_shadows) {  // filtered by transmissive occluders
+                    const unsigned char* casts = link != nullptr && !link->casts.empty() ? link->casts.data() : nullptr;
+                    // (Inside an object that casts none of this light's shadows the ray never
+                    // crosses its surface, so its interior does not filter the light.)
+                    centre.color =
+                        hadamard(centre.color, shadow_filter(context, p, centre.l, centre.distance, inside, casts));
+                    fraction = 1.0;
+                    return;
                 }
-                if constexpr (std::is_same_v<T, PointLight> || std::is_same_v<T, DirectionalLight>) {
-                    if (context.filtered_shadows) {  // filtered by transmissive occluders
-                        const unsigned char* casts =
-                            link != nullptr && !link->casts.empty() ? link->casts.data() : nullptr;
-                        // (Inside an object that casts none of this light's shadows the ray never
-                        // crosses its surface, so its interior does not filter the light.)
-                        centre.color =
-                            hadamard(centre.color, shadow_filter(context, p, centre.l, centre.distance, inside, casts));
-                        fraction = 1.0;
-                        return;
-                    }
-                }
-                ShadowQuery query{scene, p, p_rounded, window, candidates, povray_walk};
-                if (link != nullptr && !link->casts.empty()) query.casts = link->casts.data();
-                fraction = visible_fraction(light, context.grids[j], p, centre, query);
-            },
-            scene.lights[j]);
+            }
+            ShadowQuery query{scene, p, p_rounded, window, candidates, povray_walk};
+            if (link != nullptr && !link->casts.empty()) query.casts = link->casts.data();
+            fraction = visible_fraction(light, context.grids[j], p, centre, query);
+        };
+        visit_light(scene.lights[j], shade_light);
         if (fraction == 0.0) continue;  // unlit, or wholly in shadow
         color += shade_phong(*material, settings.specular_convention, lighting_normal, wo, centre.l, n_dot_l,
                              centre.color * fraction, terms->diffuse, terms->specular);
@@ -444,94 +543,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     // Secondary rays; one that would be deeper than max_depth returns black, so it is not traced.
     // (A seed material, kr = kt = 0, stops here.)
     if (depth >= settings.max_depth || !(material->kr > 0.0 || material->kt > 0.0)) return color;
-    // Transparency (transmission.hpp): under total internal reflection the mirror ray at full
-    // weight replaces both the kr and the kt terms.
-    const bool book = settings.transmission_convention == TransmissionConvention::kBook;
-    const bool transmissive = material->kt > 0.0;
-    // The index ratio across the surface in the ray's direction (n_to / n_from) for the refracted
-    // ray (eta) and for the Fresnel split (fresnel_eta), and the interiors of the refracted and
-    // the reflected rays. A reflected ray keeps its side.
-    double eta, fresnel_eta;
-    Interiors refracted_inside;  // the book's: none, or this object's
-    Interiors reflected_inside = inside;
-    if (book || !transmissive) {
-        const bool leaving = back_facing;
-        eta = fresnel_eta = leaving ? 1.0 / material->ior : material->ior;
-        if (transmissive && !leaving) refracted_inside.append(interior_of(scene, hit));
-        if (book && transmissive && leaving) {  // the reflected ray stays inside (Suffern)
-            reflected_inside = Interiors{};
-            reflected_inside.append(interior_of(scene, hit));
-        }
-    } else {
-        // POV-Ray's rules (trace.cpp ComputeRefraction for the ray, ComputeRelativeIOR for
-        // Fresnel; 3.7.0.8, ref §18), with (X / X) a ray entering / leaving X:
-        //   outside every object: enter (ior)
-        //   leaving the innermost: into the next one out (n_next / ior; 1 / ior to the outside);
-        //     Fresnel takes the innermost twice when there is a next one out: ratio 1, F = 0
-        //   leaving an object that is not the innermost, (A (B A): ratio 1, the ray continues
-        //     unrefracted into B; Fresnel takes B / A
-        //   entering while inside: ior / n_innermost (the innermost is left "for" the new one)
-        const Interior here = interior_of(scene, hit);
-        const double ior = here.material->ior;
-        refracted_inside = inside;
-        if (inside.empty()) {
-            eta = fresnel_eta = ior;
-            refracted_inside.append(here);
-        } else if (inside.innermost().same_object(here)) {
-            refracted_inside.remove(here);
-            eta = refracted_inside.empty() ? 1.0 / ior : refracted_inside.innermost().material->ior / ior;
-            fresnel_eta = inside.size() == 1 ? 1.0 / ior : 1.0;
-        } else if (refracted_inside.remove(here)) {
-            eta = 1.0;
-            fresnel_eta = inside.innermost().material->ior / ior;
-        } else {
-            eta = fresnel_eta = ior / inside.innermost().material->ior;
-            refracted_inside.append(here);
-        }
-    }
-    Vec3 refracted;
-    double cos_t = 1.0;
-    const bool refracts = transmissive && refract_direction(ray.dir, n, eta, refracted, cos_t);
-    // POV-Ray's continued ray: unrefracted, at this ray's depth (the book counts every crossing).
-    const bool continued = !book && refracts && std::fabs(eta - 1.0) < kPovraySameIorEpsilon;
-    // Beer-Lambert: the book filters every ray over its path inside an interior (trace_secondary);
-    // POV-Ray only what a transparent surface transmits (refracted, or internally reflected),
-    // over the incoming ray's path inside this surface's interior (ref §18: its reflections and
-    // opaque hits inside are not faded, nor is the stretch of an enclosing interior before a
-    // nested object).
-    RGB carried{1.0, 1.0, 1.0};
-    if (!book && transmissive && inside.contains(interior_of(scene, hit)))
-        carried = medium_transmittance(&material_of(scene, hit), hit.t);
-    if (transmissive && !refracts)
-        return color + hadamard(trace_secondary(context, Ray{p, mirror_direction(ray.dir, n)}, depth + 1, candidates,
-                                                reflected_inside),
-                                carried);
-    // The dielectric's Fresnel split. An opaque fresnel material reflects as the surface of an ior
-    // interior (as POV-Ray); where Snell has no solution cos θt = 0, so F = 1.
-    double reflectance = 1.0;
-    if (material->fresnel) {
-        const double cos_i = dot(n, wo);
-        const bool own_ratio = fresnel_eta != eta;  // only where POV-Ray's two rules differ
-        if (!refracts || own_ratio)
-            cos_t = std::sqrt(std::fmax(0.0, 1.0 - (1.0 - cos_i * cos_i) / (fresnel_eta * fresnel_eta)));
-        reflectance = fresnel_reflectance(cos_i, cos_t, fresnel_eta);
-    }
-    // Mirror reflection on top of the Phong terms (ref §18: POV-Ray adds it the same way).
-    if (material->kr > 0.0) {
-        const Ray reflected{p, mirror_direction(ray.dir, n)};
-        const RGB seen = trace_secondary(context, reflected, depth + 1, candidates, reflected_inside);
-        color += hadamard(material->reflective_color, seen) * (material->kr * reflectance);
-    }
-    if (refracts) {
-        const double kt = material->fresnel ? material->kt * (1.0 - reflectance) : material->kt;
-        const double weight = book ? kt / (eta * eta) : kt;
-        const Ray transmitted{p, continued ? ray.dir : refracted};
-        color +=
-            hadamard(trace_secondary(context, transmitted, continued ? depth : depth + 1, candidates, refracted_inside),
-                     carried) *
-            weight;
-    }
-    return color;
+    return add_secondary_rays(context, ray, hit, p, n, *material, back_facing, color, depth, inside, candidates);
 }
 
 // What a ray that hits nothing sees: the environment along its direction, else the background.
