@@ -204,7 +204,7 @@ struct Bins {
 };
 
 struct Builder {
-    std::vector<PrimRef>& prims;
+    PrimRefs& prims;
     BvhNode* nodes;        // 2n - 1 slots (Bvh::build)
     float traversal_cost;  // the SAH's cost of a node visit, in primitive tests (above)
 
@@ -516,7 +516,7 @@ struct Builder {
 
 }  // namespace
 
-void Bvh::build(std::vector<PrimRef> prims) {
+void Bvh::build(PrimRefs prims) {
     nodes.clear();
     order.clear();
     if (prims.empty()) return;

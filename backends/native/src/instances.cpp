@@ -104,7 +104,7 @@ void InstanceLayer::add(std::unique_ptr<Scene> prototype, const double* world_fr
 }
 
 void InstanceLayer::build() {
-    std::vector<PrimRef> prims;
+    PrimRefs prims;
     bounds = Bounds();
     for (size_t k = 0; k < instances_.size(); ++k) {
         if (world_boxes_[k].empty()) continue;  // a prototype without triangles: nothing to hit

@@ -135,7 +135,7 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         n_balls += set.count;
     }
     const size_t first_ball_id = n_spheres + n_triangles + n_intrinsics;
-    std::vector<PrimRef> prims;
+    PrimRefs prims;
     resize_huge(prims, first_ball_id + n_balls);
     for (size_t q = 0; q < n_intrinsics; ++q) {
         Bounds b;

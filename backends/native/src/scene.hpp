@@ -255,7 +255,7 @@ class Scene {
     // Leaf order; empty when no mesh has vertex normals (every triangle flat): 12 bytes a
     // triangle only where a scene needs them (benchmarks/README.md, memory per triangle).
     std::vector<TriangleNormals> triangle_normals;
-    std::vector<uint32_t> triangle_source;  // leaf order -> input row
+    UninitialisedVector<uint32_t> triangle_source;  // leaf order -> input row (sized unwritten: the copy sets each)
     // Leaf order; empty unless built in POV-Ray numerics (then `triangles` holds the corners in
     // their meshes' frames: TriangleStore::local).
     std::vector<PovrayTriangle> povray_triangles;
@@ -342,7 +342,7 @@ class Scene {
     // else the 4-wide one; the other is empty.
     std::vector<Bvh4Node> bvh4_;
     std::vector<Bvh8Node> bvh8_;
-    std::vector<int32_t> refs_;           // BVH leaf order
+    UninitialisedVector<int32_t> refs_;   // BVH leaf order (sized unwritten: the copy sets each)
     std::vector<size_t> first_triangle_;  // mesh m's input rows start at first_triangle_[m]
     std::vector<int32_t> mesh_material_;  // by mesh
 };
