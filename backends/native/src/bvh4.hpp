@@ -31,10 +31,30 @@ struct alignas(64) Bvh4Node {
     int32_t count[4];  // primitives of a leaf child; 0 for an interior child
 };
 
+// The wide nodes, root at 0. A large tree's nodes lie in regions with unused slots between them
+// (bvh4.cpp), never written and never reached from the root: walk the tree, not the array.
+using Bvh4Nodes = UninitialisedVector<Bvh4Node>;
+
 // Collapses `binary` (Bvh::nodes, root at 0) into 4-wide nodes, root at 0 (empty when `binary`
 // is). Each node takes a binary node's two children, then repeatedly opens the interior child of
 // largest surface area, until it has four. Leaves keep their primitive ranges.
-std::vector<Bvh4Node> collapse_to_bvh4(const BvhNodes& binary);
+Bvh4Nodes collapse_to_bvh4(const BvhNodes& binary);
+
+// Calls fn(node) for every node reachable from the root of a wide tree, depth-first, children in
+// slot order (tests and digests: the order does not depend on where the regions lie).
+template <class Nodes, class Fn>
+void for_each_wide_node(const Nodes& nodes, Fn&& fn) {
+    if (nodes.empty()) return;
+    constexpr int width = int(sizeof(nodes[0].child) / sizeof(nodes[0].child[0]));
+    std::vector<int32_t> pending{0};
+    while (!pending.empty()) {
+        const auto& node = nodes[size_t(pending.back())];
+        pending.pop_back();
+        fn(node);
+        for (int i = width - 1; i >= 0; --i)
+            if (node.count[i] == 0 && node.child[i] >= 0) pending.push_back(node.child[i]);
+    }
+}
 
 // Largest number of pending children in a walk: a node replaces itself by at most four, and
 // the collapsed tree is no deeper than the binary one (kMaxTraversalDepth).
@@ -179,8 +199,8 @@ struct ChildBox {
 // whose entry lies beyond it are skipped. `ordered`: visit hit children nearest first (closest
 // hit); any-hit walks take them as they come. `origin` is FloatSlabOrigin(ray.origin).
 template <bool ordered, class LeafFn>
-void traverse_bvh4(const std::vector<Bvh4Node>& nodes, double scene_magnitude, const Ray& ray,
-                   const FloatSlabOrigin& origin, double t_min, double& t_max, LeafFn&& leaf) {
+void traverse_bvh4(const Bvh4Nodes& nodes, double scene_magnitude, const Ray& ray, const FloatSlabOrigin& origin,
+                   double t_min, double& t_max, LeafFn&& leaf) {
     if (nodes.empty()) return;
     struct Pending {
         int32_t child, count;

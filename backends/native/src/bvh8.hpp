@@ -32,8 +32,11 @@ struct alignas(64) Bvh8Node {
     int32_t count[8];  // primitives of a leaf child; 0 for an interior child
 };
 
+// As Bvh4Nodes: walk the tree, not the array.
+using Bvh8Nodes = UninitialisedVector<Bvh8Node>;
+
 // Collapses `binary` into 8-wide nodes as collapse_to_bvh4 does into 4-wide ones (bvh4.cpp).
-std::vector<Bvh8Node> collapse_to_bvh8(const BvhNodes& binary);
+Bvh8Nodes collapse_to_bvh8(const BvhNodes& binary);
 
 // A node replaces itself by at most eight pending children.
 constexpr int kMaxBvh8Stack = 7 * kMaxTraversalDepth + 1;
@@ -81,7 +84,7 @@ struct FloatSlabRay8 {
 
 // traverse_bvh4 (bvh4.hpp) over the 8-wide tree: the same leaf calls in an order of its own.
 template <bool ordered, class LeafFn>
-PHONG_AVX2 void traverse_bvh8(const std::vector<Bvh8Node>& nodes, double scene_magnitude, const Ray& ray,
+PHONG_AVX2 void traverse_bvh8(const Bvh8Nodes& nodes, double scene_magnitude, const Ray& ray,
                               const FloatSlabOrigin& origin, double t_min, double& t_max, LeafFn&& leaf) {
     if (nodes.empty()) return;
     struct Pending {

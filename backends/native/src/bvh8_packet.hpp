@@ -153,7 +153,7 @@ struct FloatSlabPacket8 {
 // for boxes now (t_cull, as a double); `rays` has bit r set for the packet's rays, t_cull[r]
 // their limits to start with.
 template <class LeafFn>
-PHONG_AVX2 void traverse_bvh8_packet(const std::vector<Bvh8Node>& nodes, const FloatSlabPacket8& packet, unsigned rays,
+PHONG_AVX2 void traverse_bvh8_packet(const Bvh8Nodes& nodes, const FloatSlabPacket8& packet, unsigned rays,
                                      const double* t_cull, LeafFn&& leaf) {
     if (nodes.empty()) return;
     struct Pending {

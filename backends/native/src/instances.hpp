@@ -94,7 +94,7 @@ class InstanceLayer {
     std::vector<Instance> instances_;  // leaf order once built
     std::vector<Bounds> world_boxes_;  // by instance (input order), for rebuilds
     std::vector<RGB> colors_;          // by instance (input order); NaN: none given
-    std::vector<Bvh4Node> nodes_;
+    Bvh4Nodes nodes_;
     double magnitude_ = 0.0;  // largest absolute coordinate of the instances' boxes
     bool stale_ = false;      // instances added since the last build
 };

@@ -214,10 +214,12 @@ class Scene {
     // Leaves of the walk's tree (the SAH's choices, bvh.cpp: a test's view of the tree's shape).
     size_t leaf_count() const {
         size_t leaves = 0;
-        for (const Bvh8Node& node : bvh8_)
+        for_each_wide_node(bvh8_, [&](const Bvh8Node& node) {
             for (int i = 0; i < 8; ++i) leaves += node.count[i] > 0;
-        for (const Bvh4Node& node : bvh4_)
+        });
+        for_each_wide_node(bvh4_, [&](const Bvh4Node& node) {
             for (int i = 0; i < 4; ++i) leaves += node.count[i] > 0;
+        });
         return leaves;
     }
 
@@ -231,8 +233,11 @@ class Scene {
             for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
         };
         static_assert(sizeof(Bvh8Node) == 256 && sizeof(Bvh4Node) == 128, "nodes without padding");
-        mix(bvh8_.data(), bvh8_.size() * sizeof(Bvh8Node));
-        mix(bvh4_.data(), bvh4_.size() * sizeof(Bvh4Node));
+        // Node by node from the root (a large tree's array has unused slots: bvh4.cpp); the
+        // children's slots are in the nodes, so the layout counts too.
+        auto mix_node = [&](const auto& node) { mix(&node, sizeof node); };
+        for_each_wide_node(bvh8_, mix_node);
+        for_each_wide_node(bvh4_, mix_node);
         mix(refs_.data(), refs_.size() * sizeof(int32_t));
         mix(triangle_source.data(), triangle_source.size() * sizeof(uint32_t));
         return h;
@@ -340,8 +345,8 @@ class Scene {
     Bvh bvh_;  // the binary tree; its nodes are freed once collapsed
     // What the rays and bundles walk: the 8-wide tree where the CPU has AVX2 (simd_dispatch.hpp),
     // else the 4-wide one; the other is empty.
-    std::vector<Bvh4Node> bvh4_;
-    std::vector<Bvh8Node> bvh8_;
+    Bvh4Nodes bvh4_;
+    Bvh8Nodes bvh8_;
     UninitialisedVector<int32_t> refs_;   // BVH leaf order (sized unwritten: the copy sets each)
     std::vector<size_t> first_triangle_;  // mesh m's input rows start at first_triangle_[m]
     std::vector<int32_t> mesh_material_;  // by mesh
