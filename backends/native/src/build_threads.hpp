@@ -1,14 +1,18 @@
 // SPDX-License-Identifier: Apache-2.0
-// How many threads a scene build (BVH binning and subtrees, the parallel copies of the input)
-// may use: every core by default, or the cap the caller set, as a render's thread count caps
-// its render. Process-wide, like Embree's device `threads=N`: set before building a scene
+// How many threads a scene build (BVH binning, subtrees and collapse, the parallel copies of the
+// input) may use: every core by default, or the cap the caller set, as a render's thread count
+// caps its render. Process-wide, like Embree's device `threads=N`: set before building a scene
 // (Python: native.build(scene, threads=N) and the render's settings.threads set it for the
-// build they run).
+// build they run). And for_chunks, which runs a build's simple passes on them.
 #pragma once
 
 #include <algorithm>
 #include <atomic>
+#include <cstddef>
+#include <exception>
+#include <future>
 #include <thread>
+#include <vector>
 
 namespace phong {
 
@@ -21,6 +25,36 @@ inline std::atomic<unsigned>& build_thread_cap() {
 inline unsigned build_threads() {
     const unsigned cap = build_thread_cap().load(std::memory_order_relaxed);
     return cap > 0 ? cap : std::max(1u, std::thread::hardware_concurrency());
+}
+
+// Runs fn(begin, end) over [0, n) in one chunk per build thread when n is large enough to
+// pay for the threads (1M triangles: ~0.1 s of serial copying per pass, ~1 ms for a pass that
+// writes or reads 1M numbers, next to ~0.1 ms to start a thread), else in one piece. The first
+// exception in chunk order is rethrown once every chunk has finished, so errors are the same as
+// a serial loop's.
+constexpr size_t kParallelCopyMinItems = size_t(1) << 16;
+
+template <class Fn>
+void for_chunks(size_t n, Fn&& fn) {
+    const size_t chunks = n >= kParallelCopyMinItems ? build_threads() : 1;
+    std::vector<std::future<void>> rest;
+    for (size_t c = 1; c < chunks; ++c)
+        rest.push_back(
+            std::async(std::launch::async, [&fn, c, chunks, n] { fn(n * c / chunks, n * (c + 1) / chunks); }));
+    std::exception_ptr error;
+    try {
+        fn(size_t(0), n / chunks);
+    } catch (...) {
+        error = std::current_exception();
+    }
+    for (std::future<void>& f : rest) {
+        try {
+            f.get();
+        } catch (...) {
+            if (!error) error = std::current_exception();
+        }
+    }
+    if (error) std::rethrow_exception(error);
 }
 
 }  // namespace phong

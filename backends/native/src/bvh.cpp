@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <future>
+#include <mutex>
 #include <stdexcept>
 #include <thread>
 #include <utility>
@@ -531,12 +532,23 @@ void Bvh::build(PrimRefs prims) {
     const unsigned threads = build_threads();
     int parallel_splits = threads > 1 ? 1 : 0;
     for (unsigned t = threads; t > 1; t /= 2) parallel_splits++;
+    // The root's bounds, and at the end the leaf order, in chunks on the build's threads (S2 at
+    // two threads: 1.0 and 1.5 ms serial before; unions of boxes are the same in any order).
     Box4 bounds, centres;
-    builder.measure(0, n, bounds, centres);
+    std::mutex bounds_mutex;
+    for_chunks(n, [&](size_t begin, size_t end) {
+        Box4 chunk_bounds, chunk_centres;
+        builder.measure(uint32_t(begin), uint32_t(end), chunk_bounds, chunk_centres);
+        const std::lock_guard<std::mutex> lock(bounds_mutex);
+        bounds.grow(chunk_bounds);
+        centres.grow(chunk_centres);
+    });
     int32_t next = 1;
     builder.build(0, next, 0, n, 0, bounds, centres, parallel_splits, true);
     resize_huge(order, n);
-    for (uint32_t k = 0; k < n; ++k) order[k] = prims[k].id;
+    for_chunks(n, [&](size_t begin, size_t end) {
+        for (size_t k = begin; k < end; ++k) order[k] = prims[k].id;
+    });
 }
 
 }  // namespace phong

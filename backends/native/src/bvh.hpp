@@ -117,7 +117,7 @@ constexpr size_t kMaxBvhPrimitives = size_t(1) << 30;
 
 struct Bvh {
     BvhNodes nodes;
-    std::vector<uint32_t> order;  // leaf order: positions index the primitives' ids
+    UninitialisedVector<uint32_t> order;  // leaf order: positions index the primitives' ids (sized unwritten)
 
     // Builds over the primitives (consumed: the build reorders them in place and frees them).
     // Centroids are the float boxes' centres.

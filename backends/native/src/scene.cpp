@@ -62,35 +62,6 @@ void check_area_light_samples(const Light& light) {
 constexpr size_t kCopyIndexAhead = 32;
 constexpr size_t kCopyPointAhead = 16;
 
-// Runs fn(begin, end) over [0, n) in one chunk per build thread when n is large enough to
-// pay for the threads (1M triangles: ~0.1 s of serial copying per pass), else in one piece. The
-// first exception in chunk order is rethrown once every chunk has finished, so errors are the
-// same as a serial loop's.
-constexpr size_t kParallelCopyMinItems = size_t(1) << 16;
-
-template <class Fn>
-void for_chunks(size_t n, Fn&& fn) {
-    const size_t chunks = n >= kParallelCopyMinItems ? build_threads() : 1;
-    std::vector<std::future<void>> rest;
-    for (size_t c = 1; c < chunks; ++c)
-        rest.push_back(
-            std::async(std::launch::async, [&fn, c, chunks, n] { fn(n * c / chunks, n * (c + 1) / chunks); }));
-    std::exception_ptr error;
-    try {
-        fn(size_t(0), n / chunks);
-    } catch (...) {
-        error = std::current_exception();
-    }
-    for (std::future<void>& f : rest) {
-        try {
-            f.get();
-        } catch (...) {
-            if (!error) error = std::current_exception();
-        }
-    }
-    if (error) std::rethrow_exception(error);
-}
-
 }  // namespace
 
 Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, std::vector<Light> scene_lights,
@@ -230,7 +201,7 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
 
     // Primitive refs and triangle data in leaf order, so leaves read memory sequentially.
     // Leaf position k holds triangle slot k − (spheres before k).
-    const std::vector<uint32_t>& order = bvh_.order;
+    const auto& order = bvh_.order;
     // (Positions of every primitive that is not a triangle: spheres and intrinsic parts.)
     std::vector<uint32_t> sphere_positions;
     for (size_t k = 0; k < order.size(); ++k)

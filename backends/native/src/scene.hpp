@@ -259,7 +259,7 @@ class Scene {
     TriangleStore triangles;                 // leaf order; float when that is exact
     // Leaf order; empty when no mesh has vertex normals (every triangle flat): 12 bytes a
     // triangle only where a scene needs them (benchmarks/README.md, memory per triangle).
-    std::vector<TriangleNormals> triangle_normals;
+    UninitialisedVector<TriangleNormals> triangle_normals;  // sized unwritten: the copy sets each
     UninitialisedVector<uint32_t> triangle_source;  // leaf order -> input row (sized unwritten: the copy sets each)
     // Leaf order; empty unless built in POV-Ray numerics (then `triangles` holds the corners in
     // their meshes' frames: TriangleStore::local).
