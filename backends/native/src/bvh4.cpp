@@ -175,6 +175,10 @@ void collapse_to(const BvhNodes& binary, UninitialisedVector<Node>& wide) {
     for (int r = 0; r < n_regions; ++r) {
         wide[0].child[regions[r].kid] = regions[r].start;
         used = std::max(used, regions[r].end);
+        // The rest of the huge page a region's last node fell in (up to 2 MiB a region: the
+        // 10M-triangle mesh's whole process 1,104 -> 1,116 MiB without this).
+        if (regions[r].end < regions[r].start + regions[r].bound)
+            release_unused(wide.data() + regions[r].end, wide.data() + regions[r].start + regions[r].bound);
     }
     wide.resize(size_t(used));
 }

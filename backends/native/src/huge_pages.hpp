@@ -34,6 +34,18 @@ inline void advise_huge_pages([[maybe_unused]] const void* p, [[maybe_unused]] s
 #endif
 }
 
+// Hands the whole small pages inside [begin, end) back to the kernel: memory a region of an
+// array faulted in but never used (with huge pages, the rest of the 2 MiB page its last write
+// fell in). Pages never touched stay free either way.
+inline void release_unused([[maybe_unused]] const void* begin, [[maybe_unused]] const void* end) {
+#if defined(__linux__) && defined(MADV_DONTNEED)
+    constexpr uintptr_t kSmallPage = 4096;
+    const uintptr_t from = (uintptr_t(begin) + kSmallPage - 1) & ~(kSmallPage - 1);
+    const uintptr_t to = uintptr_t(end) & ~(kSmallPage - 1);
+    if (to > from) madvise(reinterpret_cast<void*>(from), to - from, MADV_DONTNEED);
+#endif
+}
+
 // v.reserve(n) with the new capacity advised (v must be empty: nothing of it written yet).
 template <class T, class Allocator>
 void reserve_huge(std::vector<T, Allocator>& v, size_t n) {
