@@ -104,13 +104,15 @@ constexpr uint32_t kParallelBuildMinPrimitives = 1u << 15;
 constexpr uint32_t kParallelBinningMinPrimitives = 1u << 16;
 
 // Nodes of at least this many primitives bin every kBinningSampleStride-th of them only (by
-// position from the node's first, so the same ones on any threads): at 2^16, 2^14 samples or
-// more choose the split, and its sides are still exact (the partition classifies every
-// primitive as the binning would, and measures the sides' bounds: the bins' boxes hold only the
-// samples). A binning pass costs the top levels as much a primitive as the deep ones (the bin
-// updates' store chains, not memory). S2's build CPU at one thread 0.378 -> 0.359 s (median of
-// 5 alternating processes), its render CPU unchanged (0.278-0.284 s against 0.281-0.284).
-constexpr uint32_t kSampledBinningMinPrimitives = 1u << 16;
+// position from the node's first, so the same ones on any threads): 256 samples or more choose
+// the split, and its sides are still exact (the partition classifies every primitive as the
+// binning would, and measures the sides' bounds: the bins' boxes hold only the samples). Measured
+// (callgrind, one thread; render at 320 x 180), against binning every primitive:
+//   from 2^16: S2's build 3.383G -> 3.223G instructions, its render 154.661M -> 154.660M
+//   from 2^14: 3.161G, render 154.742M;  from 2^12: 3.101G, 154.762M
+//   from 2^10: 3.041G (-10 %), render 154.739M (+0.05 %); S2-100k's build -8 %, render +0.05 %
+// and S2's build CPU 0.384-0.419 -> 0.336-0.337 s (5 alternating processes).
+constexpr uint32_t kSampledBinningMinPrimitives = 1u << 10;
 constexpr uint32_t kBinningSampleStride = 4;
 
 // Ranges this large bin into two alternating sets (Bins::add); below, copying the second set's
