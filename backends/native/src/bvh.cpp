@@ -442,20 +442,29 @@ struct Builder {
             make_leaf(nodes[size_t(index)], begin, end);
             return;
         }
+        // The boxes read once; the sorts below order 64-bit keys in registers, not 32-byte
+        // primitives, and the primitives move once, at the end.
+        Float4 lo[kExactSahMaxPrimitives], hi[kExactSahMaxPrimitives];
+        for (uint32_t i = 0; i < n; ++i) {
+            lo[i] = load_lo(p[i]);
+            hi[i] = load_hi(p[i]);
+        }
+        uint8_t order[kExactSahMaxPrimitives];  // position j holds primitive p[order[j]]
+        for (uint32_t i = 0; i < n; ++i) order[i] = uint8_t(i);
         float best_cost = kHugeF;
         int best_axis = -1;
         uint32_t best_count = 0;
         float right_area[kExactSahMaxPrimitives];
         for (int axis = 0; axis < 3; ++axis) {
-            sort_by_centroid(p, n, axis);
+            sort_by_centroid(order, n, lo, hi, axis);
             Box4 acc;
             for (uint32_t j = n - 1; j > 0; --j) {
-                acc.grow(load_lo(p[j]), load_hi(p[j]));
+                acc.grow(lo[order[j]], hi[order[j]]);
                 right_area[j] = acc.half_area();
             }
             acc = Box4();
             for (uint32_t j = 0; j + 1 < n; ++j) {
-                acc.grow(load_lo(p[j]), load_hi(p[j]));
+                acc.grow(lo[order[j]], hi[order[j]]);
                 const float cost = float(j + 1) * acc.half_area() + float(n - j - 1) * right_area[j + 1];
                 if (cost < best_cost) {
                     best_cost = cost;
@@ -467,11 +476,13 @@ struct Builder {
         const float area = bounds.half_area();
         const float split_cost = area > 0.0f ? traversal_cost + kIntersectionCost * best_cost / area : kHugeF;
         if (n <= kMaxLeafSize && (best_axis < 0 || kIntersectionCost * float(n) <= split_cost)) {
+            reorder(p, order, n);
             make_leaf(nodes[size_t(index)], begin, end);
             return;
         }
-        if (best_axis < 0) best_axis = 0, best_count = n / 2;   // costs overflowed float: by count
-        if (best_axis != 2) sort_by_centroid(p, n, best_axis);  // (the last sort was along axis 2)
+        if (best_axis < 0) best_axis = 0, best_count = n / 2;               // costs overflowed float: by count
+        if (best_axis != 2) sort_by_centroid(order, n, lo, hi, best_axis);  // (the last sort was along axis 2)
+        reorder(p, order, n);
         const uint32_t mid = begin + best_count;
         Box4 left_bounds, left_centres, right_bounds, right_centres;
         measure(begin, mid, left_bounds, left_centres);
@@ -507,15 +518,48 @@ struct Builder {
         return kIntersectionCost * float(n) <= traversal_cost + kIntersectionCost * kLeafBoundMargin * sum / area;
     }
 
-    // Insertion sort (n is small) by doubled centroid along `axis`; stable, so ties keep their order.
-    static void sort_by_centroid(PrimRef* p, uint32_t n, int axis) {
-        for (uint32_t i = 1; i < n; ++i) {
-            const PrimRef x = p[i];
-            const float key = x.lo[axis] + x.hi[axis];
-            uint32_t j = i;
-            for (; j > 0 && p[j - 1].lo[axis] + p[j - 1].hi[axis] > key; --j) p[j] = p[j - 1];
-            p[j] = x;
+    // Sorts order[0, n) (n <= 8) by doubled centroid along `axis`, stably (ties keep their
+    // order, so the result is an insertion sort's), with a sorting network on 64-bit keys: the
+    // centroid's float bits made to order as unsigned integers, then the current position (the
+    // primitive rides in the low byte). No
+    // branch depends on the data: the insertion sort of the primitives this replaced
+    // mispredicted its inner loop's exit about once a primitive (a node of <= 8 primitives
+    // sorts three or four times). S2's build, one thread: 1 % more instructions (2.956G ->
+    // 2.987G), 6 % less CPU (medians 0.344 -> 0.322 s and 0.352 -> 0.330 s, two rounds of 8
+    // alternating processes); the same tree.
+    static void sort_by_centroid(uint8_t* order, uint32_t n, const Float4* lo, const Float4* hi, int axis) {
+        uint64_t key[8];
+        for (uint32_t j = 0; j < 8; ++j) {
+            if (j >= n) {
+                key[j] = ~uint64_t(0);  // padding: after every real key
+                continue;
+            }
+            const float c = (lo[order[j]] + hi[order[j]])[axis] + 0.0f;  // (+ 0: -0 becomes +0, as == has it)
+            uint32_t bits;
+            std::memcpy(&bits, &c, sizeof bits);
+            bits = (bits >> 31) ? ~bits : bits | 0x80000000u;                 // ascending floats, ascending integers
+            key[j] = (uint64_t(bits) << 32) | (uint64_t(j) << 8) | order[j];  // ties: by position
         }
+        // Batcher's odd-even merge sort of 8 (19 compare-exchanges).
+        auto exchange = [&key](int a, int b) {
+            const uint64_t x = key[a], y = key[b];
+            key[a] = x < y ? x : y;
+            key[b] = x < y ? y : x;
+        };
+        exchange(0, 1), exchange(2, 3), exchange(4, 5), exchange(6, 7);
+        exchange(0, 2), exchange(1, 3), exchange(4, 6), exchange(5, 7);
+        exchange(1, 2), exchange(5, 6);
+        exchange(0, 4), exchange(1, 5), exchange(2, 6), exchange(3, 7);
+        exchange(2, 4), exchange(3, 5);
+        exchange(1, 2), exchange(3, 4), exchange(5, 6);
+        for (uint32_t j = 0; j < n; ++j) order[j] = uint8_t(key[j]);
+    }
+
+    // p[0, n) rearranged so that position j holds what was at order[j].
+    static void reorder(PrimRef* p, const uint8_t* order, uint32_t n) {
+        PrimRef moved[kExactSahMaxPrimitives];
+        for (uint32_t j = 0; j < n; ++j) moved[j] = p[order[j]];
+        std::copy(moved, moved + n, p);
     }
 
     // Moves the primitives whose bin along `axis` is below `split` to the front and returns
