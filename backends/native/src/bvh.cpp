@@ -579,28 +579,26 @@ struct Builder {
         // operations as that vector lane, so the same bins. Clamping to [0, bins - 1] cannot
         // change the answer for 1 <= split <= bins - 1, and a NaN (bin 0) goes left.
         const float lo = grid.lo[axis], scale = grid.scale[axis], limit = float(split);
-        const Float4 inf = {kHugeF, kHugeF, kHugeF, kHugeF};
         PrimRef* const p = prims.data();
         uint32_t mid = begin;
+        // Each side's centroid (and, kMeasure, box) bounds, indexed by the side: [0] right, [1]
+        // left. Growing the one a primitive goes to by index takes no branch and no select.
+        Box4 centres[2], boxes[2];
         for (uint32_t i = begin; i < end; ++i) {
             const bool left = !(((p[i].lo[axis] + p[i].hi[axis]) - lo) * scale >= limit);
             const PrimRef moved = p[i];
             p[i] = p[mid];
             p[mid] = moved;
             mid += left;
-            // The centroid grows its side's bounds and leaves the other's. (GCC compiles these
-            // selects to a branch on `left`; forced to stay selects, by an asm barrier on the
-            // mask, S2's build took 10 % more instructions and ~6 % more CPU: the sides of
-            // neighbouring primitives agree often enough for the branch to win.)
-            const Float4 c = centroid2(moved);
-            const Int4 goes_left = left ? Int4{-1, -1, -1, -1} : Int4{0, 0, 0, 0};
-            left_centres.grow(goes_left ? c : inf, goes_left ? c : -inf);
-            right_centres.grow(goes_left ? inf : c, goes_left ? -inf : c);
-            if constexpr (kMeasure) {
-                const Float4 l = load_lo(moved), h = load_hi(moved);
-                left_bounds.grow(goes_left ? l : inf, goes_left ? h : -inf);
-                right_bounds.grow(goes_left ? inf : l, goes_left ? -inf : h);
-            }
+            const Float4 l = load_lo(moved), h = load_hi(moved), c = l + h;
+            centres[left].grow(c, c);
+            if constexpr (kMeasure) boxes[left].grow(l, h);
+        }
+        left_centres.grow(centres[1]);
+        right_centres.grow(centres[0]);
+        if constexpr (kMeasure) {
+            left_bounds.grow(boxes[1]);
+            right_bounds.grow(boxes[0]);
         }
         return mid;
     }
