@@ -2,11 +2,13 @@
 """The BVH build's shortcuts keep every hit exact (backends/native/src/bvh.cpp): nodes of 2^10
 primitives or more choose their split from every fourth primitive by position (sampled binning),
 and nodes of at most 8 sort their primitives with a branch-free network whose ties keep their
-order. Each case is made to mislead them, and checked against brute force."""
+order; the collapse to wide nodes splits a large tree into regions collapsed in parallel. Each
+case is made to mislead them, and checked against brute force."""
 
 from __future__ import annotations
 
 import numpy as np
+from test_native_bvh_cost import grid_mesh
 
 from phongscene.backends import native
 from phongscene.scene import Scene, TriangleMesh
@@ -64,3 +66,25 @@ def test_coincident_triangles_tie_to_the_lowest_id_however_the_build_sorts_them(
     assert np.array_equal(t, t_brute)
     assert (count == 5).all()
     assert np.array_equal(ids, np.arange(places))
+
+
+def test_the_collapse_in_regions_walks_the_same_on_both_paths_and_any_threads(monkeypatch):
+    # 40,000 triangles: past bvh4.cpp's kParallelCollapseMinSlots (2^16 binary slots), so the
+    # root's children collapse into regions of their own, on the 8-wide and the 4-wide tree alike.
+    scene = Scene(meshes=(grid_mesh(40_000),))
+    rng = np.random.default_rng(7)
+    origins = np.column_stack([rng.uniform(-1.2, 1.2, 2000), np.full(2000, 1.0), rng.uniform(-1.2, 1.2, 2000)])
+    dirs = np.column_stack([rng.normal(0, 0.3, 2000), -np.ones(2000), rng.normal(0, 0.3, 2000)])
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    answers = []
+    for simd in ("auto", "sse2"):
+        monkeypatch.setenv("PHONGSCENE_NATIVE_SIMD", simd)
+        digests = {native.build(scene, threads=threads).tree_digest for threads in (1, 2, 3)}
+        assert len(digests) == 1
+        built = native.build(scene)
+        t, ids = built.intersect(origins, dirs, 1e-9)
+        _, t_brute = built.count_hits(origins, dirs, 1e-9)
+        assert np.array_equal(t, t_brute)
+        assert np.isfinite(t).sum() > 1000
+        answers.append((t, ids))
+    assert np.array_equal(answers[0][0], answers[1][0]) and np.array_equal(answers[0][1], answers[1][1])
