@@ -65,6 +65,52 @@ def test_float_numbers_are_stored_as_floats_and_any_double_keeps_doubles():
     assert not native.build(dataclasses.replace(scene, meshes=(grid,))).single_precision_triangles
 
 
+# More rows than for_chunks' kParallelCopyMinItems (2^16, build_threads.hpp): the normals' float
+# check and copy then run in one chunk per build thread.
+MANY_NORMALS = 70_000
+
+
+def with_unused_normals(scene, last=None):
+    """``scene`` with MANY_NORMALS unit normals (floats) put before each mesh's own and its
+    indices moved past them; ``last``, when given, replaces the last of them in the last mesh."""
+    rng = np.random.default_rng(11)
+    meshes = []
+    for k, m in enumerate(scene.meshes):
+        if m.normals is None:
+            meshes.append(m)
+            continue
+        extra = as_float(unit(rng.normal(size=(MANY_NORMALS, 3))))
+        if last is not None and k == len(scene.meshes) - 1:
+            extra[-1] = last
+        meshes.append(
+            dataclasses.replace(
+                m, normals=np.vstack([extra, m.normals]), normal_indices=m.normal_indices + MANY_NORMALS
+            )
+        )
+    return dataclasses.replace(scene, meshes=tuple(meshes))
+
+
+@pytest.mark.parametrize("threads", [1, 3])
+def test_many_normals_are_checked_and_copied_in_chunks(threads):
+    # The same image when the normals the triangles use sit past 70,000 others in each of two
+    # meshes (the copy's rows offset by mesh and by chunk), stored as floats, or as doubles
+    # when the very last row checked is not a float.
+    scene = float_exact(calibration.smooth_mesh())
+    second = dataclasses.replace(scene.meshes[0], points=scene.meshes[0].points + (2.2, 0.0, -1.5))
+    scene = dataclasses.replace(
+        scene,
+        meshes=(*scene.meshes, second),
+        settings=dataclasses.replace(scene.settings, threads=threads),
+    )
+    expected = native.render(scene)
+    floats = with_unused_normals(scene)
+    doubles = with_unused_normals(scene, last=(0.6, 0.8, 0.1))
+    assert native.build(floats, threads=threads).single_precision_normals
+    assert not native.build(doubles, threads=threads).single_precision_normals
+    assert np.array_equal(native.render(floats), expected)
+    assert np.array_equal(native.render(doubles), expected)
+
+
 def test_a_usd_mesh_is_stored_as_floats():
     # USD points are float32: a mesh read under an identity transform keeps them exactly.
     scene = load_usd(EXAMPLES / "seed_exponents.usda")

@@ -15,11 +15,13 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <utility>
 #include <vector>
 
+#include "build_threads.hpp"
 #include "huge_pages.hpp"
 #include "math.hpp"
 #include "shapes.hpp"
@@ -80,17 +82,16 @@ class TriangleStore {
             stride_ = n + kTriangleLanePadding;
             // Unwritten: every slot is set by the build's parallel leaf-order copy, which then
             // faults the pages in on its threads (zero-filling 36 MiB here took S2's build 4.4 ms
-            // on one thread first); only the padding is zeroed here.
+            // on one thread first). The padding is zeroed with the last slot (set): here, its
+            // nine writes faulted in nine huge pages, ~1-2 ms of S2's build on one thread.
             resize_huge(narrow_, 9 * stride_);
-            for (size_t i = 0; i < 9; ++i)
-                std::fill_n(narrow_.begin() + ptrdiff_t(i * stride_ + n), kTriangleLanePadding, 0.0f);
         } else if (single_precision) {
             resize_huge(rows_, n);
         } else {
             resize_huge(wide_, n);
         }
     }
-    // Stores slot k's corners (float_exact when single_precision()).
+    // Stores slot k's corners (float_exact when single_precision()); every slot is set once.
     void set(size_t k, const TriangleShape& t) {
         if (!single_precision_) {
             wide_[k] = t;
@@ -99,6 +100,9 @@ class TriangleStore {
         } else {
             const double v[9] = {t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y, t.v2.z};
             for (size_t i = 0; i < 9; ++i) narrow_[i * stride_ + k] = float(v[i]);
+            if (k + 1 == count_)
+                for (size_t i = 0; i < 9; ++i)
+                    std::fill_n(narrow_.begin() + ptrdiff_t(i * stride_ + count_), kTriangleLanePadding, 0.0f);
         }
     }
     TriangleShape operator[](size_t k) const {
@@ -159,28 +163,42 @@ class TriangleStore {
 // float_exact; read back as the same doubles.
 class Vec3Store {
   public:
-    // Stores `rows` (count x 3) of each of `parts`, concatenated in order.
+    // Stores `rows` (count x 3) of each of `parts`, concatenated in order. The check and the
+    // copy run in chunks on the build's threads (for_chunks): serial, S2's 500k normals took
+    // ~2 ms of its build at two threads while the other thread waited (benchmarks/README.md).
     template <class Parts>
     void assign(const Parts& parts) {
         size_t count = 0;
-        single_precision_ = true;
+        std::atomic<bool> every_float{true};
         for (const auto& [rows, n] : parts) {
             count += n;
-            for (size_t i = 0; i < 3 * n && single_precision_; ++i) single_precision_ = float_exact(rows[i]);
+            const double* part = rows;
+            for_chunks(3 * n, [&every_float, part](size_t begin, size_t end) {
+                for (size_t i = begin; i < end && every_float.load(std::memory_order_relaxed); ++i)
+                    if (!float_exact(part[i])) every_float.store(false, std::memory_order_relaxed);
+            });
         }
-        std::vector<float>().swap(narrow_);
-        std::vector<Vec3>().swap(wide_);
+        single_precision_ = every_float.load();
+        UninitialisedVector<float>().swap(narrow_);
+        UninitialisedVector<Vec3>().swap(wide_);
         if (single_precision_)
-            reserve_huge(narrow_, 3 * count);
+            resize_huge(narrow_, 3 * count);
         else
-            reserve_huge(wide_, count);
-        for (const auto& [rows, n] : parts)
-            for (size_t i = 0; i < n; ++i) {
-                if (single_precision_)
-                    narrow_.insert(narrow_.end(), {float(rows[3 * i]), float(rows[3 * i + 1]), float(rows[3 * i + 2])});
-                else
-                    wide_.push_back({rows[3 * i], rows[3 * i + 1], rows[3 * i + 2]});
-            }
+            resize_huge(wide_, count);
+        size_t first = 0;  // the part's first row in the store
+        for (const auto& [rows, n] : parts) {
+            const double* part = rows;
+            for_chunks(n, [this, part, first](size_t begin, size_t end) {
+                for (size_t i = begin; i < end; ++i) {
+                    const double* v = part + 3 * i;
+                    if (single_precision_)
+                        for (int k = 0; k < 3; ++k) narrow_[3 * (first + i) + k] = float(v[k]);
+                    else
+                        wide_[first + i] = {v[0], v[1], v[2]};
+                }
+            });
+            first += n;
+        }
     }
     Vec3 operator[](size_t k) const {
         if (!single_precision_) return wide_[k];
@@ -192,8 +210,8 @@ class Vec3Store {
 
   private:
     bool single_precision_ = false;
-    std::vector<float> narrow_;
-    std::vector<Vec3> wide_;
+    UninitialisedVector<float> narrow_;
+    UninitialisedVector<Vec3> wide_;
 };
 
 }  // namespace phong
