@@ -50,10 +50,14 @@ struct Box4 {
     void grow(const Box4& b) { grow(b.lo, b.hi); }
     bool empty() const { return lo[0] > hi[0]; }
     // Half the surface area (the SAH only needs ratios).
-    float half_area() const {
-        if (empty()) return 0.0f;
+    float half_area() const { return empty() ? 0.0f : half_area_of_filled(); }
+    // The same of a box that holds something (a primitive's, or one grown by a filled bin's),
+    // without the empty test: the SAH sweeps call it ~20M times in S2's build. The three products
+    // in one multiply, summed as x·y + y·z + z·x always was: the same float.
+    float half_area_of_filled() const {
         const Float4 e = hi - lo;
-        return e[0] * e[1] + e[1] * e[2] + e[2] * e[0];
+        const Float4 p = e * __builtin_shufflevector(e, e, 1, 2, 0, 3);  // x·y, y·z, z·x
+        return p[0] + p[1] + p[2];
     }
 };
 
@@ -336,7 +340,7 @@ struct Builder {
                 for (int j = k - 1; j > 0; --j) {
                     acc.grow(box[filled[j]].lo, box[filled[j]].hi);
                     sum += count[filled[j]];
-                    right_area[j] = acc.half_area();
+                    right_area[j] = acc.half_area_of_filled();
                     right_count[j] = sum;
                 }
                 acc = Box4();
@@ -344,7 +348,8 @@ struct Builder {
                 for (int j = 0; j < k - 1; ++j) {
                     acc.grow(box[filled[j]].lo, box[filled[j]].hi);
                     sum += count[filled[j]];
-                    const float cost = float(sum) * acc.half_area() + float(right_count[j + 1]) * right_area[j + 1];
+                    const float cost =
+                        float(sum) * acc.half_area_of_filled() + float(right_count[j + 1]) * right_area[j + 1];
                     if (cost < best_cost) {
                         best_cost = cost;
                         best_axis = axis;
@@ -460,12 +465,12 @@ struct Builder {
             Box4 acc;
             for (uint32_t j = n - 1; j > 0; --j) {
                 acc.grow(lo[order[j]], hi[order[j]]);
-                right_area[j] = acc.half_area();
+                right_area[j] = acc.half_area_of_filled();
             }
             acc = Box4();
             for (uint32_t j = 0; j + 1 < n; ++j) {
                 acc.grow(lo[order[j]], hi[order[j]]);
-                const float cost = float(j + 1) * acc.half_area() + float(n - j - 1) * right_area[j + 1];
+                const float cost = float(j + 1) * acc.half_area_of_filled() + float(n - j - 1) * right_area[j + 1];
                 if (cost < best_cost) {
                     best_cost = cost;
                     best_axis = axis;
@@ -512,7 +517,7 @@ struct Builder {
         for (uint32_t i = 0; i < n; ++i) {
             Box4 box;
             box.grow(load_lo(p[i]), load_hi(p[i]));
-            sum += box.half_area();
+            sum += box.half_area_of_filled();
         }
         if (!(sum < kHugeF)) return false;  // overflowed: leave it to the full test
         return kIntersectionCost * float(n) <= traversal_cost + kIntersectionCost * kLeafBoundMargin * sum / area;
