@@ -599,20 +599,26 @@ NB_MODULE(_native, m) {
                     out[6 * i + k] = simd.down[k];
                     out[6 * i + 3 + k] = simd.up[k];
                 }
-                // The lanes must give the scalar functions' floats bit for bit (NaN: any NaN).
+                // The lanes must give the scalar functions' floats bit for bit (NaN: any NaN), in
+                // a ray's origin and in a primitive's box (a point's: its lo and hi are the row).
+                phong::Bounds point;
+                point.lo = point.hi = o;
+                const phong::PrimRef box(point, uint32_t(i));
+                if (box.id != uint32_t(i) || box.unused != 0) throw std::runtime_error("PrimRef's id or padding");
                 for (int k = 0; k < 6; ++k) {
-                    const float lane = k < 3 ? simd.down[k] : simd.up[k - 3];
-                    if (std::memcmp(&lane, &scalar[k], sizeof lane) != 0 &&
-                        !(std::isnan(lane) && std::isnan(scalar[k])))
-                        throw std::runtime_error("FloatSlabOrigin differs from round_down/round_up");
+                    const float lanes[2] = {k < 3 ? simd.down[k] : simd.up[k - 3], k < 3 ? box.lo[k] : box.hi[k - 3]};
+                    for (const float lane : lanes)
+                        if (std::memcmp(&lane, &scalar[k], sizeof lane) != 0 &&
+                            !(std::isnan(lane) && std::isnan(scalar[k])))
+                            throw std::runtime_error("FloatSlabOrigin or PrimRef differs from round_down/round_up");
                 }
             }
             nb::capsule owner(out, [](void* p) noexcept { delete[] static_cast<float*>(p); });
             return nb::ndarray<nb::numpy, float, nb::shape<-1, 6>>(out, {n, 6}, owner);
         },
         "rows"_a,
-        "Test-only: each row's FloatSlabOrigin (down x, y, z, then up), checked against the scalar round_down and "
-        "round_up.");
+        "Test-only: each row's FloatSlabOrigin (down x, y, z, then up), checked (and a PrimRef of the row as a "
+        "point) against the scalar round_down and round_up.");
     m.attr("SHADOW_WINDOW") = phong::kShadowWindow;
     m.attr("PRIMARY_NEAR") = phong::kPrimaryNear;
     m.attr("SELF_HIT_WINDOW") = phong::kSelfHitWindow;

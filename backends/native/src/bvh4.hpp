@@ -100,32 +100,16 @@ constexpr double kFloatSlabMinDirection = 0x1p-20;
 constexpr double kFloatSlabMaxDirection = 0x1p20;
 
 // A ray origin rounded to float down and up per axis (o⁻ and o⁺ above): rays that share their
-// origin (a perspective camera's, the shadow rays of one shaded point) round it once.
-// round_down and round_up (bvh.hpp) of the three coordinates in SSE2 lanes, the same operations
-// lane by lane: cvtpd2ps rounds to nearest as the scalar conversion does (NaN stays NaN), the
-// comparisons in double, then one step of the bit pattern: down by −1 − 2s where f > x, up by
-// 1 + 2s where f < x, s = −1 for a negative f (its sign bit) and 0 else. Every shaded point
-// rounds its own: S1's render 1.4 % fewer instructions than with the scalar functions
-// (tests/native/test_native_bvh4.py checks the lanes against them bit for bit).
+// origin (a perspective camera's, the shadow rays of one shaded point) round it once, in SSE2
+// lanes (OutwardFloats, bvh.hpp). Every shaded point rounds its own: S1's render 1.4 % fewer
+// instructions than with the scalar functions (tests/native/test_native_bvh4.py checks the lanes
+// against them bit for bit).
 struct FloatSlabOrigin {
     alignas(16) float down[4], up[4];  // x, y, z (lane 3 unused)
     explicit FloatSlabOrigin(const Vec3& o) {
-        const __m128d xy = _mm_set_pd(o.y, o.x), z = _mm_set_sd(o.z);
-        const __m128 f = _mm_movelh_ps(_mm_cvtpd_ps(xy), _mm_cvtpd_ps(z));  // fx, fy, fz, 0
-        const __m128d f_xy = _mm_cvtps_pd(f), f_z = _mm_cvtps_pd(_mm_movehl_ps(f, f));
-        // The 64-bit comparison masks narrowed to 32-bit lanes x, y, z, 0.
-        auto narrow = [](__m128d m_xy, __m128d m_z) {
-            return _mm_castps_si128(_mm_shuffle_ps(_mm_castpd_ps(m_xy), _mm_castpd_ps(m_z), _MM_SHUFFLE(2, 0, 2, 0)));
-        };
-        const __m128i above = narrow(_mm_cmpgt_pd(f_xy, xy), _mm_cmpgt_pd(f_z, z));
-        const __m128i below = narrow(_mm_cmplt_pd(f_xy, xy), _mm_cmplt_pd(f_z, z));
-        const __m128i bits = _mm_castps_si128(f);
-        const __m128i twice_sign = _mm_add_epi32(_mm_srai_epi32(bits, 31), _mm_srai_epi32(bits, 31));
-        const __m128i one = _mm_set1_epi32(1), minus_one = _mm_set1_epi32(-1);
-        const __m128i step_down = _mm_and_si128(_mm_sub_epi32(minus_one, twice_sign), above);
-        const __m128i step_up = _mm_and_si128(_mm_add_epi32(one, twice_sign), below);
-        _mm_store_ps(down, _mm_castsi128_ps(_mm_add_epi32(bits, step_down)));
-        _mm_store_ps(up, _mm_castsi128_ps(_mm_add_epi32(bits, step_up)));
+        const OutwardFloats rounded(o);
+        _mm_store_ps(down, rounded.down());
+        _mm_store_ps(up, rounded.up());
     }
 };
 
