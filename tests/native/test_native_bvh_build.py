@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""The BVH build's shortcuts keep every hit exact (backends/native/src/bvh.cpp): nodes of 2^10
+"""The BVH build's shortcuts keep every hit exact (backends/native/src/bvh.cpp): nodes of 2^8
 primitives or more choose their split from every fourth primitive by position (sampled binning),
 and nodes of at most 8 sort their primitives with a branch-free network whose ties keep their
 order; the collapse to wide nodes splits a large tree into regions collapsed in parallel. Each
@@ -14,7 +14,7 @@ from phongscene.backends import native
 from phongscene.scene import Scene, TriangleMesh
 
 # bvh.cpp's kSampledBinningMinPrimitives and kBinningSampleStride.
-SAMPLED_FROM = 1 << 10
+SAMPLED_FROM = 1 << 8
 SAMPLE_STRIDE = 4
 
 
@@ -35,7 +35,7 @@ def rays_down_onto(targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_a_cluster_only_the_samples_see_does_not_mislead_the_split():
-    # 4,096 triangles: the sampled positions (every fourth from the first) all in one tight
+    # 1,024 triangles: the sampled positions (every fourth from the first) all in one tight
     # cluster, the others spread over a wide square, so that the root's bins see only the
     # cluster. The split may be poor; the hits must still be exact.
     n = 4 * SAMPLED_FROM

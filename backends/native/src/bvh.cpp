@@ -108,7 +108,7 @@ constexpr uint32_t kParallelBuildMinPrimitives = 1u << 15;
 constexpr uint32_t kParallelBinningMinPrimitives = 1u << 16;
 
 // Nodes of at least this many primitives bin every kBinningSampleStride-th of them only (by
-// position from the node's first, so the same ones on any threads): 256 samples or more choose
+// position from the node's first, so the same ones on any threads): 64 samples or more choose
 // the split, and its sides are still exact (the partition classifies every primitive as the
 // binning would, and measures the sides' bounds: the bins' boxes hold only the samples). Measured
 // (callgrind, one thread; render at 320 x 180), against binning every primitive:
@@ -116,7 +116,11 @@ constexpr uint32_t kParallelBinningMinPrimitives = 1u << 16;
 //   from 2^14: 3.161G, render 154.742M;  from 2^12: 3.101G, 154.762M
 //   from 2^10: 3.041G (-10 %), render 154.739M (+0.05 %); S2-100k's build -8 %, render +0.05 %
 // and S2's build CPU 0.384-0.419 -> 0.336-0.337 s (5 alternating processes).
-constexpr uint32_t kSampledBinningMinPrimitives = 1u << 10;
+// Later (commit 632cf96's build, 2.571G at 2^10): from 2^9 2.540G, render 154.705M; from 2^8
+// 2.509G, render 154.760M (S2-100k 134.772M -> 134.804M), build CPU medians 0.293 -> 0.280 s
+// (best of 15 builds in each of 5 alternating processes); from 2^7 2.476G, S2-100k's render
+// 134.853M, build CPU no lower than from 2^8.
+constexpr uint32_t kSampledBinningMinPrimitives = 1u << 8;
 constexpr uint32_t kBinningSampleStride = 4;
 
 // Ranges this large bin into two alternating sets (Bins::add); below, copying the second set's
