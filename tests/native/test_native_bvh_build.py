@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """The BVH build's shortcuts keep every hit exact (backends/native/src/bvh.cpp): nodes of 2^8
-primitives or more choose their split from every fourth primitive by position (sampled binning),
+primitives or more choose their split from every fourth primitive by position (every 8th from
+2^12, every 16th from 2^14: sampled binning),
 and nodes of at most 8 sort their primitives with a branch-free network whose ties keep their
 order; the collapse to wide nodes splits a large tree into regions collapsed in parallel. Each
 case is made to mislead them, and checked against brute force."""
@@ -8,14 +9,15 @@ case is made to mislead them, and checked against brute force."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from test_native_bvh_cost import grid_mesh
 
 from phongscene.backends import native
 from phongscene.scene import Scene, TriangleMesh
 
-# bvh.cpp's kSampledBinningMinPrimitives and kBinningSampleStride.
-SAMPLED_FROM = 1 << 8
-SAMPLE_STRIDE = 4
+# bvh.cpp's binning_stride(n): from 2^8 primitives every 4th, from 2^12 every 8th, from 2^14
+# every 16th.
+STRIDES = {1 << 8: 4, 1 << 12: 8, 1 << 14: 16}
 
 
 def flat_triangles(centres: np.ndarray, size: float) -> TriangleMesh:
@@ -34,21 +36,25 @@ def rays_down_onto(targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return origins, dirs
 
 
-def test_a_cluster_only_the_samples_see_does_not_mislead_the_split():
-    # 1,024 triangles: the sampled positions (every fourth from the first) all in one tight
-    # cluster, the others spread over a wide square, so that the root's bins see only the
-    # cluster. The split may be poor; the hits must still be exact.
-    n = 4 * SAMPLED_FROM
+@pytest.mark.parametrize("smallest", sorted(STRIDES))
+def test_a_cluster_only_the_samples_see_does_not_mislead_the_split(smallest):
+    # 2 x `smallest` triangles (512, 8,192, 32,768): the root's sampled positions (every
+    # 4th/8th/16th from the first) all in one tight cluster, the others spread over a wide
+    # square, so that the root's bins see only the cluster. The split may be poor; the hits must
+    # still be exact. (Rays onto at most 4,096 of the centres: brute force checks each ray
+    # against every triangle.)
+    n, stride = 2 * smallest, STRIDES[smallest]
     rng = np.random.default_rng(50)
     centres = rng.uniform(-10.0, 10.0, (n, 2))
-    centres[::SAMPLE_STRIDE] = rng.uniform(-0.5, 0.5, (n // SAMPLE_STRIDE, 2)) + [-8.0, -8.0]
+    centres[::stride] = rng.uniform(-0.5, 0.5, (n // stride, 2)) + [-8.0, -8.0]
     built = native.build(Scene(meshes=(flat_triangles(centres, 0.05),)))
-    targets = np.concatenate([centres, rng.uniform(-10.5, 10.5, (2000, 2))])
+    aimed = centres[:: max(1, n // 4096)]
+    targets = np.concatenate([aimed, rng.uniform(-10.5, 10.5, (2000, 2))])
     origins, dirs = rays_down_onto(targets)
     t, ids = built.intersect(origins, dirs, 1e-9)
     _, t_brute = built.count_hits(origins, dirs, 1e-9)
     assert np.array_equal(t, t_brute)
-    assert np.isfinite(t[:n]).all()  # every triangle's own centre is hit
+    assert np.isfinite(t[: len(aimed)]).all()  # every aimed-at triangle's own centre is hit
 
 
 def test_coincident_triangles_tie_to_the_lowest_id_however_the_build_sorts_them():

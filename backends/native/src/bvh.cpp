@@ -107,7 +107,7 @@ constexpr uint32_t kParallelBuildMinPrimitives = 1u << 15;
 // one pass's: counts add, boxes unite).
 constexpr uint32_t kParallelBinningMinPrimitives = 1u << 16;
 
-// Nodes of at least this many primitives bin every kBinningSampleStride-th of them only (by
+// Nodes of at least this many primitives bin every binning_stride(n)-th of them only (by
 // position from the node's first, so the same ones on any threads): 64 samples or more choose
 // the split, and its sides are still exact (the partition classifies every primitive as the
 // binning would, and measures the sides' bounds: the bins' boxes hold only the samples). Measured
@@ -120,8 +120,22 @@ constexpr uint32_t kParallelBinningMinPrimitives = 1u << 16;
 // 2.509G, render 154.760M (S2-100k 134.772M -> 134.804M), build CPU medians 0.293 -> 0.280 s
 // (best of 15 builds in each of 5 alternating processes); from 2^7 2.476G, S2-100k's render
 // 134.853M, build CPU no lower than from 2^8.
+// Every 4th primitive from there, every 8th from 2^12 (512 samples or more) and every 16th
+// from 2^14 (1,024 or more). Against every 4th from 2^8 (the 2.509G above): S2's build 2.427G
+// instructions, CPU medians 0.280 -> 0.262 s (as above); render instructions S2 154.760M ->
+// 154.799M, S2-100k 134.804M -> 134.347M (every 8th from 2^12 alone: 155.148M and 134.128M: a
+// tree that changes moves a render by a few tenths of a per cent either way).
 constexpr uint32_t kSampledBinningMinPrimitives = 1u << 8;
-constexpr uint32_t kBinningSampleStride = 4;
+constexpr uint32_t kEvery8thMinPrimitives = 1u << 12;
+constexpr uint32_t kEvery16thMinPrimitives = 1u << 14;
+
+// The stride of a node's binning: 1 (every primitive), 4, 8 or 16.
+inline uint32_t binning_stride(uint32_t n) {
+    return n >= kEvery16thMinPrimitives        ? 16
+           : n >= kEvery8thMinPrimitives       ? 8
+           : n >= kSampledBinningMinPrimitives ? 4
+                                               : 1;
+}
 
 // Ranges this large bin into two alternating sets (Bins::add); below, copying the second set's
 // 1.7 KB of empty bins would cost more than it saves.
@@ -254,15 +268,22 @@ struct Builder {
         }
     }
 
-    // Bins prims[begin, end), or (sampled) every kBinningSampleStride-th of them from begin.
-    void bin(Bins& bins, uint32_t begin, uint32_t end, const BinGrid& grid, bool parallel, bool sampled) const {
-        const uint32_t n = end - begin;
+    // Bins prims[begin, end), or (sampled) every binning_stride(n)-th of them from begin.
+    void bin(Bins& bins, uint32_t begin, uint32_t end, const BinGrid& grid, bool parallel) const {
+        const uint32_t n = end - begin, stride = binning_stride(n);
         // Chunk [from, to)'s share: from its first sample on when sampled.
         auto add = [&](Bins& to_bins, uint32_t from, uint32_t to) {
-            if (!sampled) return to_bins.add(prims.data(), from, to, grid);
-            const uint32_t first =
-                begin + (from - begin + kBinningSampleStride - 1) / kBinningSampleStride * kBinningSampleStride;
-            to_bins.add<kBinningSampleStride>(prims.data(), first, to, grid);
+            const uint32_t first = begin + (from - begin + stride - 1) / stride * stride;
+            switch (stride) {
+                case 1:
+                    return to_bins.add<1>(prims.data(), first, to, grid);
+                case 4:
+                    return to_bins.add<4>(prims.data(), first, to, grid);
+                case 8:
+                    return to_bins.add<8>(prims.data(), first, to, grid);
+                default:
+                    return to_bins.add<16>(prims.data(), first, to, grid);
+            }
         };
         // build_threads() may read sysfs: asked only of the few nodes large enough.
         const unsigned threads = parallel && n >= kParallelBinningMinPrimitives ? build_threads() : 1;
@@ -321,7 +342,7 @@ struct Builder {
         const bool any_binned = binned[0] || binned[1] || binned[2];
         if (any_binned && depth < kMaxSahDepth) {
             bins.reset(used_bins);
-            bin(bins, begin, end, grid, alone, sampled);
+            bin(bins, begin, end, grid, alone);
             for (int axis = 0; axis < 3; ++axis) {
                 if (!binned[axis]) continue;
                 const uint32_t* count = bins.count[axis];
