@@ -57,6 +57,34 @@ def test_a_cluster_only_the_samples_see_does_not_mislead_the_split(smallest):
     assert np.isfinite(t[: len(aimed)]).all()  # every aimed-at triangle's own centre is hit
 
 
+# bvh.cpp's kPiecewisePartitionMinPrimitives: nodes this large partition in 16 fixed pieces.
+PIECEWISE_FROM = 1 << 18
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_large_node_partitions_in_pieces_whole_runs_to_one_side(threads):
+    # 2^18 + 4,000 tiny triangles: A spread over x in [-20, -10], B in a 0.1-unit square at x = 10,
+    # which the root's split separates. By position (16 pieces of ~16.6k): pieces 0-3 all A,
+    # 4-5 all B, 6-15 a random mix. So the root's pieces are wholly on one side or mixed, before
+    # and after the split point, and the swaps of the misplaced meet runs of every kind. B's box
+    # is so small that the wide root keeps it as a child (it opens the larger A boxes): an A
+    # triangle left in B's range would lie outside it, and the ray onto its centre would miss.
+    # Every such ray finds the plane at t = 1, and 300 rays anywhere hit what brute force hits.
+    n = PIECEWISE_FROM + 4000
+    rng = np.random.default_rng(18)
+    piece = np.arange(n) * 16 // n
+    in_b = np.where(piece < 4, False, np.where(piece < 6, True, rng.random(n) < 0.5))
+    a = np.column_stack([rng.uniform(-20.0, -10.0, n), rng.uniform(-10.0, 10.0, n)])
+    b = np.column_stack([rng.uniform(10.0, 10.1, n), rng.uniform(0.0, 0.1, n)])
+    centres = np.where(in_b[:, None], b, a)
+    built = native.build(Scene(meshes=(flat_triangles(centres, 0.001),)), threads=threads)
+    t, _ = built.intersect(*rays_down_onto(centres), 1e-9)
+    assert (t == 1.0).all()
+    origins, dirs = rays_down_onto(rng.uniform(-21.0, 21.0, (300, 2)))
+    t, _ = built.intersect(origins, dirs, 1e-9)
+    assert np.array_equal(t, built.count_hits(origins, dirs, 1e-9)[1])
+
+
 def test_coincident_triangles_tie_to_the_lowest_id_however_the_build_sorts_them():
     # 300 places, five identical triangles at each (rows p, p + 300, ..., p + 1200): 1,500
     # triangles (sampled at the root), whose equal centroids the small nodes' sorting network must

@@ -7,6 +7,7 @@
 #include "huge_pages.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <future>
@@ -106,6 +107,14 @@ constexpr uint32_t kParallelBuildMinPrimitives = 1u << 15;
 // threads), bins its primitives in one chunk per hardware thread (merged bins are the same as
 // one pass's: counts add, boxes unite).
 constexpr uint32_t kParallelBinningMinPrimitives = 1u << 16;
+// Nodes this large partition in kPartitionPieces fixed pieces, each in place, then swap the
+// primitives left on the wrong side of the node's split point (Builder::piecewise_partition),
+// the pieces and the swaps on the build's threads while no other thread builds. The pieces are
+// fixed by the node's range, not by the threads, so the tree is the same on any number of them.
+// S2's root and the node under it (1M primitives each: the root splits off the 2 ground
+// triangles) took 3.5 ms each to partition on one thread while the other waited.
+constexpr uint32_t kPiecewisePartitionMinPrimitives = 1u << 18;
+constexpr uint32_t kPartitionPieces = 16;
 
 // Nodes of at least this many primitives bin every binning_stride(n)-th of them only (by
 // position from the node's first, so the same ones on any threads): 64 samples or more choose
@@ -417,10 +426,14 @@ struct Builder {
                 make_leaf(node, begin, end);
                 return;
             }
-            mid = sampled ? partition<true>(begin, end, grid, best_axis, best_split, left_centres, right_centres,
-                                            left_bounds, right_bounds)
-                          : partition<false>(begin, end, grid, best_axis, best_split, left_centres, right_centres,
-                                             left_bounds, right_bounds);
+            if (n >= kPiecewisePartitionMinPrimitives)  // (sampled too: its sides' bounds are measured)
+                mid = piecewise_partition(begin, end, grid, best_axis, best_split, left_centres, right_centres,
+                                          left_bounds, right_bounds, alone);
+            else
+                mid = sampled ? partition<true>(begin, end, grid, best_axis, best_split, left_centres, right_centres,
+                                                left_bounds, right_bounds)
+                              : partition<false>(begin, end, grid, best_axis, best_split, left_centres, right_centres,
+                                                 left_bounds, right_bounds);
             if (mid == begin || mid == end) {
                 // Cannot happen: both sides' bins hold primitives (samples are primitives, and the
                 // partition classifies them as the binning did); stay safe.
@@ -590,6 +603,103 @@ struct Builder {
         PrimRef moved[kExactSahMaxPrimitives];
         for (uint32_t j = 0; j < n; ++j) moved[j] = p[order[j]];
         std::copy(moved, moved + n, p);
+    }
+
+    // partition<true> of a large node in kPartitionPieces pieces: each piece partitioned in place
+    // (its left primitives, then its right ones), then the k-th right primitive found before the
+    // node's split point swapped with the k-th left one found after it, both counted in piece
+    // order. `parallel` (no other thread builds): the pieces and the swaps on the build's
+    // threads; the result is the same either way.
+    uint32_t piecewise_partition(uint32_t begin, uint32_t end, const BinGrid& grid, int axis, int split,
+                                 Box4& left_centres, Box4& right_centres, Box4& left_bounds, Box4& right_bounds,
+                                 bool parallel) {
+        struct Piece {
+            uint32_t begin, end, mid;
+            Box4 left_centres, right_centres, left_bounds, right_bounds;
+        };
+        const uint32_t n = end - begin;
+        Piece pieces[kPartitionPieces];
+        for (uint32_t c = 0; c < kPartitionPieces; ++c) {
+            pieces[c].begin = begin + uint32_t(uint64_t(n) * c / kPartitionPieces);
+            pieces[c].end = begin + uint32_t(uint64_t(n) * (c + 1) / kPartitionPieces);
+        }
+        auto partition_piece = [&](uint32_t c) {
+            Piece& q = pieces[c];
+            q.mid = partition<true>(q.begin, q.end, grid, axis, split, q.left_centres, q.right_centres, q.left_bounds,
+                                    q.right_bounds);
+        };
+        const unsigned threads = parallel ? std::min(build_threads(), unsigned(kPartitionPieces)) : 1;
+        if (threads < 2) {
+            for (uint32_t c = 0; c < kPartitionPieces; ++c) partition_piece(c);
+        } else {
+            std::atomic<uint32_t> taken{0};
+            auto work = [&] {
+                for (uint32_t c; (c = taken.fetch_add(1)) < kPartitionPieces;) partition_piece(c);
+            };
+            std::vector<std::future<void>> helpers;
+            for (unsigned t = 1; t < threads; ++t) helpers.push_back(std::async(std::launch::async, work));
+            work();
+            for (std::future<void>& h : helpers) h.get();
+        }
+        uint32_t mid = begin;
+        for (const Piece& q : pieces) {
+            mid += q.mid - q.begin;
+            left_centres.grow(q.left_centres);
+            right_centres.grow(q.right_centres);
+            left_bounds.grow(q.left_bounds);
+            right_bounds.grow(q.right_bounds);
+        }
+        // The misplaced: each piece's right primitives before `mid`, its left ones from `mid` on;
+        // as many of one as of the other.
+        struct Run {
+            uint32_t begin, end;
+        };
+        Run rights[kPartitionPieces], lefts[kPartitionPieces];
+        int n_rights = 0, n_lefts = 0;
+        uint32_t misplaced = 0;
+        for (const Piece& q : pieces) {  // (non-empty runs only)
+            if (q.mid < std::min(q.end, mid)) {
+                rights[n_rights++] = {q.mid, std::min(q.end, mid)};
+                misplaced += std::min(q.end, mid) - q.mid;
+            }
+            if (std::max(q.begin, mid) < q.mid) lefts[n_lefts++] = {std::max(q.begin, mid), q.mid};
+        }
+        // Swaps misplaced pairs [from, to) (pair k: the k-th of the rights and of the lefts).
+        PrimRef* const p = prims.data();
+        auto swap_pairs = [&](size_t from, size_t to) {
+            int r = 0, l = 0;
+            uint32_t i = rights[0].begin, j = lefts[0].begin;
+            // Step to pair `from`: skip whole runs, then into the run.
+            for (size_t skip = from; skip > 0;) {
+                const uint32_t left_in_run = rights[r].end - i;
+                if (skip < left_in_run) {
+                    i += uint32_t(skip);
+                    break;
+                }
+                skip -= left_in_run;
+                i = rights[++r].begin;
+            }
+            for (size_t skip = from; skip > 0;) {
+                const uint32_t left_in_run = lefts[l].end - j;
+                if (skip < left_in_run) {
+                    j += uint32_t(skip);
+                    break;
+                }
+                skip -= left_in_run;
+                j = lefts[++l].begin;
+            }
+            for (size_t k = from; k < to; ++k) {
+                if (i == rights[r].end) i = rights[++r].begin;
+                if (j == lefts[l].end) j = lefts[++l].begin;
+                std::swap(p[i++], p[j++]);
+            }
+        };
+        if (misplaced == 0) return mid;
+        if (parallel)
+            for_chunks(misplaced, swap_pairs);
+        else
+            swap_pairs(0, misplaced);
+        return mid;
     }
 
     // Moves the primitives whose bin along `axis` is below `split` to the front and returns
