@@ -370,7 +370,14 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
     const int32_t object = !linked || hit.instance >= 0 ? -1 : scene.object_of(hit.ref);
     Vec3 n;
     const Material* material;
-    Material textured;   // a textured material with this point's colours
+    // A copy of the material with this point's colours (a texture, checker or instance colour),
+    // left unconstructed until one applies: a default Material is ~20 stores a hit. (Material is
+    // trivially copyable; the copy assignments below begin its lifetime.)
+    union Unconstructed {
+        Unconstructed() {}
+        Material material;
+    } copy;
+    Material& textured = copy.material;
     Vec3 mapped_normal;  // n perturbed by the material's normal map (normal_maps.hpp), where it has one
     bool normal_mapped = false;
     // The primitive's own scene: the world's, or the prototype of the instance hit (whose normal
@@ -386,7 +393,9 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         n = intrinsic_normal(part, p);
         material = &surface.materials[size_t(part.material)];
     } else {
-        const TriangleShape& tri = surface.triangles[size_t(hit.ref)];
+        // The corners (widened from the store: ~70 instructions a hit) only where they are used:
+        // a flat normal, a normal map's tangents.
+        auto corners = [&] { return surface.triangles[size_t(hit.ref)]; };
         const TriangleNormals* sh =
             surface.triangle_normals.empty() ? nullptr : &surface.triangle_normals[size_t(hit.ref)];
         if (sh && sh->n0 >= 0) {
@@ -395,6 +404,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
                           surface.normals[size_t(sh->n1)] * hit.bary.b1 +
                           surface.normals[size_t(sh->n2)] * hit.bary.b2);
         } else {
+            const TriangleShape tri = corners();
             n = normalize(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
         }
         material = &surface.materials[size_t(surface.triangle_material(size_t(hit.ref)))];
@@ -405,6 +415,7 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
             hit_uv(surface, hit, p, u, v);
             if (material->normal_texture >= 0) {
                 Vec3 dpdu, dpdv;
+                const TriangleShape tri = corners();
                 if (uv_tangents(tri.v0, tri.v1, tri.v2, uv, dpdu, dpdv)) {
                     mapped_normal = perturbed_normal(n, dpdu, dpdv,
                                                      surface.textures[size_t(material->normal_texture)].lookup(u, v));
