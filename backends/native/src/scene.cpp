@@ -345,6 +345,8 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     first_triangle_ = std::move(first_triangle);
     mesh_material_.resize(n_meshes);
     for (size_t m = 0; m < n_meshes; ++m) mesh_material_[m] = in.meshes[m].material;
+    prefilter_ = !bvh8_.empty() && triangles.lanes() && povray_triangles.empty() &&
+                 triangles.size() >= size_t(kMinPrefilterLeaf);
 }
 
 void Scene::add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,

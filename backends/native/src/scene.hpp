@@ -337,10 +337,9 @@ class Scene {
     // walk, with float corners and the watertight test, in a scene with a leaf it can take
     // (kMinPrefilterLeaf triangles). Elsewhere the leaves are tested as before it: its AVX2 leaf
     // loop, every test inlined, rendered S1 (4 spheres, 2 triangles) ~10 % slower in CPU time.
-    bool prefilter_applies() const {
-        return !bvh8_.empty() && triangles.lanes() && povray_triangles.empty() &&
-               triangles.size() >= size_t(kMinPrefilterLeaf);
-    }
+    // (Decided once the scene is built: asked per ray, the four tests cost ~11 instructions of an
+    // S2 shadow ray.)
+    bool prefilter_applies() const { return prefilter_; }
 
     Bvh bvh_;  // the binary tree; its nodes are freed once collapsed
     // What the rays and bundles walk: the 8-wide tree where the CPU has AVX2 (simd_dispatch.hpp),
@@ -350,6 +349,7 @@ class Scene {
     UninitialisedVector<int32_t> refs_;   // BVH leaf order (sized unwritten: the copy sets each)
     std::vector<size_t> first_triangle_;  // mesh m's input rows start at first_triangle_[m]
     std::vector<int32_t> mesh_material_;  // by mesh
+    bool prefilter_ = false;              // prefilter_applies()
 };
 
 }  // namespace phong
