@@ -356,7 +356,7 @@ void Scene::add_instances(std::unique_ptr<Scene> prototype, const double* world_
     bounds.grow(instances->bounds);
 }
 
-int32_t Scene::triangle_mesh(size_t slot) const {
+int32_t Scene::triangle_mesh_searched(size_t slot) const {
     const size_t i = triangle_source[slot];
     return int32_t(std::upper_bound(first_triangle_.begin() + 1, first_triangle_.end(), i) - first_triangle_.begin() -
                    1);
