@@ -117,6 +117,33 @@ def test_spheres_intrinsics_planes_and_a_double_mesh():
 
 
 @needs_avx2
+def test_sphere_leaves_in_lanes_on_every_sphere_path():
+    # Leaves of spheres alone take a packet's rays four at a time (sphere_lanes.hpp): rotated,
+    # non-uniformly scaled ellipsoids (the full transform), scaled and translated spheres (the
+    # axis-aligned one), and rays from a sphere's centre, whose b = o·d is zero in every lane (the
+    # scalar test's sign rule), each ray's hit its own walk's to the bit.
+    rng = np.random.default_rng(12)
+    ellipsoids = []
+    for _ in range(12):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        m = np.eye(4)
+        m[:3, :3] = q @ np.diag(rng.uniform(0.2, 0.9, 3))
+        m[:3, 3] = rng.uniform(-3, 3, 3)
+        ellipsoids.append(Sphere(m))
+    spheres = (*ellipsoids, *(Sphere.at(tuple(rng.uniform(-3, 3, 3)), float(rng.uniform(0.2, 0.6))) for _ in range(12)))
+    built = native.build(Scene(spheres=spheres))
+    dirs = camera_block_dirs([0.05, -0.1, -1.0], 64, 32, fov=1.2)
+    assert assert_packets_match(built, np.array([0.2, 0.4, 8.0]), dirs, walked_at_least=0.8) > 0.2 * len(dirs)
+    # From the centre of a sphere (its object-space origin is 0), to its inside wall.
+    inside = native.build(Scene(spheres=(Sphere.at((1.0, -2.0, 0.5), 3.0), Sphere.at((1.5, -2.0, -1.5), 0.4))))
+    for forward in ([0.3, 0.2, -1.0], [-1.0, 0.6, 0.4]):  # every packet of one sign per axis
+        centre_dirs = camera_block_dirs(forward, 16, 8, fov=0.5)
+        assert assert_packets_match(inside, np.array([1.0, -2.0, 0.5]), centre_dirs, walked_at_least=0.8) == len(
+            centre_dirs
+        )
+
+
+@needs_avx2
 def test_coincident_surfaces_tie_to_the_lower_id():
     # The same grid twice, and a sphere tangent to it: exact ties at every hit.
     mesh = jittered_grid(10, 2.0, (-1.0, -1.0, 0.0), seed=3)

@@ -149,9 +149,9 @@ struct FloatSlabPacket8 {
 
 // The closest-hit walk (traverse_bvh8<true>) for a packet: children nearest first by the
 // packet's entry, a pending child skipped once its entry lies beyond every ray's far limit.
-// `leaf(r, first, count)` tests a leaf's primitives for ray r and returns that ray's far limit
-// for boxes now (t_cull, as a double); `rays` has bit r set for the packet's rays, t_cull[r]
-// their limits to start with.
+// `leaf(rays, first, count, t_cull)` tests a leaf's primitives for the rays of bit mask `rays`
+// and sets t_cull[r] to each one's far limit for boxes now (as a double); `rays` here has bit r
+// set for the packet's rays, t_cull[r] their limits to start with.
 template <class LeafFn>
 PHONG_AVX2 void traverse_bvh8_packet(const Bvh8Nodes& nodes, const FloatSlabPacket8& packet, unsigned rays,
                                      const double* t_cull, LeafFn&& leaf) {
@@ -199,9 +199,11 @@ PHONG_AVX2 void traverse_bvh8_packet(const Bvh8Nodes& nodes, const FloatSlabPack
             }
         } else {
             bool changed = false;
+            double leaf_cull[kPacketRays];
+            leaf(current.rays, current.child, current.count, leaf_cull);
             for (unsigned r_bits = current.rays; r_bits != 0; r_bits &= r_bits - 1) {
                 const int r = __builtin_ctz(r_bits);
-                const float limit = round_up(leaf(r, current.child, current.count) * double(kFloatSlabWidening));
+                const float limit = round_up(leaf_cull[r] * double(kFloatSlabWidening));
                 if (limit != far[r]) {
                     far[r] = limit;
                     changed = true;

@@ -42,7 +42,12 @@ struct Scene::ClosestSearch {
         } else {
             hit_here = scene->hit_solid(ref, *ray, t_min, t_test, t);
         }
-        if (!hit_here) return;
+        if (hit_here) offer(ref, t, bary);
+    }
+
+    // A hit of primitive `ref` at t in (t_min, t_test), as test() found it (or a test of the
+    // same numbers: sphere_lanes.hpp): it replaces the best if closer, or an exact tie with a lower id.
+    __attribute__((always_inline)) void offer(int32_t ref, double t, const Barycentric& bary) {
         if (found && !(t < t_best || scene->primitive_id(ref) < scene->primitive_id(hit->ref))) return;
         found = true;
         t_best = t;

@@ -10,6 +10,7 @@
 #include "bvh8_packet.hpp"
 #include "closest_search.hpp"
 #include "scene.hpp"
+#include "sphere_lanes.hpp"
 #include "triangle_prefilter.hpp"
 
 namespace phong {
@@ -32,18 +33,56 @@ bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin
         if (prefilter) filter[r].emplace(triangles, magnitude);
         t_cull[r] = HUGE_VAL;
     }
-    // closest_hit()'s leaves, for ray r (always_inline and flatten as there: the tests inlined
-    // into the AVX2 walk).
-    auto leaf = [&](int r, int32_t first, int n) PHONG_AVX2 __attribute__((flatten)) {
-        ClosestSearch& s = *search[r];
-        const int32_t* refs = refs_.data() + first;
-        if (prefilter) {
-            for (unsigned kept = (*filter[r])(refs, n, rays[r], s.wr); kept != 0; kept &= kept - 1)
-                s.test(refs[__builtin_ctz(kept)]);
-        } else {
-            for (int k = 0; k < n; ++k) s.test(refs[k]);
+    const bool any_spheres = !spheres.empty();
+    // Sphere `ref` against the rays of `rays`, four at a time (sphere_lanes.hpp: each lane the
+    // scalar test's answer and root), each hit offered to its ray's search as test() would.
+    auto test_sphere = [&](int32_t ref, unsigned rays_in) PHONG_AVX2 __attribute__((always_inline)) {
+        const SphereShape& sphere = spheres[size_t(~ref)];
+        while (rays_in != 0) {
+            int lane_ray[kSphereLanes];
+            int lanes = 0;
+            for (; rays_in != 0 && lanes < kSphereLanes; rays_in &= rays_in - 1)
+                lane_ray[lanes++] = __builtin_ctz(rays_in);
+            for (int i = lanes; i < kSphereLanes; ++i) lane_ray[i] = lane_ray[0];  // spare lanes: ray 0 again
+            const Vec3 &d0 = rays[lane_ray[0]].dir, &d1 = rays[lane_ray[1]].dir, &d2 = rays[lane_ray[2]].dir,
+                       &d3 = rays[lane_ray[3]].dir;
+            const __m256d t_max = _mm256_setr_pd(search[lane_ray[0]]->t_test, search[lane_ray[1]]->t_test,
+                                                 search[lane_ray[2]]->t_test, search[lane_ray[3]]->t_test);
+            double t[kSphereLanes];
+            const int hits = intersect_sphere_lanes(sphere, rays[0].origin, _mm256_setr_pd(d0.x, d1.x, d2.x, d3.x),
+                                                    _mm256_setr_pd(d0.y, d1.y, d2.y, d3.y),
+                                                    _mm256_setr_pd(d0.z, d1.z, d2.z, d3.z), t_min, t_max, t) &
+                             ((1 << lanes) - 1);
+            for (unsigned h = unsigned(hits); h != 0; h &= h - 1) {
+                const int i = __builtin_ctz(h);
+                search[lane_ray[i]]->offer(ref, t[i], Barycentric{});
+            }
         }
-        return s.t_cull;
+    };
+    // closest_hit()'s leaves, for the rays of `rays_in` (always_inline and flatten as there: the
+    // tests inlined into the AVX2 walk). Each ray tests the leaf's primitives in their order, as
+    // its own walk would; a leaf of spheres alone met by two rays or more takes them in lanes.
+    auto leaf = [&](unsigned rays_in, int32_t first, int n, double* cull) PHONG_AVX2 __attribute__((flatten)) {
+        const int32_t* refs = refs_.data() + first;
+        bool spheres_only = any_spheres && (rays_in & (rays_in - 1)) != 0;
+        for (int k = 0; k < n && spheres_only; ++k) spheres_only = is_sphere(refs[k]);
+        if (spheres_only) {
+            for (int k = 0; k < n; ++k) test_sphere(refs[k], rays_in);
+            for (unsigned bits = rays_in; bits != 0; bits &= bits - 1)
+                cull[__builtin_ctz(bits)] = search[__builtin_ctz(bits)]->t_cull;
+            return;
+        }
+        for (unsigned bits = rays_in; bits != 0; bits &= bits - 1) {
+            const int r = __builtin_ctz(bits);
+            ClosestSearch& s = *search[r];
+            if (prefilter) {
+                for (unsigned kept = (*filter[r])(refs, n, rays[r], s.wr); kept != 0; kept &= kept - 1)
+                    s.test(refs[__builtin_ctz(kept)]);
+            } else {
+                for (int k = 0; k < n; ++k) s.test(refs[k]);
+            }
+            cull[r] = s.t_cull;
+        }
     };
     traverse_bvh8_packet(bvh8_, packet, (1u << count) - 1u, t_cull, leaf);
     for (int r = 0; r < count; ++r) found[r] = search[r]->finish(HUGE_VAL);

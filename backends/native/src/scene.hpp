@@ -353,11 +353,11 @@ class Scene {
     // else the 4-wide one; the other is empty.
     Bvh4Nodes bvh4_;
     Bvh8Nodes bvh8_;
-    UninitialisedVector<int32_t> refs_;   // BVH leaf order (sized unwritten: the copy sets each)
-    std::vector<size_t> first_triangle_;  // mesh m's input rows start at first_triangle_[m]
-    std::vector<int32_t> mesh_material_;  // by mesh
+    UninitialisedVector<int32_t> refs_;                 // BVH leaf order (sized unwritten: the copy sets each)
+    std::vector<size_t> first_triangle_;                // mesh m's input rows start at first_triangle_[m]
+    std::vector<int32_t> mesh_material_;                // by mesh
     int32_t triangle_mesh_searched(size_t slot) const;  // triangle_mesh for three meshes or more
-    bool prefilter_ = false;              // prefilter_applies()
+    bool prefilter_ = false;                            // prefilter_applies()
 };
 
 }  // namespace phong
