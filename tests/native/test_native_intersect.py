@@ -332,6 +332,23 @@ def test_a_triangle_index_out_of_range_is_an_error_not_a_crash(bad):
         native._native.Scene(**dict(arrays, triangles=[triangles]))
 
 
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_the_first_bad_index_is_the_error_on_any_number_of_threads(threads):
+    # A mesh past for_chunks' 2^16 rows (build_threads.hpp) is checked in chunks that the build's
+    # threads take in turn; with two bad corners, the error is always the first one's, as a
+    # serial check reports it, whichever thread met which.
+    arrays = native.scene_arrays(Scene(meshes=(jittered_grid(200),)))  # 80,000 triangles
+    triangles = arrays["triangles"][0].copy()
+    assert len(triangles) > 2**16
+    first_bad, later_bad = -7, len(arrays["points"][0]) + 5
+    triangles[len(triangles) // 3, 2] = first_bad
+    triangles[len(triangles) - 10, 0] = later_bad
+    with native.build_threads(threads):
+        for _ in range(3):
+            with pytest.raises(ValueError, match=f"triangle vertex index {first_bad} out of range"):
+                native._native.Scene(**dict(arrays, triangles=[triangles]))
+
+
 @pytest.mark.parametrize("t_min", [0.0, 1e-9])  # the double-precision and the float box test (bvh4.hpp)
 def test_occluded_answers_whether_a_hit_lies_before_t_max(t_min):
     # Scene.occluded (the any-hit walk of shadow rays) against the closest hit: blocked exactly

@@ -66,7 +66,7 @@ def test_float_numbers_are_stored_as_floats_and_any_double_keeps_doubles():
 
 
 # More rows than for_chunks' kParallelCopyMinItems (2^16, build_threads.hpp): the normals' float
-# check and copy then run in one chunk per build thread.
+# check and copy then run in chunks on the build threads.
 MANY_NORMALS = 70_000
 
 
