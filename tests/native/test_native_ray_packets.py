@@ -143,6 +143,55 @@ def test_sphere_leaves_in_lanes_on_every_sphere_path():
         )
 
 
+def _quads(centres, size: float, double: bool) -> TriangleMesh:
+    """Separate quads in the plane z = 0, two triangles each (so every leaf holds two triangles
+    or so: none the float prefilter takes), the second quad of each pair wound the other way;
+    ``double``: corners that are not floats (a mesh stored in double, no prefilter at all)."""
+    points, triangles = [], []
+    for k, (x, y) in enumerate(centres):
+        h = 0.5 * size
+        points += [(x - h, y - h, 0.0), (x + h, y - h, 0.0), (x + h, y + h, 0.0), (x - h, y + h, 0.0)]
+        q = 4 * k
+        triangles += [(q, q + 1, q + 2), (q, q + 2, q + 3)] if k % 2 == 0 else [(q, q + 2, q + 1), (q, q + 3, q + 2)]
+    points = np.asarray(points, np.float32).astype(float)
+    if double:
+        points += np.array([1e-3 / 3.0, 0.0, 0.0])
+    return TriangleMesh(points=points, triangles=np.asarray(triangles))
+
+
+@needs_avx2
+@pytest.mark.parametrize("double", [False, True])
+def test_triangle_leaves_in_lanes(double):
+    # Leaves of triangles that each ray tests in full take a packet's rays four at a time
+    # (triangle_lanes.hpp), each ray's hit its own walk's to the bit: quads seen from the front
+    # and the back, rays exactly through their diagonals (an edge function of exactly zero:
+    # those lanes take the scalar test's ownership rule), and packets whose rays' dominant axes
+    # differ (ray by ray).
+    rng = np.random.default_rng(21)
+    centres = rng.uniform(-4, 4, size=(40, 2))
+    built = native.build(Scene(meshes=(_quads(centres, 0.9, double),)))
+    assert built.single_precision_triangles != double
+    for origin in ([0.2, -0.3, 6.0], [0.1, 0.4, -5.0]):  # above, and below (the back faces)
+        dirs = camera_block_dirs(-np.asarray(origin), 64, 32, fov=1.6)
+        assert assert_packets_match(built, np.asarray(origin), dirs, walked_at_least=0.8) > 0.2 * len(dirs)
+    # Through the diagonal of a quad centred below the eye: dx = dy exactly, so the sheared
+    # corners on the diagonal give u, v or w = 0 in every lane.
+    diagonal = native.build(Scene(meshes=(_quads([(0.0, 0.0), (3.0, 3.0)], 2.0, double),)))
+    steps = np.linspace(-0.3, 0.3, PACKET * 4)
+    through = np.stack([steps, steps, -np.ones_like(steps)], axis=1)
+    through /= np.linalg.norm(through, axis=1, keepdims=True)
+    for half in (through[steps < 0], through[steps > 0]):  # one sign per axis in a packet, as packets need
+        assert assert_packets_match(diagonal, np.array([0.0, 0.0, 1.0]), half, walked_at_least=0.8) == len(half)
+    # Dominant axes that differ within every packet: rays at about 45° between -z and +x, x
+    # and z dominant in turn.
+    k = np.arange(PACKET * 40)
+    turns = np.stack(
+        [1.0 + np.where(k % 2 == 0, 0.01, -0.01), np.linspace(-0.6, 0.6, k.size), -np.ones(k.size)], axis=1
+    )
+    turns /= np.linalg.norm(turns, axis=1, keepdims=True)
+    assert assert_packets_match(built, np.array([-6.0, 0.1, 6.0]), turns, walked_at_least=0.8) > 0.1 * len(turns)
+
+
 @needs_avx2
 def test_coincident_surfaces_tie_to_the_lower_id():
     # The same grid twice, and a sphere tangent to it: exact ties at every hit.

@@ -11,6 +11,7 @@
 #include "closest_search.hpp"
 #include "scene.hpp"
 #include "sphere_lanes.hpp"
+#include "triangle_lanes.hpp"
 #include "triangle_prefilter.hpp"
 
 namespace phong {
@@ -59,15 +60,77 @@ bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin
             }
         }
     };
+    // The rays' WatertightRays (each search's own, set up here if no test has yet) with their
+    // shears by lane, set up when a leaf first takes triangles in lanes; shears_shared() is false
+    // when the rays' dominant axes differ (then every leaf's triangles go ray by ray).
+    enum { kShearsUnset, kShearsShared, kShearsDiffer } shears = kShearsUnset;
+    alignas(32) double shear_x[kPacketRays], shear_y[kPacketRays], shear_z[kPacketRays];
+    auto shears_shared = [&]() {
+        if (shears == kShearsUnset) {
+            shears = kShearsShared;
+            for (int r = 0; r < count; ++r) {
+                std::optional<WatertightRay>& wr = search[r]->wr;
+                if (!wr) wr.emplace(rays[r].dir);
+                const WatertightRay& first_wr = *search[0]->wr;
+                if (wr->kx != first_wr.kx || wr->ky != first_wr.ky || wr->kz != first_wr.kz) shears = kShearsDiffer;
+                shear_x[r] = wr->sx;
+                shear_y[r] = wr->sy;
+                shear_z[r] = wr->sz;
+            }
+        }
+        return shears == kShearsShared;
+    };
+    // Triangle `ref` against the rays of `rays_in`, four at a time (triangle_lanes.hpp: each lane
+    // the scalar test's answer, distance and weights), each hit offered to its ray's search as
+    // test() would; a lane through an edge takes the scalar test.
+    auto test_triangle = [&](int32_t ref, unsigned rays_in) PHONG_AVX2 __attribute__((always_inline)) {
+        const TriangleShape tri = triangles[size_t(ref)];
+        const WatertightRay& axes = *search[0]->wr;
+        while (rays_in != 0) {
+            int lane_ray[kTriangleLanes];
+            int lanes = 0;
+            for (; rays_in != 0 && lanes < kTriangleLanes; rays_in &= rays_in - 1)
+                lane_ray[lanes++] = __builtin_ctz(rays_in);
+            for (int i = lanes; i < kTriangleLanes; ++i) lane_ray[i] = lane_ray[0];  // spare lanes: ray 0 again
+            auto gather = [&](const double* x) PHONG_AVX2 {
+                return _mm256_setr_pd(x[lane_ray[0]], x[lane_ray[1]], x[lane_ray[2]], x[lane_ray[3]]);
+            };
+            const WatertightLanes wr{axes.kx, axes.ky, axes.kz, gather(shear_x), gather(shear_y), gather(shear_z)};
+            const __m256d t_max = _mm256_setr_pd(search[lane_ray[0]]->t_test, search[lane_ray[1]]->t_test,
+                                                 search[lane_ray[2]]->t_test, search[lane_ray[3]]->t_test);
+            TriangleLaneHits found_here;
+            int scalar;
+            const int used = (1 << lanes) - 1;
+            const int hits = intersect_triangle_lanes(tri, rays[0].origin, wr, t_min, t_max, found_here, scalar) & used;
+            for (unsigned h = unsigned(hits); h != 0; h &= h - 1) {
+                const int i = __builtin_ctz(h);
+                search[lane_ray[i]]->offer(ref, found_here.t[i], found_here.bary(i));
+            }
+            for (unsigned e = unsigned(scalar & used); e != 0; e &= e - 1)
+                search[lane_ray[__builtin_ctz(e)]]->test(ref);
+        }
+    };
+    // Triangles in lanes only with the watertight test (not POV-Ray's), and (below) only in
+    // leaves the prefilter does not take, where each ray would test every triangle in full.
+    const bool triangle_lanes = povray_triangles.empty();
     // closest_hit()'s leaves, for the rays of `rays_in` (always_inline and flatten as there: the
     // tests inlined into the AVX2 walk). Each ray tests the leaf's primitives in their order, as
-    // its own walk would; a leaf of spheres alone met by two rays or more takes them in lanes.
+    // its own walk would; a leaf of spheres alone met by two rays or more takes them in lanes, and
+    // so does one of triangles alone that each ray would test in full.
     auto leaf = [&](unsigned rays_in, int32_t first, int n, double* cull) PHONG_AVX2 __attribute__((flatten)) {
         const int32_t* refs = refs_.data() + first;
-        bool spheres_only = any_spheres && (rays_in & (rays_in - 1)) != 0;
+        const bool shared = (rays_in & (rays_in - 1)) != 0;
+        bool spheres_only = any_spheres && shared;
         for (int k = 0; k < n && spheres_only; ++k) spheres_only = is_sphere(refs[k]);
-        if (spheres_only) {
-            for (int k = 0; k < n; ++k) test_sphere(refs[k], rays_in);
+        bool triangles_only = !spheres_only && triangle_lanes && shared && (!prefilter || n < kMinPrefilterLeaf);
+        for (int k = 0; k < n && triangles_only; ++k) triangles_only = refs[k] >= 0;
+        if (spheres_only || (triangles_only && shears_shared())) {
+            for (int k = 0; k < n; ++k) {
+                if (spheres_only)
+                    test_sphere(refs[k], rays_in);
+                else
+                    test_triangle(refs[k], rays_in);
+            }
             for (unsigned bits = rays_in; bits != 0; bits &= bits - 1)
                 cull[__builtin_ctz(bits)] = search[__builtin_ctz(bits)]->t_cull;
             return;
