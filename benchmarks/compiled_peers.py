@@ -113,7 +113,8 @@ def write_rays(scene, settings, path: Path) -> tuple[np.ndarray, np.ndarray, lis
     return origins, dirs, targets
 
 
-def _run(cmd: list[str]) -> dict:
+def run_peer(cmd: list[str]) -> dict:
+    """A compiled peer's JSON line (its figures), or SystemExit with its error."""
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode != 0:
         raise SystemExit(f"{cmd[0]} failed ({done.returncode}): {done.stderr.strip()[-500:]}")
@@ -155,7 +156,8 @@ def native_trace(scene, settings, native_scene, repeat: int) -> dict:
     render also shades): the primary rays' closest hits as a render traces them, eight at a time
     in 4 x 2 pixel blocks (``Scene.intersect_packets``; ``Scene.intersect`` one by one when the
     image does not divide into blocks), then from each hit one shadow ray per target with the
-    peers' offsets (``Scene.occluded``, the any-hit walk of shadow rays). Best of ``repeat``; the
+    peers' offsets (``Scene.occluded``, the any-hit walk of shadow rays). Best of ``repeat``, also
+    of the primary and the shadow rays apart ("primary", "shadow"); the
     time is the C++ calls' (the blocks' order and the shadow rays' origins and directions are made
     in numpy between them, untimed: ~20 arithmetic operations a ray, which the peers do inside
     their loops)."""
@@ -165,7 +167,7 @@ def native_trace(scene, settings, native_scene, repeat: int) -> dict:
     blocks = pixel_blocks(settings.width, settings.height)
     block_dirs = None if blocks is None else np.ascontiguousarray(dirs[blocks])
     targets = [shadow_targets(light) for light in scene.lights]
-    best, rays = float("inf"), 0
+    best, best_primary, best_shadow, rays = float("inf"), float("inf"), float("inf"), 0
     for _ in range(repeat):
         if block_dirs is None:
             start = time.perf_counter()
@@ -177,6 +179,7 @@ def native_trace(scene, settings, native_scene, repeat: int) -> dict:
             elapsed = time.perf_counter() - start
             t = np.empty_like(t_blocks)
             t[blocks] = t_blocks
+        primary = elapsed
         valid = np.isfinite(t)
         points = origins[valid] + dirs[valid] * t[valid, None]
         rays = len(origins)
@@ -191,7 +194,8 @@ def native_trace(scene, settings, native_scene, repeat: int) -> dict:
                 elapsed += time.perf_counter() - start
                 rays += len(points)
         best = min(best, elapsed)
-    return {"render": best, "rays": rays}
+        best_primary, best_shadow = min(best_primary, primary), min(best_shadow, elapsed - primary)
+    return {"render": best, "primary": best_primary, "shadow": best_shadow, "rays": rays}
 
 
 def run_peers(scene, settings, native_scene, threads: int, repeat: int) -> dict[str, dict | str]:
@@ -205,7 +209,7 @@ def run_peers(scene, settings, native_scene, threads: int, repeat: int) -> dict[
         origins, dirs, targets = write_rays(scene, settings, rays_path)
 
         def checked(cmd: list[str]) -> dict:
-            figures = _run(cmd)
+            figures = run_peer(cmd)
             valid, t, points, occluded = _answers(hits_path, origins, dirs, targets)
             figures["agreement"] = agreement(
                 native_scene, origins, dirs, valid, t, points, targets, occluded, who=Path(cmd[0]).name
