@@ -3,11 +3,16 @@
 built for the fastest walk (a node visit costs about one primitive test), so S1's four spheres
 are four leaves (at cost 2 they were two pairs, each ray meeting a pair testing both: S1 rendered
 with 5 % more instructions); a large mesh keeps the smaller tree. Hits do not depend on the
-tree: brute force agrees on both sides of the size threshold."""
+tree: brute force agrees on both sides of the size threshold. Where the float prefilter tests a
+leaf's triangles eight to an AVX pass (every primitive a triangle, float corners, the AVX2 walk),
+nodes of up to eight become leaves: a leaf costs one pass whatever its size."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
+from test_native_simd_dispatch import built_with, needs_avx2
 
 from phongscene.backends import native
 from phongscene.scene import Scene, Sphere, TriangleMesh
@@ -65,3 +70,48 @@ def test_hits_equal_brute_force_on_both_sides_of_the_threshold():
         t, _ = built.intersect(origins, dirs, 1e-9)
         _, t_brute = built.count_hits(origins, dirs, 1e-9)
         assert np.array_equal(t, t_brute)
+
+
+def float_grid_mesh(n_triangles: int) -> TriangleMesh:
+    """grid_mesh with its points rounded to float32: the corners the prefilter reads."""
+    mesh = grid_mesh(n_triangles)
+    return TriangleMesh(points=mesh.points.astype(np.float32).astype(np.float64), triangles=mesh.triangles)
+
+
+def triangles_per_leaf(built, scene: Scene) -> float:
+    return sum(len(m.triangles) for m in scene.meshes) / built.leaf_count
+
+
+@needs_avx2
+def test_leaves_of_eight_where_the_prefilter_tests_them(monkeypatch):
+    lanes = Scene(meshes=(float_grid_mesh(20000),))
+    per_leaf = triangles_per_leaf(native.build(lanes), lanes)
+    assert 5.0 < per_leaf <= 8.0  # kMaxLeafSize; most nodes of at most eight are leaves
+    # Where leaves are tested one primitive at a time the SAH keeps them small: the portable
+    # walk, double corners, or a sphere among the triangles.
+    doubles = Scene(meshes=(grid_mesh(20000),))
+    with_sphere = dataclasses.replace(lanes, spheres=(Sphere.at((0.0, 3.0, 0.0), 0.1),))
+    assert triangles_per_leaf(built_with(monkeypatch, lanes, "sse2"), lanes) < per_leaf / 2
+    assert triangles_per_leaf(native.build(doubles), doubles) < per_leaf / 2
+    assert triangles_per_leaf(native.build(with_sphere), with_sphere) < per_leaf / 2
+
+
+@needs_avx2
+def test_hits_equal_brute_force_in_leaves_of_eight():
+    rng = np.random.default_rng(26)
+    built = native.build(Scene(meshes=(float_grid_mesh(20000),)))
+    origins = np.column_stack([rng.uniform(-1.2, 1.2, 3000), np.full(3000, 1.0), rng.uniform(-1.2, 1.2, 3000)])
+    dirs = np.column_stack([rng.normal(0, 0.3, 3000), -np.ones(3000), rng.normal(0, 0.3, 3000)])
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    t, _ = built.intersect(origins, dirs, 1e-9)
+    count, t_brute = built.count_hits(origins, dirs, 1e-9)
+    assert np.array_equal(t, t_brute)
+    # Shadow rays from the surface back up, some blocked by the bumps: any-hit agrees too.
+    hit = np.isfinite(t)
+    points = origins[hit] + t[hit, None] * dirs[hit]
+    up = np.column_stack([rng.normal(0, 1.0, hit.sum()), np.full(hit.sum(), 0.15), rng.normal(0, 1.0, hit.sum())])
+    up /= np.linalg.norm(up, axis=1, keepdims=True)
+    blocked = built.occluded(points, up, np.full(hit.sum(), 10.0), 1e-6)
+    count_up, _ = built.count_hits(points, up, 1e-6)
+    assert 0 < blocked.sum() < len(blocked)
+    assert np.array_equal(blocked, count_up > 0)

@@ -86,6 +86,16 @@ constexpr float kLargeTreeTraversalCost = 2.0f;
 constexpr float kSmallTreeTraversalCost = 1.0f;
 constexpr uint32_t kSmallTreeTraversalCostBelow = 1u << 16;
 constexpr float kIntersectionCost = 1.0f;
+// A tree whose leaves are tested eight triangles to an AVX pass (LeafTests::kEightLanes: every
+// primitive a triangle, float corners, the AVX2 walk): a leaf of up to kMaxLeafSize costs one
+// pass of the prefilter plus the exact tests of the few it keeps, about one node visit (eight
+// boxes in one AVX test), whatever its size. At this traversal cost no split of a node of at most
+// kMaxLeafSize primitives pays (its cost is at least 8 + the children's), so such nodes become
+// leaves. Measured (benchmarks/README.md, "Issue 25: leaves of eight for the prefilter"),
+// against the cost-2 tree, CPU medians: S2 build 0.237 -> 0.193 s, render 0.210 -> 0.190 s (its
+// shadow rays from the torus 268 -> 220 ns: 10.3 -> 9.2 nodes a ray); S2-100k render 0.158 ->
+// 0.144 s, S2-10k 0.137 -> 0.130 s. Cost 4 rendered S2 as fast and built it ~10 % slower.
+constexpr float kLaneLeavesTraversalCost = float(kMaxLeafSize);
 // Below this depth the SAH decides; deeper, nodes split at the median on the widest centroid
 // axis, so adversarial inputs (e.g. exponentially spaced primitives) keep the tree depth below
 // kMaxSahDepth + log2(N / kExactSahMaxPrimitives) + kExactSahMaxPrimitives - 1
@@ -746,7 +756,7 @@ struct Builder {
 
 }  // namespace
 
-void Bvh::build(PrimRefs prims) {
+void Bvh::build(PrimRefs prims, LeafTests leaf_tests) {
     nodes.clear();
     order.clear();
     if (prims.empty()) return;
@@ -755,8 +765,10 @@ void Bvh::build(PrimRefs prims) {
     // At most 2n - 1 nodes; slots that are never written are never resident, so no
     // shrink_to_fit (its copy would double the nodes' peak memory).
     resize_huge(nodes, 2 * size_t(n) - 1);
-    Builder builder{prims, nodes.data(),
-                    n < kSmallTreeTraversalCostBelow ? kSmallTreeTraversalCost : kLargeTreeTraversalCost};
+    const float traversal_cost = leaf_tests == LeafTests::kEightLanes ? kLaneLeavesTraversalCost
+                                 : n < kSmallTreeTraversalCostBelow   ? kSmallTreeTraversalCost
+                                                                      : kLargeTreeTraversalCost;
+    Builder builder{prims, nodes.data(), traversal_cost};
     // Up to two subtrees per build thread (the halves of a split are rarely equal); none with one.
     const unsigned threads = build_threads();
     int parallel_splits = threads > 1 ? 1 : 0;

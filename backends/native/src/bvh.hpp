@@ -153,13 +153,19 @@ using BvhNodes = UninitialisedVector<BvhNode>;
 // The most primitives one tree holds: its 2n - 1 node slots are numbered in int32.
 constexpr size_t kMaxBvhPrimitives = size_t(1) << 30;
 
+// How the walk will test a leaf's primitives, which sets what a leaf costs the SAH (bvh.cpp).
+enum class LeafTests {
+    kOneByOne,    // each primitive by itself: a leaf of n costs n tests
+    kEightLanes,  // triangles only, eight to one AVX pass of the float prefilter (triangle_prefilter.hpp)
+};
+
 struct Bvh {
     BvhNodes nodes;
     UninitialisedVector<uint32_t> order;  // leaf order: positions index the primitives' ids (sized unwritten)
 
     // Builds over the primitives (consumed: the build reorders them in place and frees them).
     // Centroids are the float boxes' centres.
-    void build(PrimRefs prims);
+    void build(PrimRefs prims, LeafTests leaf_tests = LeafTests::kOneByOne);
 };
 
 // Slab test against a node (or any box with float lo[3], hi[3]), in double precision with

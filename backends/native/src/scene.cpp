@@ -182,9 +182,18 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         bounds.grow(chunk_bounds);
     });
     magnitude = bounds.empty() ? 0.0 : std::fmax(max_abs_component(bounds.lo), max_abs_component(bounds.hi));
+    // Float corners when every vertex is a float (triangle_store.hpp): the same doubles.
+    bool every_vertex_float = !in.povray_triangles;
+    for (const MeshArrays& mesh : in.meshes)
+        for (size_t i = 0; i < 3 * mesh.point_count && every_vertex_float; ++i)
+            every_vertex_float = float_exact(mesh.points[i]);
+    // Leaves of triangles alone that the float prefilter will test eight at a time (the AVX2
+    // walk over float corners: prefilter_applies below) are built up to eight (bvh.cpp).
+    const bool lane_leaves =
+        use_avx2() && every_vertex_float && n_triangles >= size_t(kMinPrefilterLeaf) && prims.size() == n_triangles;
     // The build consumes (and frees) the primitive boxes before the leaf-order copies below are
     // allocated.
-    bvh_.build(std::move(prims));
+    bvh_.build(std::move(prims), lane_leaves ? LeafTests::kEightLanes : LeafTests::kOneByOne);
 #if defined(__GLIBC__)
     // The freed primitive boxes (30 MiB at 1M triangles) stay resident in glibc's heap, under
     // the collapse and the copies below, unless handed back: S2's peak 300 -> 286 MiB
@@ -222,11 +231,6 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         }
         triangles.resize_mesh_local(n_triangles, std::move(origins), !every_point_recovered);
     } else {
-        // Float corners when every vertex is a float (triangle_store.hpp): the same doubles.
-        bool every_vertex_float = true;
-        for (const MeshArrays& mesh : in.meshes)
-            for (size_t i = 0; i < 3 * mesh.point_count && every_vertex_float; ++i)
-                every_vertex_float = float_exact(mesh.points[i]);
         // In lanes only where the prefilter can run (prefilter_applies); elsewhere in rows.
         triangles.resize(n_triangles, every_vertex_float, !bvh8_.empty() && n_triangles >= size_t(kMinPrefilterLeaf));
     }
