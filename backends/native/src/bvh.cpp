@@ -73,7 +73,8 @@ struct Box4 {
 // ~10 % slower, a loss at one sample a pixel; below kSmallTreeTraversalCostBelow primitives the
 // build takes milliseconds and the tree ~21 B a primitive more (under 1.4 MiB), so those
 // scenes take cost 1. The closest hit does not depend on the tree (ties go to the lower
-// primitive id), so images are the same either way.
+// primitive id), so images are the same either way. (Trees whose leaves the float prefilter
+// tests eight triangles at a time weigh a leaf differently: kLaneLeavesTraversalCost below.)
 constexpr int kBins = 16;
 // Nodes of fewer primitives bin into kFewBins: their cost is mostly per node (emptying and
 // sweeping 3 x kBins bins for 9-31 primitives), and half the bins halve it. S2's build 0.415 ->
@@ -92,9 +93,10 @@ constexpr float kIntersectionCost = 1.0f;
 // boxes in one AVX test), whatever its size. At this traversal cost no split of a node of at most
 // kMaxLeafSize primitives pays (its cost is at least 8 + the children's), so such nodes become
 // leaves. Measured (benchmarks/README.md, "Issue 25: leaves of eight for the prefilter"),
-// against the cost-2 tree, CPU medians: S2 build 0.237 -> 0.193 s, render 0.210 -> 0.190 s (its
-// shadow rays from the torus 268 -> 220 ns: 10.3 -> 9.2 nodes a ray); S2-100k render 0.158 ->
-// 0.144 s, S2-10k 0.137 -> 0.130 s. Cost 4 rendered S2 as fast and built it ~10 % slower.
+// against the cost-2 tree, three alternating rounds: S2's build 0.233-0.267 -> 0.204-0.210 s of
+// CPU, its render 0.217-0.218 -> 0.193-0.196 s (its shadow rays from the torus 268 -> ~210 ns:
+// 10.3 -> 9.2 node visits a ray), S2-100k's render 0.157-0.172 -> 0.146-0.148 s; S2's scene
+// after the build 268 -> 247 MiB. Cost 4 rendered S2 as fast and built it ~10 % slower.
 constexpr float kLaneLeavesTraversalCost = float(kMaxLeafSize);
 // Below this depth the SAH decides; deeper, nodes split at the median on the widest centroid
 // axis, so adversarial inputs (e.g. exponentially spaced primitives) keep the tree depth below
