@@ -4,8 +4,8 @@ built for the fastest walk (a node visit costs about one primitive test), so S1'
 are four leaves (at cost 2 they were two pairs, each ray meeting a pair testing both: S1 rendered
 with 5 % more instructions); a large mesh keeps the smaller tree. Hits do not depend on the
 tree: brute force agrees on both sides of the size threshold. Where the float prefilter tests a
-leaf's triangles eight to an AVX pass (every primitive a triangle, float corners, the AVX2 walk),
-nodes of up to eight become leaves: a leaf costs one pass whatever its size."""
+leaf's triangles eight to an AVX pass (triangles with float corners on the AVX2 walk), nodes of up
+to eight triangles alone become leaves: such a leaf costs one pass whatever its size."""
 
 from __future__ import annotations
 
@@ -87,19 +87,23 @@ def test_leaves_of_eight_where_the_prefilter_tests_them(monkeypatch):
     lanes = Scene(meshes=(float_grid_mesh(20000),))
     per_leaf = triangles_per_leaf(native.build(lanes), lanes)
     assert 5.0 < per_leaf <= 8.0  # kMaxLeafSize; most nodes of at most eight are leaves
+    # A few spheres among the triangles leave the triangles' leaves as they are.
+    spheres = tuple(Sphere.at((x, 0.0, 0.0), 0.05) for x in (-0.5, 0.0, 0.5))
+    with_spheres = dataclasses.replace(lanes, spheres=spheres)
+    assert triangles_per_leaf(native.build(with_spheres), with_spheres) > 0.95 * per_leaf
     # Where leaves are tested one primitive at a time the SAH keeps them small: the portable
-    # walk, double corners, or a sphere among the triangles.
+    # walk, or double corners.
     doubles = Scene(meshes=(grid_mesh(20000),))
-    with_sphere = dataclasses.replace(lanes, spheres=(Sphere.at((0.0, 3.0, 0.0), 0.1),))
     assert triangles_per_leaf(built_with(monkeypatch, lanes, "sse2"), lanes) < per_leaf / 2
     assert triangles_per_leaf(native.build(doubles), doubles) < per_leaf / 2
-    assert triangles_per_leaf(native.build(with_sphere), with_sphere) < per_leaf / 2
 
 
 @needs_avx2
 def test_hits_equal_brute_force_in_leaves_of_eight():
     rng = np.random.default_rng(26)
-    built = native.build(Scene(meshes=(float_grid_mesh(20000),)))
+    # Spheres on the surface: leaves of triangles alone beside leaves that hold a sphere.
+    spheres = tuple(Sphere.at((x, 0.0, z), 0.04) for x in (-0.6, 0.0, 0.6) for z in (-0.6, 0.0, 0.6))
+    built = native.build(Scene(meshes=(float_grid_mesh(20000),), spheres=spheres))
     origins = np.column_stack([rng.uniform(-1.2, 1.2, 3000), np.full(3000, 1.0), rng.uniform(-1.2, 1.2, 3000)])
     dirs = np.column_stack([rng.normal(0, 0.3, 3000), -np.ones(3000), rng.normal(0, 0.3, 3000)])
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)

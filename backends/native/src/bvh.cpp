@@ -87,12 +87,12 @@ constexpr float kLargeTreeTraversalCost = 2.0f;
 constexpr float kSmallTreeTraversalCost = 1.0f;
 constexpr uint32_t kSmallTreeTraversalCostBelow = 1u << 16;
 constexpr float kIntersectionCost = 1.0f;
-// A tree whose leaves are tested eight triangles to an AVX pass (LeafTests::kEightLanes: every
-// primitive a triangle, float corners, the AVX2 walk): a leaf of up to kMaxLeafSize costs one
+// The traversal cost for a node of at most kMaxLeafSize primitives that are all tested eight to
+// an AVX pass (LaneIds: triangles with float corners on the AVX2 walk): as a leaf they cost one
 // pass of the prefilter plus the exact tests of the few it keeps, about one node visit (eight
-// boxes in one AVX test), whatever its size. At this traversal cost no split of a node of at most
-// kMaxLeafSize primitives pays (its cost is at least 8 + the children's), so such nodes become
-// leaves. Measured (benchmarks/README.md, "Issue 25: leaves of eight for the prefilter"),
+// boxes in one AVX test), whatever their number. At this cost no split of such a node pays (its
+// cost is at least 8 + the children's), so it becomes a leaf; a node holding any other
+// primitive is weighed as before. Measured (benchmarks/README.md, "Issue 25: leaves of eight for the prefilter"),
 // against the cost-2 tree, three alternating rounds: S2's build 0.233-0.267 -> 0.204-0.210 s of
 // CPU, its render 0.217-0.218 -> 0.193-0.196 s (its shadow rays from the torus 268 -> ~210 ns:
 // 10.3 -> 9.2 node visits a ray), S2-100k's render 0.157-0.172 -> 0.146-0.148 s; S2's scene
@@ -273,6 +273,7 @@ struct Builder {
     PrimRefs& prims;
     BvhNode* nodes;        // 2n - 1 slots (Bvh::build)
     float traversal_cost;  // the SAH's cost of a node visit, in primitive tests (above)
+    LaneIds lanes;         // the primitives tested eight to a pass (kLaneLeavesTraversalCost)
 
     static void make_leaf(BvhNode& node, uint32_t begin, uint32_t end) {
         node.offset = int32_t(begin);
@@ -493,7 +494,8 @@ struct Builder {
                      int parallel_splits, bool alone) {
         const uint32_t n = end - begin;
         PrimRef* p = prims.data() + begin;
-        if (n <= kMaxLeafSize && no_split_pays(p, n, bounds.half_area())) {
+        const float visit = visit_cost(p, n);
+        if (n <= kMaxLeafSize && no_split_pays(p, n, bounds.half_area(), visit)) {
             make_leaf(nodes[size_t(index)], begin, end);
             return;
         }
@@ -529,7 +531,7 @@ struct Builder {
             }
         }
         const float area = bounds.half_area();
-        const float split_cost = area > 0.0f ? traversal_cost + kIntersectionCost * best_cost / area : kHugeF;
+        const float split_cost = area > 0.0f ? visit + kIntersectionCost * best_cost / area : kHugeF;
         if (n <= kMaxLeafSize && (best_axis < 0 || kIntersectionCost * float(n) <= split_cost)) {
             reorder(p, order, n);
             make_leaf(nodes[size_t(index)], begin, end);
@@ -552,15 +554,24 @@ struct Builder {
         nodes[size_t(index)].offset = right;
     }
 
+    // The cost of a node visit for the n primitives at p as the SAH weighs it: lower where a
+    // leaf of them would be tested eight to a pass (kLaneLeavesTraversalCost).
+    float visit_cost(const PrimRef* p, uint32_t n) const {
+        if (lanes.begin == lanes.end || n > uint32_t(kMaxLeafSize)) return traversal_cost;
+        for (uint32_t i = 0; i < n; ++i)
+            if (p[i].id < lanes.begin || p[i].id >= lanes.end) return traversal_cost;
+        return kLaneLeavesTraversalCost;
+    }
+
     // Whether the exact SAH below would make the n primitives a leaf, decided without sorting:
-    // a split costs at least traversal_cost + kIntersectionCost * (sum of the primitives' areas)
+    // a split costs at least visit + kIntersectionCost * (sum of the primitives' areas)
     // / area, since each side's box holds each of its primitives' boxes. When n is no more
     // than that bound, no split can pay. On S2, 307k of the 577k nodes of at most 8 primitives
     // end here (0 of them split by the full test), their build 0.395 -> 0.388 s at one thread
     // (best of 8 in alternating processes; ~2 %). The same leaves as the full test's
     // (kLeafBoundMargin covers the float sums' rounding); only their order within a leaf
     // differs, and hits do not depend on it.
-    bool no_split_pays(const PrimRef* p, uint32_t n, float area) const {
+    bool no_split_pays(const PrimRef* p, uint32_t n, float area, float visit) const {
         if (area == 0.0f) return true;       // the full test: a split's cost is then infinite
         if (!(area < kHugeF)) return false;  // overflowed: leave it to the full test
         float sum = 0.0f;
@@ -570,7 +581,7 @@ struct Builder {
             sum += box.half_area_of_filled();
         }
         if (!(sum < kHugeF)) return false;  // overflowed: leave it to the full test
-        return kIntersectionCost * float(n) <= traversal_cost + kIntersectionCost * kLeafBoundMargin * sum / area;
+        return kIntersectionCost * float(n) <= visit + kIntersectionCost * kLeafBoundMargin * sum / area;
     }
 
     // Sorts order[0, n) (n <= 8) by doubled centroid along `axis`, stably (ties keep their
@@ -758,7 +769,7 @@ struct Builder {
 
 }  // namespace
 
-void Bvh::build(PrimRefs prims, LeafTests leaf_tests) {
+void Bvh::build(PrimRefs prims, LaneIds lanes) {
     nodes.clear();
     order.clear();
     if (prims.empty()) return;
@@ -767,10 +778,8 @@ void Bvh::build(PrimRefs prims, LeafTests leaf_tests) {
     // At most 2n - 1 nodes; slots that are never written are never resident, so no
     // shrink_to_fit (its copy would double the nodes' peak memory).
     resize_huge(nodes, 2 * size_t(n) - 1);
-    const float traversal_cost = leaf_tests == LeafTests::kEightLanes ? kLaneLeavesTraversalCost
-                                 : n < kSmallTreeTraversalCostBelow   ? kSmallTreeTraversalCost
-                                                                      : kLargeTreeTraversalCost;
-    Builder builder{prims, nodes.data(), traversal_cost};
+    Builder builder{prims, nodes.data(),
+                    n < kSmallTreeTraversalCostBelow ? kSmallTreeTraversalCost : kLargeTreeTraversalCost, lanes};
     // Up to two subtrees per build thread (the halves of a split are rarely equal); none with one.
     const unsigned threads = build_threads();
     int parallel_splits = threads > 1 ? 1 : 0;

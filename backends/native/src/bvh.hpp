@@ -153,10 +153,12 @@ using BvhNodes = UninitialisedVector<BvhNode>;
 // The most primitives one tree holds: its 2n - 1 node slots are numbered in int32.
 constexpr size_t kMaxBvhPrimitives = size_t(1) << 30;
 
-// How the walk will test a leaf's primitives, which sets what a leaf costs the SAH (bvh.cpp).
-enum class LeafTests {
-    kOneByOne,    // each primitive by itself: a leaf of n costs n tests
-    kEightLanes,  // triangles only, eight to one AVX pass of the float prefilter (triangle_prefilter.hpp)
+// The primitives (ids [begin, end)) whose leaves the walk tests eight to one AVX pass: the
+// triangles, where the float prefilter runs (triangle_prefilter.hpp). A leaf of them alone costs
+// about one pass whatever its size, which sets what such a leaf costs the SAH (bvh.cpp); a leaf
+// holding any other primitive is tested a primitive at a time. Empty: every leaf is.
+struct LaneIds {
+    uint32_t begin = 0, end = 0;
 };
 
 struct Bvh {
@@ -165,7 +167,7 @@ struct Bvh {
 
     // Builds over the primitives (consumed: the build reorders them in place and frees them).
     // Centroids are the float boxes' centres.
-    void build(PrimRefs prims, LeafTests leaf_tests = LeafTests::kOneByOne);
+    void build(PrimRefs prims, LaneIds lanes = {});
 };
 
 // Slab test against a node (or any box with float lo[3], hi[3]), in double precision with

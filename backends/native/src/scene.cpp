@@ -187,13 +187,14 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     for (const MeshArrays& mesh : in.meshes)
         for (size_t i = 0; i < 3 * mesh.point_count && every_vertex_float; ++i)
             every_vertex_float = float_exact(mesh.points[i]);
-    // Leaves of triangles alone that the float prefilter will test eight at a time (the AVX2
-    // walk over float corners: prefilter_applies below) are built up to eight (bvh.cpp).
-    const bool lane_leaves =
-        use_avx2() && every_vertex_float && n_triangles >= size_t(kMinPrefilterLeaf) && prims.size() == n_triangles;
+    // Leaves of triangles alone, which the float prefilter will test eight at a time (the AVX2
+    // walk over float corners: prefilter_applies below), are built up to eight (bvh.cpp).
+    LaneIds lanes;
+    if (use_avx2() && every_vertex_float && n_triangles >= size_t(kMinPrefilterLeaf))
+        lanes = {uint32_t(n_spheres), uint32_t(n_spheres + n_triangles)};
     // The build consumes (and frees) the primitive boxes before the leaf-order copies below are
     // allocated.
-    bvh_.build(std::move(prims), lane_leaves ? LeafTests::kEightLanes : LeafTests::kOneByOne);
+    bvh_.build(std::move(prims), lanes);
 #if defined(__GLIBC__)
     // The freed primitive boxes (30 MiB at 1M triangles) stay resident in glibc's heap, under
     // the collapse and the copies below, unless handed back: S2's peak 300 -> 286 MiB
