@@ -93,9 +93,15 @@ def why_not(scene) -> str | None:
     return None
 
 
-def write_rays(scene, settings, path: Path) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
-    """Write peer_input.h's RAYS.bin for ``scene``; returns (origins, dirs, targets per light)."""
+def write_rays(scene, settings, path: Path, only=None) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """Write peer_input.h's RAYS.bin for ``scene``; returns (origins, dirs, targets per light).
+    ``only`` (a boolean mask over the pixels, row by row): just those pixels' rays, written as an
+    image one row high."""
     origins, dirs = primary_rays(scene, settings)
+    width, height = settings.width, settings.height
+    if only is not None:
+        origins, dirs = origins[only], dirs[only]
+        width, height = len(origins), 1
     targets = [shadow_targets(light) for light in scene.lights]
     offsets = np.cumsum([0] + [len(m.points) for m in scene.meshes])
     points = np.concatenate([np.asarray(m.points, np.float32) for m in scene.meshes] or [np.zeros((0, 3), np.float32)])
@@ -103,9 +109,7 @@ def write_rays(scene, settings, path: Path) -> tuple[np.ndarray, np.ndarray, lis
         [np.asarray(m.triangles, np.int64) + o for m, o in zip(scene.meshes, offsets)] or [np.zeros((0, 3), np.int64)]
     ).astype(np.uint32)
     spheres = np.asarray([[*c, r] for c, r in map(sphere_centre_radius, scene.spheres)], np.float32).reshape(-1, 4)
-    head = struct.pack(
-        "<7i", MAGIC, settings.width, settings.height, len(points), len(triangles), len(spheres), len(targets)
-    )
+    head = struct.pack("<7i", MAGIC, width, height, len(points), len(triangles), len(spheres), len(targets))
     with open(path, "wb") as f:
         f.write(head + struct.pack(f"<{len(targets)}i", *(len(t) for t in targets)))
         for array in (points, triangles, spheres, origins, dirs, *targets):
