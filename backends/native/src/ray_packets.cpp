@@ -31,7 +31,7 @@ bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin
     double t_cull[kPacketRays];
     for (int r = 0; r < count; ++r) {
         search[r].emplace(*this, rays[r], t_min, HUGE_VAL, hits[r]);
-        if (prefilter) filter[r].emplace(triangles, magnitude);
+        if (prefilter) filter[r].emplace(triangles, magnitude, mixed_leaves());
         t_cull[r] = HUGE_VAL;
     }
     const bool any_spheres = !spheres.empty();

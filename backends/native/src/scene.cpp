@@ -352,6 +352,7 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     for (size_t m = 0; m < n_meshes; ++m) mesh_material_[m] = in.meshes[m].material;
     prefilter_ = !bvh8_.empty() && triangles.lanes() && povray_triangles.empty() &&
                  triangles.size() >= size_t(kMinPrefilterLeaf);
+    mixed_leaves_ = !spheres.empty() || !balls.empty() || !intrinsics.empty();
 }
 
 void Scene::add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
@@ -384,7 +385,7 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
         // compiled for AVX2 with the prefilter and the tests inlined: GCC inlines no default-target
         // function into a target("avx2") one unless made to (always_inline on `test`, flatten
         // here); out of line they cost S2 more than the prefilter saves (benchmarks/README.md).
-        TriangleLeafFilter filter(triangles, magnitude);
+        TriangleLeafFilter filter(triangles, magnitude, mixed_leaves());
         auto leaf = [&](int32_t first, int count, double&) PHONG_AVX2 __attribute__((flatten)) {
             const int32_t* refs = refs_.data() + first;
             for (unsigned kept = filter(refs, count, ray, search.wr); kept != 0; kept &= kept - 1)
@@ -417,7 +418,7 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
     };
     if (prefilter_applies()) {
         // Only the triangles the float prefilter keeps, inlined as in closest_hit.
-        TriangleLeafFilter filter(triangles, magnitude);
+        TriangleLeafFilter filter(triangles, magnitude, mixed_leaves());
         auto leaf = [&](int32_t first, int count, double& t_best) PHONG_AVX2 __attribute__((flatten)) {
             const int32_t* refs = refs_.data() + first;
             for (unsigned kept = filter(refs, count, ray, wr); kept != 0; kept &= kept - 1)

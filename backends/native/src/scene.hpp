@@ -347,6 +347,9 @@ class Scene {
     // (Decided once the scene is built: asked per ray, the four tests cost ~11 instructions of an
     // S2 shadow ray.)
     bool prefilter_applies() const { return prefilter_; }
+    // Whether spheres, balls or intrinsic parts share the tree's leaves with the triangles
+    // (decided with prefilter_applies).
+    bool mixed_leaves() const { return mixed_leaves_; }
 
     Bvh bvh_;  // the binary tree; its nodes are freed once collapsed
     // What the rays and bundles walk: the 8-wide tree where the CPU has AVX2 (simd_dispatch.hpp),
@@ -358,6 +361,7 @@ class Scene {
     std::vector<int32_t> mesh_material_;                // by mesh
     int32_t triangle_mesh_searched(size_t slot) const;  // triangle_mesh for three meshes or more
     bool prefilter_ = false;                            // prefilter_applies()
+    bool mixed_leaves_ = false;                         // mixed_leaves()
 };
 
 }  // namespace phong

@@ -72,11 +72,12 @@ constexpr int kMinPrefilterLeaf = 3;
 
 // One ray's prefilter: the float sheared frame of its WatertightRay and its margin constants.
 struct TrianglePrefilter8 {
-    const float* corner[3][3];  // [corner][0: kx, 1: ky, 2: kz]: the store's coordinate arrays
-    float origin[3];            // O rounded to float, in kx, ky, kz order
-    float sx, sy;               // WatertightRay's shear rounded to float
-    float twice_delta;          // 2Δ
-    float delta_squared;        // 3Δ²
+    const float* lanes;    // the store's coordinate arrays: coordinates(0, 0)
+    const size_t* offset;  // [3 * corner + (0: kx, 1: ky, 2: kz)]: where each array lies from `lanes`
+    float origin[3];       // O rounded to float, in kx, ky, kz order
+    float sx, sy;          // WatertightRay's shear rounded to float
+    float twice_delta;     // 2Δ
+    float delta_squared;   // 3Δ²
 
     // Sets up the prefilter for `ray`, or returns false where the bound above is not guaranteed
     // (the caller then tests every triangle in double).
@@ -89,8 +90,8 @@ struct TrianglePrefilter8 {
         if (!(scale >= kMinPrefilterScale && scale <= kMaxPrefilterScale)) return false;
         if (!(std::fabs(wr.sx) <= 1.0 && std::fabs(wr.sy) <= 1.0)) return false;  // also NaN
         const int axis[3] = {wr.kx, wr.ky, wr.kz};
-        for (int c = 0; c < 3; ++c)
-            for (int i = 0; i < 3; ++i) corner[c][i] = store.coordinates(c, axis[i]);
+        lanes = store.coordinates(0, 0);
+        offset = store.lane_offsets(wr.kx, wr.ky);
         for (int i = 0; i < 3; ++i) origin[i] = float(o[axis[i]]);
         sx = float(wr.sx);
         sy = float(wr.sy);
@@ -107,10 +108,11 @@ struct TrianglePrefilter8 {
         const __m256 ox = _mm256_set1_ps(origin[0]), oy = _mm256_set1_ps(origin[1]), oz = _mm256_set1_ps(origin[2]);
         const __m256 shear_x = _mm256_set1_ps(sx), shear_y = _mm256_set1_ps(sy);
         __m256 x[3], y[3], size[3];
+        const float* at = lanes + slot;
         for (int c = 0; c < 3; ++c) {
-            const __m256 ax = _mm256_sub_ps(_mm256_loadu_ps(corner[c][0] + slot), ox);
-            const __m256 ay = _mm256_sub_ps(_mm256_loadu_ps(corner[c][1] + slot), oy);
-            const __m256 az = _mm256_sub_ps(_mm256_loadu_ps(corner[c][2] + slot), oz);
+            const __m256 ax = _mm256_sub_ps(_mm256_loadu_ps(at + offset[3 * c]), ox);
+            const __m256 ay = _mm256_sub_ps(_mm256_loadu_ps(at + offset[3 * c + 1]), oy);
+            const __m256 az = _mm256_sub_ps(_mm256_loadu_ps(at + offset[3 * c + 2]), oz);
             x[c] = _mm256_sub_ps(ax, _mm256_mul_ps(shear_x, az));
             y[c] = _mm256_sub_ps(ay, _mm256_mul_ps(shear_y, az));
             size[c] = _mm256_add_ps(_mm256_andnot_ps(sign, x[c]), _mm256_andnot_ps(sign, y[c]));
@@ -139,13 +141,17 @@ struct TrianglePrefilter8 {
 // (Scene::prefilter_applies says where it is used at all: the AVX2 walk over float corners.)
 class TriangleLeafFilter {
   public:
-    TriangleLeafFilter(const TriangleStore& store, double magnitude) : store_(store), magnitude_(magnitude) {}
+    // `mixed`: other primitives than triangles are among the tree's leaves (else every leaf is
+    // one run of triangle slots, and its refs need no look).
+    TriangleLeafFilter(const TriangleStore& store, double magnitude, bool mixed)
+        : store_(store), magnitude_(magnitude), mixed_(mixed) {}
 
     PHONG_AVX2 unsigned operator()(const int32_t* refs, int count, const Ray& ray, std::optional<WatertightRay>& wr) {
         const unsigned all = (1u << count) - 1u;
         // Triangle slots ascend by one through a leaf (scene.cpp): a leaf of triangles only is
         // one run of slots, the 8-lane loads' layout.
-        if (state_ == kOff || count < kMinPrefilterLeaf || refs[0] < 0 || refs[count - 1] - refs[0] != count - 1)
+        if (state_ == kOff || count < kMinPrefilterLeaf ||
+            (mixed_ && (refs[0] < 0 || refs[count - 1] - refs[0] != count - 1)))
             return all;
         if (state_ == kUnset) {
             if (!wr) wr.emplace(ray.dir);
@@ -159,6 +165,7 @@ class TriangleLeafFilter {
     TrianglePrefilter8 prefilter_;
     const TriangleStore& store_;
     double magnitude_;
+    bool mixed_;
     enum { kUnset, kOn, kOff } state_ = kUnset;
 };
 

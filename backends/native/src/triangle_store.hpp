@@ -85,6 +85,13 @@ class TriangleStore {
             // on one thread first). The padding is zeroed with the last slot (set): here, its
             // nine writes faulted in nine huge pages, ~1-2 ms of S2's build on one thread.
             resize_huge(narrow_, 9 * stride_);
+            for (int kx = 0; kx < 3; ++kx)
+                for (int ky = 0; ky < 3; ++ky) {
+                    const int axis[3] = {kx, ky, 3 - kx - ky};  // kz (meaningful where kx != ky)
+                    for (int c = 0; c < 3; ++c)
+                        for (int i = 0; i < 3; ++i)
+                            lane_offsets_[kx][ky][3 * c + i] = size_t(3 * c + axis[i]) * stride_;
+                }
         } else if (single_precision) {
             resize_huge(rows_, n);
         } else {
@@ -122,6 +129,12 @@ class TriangleStore {
     // Corner c's (0..2) coordinate i (0: x, 1: y, 2: z) of every slot (lanes() only);
     // kTriangleLanePadding readable floats follow the last slot.
     const float* coordinates(int corner, int i) const { return narrow_.data() + size_t(3 * corner + i) * stride_; }
+    // For a ray whose sheared frame takes axes kx, ky, kz = 3 − kx − ky (WatertightRay), where
+    // corner c's coordinate along axis i of the frame lies: coordinates(0, 0) +
+    // lane_offsets(kx, ky)[3c + i]. Tabled when the lanes are laid out, so that the prefilter's
+    // set-up picks a row instead of forming nine pointers for every ray (~40 instructions a ray
+    // that reaches a leaf of lanes: benchmarks/README.md, issue 25).
+    const size_t* lane_offsets(int kx, int ky) const { return lane_offsets_[kx][ky]; }
 
     // The third mode, in POV-Ray's numerics (resize_mesh_local instead of resize): the corners in
     // their meshes' frames, read as the same world doubles. n triangles of meshes placed at
@@ -151,6 +164,7 @@ class TriangleStore {
     size_t stride_ = 0;  // floats from one coordinate array to the next
     bool lanes_ = false;
     UninitialisedVector<float> narrow_;     // lanes: 9 arrays of stride_ floats: v0.x, v0.y, v0.z, v1.x, ..., v2.z
+    size_t lane_offsets_[3][3][9] = {};     // lane_offsets(kx, ky)
     std::vector<FloatTriangleShape> rows_;  // floats not in lanes
     std::vector<TriangleShape> wide_;
     bool mesh_local_ = false;
