@@ -13,6 +13,7 @@
 #include "sphere_lanes.hpp"
 #include "triangle_lanes.hpp"
 #include "triangle_prefilter.hpp"
+#include "uninitialised.hpp"
 
 namespace phong {
 
@@ -25,8 +26,8 @@ bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin
         for (int r = 0; r < count; ++r) found[r] = closest_hit(rays[r], origin, t_min, HUGE_VAL, hits[r]);
         return false;
     }
-    std::optional<ClosestSearch> search[kPacketRays];
-    std::optional<TriangleLeafFilter> filter[kPacketRays];
+    Deferred<ClosestSearch> search[kPacketRays];       // rays [0, count)
+    Deferred<TriangleLeafFilter> filter[kPacketRays];  // rays [0, count) where `prefilter`
     const bool prefilter = prefilter_applies();
     double t_cull[kPacketRays];
     for (int r = 0; r < count; ++r) {

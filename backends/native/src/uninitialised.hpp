@@ -9,6 +9,7 @@
 
 #include <memory>
 #include <new>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -38,5 +39,23 @@ struct UninitialisedAllocator : std::allocator<T> {
 // A vector whose resize() leaves new trivial elements unwritten.
 template <class T>
 using UninitialisedVector = std::vector<T, UninitialisedAllocator<T>>;
+
+// Room for one T, constructed later by emplace() (and never destroyed: T must not need it).
+// For arrays of objects made per use: GCC zero-fills an array of std::optional<T> whole, which
+// for a ray packet's searches and prefilters was two `rep stos` of 1.6 KB a packet
+// (benchmarks/README.md, issue 25).
+template <class T>
+union Deferred {
+    static_assert(std::is_trivially_destructible_v<T>);
+    Deferred() {}
+    T value;
+
+    template <class... Args>
+    void emplace(Args&&... args) {
+        ::new (static_cast<void*>(&value)) T(std::forward<Args>(args)...);
+    }
+    T* operator->() { return &value; }
+    T& operator*() { return value; }
+};
 
 }  // namespace phong
