@@ -277,7 +277,10 @@ Image render(const phong::Scene& scene, const phong::CameraDescription& camera_d
     const phong::Camera camera = phong::Camera::make(camera_description, settings.width, settings.height);
 
     const size_t count = size_t(settings.width) * size_t(settings.height) * 3;
-    float* pixels = new float[count]();
+    // Unwritten: render_image stores every pixel (or the render is cancelled and the buffer
+    // dropped). Zero-filled here, it was 0.5 % of S2's render instructions, on one thread before
+    // the workers start (benchmarks/README.md, issue 25).
+    float* pixels = new float[count];
     nb::capsule owner(pixels, [](void* p) noexcept { delete[] static_cast<float*>(p); });
 
     // A Python exception raised while polling (the progress callback, or KeyboardInterrupt from
