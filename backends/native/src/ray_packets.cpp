@@ -140,8 +140,8 @@ bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin
             const int r = __builtin_ctz(bits);
             ClosestSearch& s = *search[r];
             if (prefilter) {
-                for (unsigned kept = (*filter[r])(refs, n, rays[r], s.wr); kept != 0; kept &= kept - 1)
-                    s.test(refs[__builtin_ctz(kept)]);
+                for (unsigned kept = (*filter[r])(refs, first, n, rays[r], s.wr); kept != 0; kept &= kept - 1)
+                    s.test(leaf_ref(first + int32_t(__builtin_ctz(kept))));
             } else {
                 for (int k = 0; k < n; ++k) s.test(refs[k]);
             }

@@ -388,8 +388,8 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
         TriangleLeafFilter filter(triangles, magnitude, mixed_leaves());
         auto leaf = [&](int32_t first, int count, double&) PHONG_AVX2 __attribute__((flatten)) {
             const int32_t* refs = refs_.data() + first;
-            for (unsigned kept = filter(refs, count, ray, search.wr); kept != 0; kept &= kept - 1)
-                search.test(refs[__builtin_ctz(kept)]);
+            for (unsigned kept = filter(refs, first, count, ray, search.wr); kept != 0; kept &= kept - 1)
+                search.test(leaf_ref(first + int32_t(__builtin_ctz(kept))));
             return false;
         };
         traverse_bvh8<true>(bvh8_, magnitude, ray, origin, t_min, search.t_cull, leaf);
@@ -421,8 +421,9 @@ bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min
         TriangleLeafFilter filter(triangles, magnitude, mixed_leaves());
         auto leaf = [&](int32_t first, int count, double& t_best) PHONG_AVX2 __attribute__((flatten)) {
             const int32_t* refs = refs_.data() + first;
-            for (unsigned kept = filter(refs, count, ray, wr); kept != 0; kept &= kept - 1)
-                if (test(refs[__builtin_ctz(kept)], t_best)) return blocked = true;  // the first hit ends the walk
+            for (unsigned kept = filter(refs, first, count, ray, wr); kept != 0; kept &= kept - 1)
+                if (test(leaf_ref(first + int32_t(__builtin_ctz(kept))), t_best))
+                    return blocked = true;  // the first hit ends the walk
             return false;
         };
         traverse_bvh8<false>(bvh8_, magnitude, ray, origin, t_min, t_limit, leaf);

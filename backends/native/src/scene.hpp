@@ -350,6 +350,10 @@ class Scene {
     // Whether spheres, balls or intrinsic parts share the tree's leaves with the triangles
     // (decided with prefilter_applies).
     bool mixed_leaves() const { return mixed_leaves_; }
+    // The ref at leaf position `position` (refs_[position]): in a scene of triangles alone, each
+    // triangle's slot is its leaf position (scene.cpp), so the refs need not be read, a cache
+    // line a leaf.
+    int32_t leaf_ref(int32_t position) const { return mixed_leaves_ ? refs_[size_t(position)] : position; }
 
     Bvh bvh_;  // the binary tree; its nodes are freed once collapsed
     // What the rays and bundles walk: the 8-wide tree where the CPU has AVX2 (simd_dispatch.hpp),

@@ -146,7 +146,10 @@ class TriangleLeafFilter {
     TriangleLeafFilter(const TriangleStore& store, double magnitude, bool mixed)
         : store_(store), magnitude_(magnitude), mixed_(mixed) {}
 
-    PHONG_AVX2 unsigned operator()(const int32_t* refs, int count, const Ray& ray, std::optional<WatertightRay>& wr) {
+    // The leaf of `count` refs at `refs`, leaf position `first` (where, in a scene of triangles
+    // alone, each ref is its position: Scene::leaf_ref, and refs is not read).
+    PHONG_AVX2 unsigned operator()(const int32_t* refs, int32_t first, int count, const Ray& ray,
+                                   std::optional<WatertightRay>& wr) {
         const unsigned all = (1u << count) - 1u;
         // Triangle slots ascend by one through a leaf (scene.cpp): a leaf of triangles only is
         // one run of slots, the 8-lane loads' layout.
@@ -158,7 +161,7 @@ class TriangleLeafFilter {
             state_ = prefilter_.set_up(store_, ray, *wr, magnitude_) ? kOn : kOff;
             if (state_ == kOff) return all;
         }
-        return prefilter_.candidates(size_t(refs[0]), count);
+        return prefilter_.candidates(size_t(mixed_ ? refs[0] : first), count);
     }
 
   private:
