@@ -87,7 +87,8 @@ class TriangleStore {
             resize_huge(narrow_, 9 * stride_);
             for (int kx = 0; kx < 3; ++kx)
                 for (int ky = 0; ky < 3; ++ky) {
-                    const int axis[3] = {kx, ky, 3 - kx - ky};  // kz (meaningful where kx != ky)
+                    if (ky == kx) continue;  // no WatertightRay has these axes: those rows stay 0
+                    const int axis[3] = {kx, ky, 3 - kx - ky};
                     for (int c = 0; c < 3; ++c)
                         for (int i = 0; i < 3; ++i)
                             lane_offsets_[kx][ky][3 * c + i] = size_t(3 * c + axis[i]) * stride_;
