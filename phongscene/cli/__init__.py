@@ -38,6 +38,7 @@ from .process import (
     Terminated,
     install_signal_handlers,
     preimport,
+    restore_signal_handlers,
 )
 from .render import add_compile_command, add_render_command
 
@@ -78,14 +79,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import signal
-
     previous = install_signal_handlers()
     try:
         return _main(argv)
     finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
+        restore_signal_handlers(previous)
 
 
 def _main(argv: list[str] | None) -> int:

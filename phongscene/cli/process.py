@@ -5,6 +5,8 @@ Ctrl-C held back (``preimport``)."""
 
 from __future__ import annotations
 
+import sys
+
 # 0 success, 1 images differ (diff/compare), 2 bad scene or usage, 3 backend failure, 130 interrupted.
 EXIT_OK, EXIT_DIFFERENT, EXIT_SCENE, EXIT_BACKEND, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -56,21 +58,82 @@ def _on_terminating_signal(signum, frame) -> None:
     # Cleanup is under way: a second SIGTERM must not interrupt it half-done.
     for name in TERMINATING_SIGNALS:
         signal.signal(getattr(signal, name), signal.SIG_IGN)
+    if _in_unraisablehook:  # raised here it would be dropped again: once the hook is done
+        _deliver_later(signum)
+        return
     raise Terminated(signum)
 
 
+# sys.unraisablehook before install_signal_handlers put _deliver_again in (None: not installed),
+# and whether _deliver_again is running.
+_previous_unraisablehook = None
+_in_unraisablehook = False
+# How long after a dropped Terminated it is delivered again: long enough for the unraisable hook
+# to have returned (microseconds), short against any cleanup.
+REDELIVERY_DELAY_S = 0.001
+
+
+def _deliver_later(signum: int) -> None:
+    """The handler back for ``signum``, and the signal delivered again to the main thread, from
+    another thread, after REDELIVERY_DELAY_S."""
+    import _thread
+    import signal
+    import threading
+
+    signal.signal(signum, _on_terminating_signal)
+    timer = threading.Timer(REDELIVERY_DELAY_S, _thread.interrupt_main, (signum,))
+    timer.daemon = True
+    timer.start()
+
+
+def _deliver_again(unraisable) -> None:
+    """sys.unraisablehook while the handlers are installed. A signal can arrive while Python runs
+    a weakref callback or a ``__del__``, where an exception cannot propagate: Python prints
+    "Exception ignored in ..." and goes on. So ``Terminated`` was lost there, with the handlers
+    already ignoring the signals: a SIGTERM to the group during a Dask frame render once landed in
+    ``WeakSet._remove``, and the render ran to its end and exited 0. Here it is delivered again
+    once this hook has returned (delivered at once, the handler would run inside the hook, where
+    an exception is dropped too); anything else goes to the previous hook."""
+    global _in_unraisablehook
+    if isinstance(unraisable.exc_value, Terminated):
+        _in_unraisablehook = True
+        try:
+            _deliver_later(unraisable.exc_value.signum)
+        finally:
+            _in_unraisablehook = False
+        return
+    (_previous_unraisablehook or sys.__unraisablehook__)(unraisable)
+
+
 def install_signal_handlers() -> dict:
-    """Handle TERMINATING_SIGNALS; returns the previous handlers (``main`` restores them, so
-    calling it in-process, as the tests do, leaves the caller's handlers as they were)."""
+    """Handle TERMINATING_SIGNALS (and a ``Terminated`` Python would drop: _deliver_again);
+    returns the previous handlers for ``restore_signal_handlers`` (``main`` calls it, so calling
+    this in-process, as the tests do, leaves the caller's handlers as they were)."""
+    global _previous_unraisablehook
     import signal
     import threading
 
     if threading.current_thread() is not threading.main_thread():
         return {}  # main() called from a worker thread: Python allows handlers only in the main one
+    if sys.unraisablehook is not _deliver_again:
+        _previous_unraisablehook = sys.unraisablehook
+        sys.unraisablehook = _deliver_again
     return {
         signum: signal.signal(signum, _on_terminating_signal)
         for signum in (getattr(signal, name) for name in TERMINATING_SIGNALS)
     }
+
+
+def restore_signal_handlers(previous: dict) -> None:
+    """Undo ``install_signal_handlers``: its previous handlers, and sys.unraisablehook."""
+    global _previous_unraisablehook
+    import signal
+
+    for signum, handler in previous.items():
+        signal.signal(signum, handler)
+    if previous and sys.unraisablehook is _deliver_again:
+        sys.unraisablehook = _previous_unraisablehook or sys.__unraisablehook__
+        _previous_unraisablehook = None
 
 
 def preimport(modules) -> None:

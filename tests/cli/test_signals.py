@@ -256,6 +256,37 @@ def test_preimport_holds_sigterm_back_too_then_calls_its_handler(tmp_path, monke
         signal.signal(signal.SIGHUP, hangup)  # _on_terminating_signal ignores both once called
 
 
+def test_a_termination_python_would_drop_is_delivered_again():
+    # A signal handled while Python runs a __del__ or a weakref callback raises Terminated where it
+    # cannot propagate (Python prints "Exception ignored" and goes on, the handlers already
+    # ignoring the signals): the CI saw a SIGTERM to a Dask frame render land in WeakSet._remove
+    # and the render run to its end with status 0. It must come back at the next bytecode.
+    from phongscene.cli.process import (
+        REDELIVERY_DELAY_S,
+        Terminated,
+        _on_terminating_signal,
+        install_signal_handlers,
+        restore_signal_handlers,
+    )
+
+    class SignalledWhileCollected:
+        def __del__(self):
+            _on_terminating_signal(signal.SIGTERM, None)  # as if SIGTERM arrived here
+
+    previous = install_signal_handlers()
+    try:
+        deadline = time.monotonic() + 10 * REDELIVERY_DELAY_S + 5.0  # (a loaded machine)
+        with pytest.raises(Terminated) as raised:
+            SignalledWhileCollected()  # collected at once: its __del__'s Terminated is unraisable
+            while time.monotonic() < deadline:  # bytecodes at which the signal is acted on
+                pass
+        assert raised.value.signum == signal.SIGTERM
+    finally:
+        restore_signal_handlers(previous)
+    assert signal.getsignal(signal.SIGTERM) is previous[signal.SIGTERM]
+    assert sys.unraisablehook is not None and "_deliver_again" not in repr(sys.unraisablehook)
+
+
 # -- the `phongscene` command (cli/launcher.c) ------------------------------------------------------
 
 HELD = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
