@@ -7,6 +7,7 @@
 #include "interiors.hpp"
 #include "low_discrepancy.hpp"
 #include "normal_maps.hpp"
+#include "uninitialised.hpp"
 
 #include <algorithm>
 #include <cassert>
@@ -666,15 +667,18 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     // The primary rays through image positions (sx[k], sy[k]), k < count <= kPacketRays, traced as
     // one packet (Scene::closest_hit_packet: each ray's hit bit for bit as alone) and shaded one by
     // one: colour[k] is trace_at(sx[k], sy[k])'s. A perspective camera's only (one origin).
-    auto trace_packet = [&](const double* sx, const double* sy, int count, RGB* colour,
+    // (Rays and colours in DeferredArray: as plain arrays each was zero-filled a packet.)
+    using PacketColours = DeferredArray<RGB, kPacketRays>;
+    auto trace_packet = [&](const double* sx, const double* sy, int count, PacketColours& colour,
                             std::vector<BundleCandidate>& scratch) {
         assert(eye && count >= 1 && count <= kPacketRays);
-        Ray rays[kPacketRays];
+        DeferredArray<Ray, kPacketRays> rays;
         Hit hits[kPacketRays];
         bool found[kPacketRays];
-        for (int k = 0; k < count; ++k) rays[k] = camera.generate(sx[k], sy[k], width, height);
-        scene.closest_hit_packet(rays, count, *eye, tolerances.primary_near, hits, found);
-        for (int k = 0; k < count; ++k) colour[k] = shade_primary(context, rays[k], found[k], hits[k], scratch);
+        for (int k = 0; k < count; ++k) rays.emplace(size_t(k), camera.generate(sx[k], sy[k], width, height));
+        scene.closest_hit_packet(rays.data(), count, *eye, tolerances.primary_near, hits, found);
+        for (int k = 0; k < count; ++k)
+            colour.emplace(size_t(k), shade_primary(context, rays[size_t(k)], found[k], hits[k], scratch));
     };
     // Samples of one pixel gathered into packets, summed in the order given (the sum, and so
     // the pixel, is the one-by-one loop's to the bit).
@@ -687,14 +691,14 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         s.sx[s.pending] = sx;
         s.sy[s.pending] = sy;
         if (++s.pending < kPacketRays) return;
-        RGB colour[kPacketRays];
+        PacketColours colour;
         trace_packet(s.sx, s.sy, s.pending, colour, scratch);
         for (int k = 0; k < s.pending; ++k) s.sum += colour[k];
         s.pending = 0;
     };
     auto flush_samples = [&](SamplePackets& s, std::vector<BundleCandidate>& scratch) {
         if (s.pending == 0) return;
-        RGB colour[kPacketRays];
+        PacketColours colour;
         trace_packet(s.sx, s.sy, s.pending, colour, scratch);
         for (int k = 0; k < s.pending; ++k) s.sum += colour[k];
         s.pending = 0;
@@ -913,7 +917,7 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
                         sx[count] = i + 0.5;
                         sy[count] = j + 0.5;
                     }
-                RGB colour[kPacketRays];
+                PacketColours colour;
                 trace_packet(sx, sy, count, colour, scratch);
                 for (int k = 0; k < count; ++k) {
                     RGB sum;  // render_pixel's arithmetic, to the bit (0 + −0 is +0)

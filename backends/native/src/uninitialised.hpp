@@ -7,6 +7,7 @@
 // until the element is written.
 #pragma once
 
+#include <cstddef>
 #include <memory>
 #include <new>
 #include <type_traits>
@@ -56,6 +57,24 @@ union Deferred {
     }
     T* operator->() { return &value; }
     T& operator*() { return value; }
+};
+
+// Room for N T's in a row, each constructed by emplace(k, ...) before it is read (and never
+// destroyed). A T with default member initialisers (Vec3, Ray, RGB) makes `T items[N]` a
+// zero-fill: a packet's eight rays and colours were two `rep stos` a packet, ~1 % of a
+// render's time (benchmarks/README.md, issue 25).
+template <class T, size_t N>
+union DeferredArray {
+    static_assert(std::is_trivially_destructible_v<T>);
+    DeferredArray() {}
+    T items[N];
+
+    template <class... Args>
+    void emplace(size_t k, Args&&... args) {
+        ::new (static_cast<void*>(&items[k])) T(std::forward<Args>(args)...);
+    }
+    T* data() { return items; }
+    const T& operator[](size_t k) const { return items[k]; }
 };
 
 }  // namespace phong
