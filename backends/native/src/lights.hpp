@@ -113,6 +113,19 @@ inline LightSample toward(const Vec3& target, const Vec3& p, const RGB& color) {
     return {v / d, d, color};
 }
 
+// toward() with l's x and y divided as one pair (the same IEEE quotients): l leaves in one
+// register and is stored with one 16-byte write, which the shadow ray's copy of it (a 16-byte
+// load) forwards from; from two 8-byte stores the load waits for both to commit (S1: ~4 % of the
+// render). Only for point lights: for S3's area light the pair measured slower (issue 25,
+// benchmarks/README.md).
+inline LightSample toward_paired(const Vec3& target, const Vec3& p, const RGB& color) {
+    const Vec3 v = target - p;
+    const double d = length(v);
+    typedef double Pair __attribute__((vector_size(16)));
+    const Pair xy = Pair{v.x, v.y} / d;
+    return {{xy[0], xy[1], v.z / d}, d, color};
+}
+
 // Trapezoid weight of grid index i of n (n >= 2).
 inline double trapezoid_weight(int i, int n) { return (i == 0 || i == n - 1 ? 0.5 : 1.0) / (n - 1); }
 
@@ -260,7 +273,7 @@ inline AreaLightGrid area_light_grid(const Light& light) {
 template <class T>
 [[gnu::always_inline]] inline LightSample sample_light_centre(const T& L, const Vec3& p) {
     if constexpr (std::is_same_v<T, PointLight>) {
-        LightSample s = detail::toward(L.position, p, L.color);
+        LightSample s = detail::toward_paired(L.position, p, L.color);
         if (L.fade_power > 0.0)  // POV-Ray: 2 / (1 + (d / fade_distance)^fade_power)
             s.color = s.color * (2.0 / (1.0 + std::pow(s.distance / L.fade_distance, L.fade_power)));
         if (L.inverse_square) s.color = s.color * (1.0 / (s.distance * s.distance));
