@@ -626,6 +626,7 @@ NB_MODULE(_native, m) {
     m.attr("PRIMARY_NEAR") = phong::kPrimaryNear;
     m.attr("SELF_HIT_WINDOW") = phong::kSelfHitWindow;
     m.attr("ACNE_FREE_COSINE") = phong::kAcneFreeCosine;
+    m.attr("MAX_CACHED_FLAT_NORMALS") = phong::kMaxCachedFlatNormals;
 
     nb::enum_<phong::SamplePattern>(m, "SamplePattern", "Where a pixel's primary rays go (render.hpp).")
         .value("grid", phong::SamplePattern::kGrid)

@@ -399,16 +399,18 @@ RGB shade_hit(const TraceContext& context, const Ray& ray, const Hit& hit, std::
         auto corners = [&] { return surface.triangles[size_t(hit.ref)]; };
         const TriangleNormals* sh =
             surface.triangle_normals.empty() ? nullptr : &surface.triangle_normals[size_t(hit.ref)];
+        const int32_t mesh = surface.triangle_mesh(size_t(hit.ref));
         if (sh && sh->n0 >= 0) {
             // Smooth: barycentric interpolation of the vertex normals, renormalised (as POV-Ray).
             n = normalize(surface.normals[size_t(sh->n0)] * hit.bary.b0 +
                           surface.normals[size_t(sh->n1)] * hit.bary.b1 +
                           surface.normals[size_t(sh->n2)] * hit.bary.b2);
+        } else if (const Vec3* kept = surface.flat_normal(size_t(hit.ref), mesh)) {
+            n = *kept;
         } else {
-            const TriangleShape tri = corners();
-            n = normalize(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
+            n = flat_triangle_normal(corners());
         }
-        material = &surface.materials[size_t(surface.triangle_material(size_t(hit.ref)))];
+        material = &surface.materials[size_t(surface.mesh_material(mesh))];
         if (material->diffuse_texture >= 0 || material->specular_texture >= 0 || material->normal_texture >= 0) {
             // cd and cs from the textures at the hit's (u, v), interpolated like the normals.
             const double* uv = surface.corner_uv + 6 * size_t(surface.triangle_source[size_t(hit.ref)]);

@@ -78,6 +78,18 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
         first_triangle[m + 1] = first_triangle[m] + mesh.triangle_count;
         first_normal[m + 1] = first_normal[m] + mesh.normal_count;
     }
+    // Flat normals kept for the meshes without vertex normals, in input order, while their
+    // triangles fit kMaxCachedFlatNormals (flat_normal()).
+    flat_normal_row_.assign(n_meshes, -1);
+    size_t cached = 0;
+    for (size_t m = 0; m < n_meshes; ++m) {
+        const MeshArrays& mesh = in.meshes[m];
+        if (mesh.normal_indices || mesh.triangle_count == 0 || cached + mesh.triangle_count > kMaxCachedFlatNormals)
+            continue;
+        flat_normal_row_[m] = int64_t(cached);
+        cached += mesh.triangle_count;
+    }
+    flat_normals_.resize(cached);
     std::vector<std::pair<const double*, size_t>> mesh_normals;
     for (const MeshArrays& mesh : in.meshes) mesh_normals.emplace_back(mesh.normals, mesh.normal_count);
     normals.assign(mesh_normals);
@@ -308,6 +320,8 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
             } else {
                 triangles.set(slot, corners);
             }
+            if (flat_normal_row_[m] >= 0)  // from the corners as stored, as a hit reads them
+                flat_normals_[size_t(flat_normal_row_[m]) + local] = flat_triangle_normal(triangles[slot]);
             if (any_vertex_normals) {
                 TriangleNormals sh{-1, -1, -1};
                 if (mesh.normal_indices && mesh.normal_indices[3 * local] >= 0) {

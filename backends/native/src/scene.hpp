@@ -28,6 +28,14 @@
 
 namespace phong {
 
+// The most flat-shaded triangles whose normals a Scene keeps (24 bytes each: 96 KiB), for the
+// meshes without vertex normals in input order while they fit. A flat triangle's shading normal
+// is otherwise its corners read back and a cross product normalised at every hit (~5 % of S1's
+// and ~3 % of S2's render, whose ground quad takes most hits: benchmarks/README.md, issue 25).
+// Kept for small meshes only: a triangle of a big flat mesh is hit about once, and its normal
+// kept would cost the build what a hit saves, and memory besides.
+constexpr size_t kMaxCachedFlatNormals = 4096;
+
 // Borrowed views of one mesh's Python arrays (row-major, C-contiguous): the model's own arrays,
 // not concatenated copies.
 struct MeshArrays {
@@ -255,7 +263,16 @@ class Scene {
     }
     // The material of leaf-order triangle `slot`: its mesh's (a per-mesh number, not a
     // per-triangle one: 4 bytes a triangle fewer).
-    int32_t triangle_material(size_t slot) const { return mesh_material_[size_t(triangle_mesh(slot))]; }
+    int32_t triangle_material(size_t slot) const { return mesh_material(triangle_mesh(slot)); }
+    int32_t mesh_material(int32_t mesh) const { return mesh_material_[size_t(mesh)]; }
+    // The flat normal of leaf-order triangle `slot` of mesh `mesh` (triangle_mesh) when it is
+    // kept (flat_triangle_normal of its stored corners: the number a hit would compute), else
+    // nullptr.
+    const Vec3* flat_normal(size_t slot, int32_t mesh) const {
+        const int64_t row = flat_normal_row_[size_t(mesh)];
+        if (row < 0) return nullptr;
+        return &flat_normals_[size_t(row) + (triangle_source[slot] - first_triangle_[size_t(mesh)])];
+    }
 
     std::vector<SphereShape> spheres;
     std::vector<BallShape> balls;            // the Points sets' spheres, leaf order
@@ -360,9 +377,13 @@ class Scene {
     // else the 4-wide one; the other is empty.
     Bvh4Nodes bvh4_;
     Bvh8Nodes bvh8_;
-    UninitialisedVector<int32_t> refs_;                 // BVH leaf order (sized unwritten: the copy sets each)
-    std::vector<size_t> first_triangle_;                // mesh m's input rows start at first_triangle_[m]
-    std::vector<int32_t> mesh_material_;                // by mesh
+    UninitialisedVector<int32_t> refs_;   // BVH leaf order (sized unwritten: the copy sets each)
+    std::vector<size_t> first_triangle_;  // mesh m's input rows start at first_triangle_[m]
+    std::vector<int32_t> mesh_material_;  // by mesh
+    // Flat normals of the meshes without vertex normals, while they total at most
+    // kMaxCachedFlatNormals triangles: mesh m's rows start at flat_normal_row_[m] (-1: not kept).
+    std::vector<int64_t> flat_normal_row_;
+    std::vector<Vec3> flat_normals_;
     int32_t triangle_mesh_searched(size_t slot) const;  // triangle_mesh for three meshes or more
     bool prefilter_ = false;                            // prefilter_applies()
     bool mixed_leaves_ = false;                         // mixed_leaves()

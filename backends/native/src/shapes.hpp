@@ -248,6 +248,10 @@ struct TriangleShape {
     Vec3 v0, v1, v2;
 };
 
+// A flat-shaded triangle's unit normal: the one expression for both a hit's (render.cpp) and a
+// kept one (Scene::flat_normal), so the two are the same number.
+inline Vec3 flat_triangle_normal(const TriangleShape& t) { return normalize(cross(t.v1 - t.v0, t.v2 - t.v0)); }
+
 // A smooth triangle's vertex-normal rows (-1: flat shading).
 struct TriangleNormals {
     int32_t n0, n1, n2;
