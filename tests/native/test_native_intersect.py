@@ -126,9 +126,10 @@ def test_transformed_sphere_hits_lie_on_the_ellipsoid():
     np.testing.assert_allclose(np.linalg.norm(p_object, axis=1), 1.0, rtol=0, atol=1e-13)
 
 
-def _general_sphere_t(m: np.ndarray, origin, d) -> float:
+def _general_sphere_t(m: np.ndarray, origin, d, t_min: float = 0.0) -> float:
     """shapes.hpp's sphere test with the full affine transform, transcribed term by term (numpy
-    float64 scalars round as C++ does without fused multiply-adds): the closest root > 0."""
+    float64 scalars round as C++ does without fused multiply-adds), without its shortcuts (the
+    sure-miss and leaving tests): the closest root > t_min."""
     o = [((m[k, 0] * origin[0] + m[k, 1] * origin[1]) + m[k, 2] * origin[2]) + m[k, 3] for k in range(3)]
     v = [(m[k, 0] * d[0] + m[k, 1] * d[1]) + m[k, 2] * d[2] for k in range(3)]
     dot = lambda x, y: (x[0] * y[0] + x[1] * y[1]) + x[2] * y[2]  # noqa: E731
@@ -140,7 +141,7 @@ def _general_sphere_t(m: np.ndarray, origin, d) -> float:
         return math.inf
     q = -(b + np.copysign(np.sqrt(disc), b))
     t0, t1 = (0.0, 0.0) if q == 0.0 else sorted((q / a, c / q))
-    return t0 if t0 > 0.0 else (t1 if t1 > 0.0 else math.inf)
+    return t0 if t0 > t_min else (t1 if t1 > t_min else math.inf)
 
 
 @pytest.mark.parametrize("centre", [(0.0, 0.0, 0.0), (-0.0, -0.0, -0.0), (1.5, -2.0, 0.25)])
@@ -171,6 +172,77 @@ def test_scaled_sphere_hits_equal_the_general_transform_bit_for_bit(centre):
         expected = np.array([_general_sphere_t(object_from_world, o, d) for o, d in zip(origins, dirs)])
         assert np.isfinite(expected).sum() > len(expected) // 2  # the set-up hits the sphere
         assert np.array_equal(t, expected), np.c_[t, expected][t != expected]
+
+
+@pytest.mark.parametrize("scale", [1e-6, 1.0, 1e6])
+def test_the_sphere_tests_shortcuts_change_no_answer(scale):
+    # shapes.hpp rejects two kinds of ray before the sphere test's division and square roots: a
+    # sure miss (the closest approach beyond the radius by more than kSphereMissMargin) and a ray
+    # leaving the sphere (b > 0) with both roots at most t_min. Both must give the full test's
+    # bits: rays passing the silhouette at 1 ± 10^-16…10^-6 radii; rays leaving and entering
+    # from points on the surface (computed, so just inside or outside), with t_min 0 or a
+    # shadow window; and rays from just inside whose t_min is the exit root t1 and its
+    # neighbouring doubles (the leaving test's margin). A rotated, stretched sphere and a scaled
+    # one far from the origin, at three scales.
+    rng = np.random.default_rng(11)
+    c, s = math.cos(0.4), math.sin(0.4)
+    rotated = np.array([[c, -s, 0, 0.3], [s, c, 0, -1.2], [0, 0, 1, 2.0], [0, 0, 0, 1]]) @ np.diag([1.5, 0.7, 1.1, 1])
+    far = np.diag([1.0, 1.0, 1.0, 1.0])
+    far[:3, 3] = (1e3, -2e3, 5e2)
+    for m in (rotated, far):
+        m = m.copy()
+        m[:3, :] *= scale
+        scene = _sphere_scene(m)[0]
+        object_from_world = native.scene_arrays(scene)["sphere_object_from_world"][0]
+        built = native.build(scene)
+        inv = np.linalg.inv(m)
+        n = 300
+        # On the unit sphere in object space, mapped to the world: surface points and normals.
+        u = unit(rng.normal(size=(n, 3)))
+        surface = (m @ np.c_[u, np.ones(n)].T).T[:, :3]
+        normal = unit((inv[:3, :3].T @ u.T).T)
+        # Silhouette rays: from 20 radii out, aimed past the rim at 1 + δ in object space.
+        offset = rng.choice([-1.0, 1.0], n) * 10.0 ** rng.uniform(-16, -6, n)
+        side = unit(np.cross(u, rng.normal(size=(n, 3))))
+        aim = (m @ np.c_[u * (1.0 + offset)[:, None], np.ones(n)].T).T[:, :3]
+        start = (m @ np.c_[u * (1.0 + offset)[:, None] + 20.0 * side, np.ones(n)].T).T[:, :3]
+        silhouette = (start, unit(aim - start), np.zeros(n))
+        # From the surface: leaving (along the normal's side) and entering, t_min 0 or a window.
+        d = unit(rng.normal(size=(n, 3)))
+        d *= np.where((d * normal).sum(axis=1) > 0, 1.0, -1.0)[:, None]
+        window = rng.choice([0.0, 1.9e-5 * scale, 1e-9 * scale], n)
+        leaving = (surface, d, window)
+        entering = (surface, -d, window)
+        # From just inside: t_min at the exit root t1 and its neighbours.
+        inside = (m @ np.c_[u * (1.0 - 1e-9), np.ones(n)].T).T[:, :3]
+        t1 = np.array([_general_sphere_t(object_from_world, o, v) for o, v in zip(inside, d)])
+        assert np.isfinite(t1).all()
+        near = [np.nextafter(t1, 0), t1, np.nextafter(t1, np.inf), t1 * (1 - 1e-15), t1 * (1 + 1e-15)]
+        exits = [(inside, d, t) for t in near]
+        answers = {}
+        for name, (origins, dirs, t_min) in {
+            "silhouette": silhouette,
+            "leaving": leaving,
+            "entering": entering,
+            **{f"exit {k}": e for k, e in enumerate(exits)},
+        }.items():
+            expected = np.array(
+                [_general_sphere_t(object_from_world, o, v, lo) for o, v, lo in zip(origins, dirs, t_min)]
+            )
+            # (The binding takes one t_min for all its rays.)
+            got = np.array(
+                [built.intersect(origins[k : k + 1], dirs[k : k + 1], float(t_min[k]))[0][0] for k in range(n)]
+            )
+            assert np.array_equal(got, expected), (name, np.c_[got, expected][got != expected])
+            answers[name] = np.isfinite(expected)
+        # The cases are the hard ones: the silhouette rays split, the rays leaving the surface
+        # miss but for self-hits at t ~ 1e-16 radii (from a point rounded inside, with t_min 0),
+        # those entering hit, and the exit root counts exactly when t_min lies below it.
+        assert 0.2 < answers["silhouette"].mean() < 0.8
+        assert not answers["leaving"][leaving[2] > 0].any() and answers["entering"].mean() > 0.95
+        assert answers["exit 0"].all() and not answers["exit 1"].any() and not answers["exit 2"].any()
+    with pytest.raises(ValueError, match="t_min must be >= 0"):  # the tests' t_min >= 0, as the renderer's
+        built.intersect(origins[:1], dirs[:1], -1e-3)
 
 
 def test_bvh_closest_hit_equals_brute_force():

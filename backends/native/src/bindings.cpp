@@ -304,8 +304,14 @@ Image render(const phong::Scene& scene, const phong::CameraDescription& camera_d
     return Image(pixels, {size_t(settings.height), size_t(settings.width), 3}, owner);
 }
 
+// The primitive tests take t_min >= 0 (shapes.hpp: sphere_leaves), as the renderer's tolerances are.
+void require_t_min(double t_min) {
+    if (!(t_min >= 0.0)) throw std::invalid_argument("t_min must be >= 0");
+}
+
 // Closest hit per ray through the BVH: (t, primitive id), t = inf and id = -1 on a miss.
 nb::tuple intersect(const phong::Scene& scene, const Rows3& origins, const Rows3& dirs, double t_min) {
+    require_t_min(t_min);
     const size_t n = origins.shape(0);
     if (dirs.shape(0) != n) throw std::invalid_argument("origins and dirs differ in length");
     if (scene.instances && scene.instances->stale())
@@ -337,6 +343,7 @@ nb::tuple intersect(const phong::Scene& scene, const Rows3& origins, const Rows3
 // Whether each ray is blocked in (t_min, t_max[i]): the any-hit walk of shadow rays.
 nb::ndarray<nb::numpy, bool, nb::shape<-1>> occluded(const phong::Scene& scene, const Rows3& origins, const Rows3& dirs,
                                                      const Reals1& t_max, double t_min) {
+    require_t_min(t_min);
     const size_t n = origins.shape(0);
     if (dirs.shape(0) != n || t_max.shape(0) != n)
         throw std::invalid_argument("origins, dirs and t_max differ in length");
@@ -359,6 +366,7 @@ nb::ndarray<nb::numpy, bool, nb::shape<-1>> occluded(const phong::Scene& scene, 
 // barycentrics (n, 3), packets that walked together). Tests compare the two bit for bit.
 nb::tuple intersect_packets(const phong::Scene& scene, const In<double, nb::shape<3>>& origin, const Rows3& dirs,
                             double t_min, bool together) {
+    require_t_min(t_min);
     const size_t n = dirs.shape(0);
     if (scene.instances && scene.instances->stale())
         throw std::invalid_argument("instances were added with rebuild=False and the top level was never built");
@@ -452,6 +460,7 @@ nb::tuple prefilter_check(const phong::Scene& scene, const Rows3& origins, const
 
 // Brute force over every primitive: (number of primitives hit, closest t).
 nb::tuple count_hits(const phong::Scene& scene, const Rows3& origins, const Rows3& dirs, double t_min) {
+    require_t_min(t_min);
     const size_t n = origins.shape(0);
     if (dirs.shape(0) != n) throw std::invalid_argument("origins and dirs differ in length");
     int32_t* count = new int32_t[n];

@@ -7,8 +7,10 @@
 #include <emmintrin.h>
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 #include "math.hpp"
 
@@ -64,11 +66,49 @@ inline SphereOrigin sphere_origin(const SphereShape& s, const Vec3& origin) {
     return {o, dot(o, o) - 1.0};
 }
 
+// The sure-miss test ahead of the sphere test's roots (sphere_misses below) rejects a ray only
+// where g = a·c − b², exactly a (|f|² − 1) with f the closest-approach vector, exceeds
+// kSphereMissMargin · a (|o|² + 1). Rounding moves the test's computed |f| from the exact one on
+// the computed o and d by at most ~12 ε|o| (ε = 2^-53: the ratio b/a, the products d·(b/a) and
+// the norm; |d||b|/a <= |o|), and the computed g from its exact value by at most ~20 ε a (|o|² +
+// 1) (b² <= a|o|²); a computed |f| <= 1 therefore needs g <= ~34 ε a (|o|² + 1). 1e-12 is
+// ~9000 ε: a ray it rejects passes the sphere at more than 1e-12 of its radius times |o| outside,
+// where the test's discriminant is negative for certain, and its answer is unchanged.
+constexpr double kSphereMissMargin = 1e-12;
+// Below this a = |d|² the test's discriminant a (1 − |f|)(1 + |f|) may underflow to −0, which
+// passes as zero (a tangent ray); the sure-miss test leaves such rays (spheres > 2^450 times the
+// direction's length) to it. Rays with an overflowing g (|o| beyond ~2^500) are left to it too.
+constexpr double kSphereMissMinA = 0x1p-900;
+
 namespace detail {
+// True only where sphere_roots(o, c, d, a, b, ...) would find the discriminant negative (see
+// kSphereMissMargin), from products alone: it skips the test's division and two square roots,
+// whose latency sets a shadow ray's time, for the rays that pass a sphere's box and miss it.
+inline bool sphere_misses(double c, double a, double b) {
+    const double g = a * c - b * b;
+    return g > kSphereMissMargin * a * (c + 2.0) && g <= std::numeric_limits<double>::max() && a >= kSphereMissMinA;
+}
+
+// True only where sphere_roots(o, c, d, a, b, t_min, ...) finds no root above t_min >= 0 on a
+// ray moving away from the centre (b > 0): q = −(b + sqrt(disc)) <= −b < 0, so t0 = q/a < 0,
+// and t1 = c/q <= 0 for c >= 0 (an origin outside). For an origin inside (c < 0; then |c| >=
+// 2^-53, as c = |o|² − 1), disc = b² − ac >= b², so |q| >= 2b and t1 <= |c|/(2b) to a few
+// roundings: at most t_min wherever |c| <= b·t_min, with a factor 2 to spare
+// (kLeavingMargin keeps the product's roundings on the safe side besides). This is a shadow
+// ray's test of the sphere it leaves, whose origin lies within rounding of the surface, and of
+// a sphere behind a ray.
+constexpr double kLeavingMargin = 1.0 - ulps(4);
+inline bool sphere_leaves(double c, double b, double t_min) { return b > 0.0 && -c <= b * t_min * kLeavingMargin; }
+
 // The roots' part of the sphere test, from the object-space origin o, c = |o|^2 - 1, direction
 // d, a = |d|^2 and b = o·d: |o + t d|^2 = 1, i.e. a t^2 + 2 b t + c = 0.
 inline bool sphere_roots(const Vec3& o, double c, const Vec3& d, double a, double b, double t_min, double t_max,
                          double& t_hit) {
+    // A ray leaving the sphere (b > 0) from a point outside it or within t_min of its surface:
+    // both roots are at most t_min (see sphere_leaves), so the answer is no hit.
+    assert(t_min >= 0.0);
+    if (sphere_leaves(c, b, t_min)) return false;
+    if (sphere_misses(c, a, b)) return false;
     // Discriminant b^2 - a c = a (1 - |f|^2), f = the closest-approach vector: no cancellation
     // between b^2 and a c for rays far from the sphere (pbrt-v4's form).
     const Vec3 f = o - d * (b / a);
