@@ -183,6 +183,13 @@ inline int intersect_sphere_pair(const SphereShape& s, const SphereOrigin& origi
     };
     const __m128d o[3] = {_mm_set1_pd(origin.o.x), _mm_set1_pd(origin.o.y), _mm_set1_pd(origin.o.z)};
     const __m128d b = dot(o, d), a = dot(d, d);
+    // sphere_leaves per lane: both rays leave the sphere (a bundle's test of the sphere its apex
+    // lies on), so neither can hit it; the chain of divisions and square roots is skipped.
+    const __m128d leaving =
+        _mm_and_pd(_mm_cmpgt_pd(b, _mm_setzero_pd()),
+                   _mm_cmple_pd(_mm_set1_pd(-origin.c),
+                                _mm_mul_pd(_mm_mul_pd(b, _mm_set1_pd(t_min)), _mm_set1_pd(detail::kLeavingMargin))));
+    if (_mm_movemask_pd(leaving) == 3) return 0;
     const int scalar_lanes = s.axis_aligned ? _mm_movemask_pd(_mm_cmpeq_pd(b, _mm_setzero_pd())) : 0;
     const __m128d ratio = _mm_div_pd(b, a);
     const __m128d f[3] = {_mm_sub_pd(o[0], _mm_mul_pd(d[0], ratio)), _mm_sub_pd(o[1], _mm_mul_pd(d[1], ratio)),
