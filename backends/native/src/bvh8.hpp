@@ -22,6 +22,7 @@
 #include "bvh.hpp"
 #include "bvh4.hpp"
 #include "math.hpp"
+#include "simd_dispatch.hpp"
 
 namespace phong {
 
@@ -40,8 +41,6 @@ Bvh8Nodes collapse_to_bvh8(const BvhNodes& binary);
 
 // A node replaces itself by at most eight pending children.
 constexpr int kMaxBvh8Stack = 7 * kMaxTraversalDepth + 1;
-
-#define PHONG_AVX2 __attribute__((target("avx2")))
 
 // FloatSlabRay (bvh4.hpp) for eight children at once.
 struct FloatSlabRay8 {

@@ -98,6 +98,10 @@ struct ShadowQuery {
         return blocked && (!povray_walk || scene.occluded_povray_walk(ray, window, distance - window));
     }
 
+    // Whether a grid's directions may be computed in AVX2 lanes (lights.hpp): where the scene
+    // took the AVX2 path (simd_dispatch.hpp).
+    bool quads() const { return scene.walk_width() == 8; }
+
     // Every ray of a full grid at once (lights.hpp): blocked[k] is operator()(dirs[k], distances[k]).
     void each(const Vec3* dirs, const double* distances, size_t count, unsigned char* blocked) const {
         if (casts != nullptr) {

@@ -14,6 +14,9 @@ namespace phong {
 
 constexpr const char* kSimdEnvironmentVariable = "PHONGSCENE_NATIVE_SIMD";
 
+// A function compiled for AVX2 inside the baseline build, called only where use_avx2() chose it.
+#define PHONG_AVX2 __attribute__((target("avx2")))
+
 inline bool cpu_has_avx2() {
 #if defined(__x86_64__) || defined(__i386__)
     return __builtin_cpu_supports("avx2");
