@@ -307,61 +307,62 @@ template <class T>
 }
 
 namespace detail {
-// For k < count: the unit direction dirs[k] and distance distances[k] from p to target_of(k),
-// several points at a time in double lanes: per lane the operations of toward() (v = t − p,
-// d = sqrt((x·x + y·y) + z·z), v / d), so the same numbers. A 9×9 grid needs 81 square roots and
-// 243 divisions, which one point at a time kept the divider busy for most of S3's light loop:
-// in SSE2 pairs S3's render −9 %, in AVX2 quads (`quads`: where the scene walks the AVX2 tree,
-// simd_dispatch.hpp) −3 % more.
+// For k < count: the unit direction (x[k], y[k], z[k]) and distance distance[k] from p to
+// target_of(k), several points at a time in double lanes: per lane the operations of toward()
+// (v = t − p, d = sqrt((x·x + y·y) + z·z), v / d), so the same numbers. A 9×9 grid needs 81
+// square roots and 243 divisions, which one point at a time kept the divider busy for most of
+// S3's light loop: in SSE2 pairs S3's render −9 %, in AVX2 quads (`quads`: where the scene walks
+// the AVX2 tree, simd_dispatch.hpp) −3 % more. Written as the lanes the shadow bundles read
+// (Scene::occluded_by_each), each array padded to an even length with a copy of the last ray.
 template <class TargetOf>
-void directions_in_pairs(const TargetOf& target_of, const Vec3& p, size_t count, Vec3* dirs, double* distances) {
+void directions_in_pairs(const TargetOf& target_of, const Vec3& p, size_t count, double* x, double* y, double* z,
+                         double* distance) {
     const __m128d px = _mm_set1_pd(p.x), py = _mm_set1_pd(p.y), pz = _mm_set1_pd(p.z);
-    size_t k = 0;
-    for (; k + 1 < count; k += 2) {
-        const Vec3 a = target_of(k), b = target_of(k + 1);
-        const __m128d x = _mm_sub_pd(_mm_set_pd(b.x, a.x), px);
-        const __m128d y = _mm_sub_pd(_mm_set_pd(b.y, a.y), py);
-        const __m128d z = _mm_sub_pd(_mm_set_pd(b.z, a.z), pz);
-        const __m128d d = _mm_sqrt_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(x, x), _mm_mul_pd(y, y)), _mm_mul_pd(z, z)));
-        alignas(16) double ux[2], uy[2], uz[2];
-        _mm_store_pd(ux, _mm_div_pd(x, d));
-        _mm_store_pd(uy, _mm_div_pd(y, d));
-        _mm_store_pd(uz, _mm_div_pd(z, d));
-        for (int i = 0; i < 2; ++i) dirs[k + size_t(i)] = {ux[i], uy[i], uz[i]};
-        _mm_storeu_pd(distances + k, d);
-    }
-    for (; k < count; ++k) {
-        const LightSample s = toward(target_of(k), p, RGB{});
-        dirs[k] = s.l;
-        distances[k] = s.distance;
+    for (size_t k = 0; k < count; k += 2) {
+        const Vec3 a = target_of(k), b = target_of(k + 1 < count ? k + 1 : k);
+        const __m128d vx = _mm_sub_pd(_mm_set_pd(b.x, a.x), px);
+        const __m128d vy = _mm_sub_pd(_mm_set_pd(b.y, a.y), py);
+        const __m128d vz = _mm_sub_pd(_mm_set_pd(b.z, a.z), pz);
+        const __m128d d =
+            _mm_sqrt_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(vx, vx), _mm_mul_pd(vy, vy)), _mm_mul_pd(vz, vz)));
+        _mm_storeu_pd(x + k, _mm_div_pd(vx, d));
+        _mm_storeu_pd(y + k, _mm_div_pd(vy, d));
+        _mm_storeu_pd(z + k, _mm_div_pd(vz, d));
+        _mm_storeu_pd(distance + k, d);
     }
 }
 
 template <class TargetOf>
-PHONG_AVX2 void directions_in_quads(const TargetOf& target_of, const Vec3& p, size_t count, Vec3* dirs,
-                                    double* distances) {
+PHONG_AVX2 void directions_in_quads(const TargetOf& target_of, const Vec3& p, size_t count, double* x, double* y,
+                                    double* z, double* distance) {
     const __m256d px = _mm256_set1_pd(p.x), py = _mm256_set1_pd(p.y), pz = _mm256_set1_pd(p.z);
     size_t k = 0;
     for (; k + 3 < count; k += 4) {
         const Vec3 a = target_of(k), b = target_of(k + 1), c = target_of(k + 2), e = target_of(k + 3);
-        const __m256d x = _mm256_sub_pd(_mm256_set_pd(e.x, c.x, b.x, a.x), px);
-        const __m256d y = _mm256_sub_pd(_mm256_set_pd(e.y, c.y, b.y, a.y), py);
-        const __m256d z = _mm256_sub_pd(_mm256_set_pd(e.z, c.z, b.z, a.z), pz);
-        const __m256d d =
-            _mm256_sqrt_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(x, x), _mm256_mul_pd(y, y)), _mm256_mul_pd(z, z)));
-        alignas(32) double ux[4], uy[4], uz[4];
-        _mm256_store_pd(ux, _mm256_div_pd(x, d));
-        _mm256_store_pd(uy, _mm256_div_pd(y, d));
-        _mm256_store_pd(uz, _mm256_div_pd(z, d));
-        for (int i = 0; i < 4; ++i) dirs[k + size_t(i)] = {ux[i], uy[i], uz[i]};
-        _mm256_storeu_pd(distances + k, d);
+        const __m256d vx = _mm256_sub_pd(_mm256_set_pd(e.x, c.x, b.x, a.x), px);
+        const __m256d vy = _mm256_sub_pd(_mm256_set_pd(e.y, c.y, b.y, a.y), py);
+        const __m256d vz = _mm256_sub_pd(_mm256_set_pd(e.z, c.z, b.z, a.z), pz);
+        const __m256d d = _mm256_sqrt_pd(
+            _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(vx, vx), _mm256_mul_pd(vy, vy)), _mm256_mul_pd(vz, vz)));
+        _mm256_storeu_pd(x + k, _mm256_div_pd(vx, d));
+        _mm256_storeu_pd(y + k, _mm256_div_pd(vy, d));
+        _mm256_storeu_pd(z + k, _mm256_div_pd(vz, d));
+        _mm256_storeu_pd(distance + k, d);
     }
     // The last few one at a time, here: handing them to directions_in_pairs (code outside the
     // AVX2 function) made S3's render 20 % slower than with no lanes at all.
     for (; k < count; ++k) {
         const LightSample s = toward(target_of(k), p, RGB{});
-        dirs[k] = s.l;
-        distances[k] = s.distance;
+        x[k] = s.l.x;
+        y[k] = s.l.y;
+        z[k] = s.l.z;
+        distance[k] = s.distance;
+    }
+    if (count % 2 == 1) {  // the pad
+        x[count] = x[count - 1];
+        y[count] = y[count - 1];
+        z[count] = z[count - 1];
+        distance[count] = distance[count - 1];
     }
 }
 
@@ -430,18 +431,18 @@ template <class Shadow>
     if (!may_be_shadowed) return grid.total_weight;
     // Every ray first (the shadow query then takes them candidate by candidate), then the
     // visible weights summed in grid order.
-    const size_t count = size_t(n) * size_t(n);
-    thread_local std::vector<Vec3> dirs;
-    thread_local std::vector<double> distances;
+    const size_t count = size_t(n) * size_t(n), padded = count + count % 2;
+    thread_local std::vector<double> lanes;  // x, y, z and the distance, `padded` each
     thread_local std::vector<unsigned char> blocked;
-    dirs.resize(count);
-    distances.resize(count);
+    lanes.resize(4 * padded);
     blocked.resize(count);
+    double* const x = lanes.data();
+    double *const y = x + padded, *const z = y + padded, *const distance = z + padded;
     if (shadow.quads())
-        directions_in_quads(target_of, p, count, dirs.data(), distances.data());
+        directions_in_quads(target_of, p, count, x, y, z, distance);
     else
-        directions_in_pairs(target_of, p, count, dirs.data(), distances.data());
-    shadow.each(dirs.data(), distances.data(), count, blocked.data());
+        directions_in_pairs(target_of, p, count, x, y, z, distance);
+    shadow.each(x, y, z, distance, count, blocked.data());
     double visible = 0.0;
     for (size_t k = 0; k < count; ++k)
         if (!blocked[k]) visible += grid.weight[k];

@@ -102,21 +102,25 @@ struct ShadowQuery {
     // took the AVX2 path (simd_dispatch.hpp).
     bool quads() const { return scene.walk_width() == 8; }
 
-    // Every ray of a full grid at once (lights.hpp): blocked[k] is operator()(dirs[k], distances[k]).
-    void each(const Vec3* dirs, const double* distances, size_t count, unsigned char* blocked) const {
+    // Every ray of a full grid at once (lights.hpp): ray k along (x[k], y[k], z[k]), blocked[k]
+    // is operator()(that direction, distance[k]). The arrays are padded to an even length
+    // (occluded_by_each reads them in pairs).
+    void each(const double* x, const double* y, const double* z, const double* distance, size_t count,
+              unsigned char* blocked) const {
+        auto dir = [&](size_t k) { return Vec3{x[k], y[k], z[k]}; };
         if (casts != nullptr) {
-            for (size_t k = 0; k < count; ++k) blocked[k] = (*this)(dirs[k], distances[k]);
+            for (size_t k = 0; k < count; ++k) blocked[k] = (*this)(dir(k), distance[k]);
             return;
         }
         if (bundle) {
-            scene.occluded_by_each(candidates, p, dirs, distances, count, window, blocked);
+            scene.occluded_by_each(candidates, p, x, y, z, distance, count, window, blocked);
         } else {
             for (size_t k = 0; k < count; ++k)
-                blocked[k] = scene.occluded(Ray{p, dirs[k]}, p_rounded, window, distances[k] - window);
+                blocked[k] = scene.occluded(Ray{p, dir(k)}, p_rounded, window, distance[k] - window);
         }
         if (povray_walk)
             for (size_t k = 0; k < count; ++k)
-                if (blocked[k]) blocked[k] = scene.occluded_povray_walk(Ray{p, dirs[k]}, window, distances[k] - window);
+                if (blocked[k]) blocked[k] = scene.occluded_povray_walk(Ray{p, dir(k)}, window, distance[k] - window);
     }
 };
 

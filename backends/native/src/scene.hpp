@@ -147,12 +147,15 @@ class Scene {
                            std::vector<BundleCandidate>& candidates) const;
     bool occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray, double t_min, double t_max) const;
     // occluded_by() for every ray of a bundle at once (an area light's full grid): ray k leaves
-    // `origin` along dirs[k] and counts hits in (t_min, distances[k] − t_min); blocked[k] is
-    // whether it is occluded. Candidate by candidate, each tested against the rays not yet
-    // blocked, so a candidate's set-up is done once per bundle and each ray's once per ray. A
-    // sphere is tested without its box (two rays at a time the box test costs more than it saves).
-    void occluded_by_each(const std::vector<BundleCandidate>& candidates, const Vec3& origin, const Vec3* dirs,
-                          const double* distances, size_t count, double t_min, unsigned char* blocked) const;
+    // `origin` along (x[k], y[k], z[k]) and counts hits in (t_min, distance[k] − t_min);
+    // blocked[k] is whether it is occluded. The four arrays hold count rounded up to even
+    // entries, the pad a copy of the last ray (read two at a time). Candidate by candidate, each
+    // tested against the rays not yet blocked, so a candidate's set-up is done once per bundle
+    // and each ray's once per ray. A sphere is tested without its box (two rays at a time the
+    // box test costs more than it saves).
+    void occluded_by_each(const std::vector<BundleCandidate>& candidates, const Vec3& origin, const double* x,
+                          const double* y, const double* z, const double* distance, size_t count, double t_min,
+                          unsigned char* blocked) const;
 
     // occluded() as POV-Ray 3.7 answers it for meshes (povray_walk.cpp): a mesh's bounding-box
     // walk stops at its first hit, even one too close to count as a shadow hit, so an occluder

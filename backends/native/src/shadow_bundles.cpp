@@ -230,30 +230,25 @@ inline __m128d sign_mask(__m128d x) {
 using detail::select;  // shapes.hpp
 }  // namespace
 
-void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, const Vec3& origin, const Vec3* dirs,
-                             const double* distances, size_t count, double t_min, unsigned char* blocked) const {
+void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, const Vec3& origin, const double* x,
+                             const double* y, const double* z, const double* distance, size_t count, double t_min,
+                             unsigned char* blocked) const {
     std::fill(blocked, blocked + count, 0);
     if (candidates.empty() || count == 0) return;
     // Rays in pairs, for the sphere test (intersect_sphere_pair) and hit_node()'s box test in the
     // two lanes of SSE2 doubles: per lane the same operations in the same order (IEEE products
     // and differences, maxpd/minpd with hit_node's operand order, so NaN is ignored as there),
-    // hence the same decisions. Per ray,
-    // once: the reciprocal direction and t_max, in lanes (an odd count repeats the last ray in
-    // a lane whose result is dropped); and the watertight set-up when a triangle is tested that
-    // way (occluded_by() makes the same ones, per ray).
+    // hence the same decisions. The directions come in lanes (an odd count pads the last ray,
+    // whose result is dropped); per ray, once: t_max and, for triangles, the reciprocal
+    // direction, and the watertight set-up when a triangle is tested that way (occluded_by()
+    // makes the same ones, per ray).
     const size_t pairs = (count + 1) / 2, padded = 2 * pairs;
+    const double* const dir[3] = {x, y, z};
     thread_local std::vector<double> lanes;
-    lanes.resize(7 * padded);
+    lanes.resize(4 * padded);
     double* const inverse[3] = {lanes.data(), lanes.data() + padded, lanes.data() + 2 * padded};
     double* const t_max = lanes.data() + 3 * padded;
-    double* const dir[3] = {lanes.data() + 4 * padded, lanes.data() + 5 * padded, lanes.data() + 6 * padded};
-    for (size_t k = 0; k < padded; ++k) {
-        const size_t ray = k < count ? k : count - 1;
-        t_max[k] = distances[ray] - t_min;
-        dir[0][k] = dirs[ray].x;
-        dir[1][k] = dirs[ray].y;
-        dir[2][k] = dirs[ray].z;
-    }
+    for (size_t k = 0; k < padded; ++k) t_max[k] = distance[k] - t_min;
     // The box tests' reciprocals, two at a time (IEEE division per lane), for triangles only.
     const bool any_triangle =
         std::any_of(candidates.begin(), candidates.end(), [](const BundleCandidate& c) { return c.ref >= 0; });
@@ -265,7 +260,7 @@ void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, con
     const bool watertight = povray_triangles.empty() && any_triangle;
     if (watertight) {
         sheared.clear();
-        for (size_t k = 0; k < count; ++k) sheared.emplace_back(dirs[k]);
+        for (size_t k = 0; k < count; ++k) sheared.emplace_back(Vec3{x[k], y[k], z[k]});
     }
     const __m128d widening = _mm_set1_pd(kSlabFarWidening), t_min_lanes = _mm_set1_pd(t_min);
     const double o[3] = {origin.x, origin.y, origin.z};
@@ -318,7 +313,7 @@ void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, con
             for (int lanes = _mm_movemask_pd(_mm_cmple_pd(t0, t1)) & open_lanes; lanes != 0; lanes &= lanes - 1) {
                 const int lane = __builtin_ctz(unsigned(lanes));
                 const size_t k = first + size_t(lane);
-                const Ray ray{origin, dirs[k]};
+                const Ray ray{origin, Vec3{x[k], y[k], z[k]}};
                 double t;
                 Barycentric bary;
                 const bool hit =
