@@ -894,6 +894,10 @@ NB_MODULE(_native, m) {
             "Children per BVH node of the rays' walk: 8 on the AVX2 path, 4 on the SSE2 one (chosen when "
             "the scene is built; PHONGSCENE_NATIVE_SIMD=sse2 forces the portable path).")
         .def_prop_ro(
+            "small_scene", [](const phong::Scene& s) { return s.small(); },
+            "Whether the rays skip the BVH and test every primitive in lanes (small_scene.hpp: on the AVX2 path, at "
+            "most 8 axis-aligned spheres and 8 triangles and no other bounded primitive or instance).")
+        .def_prop_ro(
             "leaf_count", [](const phong::Scene& s) { return s.leaf_count(); },
             "Leaves of the walk's BVH (how the SAH grouped the primitives; a root that is one leaf counts 1).")
         .def_prop_ro(

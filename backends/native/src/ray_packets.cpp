@@ -10,6 +10,7 @@
 #include "bvh8_packet.hpp"
 #include "closest_search.hpp"
 #include "scene.hpp"
+#include "small_scene.hpp"
 #include "sphere_lanes.hpp"
 #include "triangle_lanes.hpp"
 #include "triangle_prefilter.hpp"
@@ -22,7 +23,7 @@ bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin
     assert(count >= 1 && count <= kPacketRays);
     FloatSlabPacket8 packet;
     // A lone ray gains nothing from the packet's walk; the 4-wide tree (no AVX2) has none.
-    if (bvh8_.empty() || count < 2 || !packet.set_up(rays, count, origin, t_min, magnitude)) {
+    if (bvh8_.empty() || count < 2 || (!small() && !packet.set_up(rays, count, origin, t_min, magnitude))) {
         for (int r = 0; r < count; ++r) found[r] = closest_hit(rays[r], origin, t_min, HUGE_VAL, hits[r]);
         return false;
     }
@@ -148,7 +149,34 @@ bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin
             cull[r] = s.t_cull;
         }
     };
-    traverse_bvh8_packet(bvh8_, packet, (1u << count) - 1u, t_cull, leaf);
+    // A small scene (small_scene.hpp): each sphere tested by the rays it does not certainly
+    // reject, each triangle by every ray; no walk. (Compiled for AVX2 with the tests inlined, as
+    // the leaves are.)
+    auto small_scene = [&]() PHONG_AVX2 __attribute__((flatten)) {
+        alignas(32) double dx[kPacketRays], dy[kPacketRays], dz[kPacketRays];
+        for (int r = 0; r < kPacketRays; ++r) {
+            const Vec3& d = rays[r < count ? r : 0].dir;
+            dx[r] = d.x;
+            dy[r] = d.y;
+            dz[r] = d.z;
+        }
+        const unsigned all = (1u << count) - 1u;
+        for (size_t k = 0; k < spheres.size(); ++k)
+            if (const unsigned near = rays_near_sphere(spheres[k], rays[0].origin, dx, dy, dz, t_min) & all)
+                test_sphere(~int32_t(k), near);
+        for (size_t k = 0; k < triangles.size(); ++k) {
+            if (shears_shared()) {
+                test_triangle(int32_t(k), all);
+            } else {
+                for (int r = 0; r < count; ++r) search[r]->test(int32_t(k));
+            }
+        }
+    };
+    if (small()) {
+        small_scene();
+    } else {
+        traverse_bvh8_packet(bvh8_, packet, (1u << count) - 1u, t_cull, leaf);
+    }
     for (int r = 0; r < count; ++r) found[r] = search[r]->finish(HUGE_VAL);
     return true;
 }

@@ -367,6 +367,10 @@ Scene::Scene(const GeometryArrays& in, std::vector<Material> scene_materials, st
     prefilter_ = !bvh8_.empty() && triangles.lanes() && povray_triangles.empty() &&
                  triangles.size() >= size_t(kMinPrefilterLeaf);
     mixed_leaves_ = !spheres.empty() || !balls.empty() || !intrinsics.empty();
+    // POV-Ray's triangles (their own test, mesh-frame corners) keep the tree, as the SSE2 path does.
+    if (!bvh8_.empty() && povray_triangles.empty() && balls.empty() && intrinsics.empty() &&
+        SmallScene::fits(spheres, triangles.size()))
+        small_ = std::make_unique<const SmallScene>(spheres, triangles);
 }
 
 void Scene::add_instances(std::unique_ptr<Scene> prototype, const double* world_from_prototype, size_t count,
@@ -394,6 +398,10 @@ int64_t Scene::primitive_id(int32_t ref) const {
 
 bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max, Hit& hit) const {
     ClosestSearch search(*this, ray, t_min, t_max, hit);
+    if (small()) {
+        closest_small(ray, search);
+        return search.finish(t_max);
+    }
     if (prefilter_applies()) {
         // Only the triangles the float prefilter keeps (triangle_prefilter.hpp). The leaf is
         // compiled for AVX2 with the prefilter and the tests inlined: GCC inlines no default-target
@@ -420,7 +428,33 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
     return search.finish(t_max);
 }
 
+PHONG_AVX2 bool Scene::occluded_small(const Ray& ray, double t_min, double t_max) const {
+    for (unsigned k = small_->sphere_candidates(ray, t_min); k != 0; k &= k - 1) {
+        double t;
+        if (intersect_sphere(spheres[size_t(__builtin_ctz(k))], ray, t_min, t_max, t)) return true;
+    }
+    std::optional<WatertightRay> wr;
+    for (unsigned k = small_->box_candidates(ray, t_min); k != 0; k &= k - 1) {
+        double t;
+        Barycentric bary;
+        if (hit_triangle(int32_t(__builtin_ctz(k)), ray, wr, t_min, t_max, t, bary)) return true;
+    }
+    return false;
+}
+
+PHONG_AVX2 void Scene::closest_small(const Ray& ray, ClosestSearch& search) const {
+    for (unsigned k = small_->sphere_candidates(ray, search.t_min); k != 0; k &= k - 1)
+        search.test(~int32_t(__builtin_ctz(k)));
+    for (unsigned k = small_->box_candidates(ray, search.t_min); k != 0; k &= k - 1)
+        search.test(int32_t(__builtin_ctz(k)));
+}
+
 bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const {
+    if (small()) {
+        double t;
+        int32_t plane;
+        return occluded_small(ray, t_min, t_max) || (!planes.empty() && hit_planes(ray, t_min, t_max, t, plane));
+    }
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool blocked = false;
     double t_limit = t_max;

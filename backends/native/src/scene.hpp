@@ -21,6 +21,7 @@
 #include "math.hpp"
 #include "povray_triangle.hpp"
 #include "shapes.hpp"
+#include "small_scene.hpp"
 #include "environment.hpp"
 #include "textures.hpp"
 #include "triangle_prefilter.hpp"
@@ -222,6 +223,8 @@ class Scene {
 
     // Children per node of the walk closest_hit() and occluded() take: 8 (AVX2) or 4 (SSE2).
     int walk_width() const { return bvh8_.empty() ? 4 : 8; }
+    // Whether the rays skip the tree and test every primitive in lanes (small_scene.hpp).
+    bool small() const { return small_ && instances_empty(); }
     // Leaves of the walk's tree (the SAH's choices, bvh.cpp: a test's view of the tree's shape).
     size_t leaf_count() const {
         size_t leaves = 0;
@@ -390,6 +393,11 @@ class Scene {
     int32_t triangle_mesh_searched(size_t slot) const;  // triangle_mesh for three meshes or more
     bool prefilter_ = false;                            // prefilter_applies()
     bool mixed_leaves_ = false;                         // mixed_leaves()
+    // Where the scene is a small one (small_scene.hpp: on the AVX2 path, a few axis-aligned
+    // spheres and triangles and no other bounded primitive), its rays' lanes; else empty.
+    std::unique_ptr<const SmallScene> small_;
+    bool occluded_small(const Ray& ray, double t_min, double t_max) const;  // occluded() there
+    void closest_small(const Ray& ray, ClosestSearch& search) const;        // closest_hit()'s tests there
 };
 
 }  // namespace phong
