@@ -429,12 +429,25 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
 }
 
 PHONG_AVX2 bool Scene::occluded_small(const Ray& ray, double t_min, double t_max) const {
-    for (unsigned k = small_->sphere_candidates(ray, t_min); k != 0; k &= k - 1) {
+    const unsigned spheres_left = small_->sphere_candidates(ray, t_min);
+    const unsigned triangles_left = small_->box_candidates(ray, t_min);
+    if ((spheres_left | triangles_left) != 0 && occluded_exactly(ray, spheres_left, triangles_left, t_min, t_max))
+        return true;
+    double t;
+    int32_t plane;
+    return !planes.empty() && hit_planes(ray, t_min, t_max, t, plane);
+}
+
+// Out of line: most shadow rays of a small scene reject every primitive in lanes, and the
+// registers these loops and calls keep cost each of them a frame (~26 instructions of S1's).
+[[gnu::noinline]] bool Scene::occluded_exactly(const Ray& ray, unsigned spheres_left, unsigned triangles_left,
+                                               double t_min, double t_max) const {
+    for (unsigned k = spheres_left; k != 0; k &= k - 1) {
         double t;
         if (intersect_sphere(spheres[size_t(__builtin_ctz(k))], ray, t_min, t_max, t)) return true;
     }
     std::optional<WatertightRay> wr;
-    for (unsigned k = small_->box_candidates(ray, t_min); k != 0; k &= k - 1) {
+    for (unsigned k = triangles_left; k != 0; k &= k - 1) {
         double t;
         Barycentric bary;
         if (hit_triangle(int32_t(__builtin_ctz(k)), ray, wr, t_min, t_max, t, bary)) return true;
@@ -449,12 +462,7 @@ PHONG_AVX2 void Scene::closest_small(const Ray& ray, ClosestSearch& search) cons
         search.test(int32_t(__builtin_ctz(k)));
 }
 
-bool Scene::occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const {
-    if (small()) {
-        double t;
-        int32_t plane;
-        return occluded_small(ray, t_min, t_max) || (!planes.empty() && hit_planes(ray, t_min, t_max, t, plane));
-    }
+bool Scene::occluded_tree(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const {
     std::optional<WatertightRay> wr;  // set up when the first triangle is tested
     bool blocked = false;
     double t_limit = t_max;

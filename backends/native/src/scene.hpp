@@ -121,11 +121,17 @@ class Scene {
         return closest_hit(ray, FloatSlabOrigin(ray.origin), t_min, t_max, hit);
     }
     bool occluded(const Ray& ray, double t_min, double t_max) const {
-        return occluded(ray, FloatSlabOrigin(ray.origin), t_min, t_max);
+        if (small()) return occluded_small(ray, t_min, t_max);
+        return occluded_tree(ray, FloatSlabOrigin(ray.origin), t_min, t_max);
     }
     // The same, for rays whose shared origin is rounded once: `origin` is FloatSlabOrigin(ray.origin).
     bool closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max, Hit& hit) const;
-    bool occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const;
+    // (Inline, the small scene's branch first: behind the tree walk's frame it cost a shadow ray
+    // of S1 ~40 instructions.)
+    bool occluded(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const {
+        if (small()) return occluded_small(ray, t_min, t_max);
+        return occluded_tree(ray, origin, t_min, t_max);
+    }
     // closest_hit(ray, origin, t_min, HUGE_VAL) for `count` <= kPacketRays rays that share their
     // origin (a perspective camera's primary rays of a block of pixels): found[k] and hits[k] are
     // ray k's, bit for bit what closest_hit() gives it. The rays walk the 8-wide tree together
@@ -396,8 +402,12 @@ class Scene {
     // Where the scene is a small one (small_scene.hpp: on the AVX2 path, a few axis-aligned
     // spheres and triangles and no other bounded primitive), its rays' lanes; else empty.
     std::unique_ptr<const SmallScene> small_;
-    bool occluded_small(const Ray& ray, double t_min, double t_max) const;  // occluded() there
-    void closest_small(const Ray& ray, ClosestSearch& search) const;        // closest_hit()'s tests there
+    // occluded() there, and the exact tests of the spheres and triangles its lanes did not reject.
+    bool occluded_small(const Ray& ray, double t_min, double t_max) const;
+    bool occluded_exactly(const Ray& ray, unsigned spheres_left, unsigned triangles_left, double t_min,
+                          double t_max) const;
+    void closest_small(const Ray& ray, ClosestSearch& search) const;  // closest_hit()'s tests there
+    bool occluded_tree(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const;  // elsewhere
 };
 
 }  // namespace phong
