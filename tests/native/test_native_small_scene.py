@@ -13,6 +13,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from test_native_bvh4 import T_MINS, unit
 from test_native_simd_dispatch import built_with, needs_avx2, render_with
 
@@ -218,3 +220,45 @@ def test_a_scene_with_a_plane_or_triangles_only_is_answered_the_same(monkeypatch
         image = render_with(monkeypatch, s, "auto")
         assert image.tobytes() == render_with(monkeypatch, s, "sse2").tobytes()
     assert not native.build(many).small_scene or native.build(many).walk_width == 4  # 10 triangles: the tree
+
+
+@needs_avx2
+@settings(max_examples=30, deadline=None)
+@given(
+    spheres=st.integers(0, 8),
+    triangles=st.integers(1, 8),
+    scale_exponent=st.integers(-4, 5),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_random_small_scenes(spheres, triangles, scale_exponent, seed):
+    # Any small scene: stretched spheres and loose triangles in a cloud, rays from outside it,
+    # from inside it and from the spheres' surfaces; closest hits and shadow answers against the
+    # tree's and brute force's.
+    scale = 10.0**scale_exponent
+    rng = np.random.default_rng(seed)
+    balls = tuple(
+        Sphere(
+            calibration.translation(rng.uniform(-2, 2, 3) * scale)
+            @ calibration.scaling(rng.uniform(0.05, 0.8, 3) * scale)
+        )
+        for _ in range(spheres)
+    )
+    corners = rng.uniform(-2, 2, (triangles, 3, 3)) * scale
+    mesh = TriangleMesh(points=corners.reshape(-1, 3), triangles=np.arange(3 * triangles).reshape(-1, 3))
+    scene = dataclasses.replace(course(), spheres=balls, meshes=(mesh,))
+    with pytest.MonkeyPatch.context() as monkeypatch:  # (a fixture's would outlive the examples)
+        small, tree = native.build(scene), built_with(monkeypatch, scene, "sse2")
+    assert small.small_scene
+    origins = np.concatenate(
+        [rng.uniform(-4, 4, (300, 3)) * scale, sphere_surface_points(scene, rng, 20) if spheres else np.zeros((0, 3))]
+    )
+    dirs = unit(rng.normal(size=origins.shape))
+    window = SHADOW_WINDOW * scale
+    t, prim = small.intersect(origins, dirs, window)
+    t_tree, prim_tree = tree.intersect(origins, dirs, window)
+    assert np.array_equal(t, t_tree) and np.array_equal(prim, prim_tree)
+    assert np.array_equal(t, small.count_hits(origins, dirs, window)[1])
+    limit = rng.uniform(0.1, 6.0, len(origins)) * scale
+    blocked = small.occluded(origins, dirs, limit, window)
+    assert np.array_equal(blocked, tree.occluded(origins, dirs, limit, window))
+    assert np.array_equal(blocked, t < limit)
