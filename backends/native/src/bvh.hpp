@@ -195,6 +195,16 @@ struct Bvh {
 // together; ulps(4) is the smallest whole number of ε above 2γ(3) = 3ε / (1 − 1.5ε).
 constexpr double kSlabFarWidening = 1.0 + ulps(4);
 
+// The limit an any-hit query (a shadow ray) gives hit_node instead of its t_max: none. The cap
+// t_max·kSlabFarWidening takes a primitive's computed distance for the exact one, and the
+// watertight test's can fall short of it by far more than 4ε: by ~(triangle size / t)·ε, 2–14e-15
+// relative for a ground quad 40 times the length of a shadow ray (tests/native/
+// test_native_small_scene.py), so a shadow ray whose window ended one double past such a hit had
+// the triangle's box culled and the hit missed. Uncapped, a box beyond the window is entered and
+// its primitives' own tests, with the window, decide. (A closest-hit walk keeps its cap: it
+// culls by the best hit so far, with ClosestSearch's margin.)
+constexpr double kAnyHitBoxLimit = HUGE_VAL;
+
 template <class Box>
 inline bool hit_node(const Box& n, const Vec3& o, const Vec3& inv, double t_min, double t_max, double& t_entry) {
     double t0 = t_min, t1 = t_max * kSlabFarWidening;

@@ -110,7 +110,9 @@ PHONG_AVX2 void traverse_bvh8(const Bvh8Nodes& nodes, double scene_magnitude, co
             } else {
                 for (int i = 0; i < 8; ++i) {
                     double t_entry;
-                    if (hit_node(ChildBox(node, i), ray.origin, inv, t_min, t_max, t_entry)) {
+                    // An any-hit walk's boxes uncapped (hit_node's cap, kAnyHitBoxLimit).
+                    if (hit_node(ChildBox(node, i), ray.origin, inv, t_min, ordered ? t_max : kAnyHitBoxLimit,
+                                 t_entry)) {
                         mask |= 1 << i;
                         entry[i] = round_down(t_entry);
                     }

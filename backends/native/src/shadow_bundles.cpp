@@ -203,7 +203,7 @@ bool Scene::occluded_by(std::vector<BundleCandidate>& candidates, const Ray& ray
     for (size_t k = 0; k < candidates.size(); ++k) {
         const BundleCandidate& box = candidates[k];
         double t_entry;
-        if (!hit_node(box, ray.origin, inv, t_min, t_max, t_entry)) continue;
+        if (!hit_node(box, ray.origin, inv, t_min, kAnyHitBoxLimit, t_entry)) continue;
         double t;
         bool hit;
         if (box.ref >= 0) {
@@ -301,7 +301,7 @@ void Scene::occluded_by_each(const std::vector<BundleCandidate>& candidates, con
         for (size_t first = 0; first < count; first += 2) {
             const int open_lanes = (blocked[first] ? 0 : 1) | (first + 1 < count && !blocked[first + 1] ? 2 : 0);
             if (open_lanes == 0) continue;
-            __m128d t0 = t_min_lanes, t1 = _mm_loadu_pd(t_max + first);
+            __m128d t0 = t_min_lanes, t1 = _mm_set1_pd(kAnyHitBoxLimit);  // hit_node's, uncapped
             for (int a = 0; a < 3; ++a) {
                 const __m128d r = _mm_loadu_pd(inverse[a] + first);
                 const __m128d negative = sign_mask(r);
