@@ -123,11 +123,9 @@ struct alignas(64) SmallScene {
     // Bit k set where hit_node (bvh.hpp) would enter triangle k's box on `ray` beyond t_min:
     // per lane its operations (the reciprocals 1/d, each slab's (bound − o)·inv, the far one
     // widened by kSlabFarWidening, max and min keeping t0 and t1 on NaN), so its argument holds:
-    // a triangle hit beyond t_min lies in an entered box. No upper limit: hit_node caps t1 at
-    // t_max·kSlabFarWidening, which assumes the triangle test's distance within a few ε of the
-    // exact one, and the watertight test's can be ~65ε short of it (S1's ground seen from a
-    // sphere at scale 1e-6): a shadow ray whose window ends a double past such a hit was
-    // culled. (The tree's float test, its usual one, widens by 2^-21.)
+    // a triangle hit beyond t_min lies in an entered box. No upper limit, for closest hits too
+    // (bvh.hpp, kAnyHitBoxLimit: a cap at t_max·kSlabFarWidening culled hits whose watertight
+    // distance fell short of the exact one).
     PHONG_AVX2 unsigned box_candidates(const Ray& ray, double t_min) const {
         alignas(32) double inv[4];  // 1 / d, and 1 / 1 in the last lane
         _mm256_store_pd(inv, _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_setr_pd(ray.dir.x, ray.dir.y, ray.dir.z, 1.0)));
