@@ -26,6 +26,7 @@
 #include "build_threads.hpp"
 #include "bvh8_packet.hpp"
 #include "camera.hpp"
+#include "lane_shading.hpp"
 #include "lights.hpp"
 #include "materials.hpp"
 #include "render.hpp"
@@ -897,6 +898,10 @@ NB_MODULE(_native, m) {
             "small_scene", [](const phong::Scene& s) { return s.small(); },
             "Whether the rays skip the BVH and test every primitive in lanes (small_scene.hpp: on the AVX2 path, at "
             "most 8 axis-aligned spheres and 8 triangles and no other bounded primitive or instance).")
+        .def_prop_ro(
+            "lane_lights", [](const phong::Scene& s) { return phong::lane_lights(s); },
+            "Whether its lights allow a packet's primary hits to be lit in AVX2 lanes (lane_shading.hpp: the "
+            "AVX2 path, no light links, only point lights without fade or cone).")
         .def_prop_ro(
             "leaf_count", [](const phong::Scene& s) { return s.leaf_count(); },
             "Leaves of the walk's BVH (how the SAH grouped the primitives; a root that is one leaf counts 1).")

@@ -5,6 +5,7 @@
 #include "adaptive_pixels.hpp"
 #include "bvh8_packet.hpp"
 #include "interiors.hpp"
+#include "lane_shading.hpp"
 #include "low_discrepancy.hpp"
 #include "normal_maps.hpp"
 #include "uninitialised.hpp"
@@ -612,11 +613,91 @@ TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_,
     // Shadow rays go surface by surface where glass filters them or a mask can let light through.
     filtered_shadows = (transmissive && glass_filters_light) || cut_outs;
     povray_walk = settings.numerics != Numerics::kScaleInvariant;
+    lane_shading = lane_lights(scene) && !filtered_shadows;
     for (const auto& [object, material] : settings.camera_interiors) {
         assert(material >= 0 && size_t(material) < scene.materials.size());  // bindings.cpp checks it
         camera_inside.append(Interior{-1, object, &scene.materials[size_t(material)]});
     }
 }
+
+namespace {
+
+// The colours of a packet's primary rays whose closest hits are known: colour[k] is
+// shade_primary(rays[k], found[k], hits[k])'s to the bit. Where the render allows it
+// (TraceContext::lane_shading) the direct lighting of the points lane_material takes is added in
+// lanes (lane_shading.hpp), the rest one by one.
+void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits, const bool* found, int count,
+                  DeferredArray<RGB, kPacketRays>& colour, std::vector<BundleCandidate>& scratch) {
+    static_assert(kPacketRays <= kShadingLanes);
+    const Scene& scene = context.scene;
+    ShadedLanes lanes;
+    if (context.lane_shading) {
+        for (int k = 0; k < count; ++k) {
+            const Hit& hit = hits[k];
+            if (!found[k] || hit.instance >= 0) continue;
+            // shade_hit's material and unit normal, for a surface of the world.
+            const Vec3 p = rays[k].at(hit.t);
+            Vec3 n;
+            const Material* material;
+            if (scene.is_round(hit.ref)) {
+                SphereShape shape;
+                const SphereShape& s = scene.round_shape(hit.ref, shape);
+                material = &scene.materials[size_t(s.material)];
+                if (!lane_material(*material)) continue;
+                n = sphere_normal(s, p);
+            } else if (hit.ref < 0) {
+                const IntrinsicShape& part = scene.intrinsic(hit.ref);
+                material = &scene.materials[size_t(part.material)];
+                if (!lane_material(*material)) continue;
+                n = intrinsic_normal(part, p);
+            } else {
+                const int32_t mesh = scene.triangle_mesh(size_t(hit.ref));
+                material = &scene.materials[size_t(scene.mesh_material(mesh))];
+                if (!lane_material(*material)) continue;
+                const TriangleNormals* sh =
+                    scene.triangle_normals.empty() ? nullptr : &scene.triangle_normals[size_t(hit.ref)];
+                if (sh && sh->n0 >= 0) {
+                    n = normalize(scene.normals[size_t(sh->n0)] * hit.bary.b0 +
+                                  scene.normals[size_t(sh->n1)] * hit.bary.b1 +
+                                  scene.normals[size_t(sh->n2)] * hit.bary.b2);
+                } else if (const Vec3* kept = scene.flat_normal(size_t(hit.ref), mesh)) {
+                    n = *kept;
+                } else {
+                    n = flat_triangle_normal(scene.triangles[size_t(hit.ref)]);
+                }
+            }
+            if (dot(n, rays[k].dir) > 0.0) n = -n;  // faces the viewer
+            const Vec3 wo = -rays[k].dir;
+            RGB color = ambient_term(*material, scene.ambient);
+            color += material->emission;
+            const RGB diffuse = material->diffuse_color * (material->kd / kPi);
+            lanes.px[k] = p.x, lanes.py[k] = p.y, lanes.pz[k] = p.z;
+            lanes.nx[k] = n.x, lanes.ny[k] = n.y, lanes.nz[k] = n.z;
+            lanes.wx[k] = wo.x, lanes.wy[k] = wo.y, lanes.wz[k] = wo.z;
+            lanes.cx[k] = color.x, lanes.cy[k] = color.y, lanes.cz[k] = color.z;
+            lanes.kx[k] = diffuse.x, lanes.ky[k] = diffuse.y, lanes.kz[k] = diffuse.z;
+            lanes.sx[k] = material->specular_color.x, lanes.sy[k] = material->specular_color.y;
+            lanes.sz[k] = material->specular_color.z;
+            lanes.ks[k] = material->ks, lanes.exponent[k] = material->exponent;
+            lanes.lanes |= 1u << k;
+        }
+    }
+    if (lanes.lanes != 0) {
+        const double window = context.tolerances.shadow_window;
+        // ShadowQuery's answer for a point light (no light link, no bundle).
+        auto shadow = [&](const Vec3& p, const Vec3& l, double distance) {
+            const Ray ray{p, l};
+            return scene.occluded(ray, window, distance - window) &&
+                   (!context.povray_walk || scene.occluded_povray_walk(ray, window, distance - window));
+        };
+        add_point_lights(scene.lights, context.settings.specular_convention, lanes, shadow);
+    }
+    for (int k = 0; k < count; ++k)
+        colour.emplace(size_t(k), lanes.lanes >> k & 1u ? RGB{lanes.cx[k], lanes.cy[k], lanes.cz[k]}
+                                                        : shade_primary(context, rays[k], found[k], hits[k], scratch));
+}
+
+}  // namespace
 
 RGB trace_primary(const TraceContext& context, const Ray& ray, std::vector<BundleCandidate>& scratch,
                   const FloatSlabOrigin* origin) {
@@ -687,8 +768,7 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         bool found[kPacketRays];
         for (int k = 0; k < count; ++k) rays.emplace(size_t(k), camera.generate(sx[k], sy[k], width, height));
         scene.closest_hit_packet(rays.data(), count, *eye, tolerances.primary_near, hits, found);
-        for (int k = 0; k < count; ++k)
-            colour.emplace(size_t(k), shade_primary(context, rays[size_t(k)], found[k], hits[k], scratch));
+        shade_packet(context, rays.data(), hits, found, count, colour, scratch);
     };
     // Samples of one pixel gathered into packets, summed in the order given (the sum, and so
     // the pixel, is the one-by-one loop's to the bit).

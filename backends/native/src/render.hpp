@@ -80,6 +80,9 @@ struct TraceContext {
     bool cut_outs = false;
     // POV-Ray numerics: shadow rays see meshes as POV-Ray's mesh walk reports them (povray_walk.cpp).
     bool povray_walk = false;
+    // A packet's primary hits may be lit in AVX2 lanes (render.cpp: shade_packet): the scene's
+    // lights allow it (lane_shading.hpp: lane_lights) and no shadow is filtered.
+    bool lane_shading = false;
     // The interiors camera rays start in (RenderSettings::camera_interiors).
     Interiors camera_inside;
 
