@@ -57,6 +57,22 @@ inline bool lane_material(const Material& m) {
     return !m.textured() && !(m.checker_size > 0.0) && !(m.kr > 0.0 || m.kt > 0.0);
 }
 
+// What the lanes take of a material, computed once a render (TraceContext::lane_materials) with
+// shade_hit's operations: the colour before any light (ambient term + emission), cd · (kd / π),
+// cs, ks and e; `plain`: lane_material.
+struct LaneMaterial {
+    RGB unlit, diffuse, specular;
+    double ks, exponent;
+    bool plain;
+    LaneMaterial(const Material& m, const RGB& ambient)
+        : unlit(ambient_term(m, ambient) + m.emission),
+          diffuse(m.diffuse_color * (m.kd / kPi)),
+          specular(m.specular_color),
+          ks(m.ks),
+          exponent(m.exponent),
+          plain(lane_material(m)) {}
+};
+
 // The scene's part of TraceContext::lane_shading: the AVX2 path (the lanes need it), no light
 // links, and every light a lane_light.
 inline bool lane_lights(const Scene& scene) {

@@ -5,7 +5,6 @@
 #include "adaptive_pixels.hpp"
 #include "bvh8_packet.hpp"
 #include "interiors.hpp"
-#include "lane_shading.hpp"
 #include "low_discrepancy.hpp"
 #include "normal_maps.hpp"
 #include "uninitialised.hpp"
@@ -614,6 +613,8 @@ TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_,
     filtered_shadows = (transmissive && glass_filters_light) || cut_outs;
     povray_walk = settings.numerics != Numerics::kScaleInvariant;
     lane_shading = lane_lights(scene) && !filtered_shadows;
+    if (lane_shading)
+        for (const Material& m : scene.materials) lane_materials.emplace_back(m, scene.ambient);
     for (const auto& [object, material] : settings.camera_interiors) {
         assert(material >= 0 && size_t(material) < scene.materials.size());  // bindings.cpp checks it
         camera_inside.append(Interior{-1, object, &scene.materials[size_t(material)]});
@@ -638,22 +639,22 @@ void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits,
             // shade_hit's material and unit normal, for a surface of the world.
             const Vec3 p = rays[k].at(hit.t);
             Vec3 n;
-            const Material* material;
+            const LaneMaterial* material;
             if (scene.is_round(hit.ref)) {
                 SphereShape shape;
                 const SphereShape& s = scene.round_shape(hit.ref, shape);
-                material = &scene.materials[size_t(s.material)];
-                if (!lane_material(*material)) continue;
+                material = &context.lane_materials[size_t(s.material)];
+                if (!material->plain) continue;
                 n = sphere_normal(s, p);
             } else if (hit.ref < 0) {
                 const IntrinsicShape& part = scene.intrinsic(hit.ref);
-                material = &scene.materials[size_t(part.material)];
-                if (!lane_material(*material)) continue;
+                material = &context.lane_materials[size_t(part.material)];
+                if (!material->plain) continue;
                 n = intrinsic_normal(part, p);
             } else {
                 const int32_t mesh = scene.triangle_mesh(size_t(hit.ref));
-                material = &scene.materials[size_t(scene.mesh_material(mesh))];
-                if (!lane_material(*material)) continue;
+                material = &context.lane_materials[size_t(scene.mesh_material(mesh))];
+                if (!material->plain) continue;
                 const TriangleNormals* sh =
                     scene.triangle_normals.empty() ? nullptr : &scene.triangle_normals[size_t(hit.ref)];
                 if (sh && sh->n0 >= 0) {
@@ -668,16 +669,13 @@ void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits,
             }
             if (dot(n, rays[k].dir) > 0.0) n = -n;  // faces the viewer
             const Vec3 wo = -rays[k].dir;
-            RGB color = ambient_term(*material, scene.ambient);
-            color += material->emission;
-            const RGB diffuse = material->diffuse_color * (material->kd / kPi);
             lanes.px[k] = p.x, lanes.py[k] = p.y, lanes.pz[k] = p.z;
             lanes.nx[k] = n.x, lanes.ny[k] = n.y, lanes.nz[k] = n.z;
             lanes.wx[k] = wo.x, lanes.wy[k] = wo.y, lanes.wz[k] = wo.z;
-            lanes.cx[k] = color.x, lanes.cy[k] = color.y, lanes.cz[k] = color.z;
-            lanes.kx[k] = diffuse.x, lanes.ky[k] = diffuse.y, lanes.kz[k] = diffuse.z;
-            lanes.sx[k] = material->specular_color.x, lanes.sy[k] = material->specular_color.y;
-            lanes.sz[k] = material->specular_color.z;
+            lanes.cx[k] = material->unlit.x, lanes.cy[k] = material->unlit.y, lanes.cz[k] = material->unlit.z;
+            lanes.kx[k] = material->diffuse.x, lanes.ky[k] = material->diffuse.y, lanes.kz[k] = material->diffuse.z;
+            lanes.sx[k] = material->specular.x, lanes.sy[k] = material->specular.y;
+            lanes.sz[k] = material->specular.z;
             lanes.ks[k] = material->ks, lanes.exponent[k] = material->exponent;
             lanes.lanes |= 1u << k;
         }
@@ -766,7 +764,13 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         DeferredArray<Ray, kPacketRays> rays;
         Hit hits[kPacketRays];
         bool found[kPacketRays];
-        for (int k = 0; k < count; ++k) rays.emplace(size_t(k), camera.generate(sx[k], sy[k], width, height));
+        if (scene.walk_width() == 8) {  // the AVX2 path: directions in lanes
+            Vec3 dirs[kPacketRays];
+            camera.perspective_directions(sx, sy, count, width, height, dirs);
+            for (int k = 0; k < count; ++k) rays.emplace(size_t(k), Ray{camera.position, dirs[k]});
+        } else {
+            for (int k = 0; k < count; ++k) rays.emplace(size_t(k), camera.generate(sx[k], sy[k], width, height));
+        }
         scene.closest_hit_packet(rays.data(), count, *eye, tolerances.primary_near, hits, found);
         shade_packet(context, rays.data(), hits, found, count, colour, scratch);
     };

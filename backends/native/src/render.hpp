@@ -9,6 +9,7 @@
 
 #include "camera.hpp"
 #include "interiors.hpp"
+#include "lane_shading.hpp"
 #include "materials.hpp"
 #include "scene.hpp"
 #include "transmission.hpp"
@@ -83,6 +84,7 @@ struct TraceContext {
     // A packet's primary hits may be lit in AVX2 lanes (render.cpp: shade_packet): the scene's
     // lights allow it (lane_shading.hpp: lane_lights) and no shadow is filtered.
     bool lane_shading = false;
+    std::vector<LaneMaterial> lane_materials;  // by material, where lane_shading
     // The interiors camera rays start in (RenderSettings::camera_interiors).
     Interiors camera_inside;
 
