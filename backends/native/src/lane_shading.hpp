@@ -94,8 +94,9 @@ PHONG_AVX2 inline __m256d lane_mask(unsigned bits) {
 }  // namespace detail
 
 // Adds to s's colours the terms of `lights` (every one lane_light), as shade_hit's loop does for
-// each point: `shadow(p, l, distance)` is its shadow ray's answer (ShadowQuery), asked only
-// where n·l passes kMinCosineToLight, in the same order of lights.
+// each point: `shadow(p, l, distance, count)` has bit i set where the shadow ray from p[i] along
+// l[i] to a light at distance[i] is blocked (ShadowQuery's answer), asked only where n·l passes
+// kMinCosineToLight, one light after the other.
 template <class Shadow>
 PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConvention convention, ShadedLanes& s,
                                  Shadow&& shadow) {
@@ -128,10 +129,20 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
             _mm256_store_pd(l[1], ly);
             _mm256_store_pd(l[2], lz);
             _mm256_store_pd(distance, d);
-            for (unsigned bits = lit; bits != 0; bits &= bits - 1) {
-                const int k = __builtin_ctz(bits);
-                const Vec3 p{s.px[g + k], s.py[g + k], s.pz[g + k]};
-                if (shadow(p, Vec3{l[0][k], l[1][k], l[2][k]}, distance[k])) lit &= ~(1u << k);
+            {
+                // The lit lanes' shadow rays, asked together.
+                Vec3 p[4], dir[4];
+                int lane[4], rays = 0;
+                for (unsigned bits = lit; bits != 0; bits &= bits - 1, ++rays) {
+                    const int k = __builtin_ctz(bits);
+                    lane[rays] = k;
+                    p[rays] = Vec3{s.px[g + k], s.py[g + k], s.pz[g + k]};
+                    dir[rays] = Vec3{l[0][k], l[1][k], l[2][k]};
+                    distance[rays] = distance[k];  // k >= rays: not read again
+                }
+                const unsigned blocked = shadow(p, dir, distance, rays);
+                for (int i = 0; i < rays; ++i)
+                    if (blocked >> i & 1u) lit &= ~(1u << lane[i]);
             }
             if (lit == 0) continue;
             // The light's colour at p (sample_light_centre), times the visible fraction 1 (exact).

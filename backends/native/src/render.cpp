@@ -682,11 +682,18 @@ void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits,
     }
     if (lanes.lanes != 0) {
         const double window = context.tolerances.shadow_window;
-        // ShadowQuery's answer for a point light (no light link, no bundle).
-        auto shadow = [&](const Vec3& p, const Vec3& l, double distance) {
-            const Ray ray{p, l};
-            return scene.occluded(ray, window, distance - window) &&
-                   (!context.povray_walk || scene.occluded_povray_walk(ray, window, distance - window));
+        // ShadowQuery's answers for a point light (no light link, no bundle).
+        auto shadow = [&](const Vec3* p, const Vec3* l, const double* distance, int count) {
+            Ray rays[4];
+            double t_max[4];
+            for (int i = 0; i < count; ++i) rays[i] = Ray{p[i], l[i]}, t_max[i] = distance[i] - window;
+            unsigned blocked = scene.occluded_each(rays, count, window, t_max);
+            if (context.povray_walk)
+                for (unsigned bits = blocked; bits != 0; bits &= bits - 1) {
+                    const int i = __builtin_ctz(bits);
+                    if (!scene.occluded_povray_walk(rays[i], window, t_max[i])) blocked &= ~(1u << i);
+                }
+            return blocked;
         };
         add_point_lights(scene.lights, context.settings.specular_convention, lanes, shadow);
     }

@@ -429,13 +429,34 @@ bool Scene::closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_
 }
 
 PHONG_AVX2 bool Scene::occluded_small(const Ray& ray, double t_min, double t_max) const {
+    alignas(32) double inv[4];
+    SmallScene::reciprocals(ray, inv);  // first: see reciprocals()
     const unsigned spheres_left = small_->sphere_candidates(ray, t_min);
-    const unsigned triangles_left = small_->box_candidates(ray, t_min);
+    const unsigned triangles_left = small_->box_candidates(ray, inv, t_min);
     if ((spheres_left | triangles_left) != 0 && occluded_exactly(ray, spheres_left, triangles_left, t_min, t_max))
         return true;
     double t;
     int32_t plane;
     return !planes.empty() && hit_planes(ray, t_min, t_max, t, plane);
+}
+
+PHONG_AVX2 unsigned Scene::occluded_small_each(const Ray* rays, int count, double t_min, const double* t_max) const {
+    assert(count >= 0 && count <= 4);
+    alignas(32) double inv[4][4];
+    unsigned spheres_left[4], triangles_left[4];
+    for (int i = 0; i < count; ++i) SmallScene::reciprocals(rays[i], inv[i]);
+    for (int i = 0; i < count; ++i) spheres_left[i] = small_->sphere_candidates(rays[i], t_min);
+    for (int i = 0; i < count; ++i) triangles_left[i] = small_->box_candidates(rays[i], inv[i], t_min);
+    unsigned blocked = 0;
+    for (int i = 0; i < count; ++i) {  // occluded_small's tail
+        bool hit = (spheres_left[i] | triangles_left[i]) != 0 &&
+                   occluded_exactly(rays[i], spheres_left[i], triangles_left[i], t_min, t_max[i]);
+        double t;
+        int32_t plane;
+        if (!hit) hit = !planes.empty() && hit_planes(rays[i], t_min, t_max[i], t, plane);
+        blocked |= unsigned(hit) << i;
+    }
+    return blocked;
 }
 
 // Out of line: most shadow rays of a small scene reject every primitive in lanes, and the
@@ -456,9 +477,11 @@ PHONG_AVX2 bool Scene::occluded_small(const Ray& ray, double t_min, double t_max
 }
 
 PHONG_AVX2 void Scene::closest_small(const Ray& ray, ClosestSearch& search) const {
+    alignas(32) double inv[4];
+    SmallScene::reciprocals(ray, inv);
     for (unsigned k = small_->sphere_candidates(ray, search.t_min); k != 0; k &= k - 1)
         search.test(~int32_t(__builtin_ctz(k)));
-    for (unsigned k = small_->box_candidates(ray, search.t_min); k != 0; k &= k - 1)
+    for (unsigned k = small_->box_candidates(ray, inv, search.t_min); k != 0; k &= k - 1)
         search.test(int32_t(__builtin_ctz(k)));
 }
 

@@ -124,6 +124,15 @@ class Scene {
         if (small()) return occluded_small(ray, t_min, t_max);
         return occluded_tree(ray, FloatSlabOrigin(ray.origin), t_min, t_max);
     }
+    // Bit i set where occluded(rays[i], t_min, t_max[i]), for count <= 4 rays (a light's shadow
+    // rays from a packet's points, lane_shading.hpp). In a small scene their lane tests run one
+    // after the other with no branch between, so the CPU overlaps their latency chains.
+    unsigned occluded_each(const Ray* rays, int count, double t_min, const double* t_max) const {
+        if (small()) return occluded_small_each(rays, count, t_min, t_max);
+        unsigned blocked = 0;
+        for (int i = 0; i < count; ++i) blocked |= unsigned(occluded(rays[i], t_min, t_max[i])) << i;
+        return blocked;
+    }
     // The same, for rays whose shared origin is rounded once: `origin` is FloatSlabOrigin(ray.origin).
     bool closest_hit(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max, Hit& hit) const;
     // (Inline, the small scene's branch first: behind the tree walk's frame it cost a shadow ray
@@ -406,6 +415,7 @@ class Scene {
     bool occluded_small(const Ray& ray, double t_min, double t_max) const;
     bool occluded_exactly(const Ray& ray, unsigned spheres_left, unsigned triangles_left, double t_min,
                           double t_max) const;
+    unsigned occluded_small_each(const Ray* rays, int count, double t_min, const double* t_max) const;
     void closest_small(const Ray& ray, ClosestSearch& search) const;  // closest_hit()'s tests there
     bool occluded_tree(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const;  // elsewhere
 };

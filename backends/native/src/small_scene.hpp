@@ -126,12 +126,18 @@ struct alignas(64) SmallScene {
     // a triangle hit beyond t_min lies in an entered box. No upper limit, for closest hits too
     // (bvh.hpp, kAnyHitBoxLimit: a cap at t_max·kSlabFarWidening culled hits whose watertight
     // distance fell short of the exact one).
-    PHONG_AVX2 unsigned box_candidates(const Ray& ray, double t_min) const {
-        alignas(32) double inv[4];  // 1 / d, and 1 / 1 in the last lane
-        _mm256_store_pd(inv, _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_setr_pd(ray.dir.x, ray.dir.y, ray.dir.z, 1.0)));
+    // `inv`: the ray's reciprocals (reciprocals()).
+    PHONG_AVX2 unsigned box_candidates(const Ray& ray, const double (&inv)[4], double t_min) const {
         unsigned kept = boxes_kept(0, ray, inv, t_min);
         if (triangles > 4) kept |= boxes_kept(1, ray, inv, t_min) << 4;
         return kept & ((1u << triangles) - 1u);
+    }
+
+    // 1 / d per axis, and 1 / 1 in the last lane: box_candidates' reciprocals. Asked for before
+    // sphere_candidates, their division's latency passes during the sphere lanes (waiting for it
+    // was ~4 % of S1's render).
+    PHONG_AVX2 static void reciprocals(const Ray& ray, double (&inv)[4]) {
+        _mm256_store_pd(inv, _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_setr_pd(ray.dir.x, ray.dir.y, ray.dir.z, 1.0)));
     }
 
   private:
@@ -148,12 +154,14 @@ struct alignas(64) SmallScene {
     }
 
     // box_candidates for the triangles of group g, inv the ray's reciprocals.
-    PHONG_AVX2 __attribute__((always_inline)) unsigned boxes_kept(int g, const Ray& ray, const double* inv,
+    PHONG_AVX2 __attribute__((always_inline)) unsigned boxes_kept(int g, const Ray& ray, const double (&inv)[4],
                                                                   double t_min) const {
-        const double o[3] = {ray.origin.x, ray.origin.y, ray.origin.z};
+        const double o[3] = {ray.origin.x, ray.origin.y, ray.origin.z}, d[3] = {ray.dir.x, ray.dir.y, ray.dir.z};
         __m256d t0 = _mm256_set1_pd(t_min), t1 = _mm256_set1_pd(INFINITY);
         for (int r = 0; r < 3; ++r) {
-            const bool negative = std::signbit(inv[r]);
+            // 1/d has d's sign (also for ±0, ±inf and NaN): read from d, the choice need not wait
+            // for the division.
+            const bool negative = std::signbit(d[r]);
             const __m256d from = _mm256_set1_pd(o[r]), scale_r = _mm256_set1_pd(inv[r]);
             const __m256d near =
                 _mm256_mul_pd(_mm256_sub_pd(_mm256_load_pd(negative ? hi[g][r] : lo[g][r]), from), scale_r);
