@@ -25,6 +25,7 @@
 #include "math.hpp"
 #include "scene.hpp"
 #include "simd_dispatch.hpp"
+#include "uninitialised.hpp"
 
 namespace phong {
 
@@ -131,16 +132,16 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
             _mm256_store_pd(distance, d);
             {
                 // The lit lanes' shadow rays, asked together.
-                Vec3 p[4], dir[4];
+                DeferredArray<Vec3, 4> p, dir;
                 int lane[4], rays = 0;
                 for (unsigned bits = lit; bits != 0; bits &= bits - 1, ++rays) {
                     const int k = __builtin_ctz(bits);
                     lane[rays] = k;
-                    p[rays] = Vec3{s.px[g + k], s.py[g + k], s.pz[g + k]};
-                    dir[rays] = Vec3{l[0][k], l[1][k], l[2][k]};
+                    p.emplace(size_t(rays), Vec3{s.px[g + k], s.py[g + k], s.pz[g + k]});
+                    dir.emplace(size_t(rays), Vec3{l[0][k], l[1][k], l[2][k]});
                     distance[rays] = distance[k];  // k >= rays: not read again
                 }
-                const unsigned blocked = shadow(p, dir, distance, rays);
+                const unsigned blocked = shadow(p.data(), dir.data(), distance, rays);
                 for (int i = 0; i < rays; ++i)
                     if (blocked >> i & 1u) lit &= ~(1u << lane[i]);
             }

@@ -684,10 +684,10 @@ void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits,
         const double window = context.tolerances.shadow_window;
         // ShadowQuery's answers for a point light (no light link, no bundle).
         auto shadow = [&](const Vec3* p, const Vec3* l, const double* distance, int count) {
-            Ray rays[4];
+            DeferredArray<Ray, 4> rays;
             double t_max[4];
-            for (int i = 0; i < count; ++i) rays[i] = Ray{p[i], l[i]}, t_max[i] = distance[i] - window;
-            unsigned blocked = scene.occluded_each(rays, count, window, t_max);
+            for (int i = 0; i < count; ++i) rays.emplace(size_t(i), Ray{p[i], l[i]}), t_max[i] = distance[i] - window;
+            unsigned blocked = scene.occluded_each(rays.data(), count, window, t_max);
             if (context.povray_walk)
                 for (unsigned bits = blocked; bits != 0; bits &= bits - 1) {
                     const int i = __builtin_ctz(bits);
@@ -772,9 +772,9 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         Hit hits[kPacketRays];
         bool found[kPacketRays];
         if (scene.walk_width() == 8) {  // the AVX2 path: directions in lanes
-            Vec3 dirs[kPacketRays];
-            camera.perspective_directions(sx, sy, count, width, height, dirs);
-            for (int k = 0; k < count; ++k) rays.emplace(size_t(k), Ray{camera.position, dirs[k]});
+            DeferredArray<Vec3, kPacketRays> dirs;
+            camera.perspective_directions(sx, sy, count, width, height, dirs.data());
+            for (int k = 0; k < count; ++k) rays.emplace(size_t(k), Ray{camera.position, dirs[size_t(k)]});
         } else {
             for (int k = 0; k < count; ++k) rays.emplace(size_t(k), camera.generate(sx[k], sy[k], width, height));
         }
