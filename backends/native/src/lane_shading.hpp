@@ -35,7 +35,9 @@ constexpr int kShadingLanes = 8;
 // What shade_hit has computed before its light loop, one lane per shaded point.
 struct ShadedLanes {
     alignas(32) double px[kShadingLanes], py[kShadingLanes], pz[kShadingLanes];  // the point
-    alignas(32) double nx[kShadingLanes], ny[kShadingLanes], nz[kShadingLanes];  // unit normal facing the ray
+    // The normal: unit, or where to_normalize has the lane's bit, to be normalized (normalize());
+    // add_point_lights then turns it to face the ray, as shade_hit.
+    alignas(32) double nx[kShadingLanes], ny[kShadingLanes], nz[kShadingLanes];
     alignas(32) double wx[kShadingLanes], wy[kShadingLanes], wz[kShadingLanes];  // wo = −ray direction
     // The colour: ambient + emission, then each light's terms added in the order of the lights.
     alignas(32) double cx[kShadingLanes], cy[kShadingLanes], cz[kShadingLanes];
@@ -44,6 +46,7 @@ struct ShadedLanes {
     alignas(32) double sx[kShadingLanes], sy[kShadingLanes], sz[kShadingLanes];  // cs
     double ks[kShadingLanes], exponent[kShadingLanes];
     unsigned lanes = 0;  // bit k: lane k holds a point shaded here
+    unsigned to_normalize = 0;
 };
 
 // A light the lanes shade: a point light whose colour at p is its own, or / d² (inverse square).
@@ -108,8 +111,23 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
         const unsigned group = (s.lanes >> g) & 0xFu;
         if (group == 0) continue;
         const __m256d px = _mm256_load_pd(s.px + g), py = _mm256_load_pd(s.py + g), pz = _mm256_load_pd(s.pz + g);
-        const __m256d nx = _mm256_load_pd(s.nx + g), ny = _mm256_load_pd(s.ny + g), nz = _mm256_load_pd(s.nz + g);
+        __m256d nx = _mm256_load_pd(s.nx + g), ny = _mm256_load_pd(s.ny + g), nz = _mm256_load_pd(s.nz + g);
+        if (const unsigned raw = (s.to_normalize >> g) & 0xFu) {  // n / sqrt(n·n) in those lanes
+            const __m256d length = _mm256_sqrt_pd(detail::lane_dot(nx, ny, nz, nx, ny, nz));
+            const __m256d keep = detail::lane_mask(raw);
+            nx = _mm256_blendv_pd(nx, _mm256_div_pd(nx, length), keep);
+            ny = _mm256_blendv_pd(ny, _mm256_div_pd(ny, length), keep);
+            nz = _mm256_blendv_pd(nz, _mm256_div_pd(nz, length), keep);
+        }
         const __m256d wx = _mm256_load_pd(s.wx + g), wy = _mm256_load_pd(s.wy + g), wz = _mm256_load_pd(s.wz + g);
+        {
+            // Faces the viewer: −n where n·d > 0, d = −wo the ray's direction (negation is exact).
+            const __m256d away = _mm256_cmp_pd(
+                detail::lane_dot(nx, ny, nz, _mm256_xor_pd(wx, sign), _mm256_xor_pd(wy, sign), _mm256_xor_pd(wz, sign)),
+                zero, _CMP_GT_OQ);
+            const __m256d flip = _mm256_and_pd(away, sign);
+            nx = _mm256_xor_pd(nx, flip), ny = _mm256_xor_pd(ny, flip), nz = _mm256_xor_pd(nz, flip);
+        }
         const __m256d kx = _mm256_load_pd(s.kx + g), ky = _mm256_load_pd(s.ky + g), kz = _mm256_load_pd(s.kz + g);
         const __m256d sx = _mm256_load_pd(s.sx + g), sy = _mm256_load_pd(s.sy + g), sz = _mm256_load_pd(s.sz + g);
         __m256d cx = _mm256_load_pd(s.cx + g), cy = _mm256_load_pd(s.cy + g), cz = _mm256_load_pd(s.cz + g);

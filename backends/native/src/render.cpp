@@ -636,16 +636,20 @@ void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits,
         for (int k = 0; k < count; ++k) {
             const Hit& hit = hits[k];
             if (!found[k] || hit.instance >= 0) continue;
-            // shade_hit's material and unit normal, for a surface of the world.
+            // shade_hit's material and normal, for a surface of the world; where `unit` is
+            // false, before its normalize(), which the lanes take (as the turn to the viewer).
             const Vec3 p = rays[k].at(hit.t);
             Vec3 n;
+            bool unit = true;
             const LaneMaterial* material;
             if (scene.is_round(hit.ref)) {
                 SphereShape shape;
                 const SphereShape& s = scene.round_shape(hit.ref, shape);
                 material = &context.lane_materials[size_t(s.material)];
                 if (!material->plain) continue;
-                n = sphere_normal(s, p);
+                // sphere_normal before its normalize()
+                n = s.object_from_world.transposed_vector(s.object_from_world.point(p));
+                unit = false;
             } else if (hit.ref < 0) {
                 const IntrinsicShape& part = scene.intrinsic(hit.ref);
                 material = &context.lane_materials[size_t(part.material)];
@@ -658,16 +662,17 @@ void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits,
                 const TriangleNormals* sh =
                     scene.triangle_normals.empty() ? nullptr : &scene.triangle_normals[size_t(hit.ref)];
                 if (sh && sh->n0 >= 0) {
-                    n = normalize(scene.normals[size_t(sh->n0)] * hit.bary.b0 +
-                                  scene.normals[size_t(sh->n1)] * hit.bary.b1 +
-                                  scene.normals[size_t(sh->n2)] * hit.bary.b2);
+                    n = scene.normals[size_t(sh->n0)] * hit.bary.b0 + scene.normals[size_t(sh->n1)] * hit.bary.b1 +
+                        scene.normals[size_t(sh->n2)] * hit.bary.b2;
+                    unit = false;
                 } else if (const Vec3* kept = scene.flat_normal(size_t(hit.ref), mesh)) {
                     n = *kept;
                 } else {
-                    n = flat_triangle_normal(scene.triangles[size_t(hit.ref)]);
+                    const TriangleShape t = scene.triangles[size_t(hit.ref)];
+                    n = cross(t.v1 - t.v0, t.v2 - t.v0);  // flat_triangle_normal before its normalize()
+                    unit = false;
                 }
             }
-            if (dot(n, rays[k].dir) > 0.0) n = -n;  // faces the viewer
             const Vec3 wo = -rays[k].dir;
             lanes.px[k] = p.x, lanes.py[k] = p.y, lanes.pz[k] = p.z;
             lanes.nx[k] = n.x, lanes.ny[k] = n.y, lanes.nz[k] = n.z;
@@ -678,6 +683,7 @@ void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits,
             lanes.sz[k] = material->specular.z;
             lanes.ks[k] = material->ks, lanes.exponent[k] = material->exponent;
             lanes.lanes |= 1u << k;
+            if (!unit) lanes.to_normalize |= 1u << k;
         }
     }
     if (lanes.lanes != 0) {
