@@ -343,7 +343,7 @@ nb::tuple intersect(const phong::Scene& scene, const Rows3& origins, const Rows3
 
 // Whether each ray is blocked in (t_min, t_max[i]): the any-hit walk of shadow rays.
 nb::ndarray<nb::numpy, bool, nb::shape<-1>> occluded(const phong::Scene& scene, const Rows3& origins, const Rows3& dirs,
-                                                     const Reals1& t_max, double t_min) {
+                                                     const Reals1& t_max, double t_min, bool together) {
     require_t_min(t_min);
     const size_t n = origins.shape(0);
     if (dirs.shape(0) != n || t_max.shape(0) != n)
@@ -354,9 +354,21 @@ nb::ndarray<nb::numpy, bool, nb::shape<-1>> occluded(const phong::Scene& scene, 
     nb::capsule owner(blocked, [](void* p) noexcept { delete[] static_cast<bool*>(p); });
     {
         nb::gil_scoped_release release;
-        for (size_t i = 0; i < n; ++i) {
-            const phong::Ray ray{{origins(i, 0), origins(i, 1), origins(i, 2)}, {dirs(i, 0), dirs(i, 1), dirs(i, 2)}};
-            blocked[i] = scene.occluded(ray, t_min, t_max(i));
+        auto ray_at = [&](size_t i) {
+            return phong::Ray{{origins(i, 0), origins(i, 1), origins(i, 2)}, {dirs(i, 0), dirs(i, 1), dirs(i, 2)}};
+        };
+        if (together) {  // consecutive rays in fours through Scene::occluded_each, as the lanes ask them
+            for (size_t first = 0; first < n; first += phong::kMaxRaysTogether) {
+                const int count = int(std::min(n - first, size_t(phong::kMaxRaysTogether)));
+                phong::Ray rays[phong::kMaxRaysTogether];
+                double limits[phong::kMaxRaysTogether];
+                for (int k = 0; k < count; ++k)
+                    rays[k] = ray_at(first + size_t(k)), limits[k] = t_max(first + size_t(k));
+                const unsigned answers = scene.occluded_each(rays, count, t_min, limits);
+                for (int k = 0; k < count; ++k) blocked[first + size_t(k)] = (answers >> k) & 1u;
+            }
+        } else {
+            for (size_t i = 0; i < n; ++i) blocked[i] = scene.occluded(ray_at(i), t_min, t_max(i));
         }
     }
     return nb::ndarray<nb::numpy, bool, nb::shape<-1>>(blocked, {n}, owner);
@@ -913,8 +925,10 @@ NB_MODULE(_native, m) {
              "thread while rendering; an exception it raises (or Ctrl-C) stops the render.")
         .def("intersect", &intersect, "origins"_a, "dirs"_a, "t_min"_a = 0.0,
              "Closest hit per ray (tests): (t, primitive id); spheres are 0..S-1, then triangles.")
-        .def("occluded", &occluded, "origins"_a, "dirs"_a, "t_max"_a, "t_min"_a = 0.0,
-             "Per ray, whether anything is hit in (t_min, t_max): shadow rays' any-hit walk, one thread.")
+        .def("occluded", &occluded, "origins"_a, "dirs"_a, "t_max"_a, "t_min"_a = 0.0, "together"_a = false,
+             "Per ray, whether anything is hit in (t_min, t_max): shadow rays' any-hit walk, one thread; "
+             "together=True: consecutive rays in fours, walking the tree together as a packet's shadow rays do "
+             "(tests compare the two).")
         .def("intersect_packets", &intersect_packets, "origin"_a, "dirs"_a, "t_min"_a = 0.0, "together"_a = true,
              "Closest hits of rays from one origin, 8 at a time as primary rays are (tests): (t, primitive id, "
              "barycentrics, packets that walked together); together=False: one by one.")

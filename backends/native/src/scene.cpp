@@ -441,9 +441,9 @@ PHONG_AVX2 bool Scene::occluded_small(const Ray& ray, double t_min, double t_max
 }
 
 PHONG_AVX2 unsigned Scene::occluded_small_each(const Ray* rays, int count, double t_min, const double* t_max) const {
-    assert(count >= 0 && count <= 4);
-    alignas(32) double inv[4][4];
-    unsigned spheres_left[4], triangles_left[4];
+    assert(count >= 0 && count <= kMaxRaysTogether);
+    alignas(32) double inv[kMaxRaysTogether][4];
+    unsigned spheres_left[kMaxRaysTogether], triangles_left[kMaxRaysTogether];
     for (int i = 0; i < count; ++i) SmallScene::reciprocals(rays[i], inv[i]);
     for (int i = 0; i < count; ++i) spheres_left[i] = small_->sphere_candidates(rays[i], t_min);
     for (int i = 0; i < count; ++i) triangles_left[i] = small_->box_candidates(rays[i], inv[i], t_min);
@@ -523,6 +523,131 @@ bool Scene::occluded_tree(const Ray& ray, const FloatSlabOrigin& origin, double 
         blocked = hit_planes(ray, t_min, t_max, t, plane);
     }
     return blocked || (!instances_empty() && instances->occluded(ray, t_min, t_max));
+}
+
+PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double t_min, const double* t_max) const {
+    assert(count >= 1 && count <= kMaxRaysTogether && !bvh8_.empty());
+    // Each ray's own walk state, as occluded_tree sets it up.
+    Deferred<FloatSlabOrigin> origin[kMaxRaysTogether];
+    Deferred<FloatSlabRay8> fray[kMaxRaysTogether];
+    Deferred<TriangleLeafFilter> filter[kMaxRaysTogether];
+    std::optional<WatertightRay> wr[kMaxRaysTogether];
+    __m256 far[kMaxRaysTogether];
+    unsigned blocked = 0, together = 0;
+    for (int r = 0; r < count; ++r) {
+        const Ray& ray = rays[r];
+        origin[r].emplace(ray.origin);
+        if (!FloatSlabRay::applies(ray.origin, ray.dir, t_min, magnitude)) {  // its double walk, alone
+            blocked |= unsigned(occluded_tree(ray, *origin[r], t_min, t_max[r])) << r;
+            continue;
+        }
+        fray[r].emplace(*origin[r], ray.dir, Vec3{1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z}, t_min);
+        filter[r].emplace(triangles, magnitude, mixed_leaves());
+        far[r] = _mm256_set1_ps(_mm_cvtss_f32(FloatSlabRay::far_limit(t_max[r])));
+        together |= 1u << r;
+    }
+    // Whether the rays walking together choose the same planes of a box (their directions' signs
+    // agree, as a coherent bundle's do): then a node's planes are loaded once for them all.
+    const FloatSlabRay8* rows = together != 0 ? &*fray[__builtin_ctz(together)] : nullptr;
+    bool same_rows = rows != nullptr;
+    for (unsigned bits = together; bits != 0; bits &= bits - 1)
+        for (int k = 0; k < 3; ++k)
+            same_rows = same_rows && fray[__builtin_ctz(bits)]->near_row[k] == rows->near_row[k];
+    const bool prefilter = prefilter_applies();
+    // The leaf of `count` refs at `first` for ray r: occluded_tree's leaf.
+    auto leaf_blocks = [&](int r, int32_t first, int n) PHONG_AVX2 __attribute__((always_inline)) {
+        const Ray& ray = rays[r];
+        const int32_t* refs = refs_.data() + first;
+        auto test = [&](int32_t ref) __attribute__((always_inline)) {
+            double t;
+            if (ref < 0) return hit_solid(ref, ray, t_min, t_max[r], t);
+            Barycentric bary;
+            return hit_triangle(ref, ray, wr[r], t_min, t_max[r], t, bary);
+        };
+        if (prefilter) {
+            for (unsigned kept = (*filter[r])(refs, first, n, ray, wr[r]); kept != 0; kept &= kept - 1)
+                if (test(leaf_ref(first + int32_t(__builtin_ctz(kept))))) return true;
+            return false;
+        }
+        for (int k = 0; k < n; ++k)
+            if (test(refs[k])) return true;
+        return false;
+    };
+    // The rays walk together: a node is visited once for the rays whose own walk visits it, each
+    // ray's children are those its own box test enters (FloatSlabRay8::hit, as traverse_bvh8's
+    // any-hit walk), and a leaf is tested for those rays. So each ray tests the leaves of its own
+    // walk, in another order: an any-hit answer does not depend on it. A blocked ray drops out.
+    struct Pending {
+        int32_t child, count;
+        unsigned rays;
+    };
+    Pending stack[kMaxBvh8Stack * kMaxRaysTogether];
+    int sp = 0;
+    Pending current{0, 0, together};
+    while (together & ~blocked) {
+        const unsigned walking = current.rays & ~blocked;
+        if (walking != 0) {
+            if (current.count == 0) {
+                const Bvh8Node& node = bvh8_[size_t(current.child)];
+                // Ray r's children in byte r of `masks`; child i's rays are bit i of each byte.
+                uint32_t masks = 0;
+                if (same_rows) {  // FloatSlabRay8::hit per ray, the node's planes loaded once
+                    __m256 lo[3], hi[3];
+                    for (int k = 0; k < 3; ++k) {
+                        lo[k] = _mm256_load_ps(node.boxes[rows->near_row[k]]);
+                        hi[k] = _mm256_load_ps(node.boxes[rows->far_row[k]]);
+                    }
+                    for (unsigned bits = walking; bits != 0; bits &= bits - 1) {
+                        const int r = __builtin_ctz(bits);
+                        const FloatSlabRay8& f = *fray[r];
+                        __m256 t0 = f.t_min, t1 = _mm256_set1_ps(INFINITY);
+                        for (int k = 0; k < 3; ++k) {
+                            t0 = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(lo[k], f.origin_near[k]), f.inv[k]), t0);
+                            t1 = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(hi[k], f.origin_far[k]), f.inv[k]), t1);
+                        }
+                        t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(kFloatSlabWidening)), far[r]);
+                        masks |= uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ))) << (8 * r);
+                    }
+                } else {
+                    for (unsigned bits = walking; bits != 0; bits &= bits - 1) {
+                        const int r = __builtin_ctz(bits);
+                        __m256 entry;
+                        masks |= uint32_t(fray[r]->hit(node, far[r], entry)) << (8 * r);
+                    }
+                }
+                unsigned entered = (masks | masks >> 8 | masks >> 16 | masks >> 24) & 0xFFu;
+                auto rays_of = [&](int i) {
+                    const uint32_t column = (masks >> i) & 0x01010101u;  // bit 8r: ray r
+                    return unsigned((column | column >> 7 | column >> 14 | column >> 21) & 0xFu);
+                };
+                if (entered != 0) {
+                    const int first = __builtin_ctz(entered);
+                    for (entered &= entered - 1; entered != 0; entered &= entered - 1) {
+                        const int i = __builtin_ctz(entered);
+                        stack[sp++] = Pending{node.child[i], node.count[i], rays_of(i)};
+                    }
+                    current = Pending{node.child[first], node.count[first], rays_of(first)};
+                    continue;
+                }
+            } else {
+                for (unsigned bits = walking; bits != 0; bits &= bits - 1) {
+                    const int r = __builtin_ctz(bits);
+                    if (leaf_blocks(r, current.child, current.count)) blocked |= 1u << r;
+                }
+            }
+        }
+        if (sp == 0) break;
+        current = stack[--sp];
+    }
+    for (int r = 0; r < count; ++r) {  // occluded_tree's tail
+        if ((blocked >> r & 1u) || !(together >> r & 1u)) continue;
+        double t;
+        int32_t plane;
+        if ((!planes.empty() && hit_planes(rays[r], t_min, t_max[r], t, plane)) ||
+            (!instances_empty() && instances->occluded(rays[r], t_min, t_max[r])))
+            blocked |= 1u << r;
+    }
+    return blocked;
 }
 
 int Scene::count_hits(const Ray& ray, double t_min, double t_max, double& t_closest) const {
