@@ -107,12 +107,12 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
     const __m256d zero = _mm256_setzero_pd(), two = _mm256_set1_pd(2.0);
     const __m256d min_cosine = _mm256_set1_pd(kMinCosineToLight);
     const __m256d sign = _mm256_set1_pd(-0.0);
+    // Each group's normal: n / sqrt(n·n) where asked, then turned to the viewer (−n where n·d > 0,
+    // d = −wo the ray's direction; negation is exact), as shade_hit; kept in s.
     for (int g = 0; g < kShadingLanes; g += 4) {
-        const unsigned group = (s.lanes >> g) & 0xFu;
-        if (group == 0) continue;
-        const __m256d px = _mm256_load_pd(s.px + g), py = _mm256_load_pd(s.py + g), pz = _mm256_load_pd(s.pz + g);
+        if (((s.lanes >> g) & 0xFu) == 0) continue;
         __m256d nx = _mm256_load_pd(s.nx + g), ny = _mm256_load_pd(s.ny + g), nz = _mm256_load_pd(s.nz + g);
-        if (const unsigned raw = (s.to_normalize >> g) & 0xFu) {  // n / sqrt(n·n) in those lanes
+        if (const unsigned raw = (s.to_normalize >> g) & 0xFu) {
             const __m256d length = _mm256_sqrt_pd(detail::lane_dot(nx, ny, nz, nx, ny, nz));
             const __m256d keep = detail::lane_mask(raw);
             nx = _mm256_blendv_pd(nx, _mm256_div_pd(nx, length), keep);
@@ -120,50 +120,61 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
             nz = _mm256_blendv_pd(nz, _mm256_div_pd(nz, length), keep);
         }
         const __m256d wx = _mm256_load_pd(s.wx + g), wy = _mm256_load_pd(s.wy + g), wz = _mm256_load_pd(s.wz + g);
-        {
-            // Faces the viewer: −n where n·d > 0, d = −wo the ray's direction (negation is exact).
-            const __m256d away = _mm256_cmp_pd(
-                detail::lane_dot(nx, ny, nz, _mm256_xor_pd(wx, sign), _mm256_xor_pd(wy, sign), _mm256_xor_pd(wz, sign)),
-                zero, _CMP_GT_OQ);
-            const __m256d flip = _mm256_and_pd(away, sign);
-            nx = _mm256_xor_pd(nx, flip), ny = _mm256_xor_pd(ny, flip), nz = _mm256_xor_pd(nz, flip);
-        }
-        const __m256d kx = _mm256_load_pd(s.kx + g), ky = _mm256_load_pd(s.ky + g), kz = _mm256_load_pd(s.kz + g);
-        const __m256d sx = _mm256_load_pd(s.sx + g), sy = _mm256_load_pd(s.sy + g), sz = _mm256_load_pd(s.sz + g);
-        __m256d cx = _mm256_load_pd(s.cx + g), cy = _mm256_load_pd(s.cy + g), cz = _mm256_load_pd(s.cz + g);
-        for (const Light& light : lights) {
-            const PointLight& L = *std::get_if<PointLight>(&light);
-            // sample_light_centre: v = position − p, d = |v|, l = v / d.
-            const __m256d vx = _mm256_sub_pd(_mm256_set1_pd(L.position.x), px);
-            const __m256d vy = _mm256_sub_pd(_mm256_set1_pd(L.position.y), py);
-            const __m256d vz = _mm256_sub_pd(_mm256_set1_pd(L.position.z), pz);
+        const __m256d away = _mm256_cmp_pd(
+            detail::lane_dot(nx, ny, nz, _mm256_xor_pd(wx, sign), _mm256_xor_pd(wy, sign), _mm256_xor_pd(wz, sign)),
+            zero, _CMP_GT_OQ);
+        const __m256d flip = _mm256_and_pd(away, sign);
+        _mm256_store_pd(s.nx + g, _mm256_xor_pd(nx, flip));
+        _mm256_store_pd(s.ny + g, _mm256_xor_pd(ny, flip));
+        _mm256_store_pd(s.nz + g, _mm256_xor_pd(nz, flip));
+    }
+    for (const Light& light : lights) {
+        const PointLight& L = *std::get_if<PointLight>(&light);
+        // sample_light_centre in every group: v = position − p, d = |v|, l = v / d; then n·l.
+        alignas(32) double l[3][kShadingLanes], distance[kShadingLanes], cosine_nl[kShadingLanes];
+        unsigned lit = 0;
+        for (int g = 0; g < kShadingLanes; g += 4) {
+            const unsigned group = (s.lanes >> g) & 0xFu;
+            if (group == 0) continue;
+            const __m256d vx = _mm256_sub_pd(_mm256_set1_pd(L.position.x), _mm256_load_pd(s.px + g));
+            const __m256d vy = _mm256_sub_pd(_mm256_set1_pd(L.position.y), _mm256_load_pd(s.py + g));
+            const __m256d vz = _mm256_sub_pd(_mm256_set1_pd(L.position.z), _mm256_load_pd(s.pz + g));
             const __m256d d = _mm256_sqrt_pd(detail::lane_dot(vx, vy, vz, vx, vy, vz));
             const __m256d lx = _mm256_div_pd(vx, d), ly = _mm256_div_pd(vy, d), lz = _mm256_div_pd(vz, d);
-            const __m256d n_dot_l = detail::lane_dot(nx, ny, nz, lx, ly, lz);
+            const __m256d n_dot_l = detail::lane_dot(_mm256_load_pd(s.nx + g), _mm256_load_pd(s.ny + g),
+                                                     _mm256_load_pd(s.nz + g), lx, ly, lz);
+            _mm256_store_pd(l[0] + g, lx);
+            _mm256_store_pd(l[1] + g, ly);
+            _mm256_store_pd(l[2] + g, lz);
+            _mm256_store_pd(distance + g, d);
+            _mm256_store_pd(cosine_nl + g, n_dot_l);
             // No term and no shadow ray unless n·l >= kMinCosineToLight (false for NaN).
-            unsigned lit = group & unsigned(_mm256_movemask_pd(_mm256_cmp_pd(n_dot_l, min_cosine, _CMP_GE_OQ)));
-            if (lit == 0) continue;
-            alignas(32) double l[3][4], distance[4];
-            _mm256_store_pd(l[0], lx);
-            _mm256_store_pd(l[1], ly);
-            _mm256_store_pd(l[2], lz);
-            _mm256_store_pd(distance, d);
-            {
-                // The lit lanes' shadow rays, asked together.
-                DeferredArray<Vec3, 4> p, dir;
-                int lane[4], rays = 0;
-                for (unsigned bits = lit; bits != 0; bits &= bits - 1, ++rays) {
-                    const int k = __builtin_ctz(bits);
-                    lane[rays] = k;
-                    p.emplace(size_t(rays), Vec3{s.px[g + k], s.py[g + k], s.pz[g + k]});
-                    dir.emplace(size_t(rays), Vec3{l[0][k], l[1][k], l[2][k]});
-                    distance[rays] = distance[k];  // k >= rays: not read again
-                }
-                const unsigned blocked = shadow(p.data(), dir.data(), distance, rays);
-                for (int i = 0; i < rays; ++i)
-                    if (blocked >> i & 1u) lit &= ~(1u << lane[i]);
+            lit |= (group & unsigned(_mm256_movemask_pd(_mm256_cmp_pd(n_dot_l, min_cosine, _CMP_GE_OQ)))) << g;
+        }
+        if (lit == 0) continue;
+        {
+            // The lit points' shadow rays to this light, asked together.
+            DeferredArray<Vec3, kShadingLanes> p, dir;
+            double limit[kShadingLanes];
+            int lane[kShadingLanes], rays = 0;
+            for (unsigned bits = lit; bits != 0; bits &= bits - 1, ++rays) {
+                const int k = __builtin_ctz(bits);
+                lane[rays] = k;
+                p.emplace(size_t(rays), Vec3{s.px[k], s.py[k], s.pz[k]});
+                dir.emplace(size_t(rays), Vec3{l[0][k], l[1][k], l[2][k]});
+                limit[rays] = distance[k];
             }
-            if (lit == 0) continue;
+            const unsigned blocked = shadow(p.data(), dir.data(), limit, rays);
+            for (int i = 0; i < rays; ++i)
+                if (blocked >> i & 1u) lit &= ~(1u << lane[i]);
+        }
+        for (int g = 0; g < kShadingLanes; g += 4) {
+            const unsigned on_bits = (lit >> g) & 0xFu;
+            if (on_bits == 0) continue;
+            const __m256d nx = _mm256_load_pd(s.nx + g), ny = _mm256_load_pd(s.ny + g), nz = _mm256_load_pd(s.nz + g);
+            const __m256d wx = _mm256_load_pd(s.wx + g), wy = _mm256_load_pd(s.wy + g), wz = _mm256_load_pd(s.wz + g);
+            const __m256d lx = _mm256_load_pd(l[0] + g), ly = _mm256_load_pd(l[1] + g), lz = _mm256_load_pd(l[2] + g);
+            const __m256d d = _mm256_load_pd(distance + g), n_dot_l = _mm256_load_pd(cosine_nl + g);
             // The light's colour at p (sample_light_centre), times the visible fraction 1 (exact).
             __m256d ex = _mm256_set1_pd(L.color.x), ey = _mm256_set1_pd(L.color.y), ez = _mm256_set1_pd(L.color.z);
             if (L.inverse_square) {
@@ -174,8 +185,9 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
             }
             // shade_phong: diffuse = cd · (kd / π) · the light's multiplier.
             const __m256d diffuse_scale = _mm256_set1_pd(L.terms.diffuse);
-            const __m256d dx = _mm256_mul_pd(kx, diffuse_scale), dy = _mm256_mul_pd(ky, diffuse_scale),
-                          dz = _mm256_mul_pd(kz, diffuse_scale);
+            const __m256d dx = _mm256_mul_pd(_mm256_load_pd(s.kx + g), diffuse_scale),
+                          dy = _mm256_mul_pd(_mm256_load_pd(s.ky + g), diffuse_scale),
+                          dz = _mm256_mul_pd(_mm256_load_pd(s.kz + g), diffuse_scale);
             __m256d tx, ty, tz;  // this light's terms
             alignas(32) double specular[4] = {0.0, 0.0, 0.0, 0.0};
             alignas(32) double cosine[4];
@@ -186,7 +198,8 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
                 const __m256d ry = _mm256_sub_pd(_mm256_mul_pd(ny, twice), ly);
                 const __m256d rz = _mm256_sub_pd(_mm256_mul_pd(nz, twice), lz);
                 const __m256d r_dot_wo = detail::lane_dot(rx, ry, rz, wx, wy, wz);
-                const unsigned glossy = lit & unsigned(_mm256_movemask_pd(_mm256_cmp_pd(r_dot_wo, zero, _CMP_GT_OQ)));
+                const unsigned glossy =
+                    on_bits & unsigned(_mm256_movemask_pd(_mm256_cmp_pd(r_dot_wo, zero, _CMP_GT_OQ)));
                 _mm256_store_pd(cosine, r_dot_wo);
                 for (unsigned bits = glossy; bits != 0; bits &= bits - 1) {
                     const int k = __builtin_ctz(bits);
@@ -195,9 +208,12 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
                 const __m256d f = _mm256_load_pd(specular), keep = detail::lane_mask(glossy);
                 const __m256d specular_scale = _mm256_set1_pd(L.terms.specular);
                 // (cs · f) · multiplier where glossy; +0 (RGB{}) elsewhere.
-                const __m256d gx = _mm256_and_pd(keep, _mm256_mul_pd(_mm256_mul_pd(sx, f), specular_scale));
-                const __m256d gy = _mm256_and_pd(keep, _mm256_mul_pd(_mm256_mul_pd(sy, f), specular_scale));
-                const __m256d gz = _mm256_and_pd(keep, _mm256_mul_pd(_mm256_mul_pd(sz, f), specular_scale));
+                const __m256d gx =
+                    _mm256_and_pd(keep, _mm256_mul_pd(_mm256_mul_pd(_mm256_load_pd(s.sx + g), f), specular_scale));
+                const __m256d gy =
+                    _mm256_and_pd(keep, _mm256_mul_pd(_mm256_mul_pd(_mm256_load_pd(s.sy + g), f), specular_scale));
+                const __m256d gz =
+                    _mm256_and_pd(keep, _mm256_mul_pd(_mm256_mul_pd(_mm256_load_pd(s.sz + g), f), specular_scale));
                 // hadamard(diffuse + specular, light) · n·l
                 tx = _mm256_mul_pd(_mm256_mul_pd(_mm256_add_pd(dx, gx), ex), n_dot_l);
                 ty = _mm256_mul_pd(_mm256_mul_pd(_mm256_add_pd(dy, gy), ey), n_dot_l);
@@ -216,7 +232,7 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
                 const __m256d rz = _mm256_sub_pd(rayz, _mm256_mul_pd(nz, twice));
                 _mm256_store_pd(cosine, detail::lane_dot(rx, ry, rz, lx, ly, lz));
                 unsigned glossy = 0;
-                for (unsigned bits = lit; bits != 0; bits &= bits - 1) {
+                for (unsigned bits = on_bits; bits != 0; bits &= bits - 1) {
                     const int k = __builtin_ctz(bits);
                     const double ks = s.ks[g + k], e = s.exponent[g + k], r_dot_l = cosine[k];
                     if (!(ks > 0.0 && r_dot_l > 0.0)) continue;
@@ -229,14 +245,12 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
                 ty = _mm256_blendv_pd(ty, _mm256_add_pd(ty, _mm256_mul_pd(ey, f)), keep);
                 tz = _mm256_blendv_pd(tz, _mm256_add_pd(tz, _mm256_mul_pd(ez, f)), keep);
             }
-            const __m256d on = detail::lane_mask(lit);
-            cx = _mm256_blendv_pd(cx, _mm256_add_pd(cx, tx), on);
-            cy = _mm256_blendv_pd(cy, _mm256_add_pd(cy, ty), on);
-            cz = _mm256_blendv_pd(cz, _mm256_add_pd(cz, tz), on);
+            const __m256d on = detail::lane_mask(on_bits);
+            const __m256d cx = _mm256_load_pd(s.cx + g), cy = _mm256_load_pd(s.cy + g), cz = _mm256_load_pd(s.cz + g);
+            _mm256_store_pd(s.cx + g, _mm256_blendv_pd(cx, _mm256_add_pd(cx, tx), on));
+            _mm256_store_pd(s.cy + g, _mm256_blendv_pd(cy, _mm256_add_pd(cy, ty), on));
+            _mm256_store_pd(s.cz + g, _mm256_blendv_pd(cz, _mm256_add_pd(cz, tz), on));
         }
-        _mm256_store_pd(s.cx + g, cx);
-        _mm256_store_pd(s.cy + g, cy);
-        _mm256_store_pd(s.cz + g, cz);
     }
 }
 

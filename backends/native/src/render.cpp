@@ -690,8 +690,8 @@ void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits,
         const double window = context.tolerances.shadow_window;
         // ShadowQuery's answers for a point light (no light link, no bundle).
         auto shadow = [&](const Vec3* p, const Vec3* l, const double* distance, int count) {
-            DeferredArray<Ray, 4> rays;
-            double t_max[4];
+            DeferredArray<Ray, kMaxRaysTogether> rays;
+            double t_max[kMaxRaysTogether];
             for (int i = 0; i < count; ++i) rays.emplace(size_t(i), Ray{p[i], l[i]}), t_max[i] = distance[i] - window;
             unsigned blocked = scene.occluded_each(rays.data(), count, window, t_max);
             if (context.povray_walk)

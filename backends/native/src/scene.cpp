@@ -581,7 +581,9 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
         int32_t child, count;
         unsigned rays;
     };
-    Pending stack[kMaxBvh8Stack * kMaxRaysTogether];
+    // As a single walk's stack: a node's children wait while the walk is below it, at most 7 a
+    // level of the current path, whatever the rays.
+    Pending stack[kMaxBvh8Stack];
     int sp = 0;
     Pending current{0, 0, together};
     while (together & ~blocked) {
@@ -590,7 +592,7 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
             if (current.count == 0) {
                 const Bvh8Node& node = bvh8_[size_t(current.child)];
                 // Ray r's children in byte r of `masks`; child i's rays are bit i of each byte.
-                uint32_t masks = 0;
+                uint64_t masks = 0;
                 if (same_rows) {  // FloatSlabRay8::hit per ray, the node's planes loaded once
                     __m256 lo[3], hi[3];
                     for (int k = 0; k < 3; ++k) {
@@ -606,19 +608,24 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
                             t1 = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(hi[k], f.origin_far[k]), f.inv[k]), t1);
                         }
                         t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(kFloatSlabWidening)), far[r]);
-                        masks |= uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ))) << (8 * r);
+                        masks |= uint64_t(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ))) << (8 * r);
                     }
                 } else {
                     for (unsigned bits = walking; bits != 0; bits &= bits - 1) {
                         const int r = __builtin_ctz(bits);
                         __m256 entry;
-                        masks |= uint32_t(fray[r]->hit(node, far[r], entry)) << (8 * r);
+                        masks |= uint64_t(fray[r]->hit(node, far[r], entry)) << (8 * r);
                     }
                 }
-                unsigned entered = (masks | masks >> 8 | masks >> 16 | masks >> 24) & 0xFFu;
+                uint64_t any = masks | masks >> 32;
+                any |= any >> 16;
+                unsigned entered = unsigned((any | any >> 8) & 0xFFu);
                 auto rays_of = [&](int i) {
-                    const uint32_t column = (masks >> i) & 0x01010101u;  // bit 8r: ray r
-                    return unsigned((column | column >> 7 | column >> 14 | column >> 21) & 0xFu);
+                    // Bit 8r of `column` is ray r's. The product puts bit 8r times 2^(7j + 7) at
+                    // 8r + 7j + 7: distinct for every (r, j), so nothing carries, and in the top
+                    // byte only for j = 7 − r, at bit 56 + r.
+                    const uint64_t column = (masks >> i) & 0x0101010101010101ull;
+                    return unsigned((column * 0x0102040810204080ull) >> 56);
                 };
                 if (entered != 0) {
                     const int first = __builtin_ctz(entered);
