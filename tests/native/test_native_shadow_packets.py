@@ -118,3 +118,59 @@ def test_planes_and_instances_are_asked_after_the_walk():
         alone, together = answers(built, origins, dirs, t_max, 1e-9)
         assert 0 < alone.sum() < len(alone)
         assert np.array_equal(alone, together)
+
+
+def _slab_rays(rng, n):
+    """Origins and directions with the float slab set-up's hard numbers among ordinary ones:
+    midpoints between floats (the origin's outward rounding), signed zeros, subnormals, the edges
+    of FloatSlabRay::applies' ranges (coordinates 1e30, direction components 2^-20 and 2^20) and
+    beyond them, reciprocals past the float range, infinities and NaN."""
+    specials = np.array(
+        [
+            0.0,
+            -0.0,
+            1e-310,
+            -1e-310,
+            2.0**-20,
+            -(2.0**-20),
+            2.0**-20 * (1 - 2.0**-53),
+            2.0**20,
+            2.0**20 * (1 + 2.0**-52),
+        ]
+        + [2.0**-129, -(2.0**-129), 1e30, -1e30, 1.0000000000000002e30, 1e39, np.inf, -np.inf, np.nan, 1.0, -1.0]
+    )
+    scale = 10.0 ** rng.integers(-8, 9, (n, 1))
+    origins = rng.standard_normal((n, 3)) * scale
+    floats = origins.astype(np.float32).astype(np.float64)
+    midpoints = (floats + np.nextafter(floats.astype(np.float32), np.float32(np.inf)).astype(np.float64)) / 2
+    origins = np.where(rng.random((n, 3)) < 0.3, midpoints, origins)
+    dirs = rng.standard_normal((n, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    for array in (origins, dirs):
+        where = rng.random((n, 3)) < 0.15
+        array[where] = rng.choice(specials, where.sum())
+    return origins, dirs
+
+
+@pytest.mark.parametrize("t_min", [1e-9, 2.0**-125, 2.0**-126, 0.0])
+@pytest.mark.parametrize("magnitude", [1.0, 1e30, 2e30])
+def test_shadow_rays_set_up_in_lanes_as_each_ray_alone(t_min, magnitude):
+    # Scene::occluded_tree_each sets its rays' float slab numbers up eight at a time in AVX lanes
+    # (FloatSlabLanes, bvh8.hpp); each ray's must be the bits FloatSlabRay8 has when the ray sets
+    # itself up alone, whether or not the float test applies to it, and so must FloatSlabRay's
+    # applies and far limit. Any count of rays in a group (the last group here is partial).
+    rng = np.random.default_rng(25)
+    n = 4003
+    origins, dirs = _slab_rays(rng, n)
+    t_max = np.abs(rng.standard_normal(n)) * 10.0 ** rng.integers(-6, 7, n)
+    t_max[rng.random(n) < 0.05] = np.inf
+    t_max[rng.random(n) < 0.02] = 3.4028235677973366e38 / (1 + 2.0**-21)  # just under the float range's top
+    alone = native._native.float_slab_lanes(origins, dirs, t_min, t_max, magnitude, False)
+    lanes = native._native.float_slab_lanes(origins, dirs, t_min, t_max, magnitude, True)
+    assert np.array_equal(alone.view(np.uint32), lanes.view(np.uint32))
+    applies = alone[:, 13] == 1.0
+    if t_min >= 2.0**-125 and magnitude <= 1e30:
+        assert 0 < applies.sum() < n  # rays of both kinds were compared
+        assert np.isnan(alone[applies, 6:9]).any() and np.isinf(alone[applies, 6:9]).any()
+    else:
+        assert not applies.any()

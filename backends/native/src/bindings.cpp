@@ -570,6 +570,48 @@ nb::dict refine_subdivision(const Rows3& points, const Index1& face_counts, cons
     return out;
 }
 
+// Test-only (float_slab_lanes below): row r of `out` (15 floats) for ray r: the FloatSlabRay8
+// a ray set up alone has (origin_near, origin_far and inv by axis, t_min, the near rows),
+// FloatSlabRay::applies and far_limit; lanes = true: the same from FloatSlabLanes, eight rays at
+// a time.
+PHONG_AVX2 void float_slab_rows(const double* origins, const double* dirs, double t_min, const double* t_max, size_t n,
+                                double magnitude, bool lanes, float* out) {
+    auto write = [](float* row, const phong::FloatSlabRay8& f, bool applies, float far) PHONG_AVX2 {
+        for (int k = 0; k < 3; ++k) {
+            row[k] = _mm256_cvtss_f32(f.origin_near[k]);
+            row[3 + k] = _mm256_cvtss_f32(f.origin_far[k]);
+            row[6 + k] = _mm256_cvtss_f32(f.inv[k]);
+            row[10 + k] = float(f.near_row[k]);
+        }
+        row[9] = _mm256_cvtss_f32(f.t_min);
+        row[13] = applies ? 1.0f : 0.0f;
+        row[14] = far;
+    };
+    std::vector<phong::Ray> rays(n);
+    for (size_t i = 0; i < n; ++i)
+        rays[i] = phong::Ray{{origins[3 * i], origins[3 * i + 1], origins[3 * i + 2]},
+                             {dirs[3 * i], dirs[3 * i + 1], dirs[3 * i + 2]}};
+    for (size_t first = 0; first < n; first += phong::kMaxRaysTogether) {
+        const int count = int(std::min<size_t>(phong::kMaxRaysTogether, n - first));
+        phong::FloatSlabLanes set;
+        if (lanes) set.set_up(rays.data() + first, count, t_min, t_max + first, magnitude);
+        for (int r = 0; r < count; ++r) {
+            const phong::Ray& ray = rays[first + size_t(r)];
+            phong::Deferred<phong::FloatSlabRay8> f;
+            if (lanes) {
+                set.emplace(r, f);
+                write(out + 15 * (first + size_t(r)), *f, set.applies >> r & 1u, set.far_up[r]);
+            } else {
+                const phong::Vec3 inv{1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z};
+                f.emplace(phong::FloatSlabOrigin(ray.origin), ray.dir, inv, t_min);
+                write(out + 15 * (first + size_t(r)), *f,
+                      phong::FloatSlabRay::applies(ray.origin, ray.dir, t_min, magnitude),
+                      _mm_cvtss_f32(phong::FloatSlabRay::far_limit(t_max[first + size_t(r)])));
+            }
+        }
+    }
+}
+
 NB_MODULE(_native, m) {
     nb::enum_<phong::SubdivisionScheme>(m, "SubdivisionScheme")
         .value("catmull_clark", phong::SubdivisionScheme::kCatmullClark)
@@ -610,6 +652,22 @@ NB_MODULE(_native, m) {
             return nb::ndarray<nb::numpy, float, nb::shape<-1>>(out, {n}, owner);
         },
         "values"_a, "Test-only: each value rounded to a half float and back, as set_textures(half_texels=True) does.");
+    m.def(
+        "float_slab_lanes",
+        [](const Rows3& origins, const Rows3& dirs, double t_min, const In<double, nb::shape<-1>>& t_max,
+           double magnitude, bool lanes) {
+            const size_t n = origins.shape(0);
+            if (dirs.shape(0) != n || t_max.shape(0) != n)
+                throw std::invalid_argument("float_slab_lanes: origins, dirs and t_max differ in length");
+            if (!phong::cpu_has_avx2()) throw std::runtime_error("float_slab_lanes: this CPU has no AVX2");
+            float* out = new float[15 * n];
+            float_slab_rows(origins.data(), dirs.data(), t_min, t_max.data(), n, magnitude, lanes, out);
+            nb::capsule owner(out, [](void* p) noexcept { delete[] static_cast<float*>(p); });
+            return nb::ndarray<nb::numpy, float, nb::shape<-1, 15>>(out, {n, 15}, owner);
+        },
+        "origins"_a, "dirs"_a, "t_min"_a, "t_max"_a, "magnitude"_a, "lanes"_a,
+        "Test-only: each ray's float slab set-up (FloatSlabRay8's numbers, applies, far limit: 15 floats a "
+        "row), alone (lanes=False) or eight at a time in lanes (FloatSlabLanes, lanes=True). AVX2 only.");
     m.def(
         "round_outward",
         [](const Rows3& rows) {

@@ -525,6 +525,8 @@ bool Scene::occluded_tree(const Ray& ray, const FloatSlabOrigin& origin, double 
     return blocked || (!instances_empty() && instances->occluded(ray, t_min, t_max));
 }
 
+static_assert(kMaxRaysTogether <= FloatSlabLanes::kRays);
+
 PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double t_min, const double* t_max) const {
     assert(count >= 1 && count <= kMaxRaysTogether && !bvh8_.empty());
     // Each ray's own walk state, as occluded_tree sets it up.
@@ -533,26 +535,30 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
     Deferred<TriangleLeafFilter> filter[kMaxRaysTogether];
     std::optional<WatertightRay> wr[kMaxRaysTogether];
     __m256 far[kMaxRaysTogether];
+    // The rays' float slab numbers, four at a time (FloatSlabLanes: each ray's own).
+    FloatSlabLanes lanes;
+    lanes.set_up(rays, count, t_min, t_max, magnitude);
     unsigned blocked = 0, together = 0;
     for (int r = 0; r < count; ++r) {
         const Ray& ray = rays[r];
-        origin[r].emplace(ray.origin);
-        if (!FloatSlabRay::applies(ray.origin, ray.dir, t_min, magnitude)) {  // its double walk, alone
+        if (!(lanes.applies >> r & 1u)) {  // its double walk, alone
+            origin[r].emplace(ray.origin);
             blocked |= unsigned(occluded_tree(ray, *origin[r], t_min, t_max[r])) << r;
             continue;
         }
-        fray[r].emplace(*origin[r], ray.dir, Vec3{1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z}, t_min);
+        lanes.emplace(r, fray[r]);
         filter[r].emplace(triangles, magnitude, mixed_leaves());
-        far[r] = _mm256_set1_ps(_mm_cvtss_f32(FloatSlabRay::far_limit(t_max[r])));
+        far[r] = _mm256_set1_ps(lanes.far_up[r]);
         together |= 1u << r;
     }
     // Whether the rays walking together choose the same planes of a box (their directions' signs
     // agree, as a coherent bundle's do): then a node's planes are loaded once for them all.
     const FloatSlabRay8* rows = together != 0 ? &*fray[__builtin_ctz(together)] : nullptr;
     bool same_rows = rows != nullptr;
-    for (unsigned bits = together; bits != 0; bits &= bits - 1)
-        for (int k = 0; k < 3; ++k)
-            same_rows = same_rows && fray[__builtin_ctz(bits)]->near_row[k] == rows->near_row[k];
+    for (int k = 0; k < 3; ++k) {
+        const unsigned signs = lanes.negative[k] & together;
+        same_rows = same_rows && (signs == 0 || signs == together);
+    }
     const bool prefilter = prefilter_applies();
     // The leaf of `count` refs at `first` for ray r: occluded_tree's leaf.
     auto leaf_blocks = [&](int r, int32_t first, int n) PHONG_AVX2 __attribute__((always_inline)) {
