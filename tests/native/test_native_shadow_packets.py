@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: Apache-2.0
 """A light's shadow rays from a packet's shaded points are asked together
-(Scene::occluded_each, backends/native/src/scene.cpp): on the 8-wide tree up to four rays walk it
+(Scene::occluded_each, backends/native/src/scene.cpp): on the 8-wide tree up to sixteen rays (two packets' points) walk it
 as one, each child taken by the rays whose own box test enters it, each leaf tested for them, so
 each ray tests its own walk's leaves in another order and its any-hit answer must be its own
-walk's. `occluded(..., together=True)` asks consecutive rays in fours; these tests compare it with
-the rays one by one on hard rays: shadow rays from surfaces to lights (coherent fours) and to
-scattered targets (fours of mixed direction signs, which load a node's planes per ray), rays
+walk's. `occluded(..., together=True)` asks consecutive rays in sixteens; these tests compare it with
+the rays one by one on hard rays: shadow rays from surfaces to lights (coherent groups) and to
+scattered targets (groups of mixed direction signs, which load a node's planes per ray), rays
 grazing spheres, rays along the ground's plane with a ±0 direction (1/±0 = ±inf), rays whose
 float box test does not apply (a direction component below 2^-20: the double walk, alone),
 windows ending one double past a hit; at scales 1e-6, 1 and 1e6, with an unbounded plane and with
@@ -33,8 +33,8 @@ def tree_scenes():
     return {"course": course(sphere_count=12), "crowd": crowd(), "smooth_mesh": calibration.smooth_mesh()}
 
 
-def coherent_fours(origins, dirs, t_max):
-    """The rays sorted so that each four share a target (their directions' signs mostly agree)."""
+def coherent_groups(origins, dirs, t_max):
+    """The rays sorted so that each group shares a target (their directions' signs mostly agree)."""
     order = np.lexsort((origins[:, 0], np.round(dirs[:, 1], 1), np.round(dirs[:, 0], 1)))
     return origins[order], dirs[order], t_max[order]
 
@@ -53,7 +53,7 @@ def test_shadow_rays_together_answer_as_alone(scale, coherent):
     assert not built.small_scene and built.walk_width == 8
     origins, dirs, _, t_max = hard_rays(scene, scale, 0.0)
     if coherent:
-        origins, dirs, t_max = coherent_fours(origins, dirs, t_max)
+        origins, dirs, t_max = coherent_groups(origins, dirs, t_max)
     window = SHADOW_WINDOW * scale
     alone, together = answers(built, origins, dirs, t_max, window)
     assert 0 < alone.sum() < len(alone)  # both answers occur
@@ -85,7 +85,7 @@ def test_windows_one_double_past_the_hit(name):
 
 def test_rays_whose_float_test_does_not_apply_walk_alone():
     """A direction component below 2^-20 (the float box test's range) takes the double walk: mixed
-    in a four with rays that walk together, every answer is still its own."""
+    in a group with rays that walk together, every answer is still its own."""
     scene = course(sphere_count=12)
     built = native.build(scene)
     rng = np.random.default_rng(8)
@@ -155,7 +155,7 @@ def _slab_rays(rng, n):
 @pytest.mark.parametrize("t_min", [1e-9, 2.0**-125, 2.0**-126, 0.0])
 @pytest.mark.parametrize("magnitude", [1.0, 1e30, 2e30])
 def test_shadow_rays_set_up_in_lanes_as_each_ray_alone(t_min, magnitude):
-    # Scene::occluded_tree_each sets its rays' float slab numbers up eight at a time in AVX lanes
+    # Scene::occluded_tree_each sets its rays' float slab numbers up four at a time in AVX lanes
     # (FloatSlabLanes, bvh8.hpp); each ray's must be the bits FloatSlabRay8 has when the ray sets
     # itself up alone, whether or not the float test applies to it, and so must FloatSlabRay's
     # applies and far limit. Any count of rays in a group (the last group here is partial).

@@ -357,7 +357,7 @@ nb::ndarray<nb::numpy, bool, nb::shape<-1>> occluded(const phong::Scene& scene, 
         auto ray_at = [&](size_t i) {
             return phong::Ray{{origins(i, 0), origins(i, 1), origins(i, 2)}, {dirs(i, 0), dirs(i, 1), dirs(i, 2)}};
         };
-        if (together) {  // consecutive rays in eights through Scene::occluded_each, as the lanes ask them
+        if (together) {  // consecutive rays in sixteens through Scene::occluded_each, as the lanes ask them
             for (size_t first = 0; first < n; first += phong::kMaxRaysTogether) {
                 const int count = int(std::min(n - first, size_t(phong::kMaxRaysTogether)));
                 phong::Ray rays[phong::kMaxRaysTogether];
@@ -572,8 +572,8 @@ nb::dict refine_subdivision(const Rows3& points, const Index1& face_counts, cons
 
 // Test-only (float_slab_lanes below): row r of `out` (15 floats) for ray r: the FloatSlabRay8
 // a ray set up alone has (origin_near, origin_far and inv by axis, t_min, the near rows),
-// FloatSlabRay::applies and far_limit; lanes = true: the same from FloatSlabLanes, eight rays at
-// a time.
+// FloatSlabRay::applies and far_limit; lanes = true: the same from FloatSlabLanes,
+// kMaxRaysTogether rays at a time.
 PHONG_AVX2 void float_slab_rows(const double* origins, const double* dirs, double t_min, const double* t_max, size_t n,
                                 double magnitude, bool lanes, float* out) {
     auto write = [](float* row, const phong::FloatSlabRay8& f, bool applies, float far) PHONG_AVX2 {
@@ -667,7 +667,7 @@ NB_MODULE(_native, m) {
         },
         "origins"_a, "dirs"_a, "t_min"_a, "t_max"_a, "magnitude"_a, "lanes"_a,
         "Test-only: each ray's float slab set-up (FloatSlabRay8's numbers, applies, far limit: 15 floats a "
-        "row), alone (lanes=False) or eight at a time in lanes (FloatSlabLanes, lanes=True). AVX2 only.");
+        "row), alone (lanes=False) or sixteen at a time in lanes (FloatSlabLanes, lanes=True). AVX2 only.");
     m.def(
         "round_outward",
         [](const Rows3& rows) {
@@ -985,7 +985,7 @@ NB_MODULE(_native, m) {
              "Closest hit per ray (tests): (t, primitive id); spheres are 0..S-1, then triangles.")
         .def("occluded", &occluded, "origins"_a, "dirs"_a, "t_max"_a, "t_min"_a = 0.0, "together"_a = false,
              "Per ray, whether anything is hit in (t_min, t_max): shadow rays' any-hit walk, one thread; "
-             "together=True: consecutive rays in eights, walking the tree together as a packet's shadow rays do "
+             "together=True: consecutive rays in sixteens, walking the tree together as two packets' shadow rays do "
              "(tests compare the two).")
         .def("intersect_packets", &intersect_packets, "origin"_a, "dirs"_a, "t_min"_a = 0.0, "together"_a = true,
              "Closest hits of rays from one origin, 8 at a time as primary rays are (tests): (t, primitive id, "

@@ -133,7 +133,7 @@ PHONG_AVX2 inline void round_outward_lanes(__m256d x, __m128& down, __m128& up) 
 // For a light's shadow rays from a packet's points (Scene::occluded_tree_each), which each set
 // up alone cost S2's render ~110 instructions a ray.
 struct FloatSlabLanes {
-    static constexpr int kRays = 8;
+    static constexpr int kRays = 16;
     alignas(16) float down[3][kRays], up[3][kRays], inv[3][kRays];  // by axis, then ray
     alignas(16) float far_up[kRays];                                // FloatSlabRay::far_limit(t_max[r])
     unsigned negative[3];                                           // bit r: ray r's direction's sign bit on axis k
@@ -143,7 +143,8 @@ struct FloatSlabLanes {
     PHONG_AVX2 void set_up(const Ray* rays, int count, double t_min, const double* t_max, double scene_magnitude) {
         assert(count >= 1 && count <= kRays);
         alignas(32) double o[3][kRays], d[3][kRays], limit[kRays];
-        for (int r = 0; r < kRays; ++r) {
+        const int lanes = (count + 3) & ~3;  // whole groups of four
+        for (int r = 0; r < lanes; ++r) {
             const int from = r < count ? r : 0;  // lanes past `count`: ray 0 again
             const Ray& ray = rays[from];
             o[0][r] = ray.origin.x, o[1][r] = ray.origin.y, o[2][r] = ray.origin.z;
@@ -156,7 +157,7 @@ struct FloatSlabLanes {
         const __m256d nan = _mm256_set1_pd(NAN), one = _mm256_set1_pd(1.0);
         applies = 0;
         negative[0] = negative[1] = negative[2] = 0;
-        for (int at = 0; at < kRays; at += 4) {
+        for (int at = 0; at < lanes; at += 4) {
             __m256d within = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
             __m256d abs_d[3];
             for (int k = 0; k < 3; ++k) {

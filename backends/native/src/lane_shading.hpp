@@ -29,8 +29,9 @@
 
 namespace phong {
 
-// The points of one packet: at most 8 (kPacketRays), two groups of four lanes.
-constexpr int kShadingLanes = 8;
+// The points of two packets shaded together (render.cpp, kShadedPackets): at most 16, four groups
+// of four lanes.
+constexpr int kShadingLanes = 16;
 
 // What shade_hit has computed before its light loop, one lane per shaded point.
 struct ShadedLanes {

@@ -33,6 +33,10 @@ constexpr int kTileSize = 16;
 // square as eight rays go, for the narrowest interval of directions.
 constexpr int kPacketWidth = 4, kPacketHeight = 2;
 static_assert(kPacketWidth * kPacketHeight == kPacketRays);
+// Packets shaded together: a light's shadow rays from both packets' points walk the tree
+// together (Scene::occluded_each), sixteen rays sharing each node visit. Against one packet:
+// S1's render −5 %, S2's −2.5 % (benchmarks/README.md, issue 25).
+constexpr int kShadedPackets = 2;
 // How often the calling thread wakes to report progress and check for Ctrl-C.
 constexpr auto kPollInterval = std::chrono::milliseconds(50);
 // POV-Ray renders in blocks of Render_Block_Size = 32 pixels from the top left (view.cpp), and
@@ -623,13 +627,13 @@ TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_,
 
 namespace {
 
-// The colours of a packet's primary rays whose closest hits are known: colour[k] is
+// The colours of a packet's primary rays (or two packets': kShadedPackets) whose closest hits are known: colour[k] is
 // shade_primary(rays[k], found[k], hits[k])'s to the bit. Where the render allows it
 // (TraceContext::lane_shading) the direct lighting of the points lane_material takes is added in
 // lanes (lane_shading.hpp), the rest one by one.
 void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits, const bool* found, int count,
-                  DeferredArray<RGB, kPacketRays>& colour, std::vector<BundleCandidate>& scratch) {
-    static_assert(kPacketRays <= kShadingLanes);
+                  DeferredArray<RGB, kShadedPackets * kPacketRays>& colour, std::vector<BundleCandidate>& scratch) {
+    static_assert(kShadedPackets * kPacketRays <= kShadingLanes && kShadingLanes <= kMaxRaysTogether);
     const Scene& scene = context.scene;
     ShadedLanes lanes;
     if (context.lane_shading) {
@@ -766,26 +770,37 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
         return sum / double(n * n + 1);
     };
 
-    // The primary rays through image positions (sx[k], sy[k]), k < count <= kPacketRays, traced as
-    // one packet (Scene::closest_hit_packet: each ray's hit bit for bit as alone) and shaded one by
-    // one: colour[k] is trace_at(sx[k], sy[k])'s. A perspective camera's only (one origin).
-    // (Rays and colours in DeferredArray: as plain arrays each was zero-filled a packet.)
-    using PacketColours = DeferredArray<RGB, kPacketRays>;
-    auto trace_packet = [&](const double* sx, const double* sy, int count, PacketColours& colour,
-                            std::vector<BundleCandidate>& scratch) {
-        assert(eye && count >= 1 && count <= kPacketRays);
-        DeferredArray<Ray, kPacketRays> rays;
-        Hit hits[kPacketRays];
-        bool found[kPacketRays];
+    // The primary rays through image positions (sx[k], sy[k]), k < count, traced as packets of
+    // `first` and count − first rays (each at most kPacketRays; Scene::closest_hit_packet: each
+    // ray's hit bit for bit as alone) and shaded together (shade_packet): colour[k] is
+    // trace_at(sx[k], sy[k])'s. A perspective camera's only (one origin). (Rays and colours in
+    // DeferredArray: as plain arrays each was zero-filled a packet.)
+    using PacketColours = DeferredArray<RGB, kShadedPackets * kPacketRays>;
+    auto trace_packets = [&](const double* sx, const double* sy, int count, int first, PacketColours& colour,
+                             std::vector<BundleCandidate>& scratch) {
+        assert(eye && first >= 1 && first <= kPacketRays && count >= first && count - first <= kPacketRays);
+        DeferredArray<Ray, kShadedPackets * kPacketRays> rays;
+        Hit hits[kShadedPackets * kPacketRays];
+        bool found[kShadedPackets * kPacketRays];
         if (scene.walk_width() == 8) {  // the AVX2 path: directions in lanes
-            DeferredArray<Vec3, kPacketRays> dirs;
-            camera.perspective_directions(sx, sy, count, width, height, dirs.data());
+            DeferredArray<Vec3, kShadedPackets * kPacketRays> dirs;
+            camera.perspective_directions(sx, sy, first, width, height, dirs.data());
+            if (count > first)
+                camera.perspective_directions(sx + first, sy + first, count - first, width, height,
+                                              dirs.data() + first);
             for (int k = 0; k < count; ++k) rays.emplace(size_t(k), Ray{camera.position, dirs[size_t(k)]});
         } else {
             for (int k = 0; k < count; ++k) rays.emplace(size_t(k), camera.generate(sx[k], sy[k], width, height));
         }
-        scene.closest_hit_packet(rays.data(), count, *eye, tolerances.primary_near, hits, found);
+        scene.closest_hit_packet(rays.data(), first, *eye, tolerances.primary_near, hits, found);
+        if (count > first)
+            scene.closest_hit_packet(rays.data() + first, count - first, *eye, tolerances.primary_near, hits + first,
+                                     found + first);
         shade_packet(context, rays.data(), hits, found, count, colour, scratch);
+    };
+    auto trace_packet = [&](const double* sx, const double* sy, int count, PacketColours& colour,
+                            std::vector<BundleCandidate>& scratch) {
+        trace_packets(sx, sy, count, count, colour, scratch);
     };
     // Samples of one pixel gathered into packets, summed in the order given (the sum, and so
     // the pixel, is the one-by-one loop's to the bit).
@@ -1011,21 +1026,26 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     };
 
     // One sample per pixel at its centre through a perspective camera: the primary rays of each
-    // block of kPacketWidth x kPacketHeight pixels are traced as one packet (trace_packet). (More
-    // samples per pixel go in packets of one pixel's samples: render_pixel, stratified_pixel.)
+    // block of kPacketWidth x kPacketHeight pixels are traced as one packet, two side by side
+    // shaded together (trace_packets). (More samples per pixel go in packets of one pixel's
+    // samples: render_pixel, stratified_pixel.)
     const bool packets = eye && n == 1 && settings.sample_pattern == SamplePattern::kGrid;
     auto render_block_packets = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
         for (int j0 = y0; j0 < y1; j0 += kPacketHeight)
-            for (int i0 = x0; i0 < x1; i0 += kPacketWidth) {
-                double sx[kPacketRays], sy[kPacketRays];
-                int count = 0;
-                for (int j = j0; j < std::min(y1, j0 + kPacketHeight); ++j)
-                    for (int i = i0; i < std::min(x1, i0 + kPacketWidth); ++i, ++count) {
-                        sx[count] = i + 0.5;
-                        sy[count] = j + 0.5;
-                    }
+            for (int i0 = x0; i0 < x1; i0 += kShadedPackets * kPacketWidth) {
+                double sx[kShadedPackets * kPacketRays], sy[kShadedPackets * kPacketRays];
+                int count = 0, first = 0;
+                for (int p = 0; p < kShadedPackets; ++p) {
+                    const int b0 = i0 + p * kPacketWidth;
+                    for (int j = j0; j < std::min(y1, j0 + kPacketHeight); ++j)
+                        for (int i = b0; i < std::min(x1, b0 + kPacketWidth); ++i, ++count) {
+                            sx[count] = i + 0.5;
+                            sy[count] = j + 0.5;
+                        }
+                    if (p == 0) first = count;
+                }
                 PacketColours colour;
-                trace_packet(sx, sy, count, colour, scratch);
+                trace_packets(sx, sy, count, first, colour, scratch);
                 for (int k = 0; k < count; ++k) {
                     RGB sum;  // render_pixel's arithmetic, to the bit (0 + −0 is +0)
                     sum += colour[k];

@@ -525,7 +525,7 @@ bool Scene::occluded_tree(const Ray& ray, const FloatSlabOrigin& origin, double 
     return blocked || (!instances_empty() && instances->occluded(ray, t_min, t_max));
 }
 
-static_assert(kMaxRaysTogether <= FloatSlabLanes::kRays);
+static_assert(kMaxRaysTogether <= FloatSlabLanes::kRays && kMaxRaysTogether % 8 == 0);
 
 PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double t_min, const double* t_max) const {
     assert(count >= 1 && count <= kMaxRaysTogether && !bvh8_.empty());
@@ -597,8 +597,9 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
         if (walking != 0) {
             if (current.count == 0) {
                 const Bvh8Node& node = bvh8_[size_t(current.child)];
-                // Ray r's children in byte r of `masks`; child i's rays are bit i of each byte.
-                uint64_t masks = 0;
+                // Ray r's children in byte r % 8 of masks[r / 8]; child i's rays are bit i of
+                // each byte.
+                uint64_t masks[kMaxRaysTogether / 8] = {};
                 if (same_rows) {  // FloatSlabRay8::hit per ray, the node's planes loaded once
                     __m256 lo[3], hi[3];
                     for (int k = 0; k < 3; ++k) {
@@ -614,24 +615,31 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
                             t1 = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(hi[k], f.origin_far[k]), f.inv[k]), t1);
                         }
                         t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(kFloatSlabWidening)), far[r]);
-                        masks |= uint64_t(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ))) << (8 * r);
+                        masks[r >> 3] |= uint64_t(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)))
+                                         << (8 * (r & 7));
                     }
                 } else {
                     for (unsigned bits = walking; bits != 0; bits &= bits - 1) {
                         const int r = __builtin_ctz(bits);
                         __m256 entry;
-                        masks |= uint64_t(fray[r]->hit(node, far[r], entry)) << (8 * r);
+                        masks[r >> 3] |= uint64_t(fray[r]->hit(node, far[r], entry)) << (8 * (r & 7));
                     }
                 }
-                uint64_t any = masks | masks >> 32;
+                uint64_t any = masks[0];
+                for (int w = 1; w < kMaxRaysTogether / 8; ++w) any |= masks[w];
+                any |= any >> 32;
                 any |= any >> 16;
                 unsigned entered = unsigned((any | any >> 8) & 0xFFu);
                 auto rays_of = [&](int i) {
                     // Bit 8r of `column` is ray r's. The product puts bit 8r times 2^(7j + 7) at
                     // 8r + 7j + 7: distinct for every (r, j), so nothing carries, and in the top
                     // byte only for j = 7 − r, at bit 56 + r.
-                    const uint64_t column = (masks >> i) & 0x0101010101010101ull;
-                    return unsigned((column * 0x0102040810204080ull) >> 56);
+                    unsigned rays_in = 0;
+                    for (int w = 0; w < kMaxRaysTogether / 8; ++w) {
+                        const uint64_t column = (masks[w] >> i) & 0x0101010101010101ull;
+                        rays_in |= unsigned((column * 0x0102040810204080ull) >> 56) << (8 * w);
+                    }
+                    return rays_in;
                 };
                 if (entered != 0) {
                     const int first = __builtin_ctz(entered);
