@@ -357,7 +357,8 @@ nb::ndarray<nb::numpy, bool, nb::shape<-1>> occluded(const phong::Scene& scene, 
         auto ray_at = [&](size_t i) {
             return phong::Ray{{origins(i, 0), origins(i, 1), origins(i, 2)}, {dirs(i, 0), dirs(i, 1), dirs(i, 2)}};
         };
-        if (together) {  // consecutive rays in sixteens through Scene::occluded_each, as the lanes ask them
+        if (together) {  // consecutive rays in groups of kMaxRaysTogether through Scene::occluded_each, as the lanes
+                         // ask them
             for (size_t first = 0; first < n; first += phong::kMaxRaysTogether) {
                 const int count = int(std::min(n - first, size_t(phong::kMaxRaysTogether)));
                 phong::Ray rays[phong::kMaxRaysTogether];
@@ -667,7 +668,7 @@ NB_MODULE(_native, m) {
         },
         "origins"_a, "dirs"_a, "t_min"_a, "t_max"_a, "magnitude"_a, "lanes"_a,
         "Test-only: each ray's float slab set-up (FloatSlabRay8's numbers, applies, far limit: 15 floats a "
-        "row), alone (lanes=False) or sixteen at a time in lanes (FloatSlabLanes, lanes=True). AVX2 only.");
+        "row), alone (lanes=False) or 32 at a time in lanes (FloatSlabLanes, lanes=True). AVX2 only.");
     m.def(
         "round_outward",
         [](const Rows3& rows) {
@@ -985,7 +986,7 @@ NB_MODULE(_native, m) {
              "Closest hit per ray (tests): (t, primitive id); spheres are 0..S-1, then triangles.")
         .def("occluded", &occluded, "origins"_a, "dirs"_a, "t_max"_a, "t_min"_a = 0.0, "together"_a = false,
              "Per ray, whether anything is hit in (t_min, t_max): shadow rays' any-hit walk, one thread; "
-             "together=True: consecutive rays in sixteens, walking the tree together as two packets' shadow rays do "
+             "together=True: consecutive rays in 32s, walking the tree together as four packets' shadow rays do "
              "(tests compare the two).")
         .def("intersect_packets", &intersect_packets, "origin"_a, "dirs"_a, "t_min"_a = 0.0, "together"_a = true,
              "Closest hits of rays from one origin, 8 at a time as primary rays are (tests): (t, primitive id, "

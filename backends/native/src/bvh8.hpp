@@ -133,7 +133,7 @@ PHONG_AVX2 inline void round_outward_lanes(__m256d x, __m128& down, __m128& up) 
 // For a light's shadow rays from a packet's points (Scene::occluded_tree_each), which each set
 // up alone cost S2's render ~110 instructions a ray.
 struct FloatSlabLanes {
-    static constexpr int kRays = 16;
+    static constexpr int kRays = 32;                                // a bit each in an unsigned
     alignas(16) float down[3][kRays], up[3][kRays], inv[3][kRays];  // by axis, then ray
     alignas(16) float far_up[kRays];                                // FloatSlabRay::far_limit(t_max[r])
     unsigned negative[3];                                           // bit r: ray r's direction's sign bit on axis k
@@ -186,7 +186,7 @@ struct FloatSlabLanes {
             _mm_store_ps(far_up + at, far);
         }
         if (!(t_min >= kFloatSlabMinTMin && scene_magnitude <= kFloatSlabMaxCoordinate)) applies = 0;
-        applies &= (1u << count) - 1u;
+        applies &= ~0u >> (kRays - count);
         t_min_down = round_down(t_min);
     }
 

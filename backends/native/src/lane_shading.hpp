@@ -29,9 +29,9 @@
 
 namespace phong {
 
-// The points of two packets shaded together (render.cpp, kShadedPackets): at most 16, four groups
-// of four lanes.
-constexpr int kShadingLanes = 16;
+// The points of the packets shaded together (render.cpp, kShadedPackets): at most 32, groups of
+// four lanes.
+constexpr int kShadingLanes = 32;
 
 // What shade_hit has computed before its light loop, one lane per shaded point.
 struct ShadedLanes {

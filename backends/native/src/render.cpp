@@ -33,10 +33,11 @@ constexpr int kTileSize = 16;
 // square as eight rays go, for the narrowest interval of directions.
 constexpr int kPacketWidth = 4, kPacketHeight = 2;
 static_assert(kPacketWidth * kPacketHeight == kPacketRays);
-// Packets shaded together: a light's shadow rays from both packets' points walk the tree
-// together (Scene::occluded_each), sixteen rays sharing each node visit. Against one packet:
-// S1's render −5 %, S2's −2.5 % (benchmarks/README.md, issue 25).
-constexpr int kShadedPackets = 2;
+// Packets shaded together (four blocks side by side, 16 x 2 pixels): a light's shadow rays from
+// their points walk the tree together (Scene::occluded_each), up to 32 rays sharing each node
+// visit. Measured against one packet at a time: two packets, S1's render −5 % and S2's −2.5 %;
+// four, S2's −5 % more (benchmarks/README.md, issue 25).
+constexpr int kShadedPackets = 4;
 // How often the calling thread wakes to report progress and check for Ctrl-C.
 constexpr auto kPollInterval = std::chrono::milliseconds(50);
 // POV-Ray renders in blocks of Render_Block_Size = 32 pixels from the top left (view.cpp), and
@@ -627,10 +628,9 @@ TraceContext::TraceContext(const Scene& scene_, const RenderSettings& settings_,
 
 namespace {
 
-// The colours of a packet's primary rays (or two packets': kShadedPackets) whose closest hits are known: colour[k] is
-// shade_primary(rays[k], found[k], hits[k])'s to the bit. Where the render allows it
-// (TraceContext::lane_shading) the direct lighting of the points lane_material takes is added in
-// lanes (lane_shading.hpp), the rest one by one.
+// The colours of a packet's primary rays (or of up to kShadedPackets packets') whose closest hits are known: colour[k]
+// is shade_primary(rays[k], found[k], hits[k])'s to the bit. Where the render allows it (TraceContext::lane_shading)
+// the direct lighting of the points lane_material takes is added in lanes (lane_shading.hpp), the rest one by one.
 void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits, const bool* found, int count,
                   DeferredArray<RGB, kShadedPackets * kPacketRays>& colour, std::vector<BundleCandidate>& scratch) {
     static_assert(kShadedPackets * kPacketRays <= kShadingLanes && kShadingLanes <= kMaxRaysTogether);
@@ -776,31 +776,30 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     // trace_at(sx[k], sy[k])'s. A perspective camera's only (one origin). (Rays and colours in
     // DeferredArray: as plain arrays each was zero-filled a packet.)
     using PacketColours = DeferredArray<RGB, kShadedPackets * kPacketRays>;
-    auto trace_packets = [&](const double* sx, const double* sy, int count, int first, PacketColours& colour,
-                             std::vector<BundleCandidate>& scratch) {
-        assert(eye && first >= 1 && first <= kPacketRays && count >= first && count - first <= kPacketRays);
+    auto trace_packets = [&](const double* sx, const double* sy, int count, const int* packet_rays,
+                             PacketColours& colour, std::vector<BundleCandidate>& scratch) {
+        assert(eye && count >= 1 && count <= kShadedPackets * kPacketRays);
         DeferredArray<Ray, kShadedPackets * kPacketRays> rays;
         Hit hits[kShadedPackets * kPacketRays];
         bool found[kShadedPackets * kPacketRays];
         if (scene.walk_width() == 8) {  // the AVX2 path: directions in lanes
             DeferredArray<Vec3, kShadedPackets * kPacketRays> dirs;
-            camera.perspective_directions(sx, sy, first, width, height, dirs.data());
-            if (count > first)
-                camera.perspective_directions(sx + first, sy + first, count - first, width, height,
-                                              dirs.data() + first);
+            for (int at = 0, p = 0; at < count; at += packet_rays[p++])
+                camera.perspective_directions(sx + at, sy + at, packet_rays[p], width, height, dirs.data() + at);
             for (int k = 0; k < count; ++k) rays.emplace(size_t(k), Ray{camera.position, dirs[size_t(k)]});
         } else {
             for (int k = 0; k < count; ++k) rays.emplace(size_t(k), camera.generate(sx[k], sy[k], width, height));
         }
-        scene.closest_hit_packet(rays.data(), first, *eye, tolerances.primary_near, hits, found);
-        if (count > first)
-            scene.closest_hit_packet(rays.data() + first, count - first, *eye, tolerances.primary_near, hits + first,
-                                     found + first);
+        for (int at = 0, p = 0; at < count; at += packet_rays[p++]) {
+            assert(packet_rays[p] >= 1 && packet_rays[p] <= kPacketRays);
+            scene.closest_hit_packet(rays.data() + at, packet_rays[p], *eye, tolerances.primary_near, hits + at,
+                                     found + at);
+        }
         shade_packet(context, rays.data(), hits, found, count, colour, scratch);
     };
     auto trace_packet = [&](const double* sx, const double* sy, int count, PacketColours& colour,
                             std::vector<BundleCandidate>& scratch) {
-        trace_packets(sx, sy, count, count, colour, scratch);
+        trace_packets(sx, sy, count, &count, colour, scratch);
     };
     // Samples of one pixel gathered into packets, summed in the order given (the sum, and so
     // the pixel, is the one-by-one loop's to the bit).
@@ -1026,26 +1025,28 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
     };
 
     // One sample per pixel at its centre through a perspective camera: the primary rays of each
-    // block of kPacketWidth x kPacketHeight pixels are traced as one packet, two side by side
-    // shaded together (trace_packets). (More samples per pixel go in packets of one pixel's
-    // samples: render_pixel, stratified_pixel.)
+    // block of kPacketWidth x kPacketHeight pixels are traced as one packet, and where the lanes
+    // shade (TraceContext::lane_shading) kShadedPackets side by side are shaded together
+    // (trace_packets; elsewhere that gains nothing, and S3 lost 2-4 %). (More samples per pixel
+    // go in packets of one pixel's samples: render_pixel, stratified_pixel.)
     const bool packets = eye && n == 1 && settings.sample_pattern == SamplePattern::kGrid;
+    const int shaded_packets = context.lane_shading ? kShadedPackets : 1;
     auto render_block_packets = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
         for (int j0 = y0; j0 < y1; j0 += kPacketHeight)
-            for (int i0 = x0; i0 < x1; i0 += kShadedPackets * kPacketWidth) {
+            for (int i0 = x0; i0 < x1; i0 += shaded_packets * kPacketWidth) {
                 double sx[kShadedPackets * kPacketRays], sy[kShadedPackets * kPacketRays];
-                int count = 0, first = 0;
-                for (int p = 0; p < kShadedPackets; ++p) {
-                    const int b0 = i0 + p * kPacketWidth;
+                int count = 0, packet_rays[kShadedPackets];
+                for (int p = 0; p < shaded_packets; ++p) {  // blocks past the tile's edge: none
+                    const int b0 = i0 + p * kPacketWidth, before = count;
                     for (int j = j0; j < std::min(y1, j0 + kPacketHeight); ++j)
                         for (int i = b0; i < std::min(x1, b0 + kPacketWidth); ++i, ++count) {
                             sx[count] = i + 0.5;
                             sy[count] = j + 0.5;
                         }
-                    if (p == 0) first = count;
+                    packet_rays[p] = count - before;
                 }
                 PacketColours colour;
-                trace_packets(sx, sy, count, first, colour, scratch);
+                trace_packets(sx, sy, count, packet_rays, colour, scratch);
                 for (int k = 0; k < count; ++k) {
                     RGB sum;  // render_pixel's arithmetic, to the bit (0 + −0 is +0)
                     sum += colour[k];

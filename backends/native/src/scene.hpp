@@ -85,8 +85,8 @@ struct BallGroup {
 // A ray's closest hit. ref >= 0: triangle index (leaf order); ref < 0: sphere ~ref when
 // ~ref < S, ball ~ref − S (Scene::balls, leaf order) when ~ref < S + B, else intrinsic part
 // ~ref − S − B (Scene::intrinsics), or an unbounded plane (Scene::plane_ref).
-// Rays Scene::occluded_each takes at once (a light's shadow rays from two packets' sixteen points).
-constexpr int kMaxRaysTogether = 16;
+// Rays Scene::occluded_each takes at once (a light's shadow rays from four packets' 32 points).
+constexpr int kMaxRaysTogether = 32;
 
 struct Hit {
     double t;
