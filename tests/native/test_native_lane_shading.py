@@ -100,7 +100,7 @@ def mixed_scenes(draw):
         for _ in range(draw(st.integers(1, 5)))
     ]
     # A small scene (small_scene.hpp: a few axis-aligned spheres on a ground quad) asks its shadow
-    # rays together, up to 32 (Scene.occluded_each); any other walks its tree.
+    # rays together, up to 64 (Scene.occluded_each); any other walks its tree.
     small = draw(st.booleans())
     spheres.append(
         Sphere(

@@ -1,9 +1,9 @@
 # SPDX-License-Identifier: Apache-2.0
 """A light's shadow rays from a packet's shaded points are asked together
-(Scene::occluded_each, backends/native/src/scene.cpp): on the 8-wide tree up to 32 rays (four packets' points) walk it
+(Scene::occluded_each, backends/native/src/scene.cpp): on the 8-wide tree up to 64 rays (eight packets' points) walk it
 as one, each child taken by the rays whose own box test enters it, each leaf tested for them, so
 each ray tests its own walk's leaves in another order and its any-hit answer must be its own
-walk's. `occluded(..., together=True)` asks consecutive rays in 32s; these tests compare it with
+walk's. `occluded(..., together=True)` asks consecutive rays in 64s; these tests compare it with
 the rays one by one on hard rays: shadow rays from surfaces to lights (coherent groups) and to
 scattered targets (groups of mixed direction signs, which load a node's planes per ray), rays
 grazing spheres, rays along the ground's plane with a ±0 direction (1/±0 = ±inf), rays whose

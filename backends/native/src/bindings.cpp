@@ -365,7 +365,7 @@ nb::ndarray<nb::numpy, bool, nb::shape<-1>> occluded(const phong::Scene& scene, 
                 double limits[phong::kMaxRaysTogether];
                 for (int k = 0; k < count; ++k)
                     rays[k] = ray_at(first + size_t(k)), limits[k] = t_max(first + size_t(k));
-                const unsigned answers = scene.occluded_each(rays, count, t_min, limits);
+                const phong::RayBits answers = scene.occluded_each(rays, count, t_min, limits);
                 for (int k = 0; k < count; ++k) blocked[first + size_t(k)] = (answers >> k) & 1u;
             }
         } else {
@@ -668,7 +668,7 @@ NB_MODULE(_native, m) {
         },
         "origins"_a, "dirs"_a, "t_min"_a, "t_max"_a, "magnitude"_a, "lanes"_a,
         "Test-only: each ray's float slab set-up (FloatSlabRay8's numbers, applies, far limit: 15 floats a "
-        "row), alone (lanes=False) or 32 at a time in lanes (FloatSlabLanes, lanes=True). AVX2 only.");
+        "row), alone (lanes=False) or 64 at a time in lanes (FloatSlabLanes, lanes=True). AVX2 only.");
     m.def(
         "round_outward",
         [](const Rows3& rows) {
@@ -986,7 +986,7 @@ NB_MODULE(_native, m) {
              "Closest hit per ray (tests): (t, primitive id); spheres are 0..S-1, then triangles.")
         .def("occluded", &occluded, "origins"_a, "dirs"_a, "t_max"_a, "t_min"_a = 0.0, "together"_a = false,
              "Per ray, whether anything is hit in (t_min, t_max): shadow rays' any-hit walk, one thread; "
-             "together=True: consecutive rays in 32s, walking the tree together as four packets' shadow rays do "
+             "together=True: consecutive rays in 64s, walking the tree together as eight packets' shadow rays do "
              "(tests compare the two).")
         .def("intersect_packets", &intersect_packets, "origin"_a, "dirs"_a, "t_min"_a = 0.0, "together"_a = true,
              "Closest hits of rays from one origin, 8 at a time as primary rays are (tests): (t, primitive id, "

@@ -133,11 +133,11 @@ PHONG_AVX2 inline void round_outward_lanes(__m256d x, __m128& down, __m128& up) 
 // For a light's shadow rays from a packet's points (Scene::occluded_tree_each), which each set
 // up alone cost S2's render ~110 instructions a ray.
 struct FloatSlabLanes {
-    static constexpr int kRays = 32;                                // a bit each in an unsigned
+    static constexpr int kRays = 64;                                // a bit each in a uint64_t
     alignas(16) float down[3][kRays], up[3][kRays], inv[3][kRays];  // by axis, then ray
     alignas(16) float far_up[kRays];                                // FloatSlabRay::far_limit(t_max[r])
-    unsigned negative[3];                                           // bit r: ray r's direction's sign bit on axis k
-    unsigned applies;                                               // bit r: FloatSlabRay::applies for ray r
+    uint64_t negative[3];                                           // bit r: ray r's direction's sign bit on axis k
+    uint64_t applies;                                               // bit r: FloatSlabRay::applies for ray r
     float t_min_down;                                               // round_down(t_min)
 
     PHONG_AVX2 void set_up(const Ray* rays, int count, double t_min, const double* t_max, double scene_magnitude) {
@@ -167,7 +167,7 @@ struct FloatSlabLanes {
                 round_outward_lanes(ok, lo, hi);
                 _mm_store_ps(down[k] + at, lo);
                 _mm_store_ps(up[k] + at, hi);
-                negative[k] |= unsigned(_mm256_movemask_pd(dk)) << at;
+                negative[k] |= uint64_t(_mm256_movemask_pd(dk)) << at;
                 const __m256d r = _mm256_div_pd(one, dk);
                 const __m256d finite = _mm256_or_pd(_mm256_cmp_pd(_mm256_andnot_pd(sign, r), float_max, _CMP_LE_OQ),
                                                     _mm256_cmp_pd(dk, zero, _CMP_EQ_OQ));
@@ -179,14 +179,14 @@ struct FloatSlabLanes {
             const __m256d d_max = _mm256_max_pd(_mm256_max_pd(abs_d[0], abs_d[1]), abs_d[2]);
             within = _mm256_and_pd(within, _mm256_cmp_pd(d_max, _mm256_set1_pd(kFloatSlabMinDirection), _CMP_GE_OQ));
             within = _mm256_and_pd(within, _mm256_cmp_pd(d_max, _mm256_set1_pd(kFloatSlabMaxDirection), _CMP_LE_OQ));
-            applies |= unsigned(_mm256_movemask_pd(within)) << at;
+            applies |= uint64_t(_mm256_movemask_pd(within)) << at;
             __m128 unused, far;
             round_outward_lanes(_mm256_mul_pd(_mm256_load_pd(limit + at), _mm256_set1_pd(double(kFloatSlabWidening))),
                                 unused, far);
             _mm_store_ps(far_up + at, far);
         }
         if (!(t_min >= kFloatSlabMinTMin && scene_magnitude <= kFloatSlabMaxCoordinate)) applies = 0;
-        applies &= ~0u >> (kRays - count);
+        applies &= ~uint64_t(0) >> (kRays - count);
         t_min_down = round_down(t_min);
     }
 

@@ -29,9 +29,9 @@
 
 namespace phong {
 
-// The points of the packets shaded together (render.cpp, kShadedPackets): at most 32, groups of
+// The points of the packets shaded together (render.cpp, kShadedPackets): at most 64, groups of
 // four lanes.
-constexpr int kShadingLanes = 32;
+constexpr int kShadingLanes = 64;
 
 // What shade_hit has computed before its light loop, one lane per shaded point.
 struct ShadedLanes {
@@ -46,8 +46,8 @@ struct ShadedLanes {
     alignas(32) double kx[kShadingLanes], ky[kShadingLanes], kz[kShadingLanes];
     alignas(32) double sx[kShadingLanes], sy[kShadingLanes], sz[kShadingLanes];  // cs
     double ks[kShadingLanes], exponent[kShadingLanes];
-    unsigned lanes = 0;  // bit k: lane k holds a point shaded here
-    unsigned to_normalize = 0;
+    uint64_t lanes = 0;  // bit k: lane k holds a point shaded here
+    uint64_t to_normalize = 0;
 };
 
 // A light the lanes shade: a point light whose colour at p is its own, or / d² (inverse square).
@@ -113,7 +113,7 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
     for (int g = 0; g < kShadingLanes; g += 4) {
         if (((s.lanes >> g) & 0xFu) == 0) continue;
         __m256d nx = _mm256_load_pd(s.nx + g), ny = _mm256_load_pd(s.ny + g), nz = _mm256_load_pd(s.nz + g);
-        if (const unsigned raw = (s.to_normalize >> g) & 0xFu) {
+        if (const unsigned raw = unsigned(s.to_normalize >> g) & 0xFu) {
             const __m256d length = _mm256_sqrt_pd(detail::lane_dot(nx, ny, nz, nx, ny, nz));
             const __m256d keep = detail::lane_mask(raw);
             nx = _mm256_blendv_pd(nx, _mm256_div_pd(nx, length), keep);
@@ -133,9 +133,9 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
         const PointLight& L = *std::get_if<PointLight>(&light);
         // sample_light_centre in every group: v = position − p, d = |v|, l = v / d; then n·l.
         alignas(32) double l[3][kShadingLanes], distance[kShadingLanes], cosine_nl[kShadingLanes];
-        unsigned lit = 0;
+        uint64_t lit = 0;
         for (int g = 0; g < kShadingLanes; g += 4) {
-            const unsigned group = (s.lanes >> g) & 0xFu;
+            const unsigned group = unsigned(s.lanes >> g) & 0xFu;
             if (group == 0) continue;
             const __m256d vx = _mm256_sub_pd(_mm256_set1_pd(L.position.x), _mm256_load_pd(s.px + g));
             const __m256d vy = _mm256_sub_pd(_mm256_set1_pd(L.position.y), _mm256_load_pd(s.py + g));
@@ -150,7 +150,7 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
             _mm256_store_pd(distance + g, d);
             _mm256_store_pd(cosine_nl + g, n_dot_l);
             // No term and no shadow ray unless n·l >= kMinCosineToLight (false for NaN).
-            lit |= (group & unsigned(_mm256_movemask_pd(_mm256_cmp_pd(n_dot_l, min_cosine, _CMP_GE_OQ)))) << g;
+            lit |= uint64_t(group & unsigned(_mm256_movemask_pd(_mm256_cmp_pd(n_dot_l, min_cosine, _CMP_GE_OQ)))) << g;
         }
         if (lit == 0) continue;
         {
@@ -158,19 +158,19 @@ PHONG_AVX2 void add_point_lights(const std::vector<Light>& lights, SpecularConve
             DeferredArray<Vec3, kShadingLanes> p, dir;
             double limit[kShadingLanes];
             int lane[kShadingLanes], rays = 0;
-            for (unsigned bits = lit; bits != 0; bits &= bits - 1, ++rays) {
-                const int k = __builtin_ctz(bits);
+            for (uint64_t bits = lit; bits != 0; bits &= bits - 1, ++rays) {
+                const int k = __builtin_ctzll(bits);
                 lane[rays] = k;
                 p.emplace(size_t(rays), Vec3{s.px[k], s.py[k], s.pz[k]});
                 dir.emplace(size_t(rays), Vec3{l[0][k], l[1][k], l[2][k]});
                 limit[rays] = distance[k];
             }
-            const unsigned blocked = shadow(p.data(), dir.data(), limit, rays);
+            const uint64_t blocked = shadow(p.data(), dir.data(), limit, rays);
             for (int i = 0; i < rays; ++i)
-                if (blocked >> i & 1u) lit &= ~(1u << lane[i]);
+                if (blocked >> i & 1u) lit &= ~(uint64_t(1) << lane[i]);
         }
         for (int g = 0; g < kShadingLanes; g += 4) {
-            const unsigned on_bits = (lit >> g) & 0xFu;
+            const unsigned on_bits = unsigned(lit >> g) & 0xFu;
             if (on_bits == 0) continue;
             const __m256d nx = _mm256_load_pd(s.nx + g), ny = _mm256_load_pd(s.ny + g), nz = _mm256_load_pd(s.nz + g);
             const __m256d wx = _mm256_load_pd(s.wx + g), wy = _mm256_load_pd(s.wy + g), wz = _mm256_load_pd(s.wz + g);

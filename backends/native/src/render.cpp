@@ -33,11 +33,12 @@ constexpr int kTileSize = 16;
 // square as eight rays go, for the narrowest interval of directions.
 constexpr int kPacketWidth = 4, kPacketHeight = 2;
 static_assert(kPacketWidth * kPacketHeight == kPacketRays);
-// Packets shaded together (four blocks side by side, 16 x 2 pixels): a light's shadow rays from
-// their points walk the tree together (Scene::occluded_each), up to 32 rays sharing each node
-// visit. Measured against one packet at a time: two packets, S1's render −5 % and S2's −2.5 %;
-// four, S2's −5 % more (benchmarks/README.md, issue 25).
-constexpr int kShadedPackets = 4;
+// Packets shaded together (four blocks across, two down: 16 x 4 pixels): a light's shadow rays
+// from their points walk the tree together (Scene::occluded_each), up to 64 rays sharing each
+// node visit. Measured against one packet at a time: two packets, S1's render −5 % and S2's
+// −2.5 %; four, S2's −5 % more; eight, −3 % more (benchmarks/README.md, issue 25).
+constexpr int kShadedAcross = 4, kShadedDown = 2, kShadedPackets = kShadedAcross * kShadedDown;
+static_assert(kShadedAcross * kPacketWidth <= kTileSize && kShadedDown * kPacketHeight <= kTileSize);
 // How often the calling thread wakes to report progress and check for Ctrl-C.
 constexpr auto kPollInterval = std::chrono::milliseconds(50);
 // POV-Ray renders in blocks of Render_Block_Size = 32 pixels from the top left (view.cpp), and
@@ -686,8 +687,8 @@ void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits,
             lanes.sx[k] = material->specular.x, lanes.sy[k] = material->specular.y;
             lanes.sz[k] = material->specular.z;
             lanes.ks[k] = material->ks, lanes.exponent[k] = material->exponent;
-            lanes.lanes |= 1u << k;
-            if (!unit) lanes.to_normalize |= 1u << k;
+            lanes.lanes |= uint64_t(1) << k;
+            if (!unit) lanes.to_normalize |= uint64_t(1) << k;
         }
     }
     if (lanes.lanes != 0) {
@@ -697,11 +698,11 @@ void shade_packet(const TraceContext& context, const Ray* rays, const Hit* hits,
             DeferredArray<Ray, kMaxRaysTogether> rays;
             double t_max[kMaxRaysTogether];
             for (int i = 0; i < count; ++i) rays.emplace(size_t(i), Ray{p[i], l[i]}), t_max[i] = distance[i] - window;
-            unsigned blocked = scene.occluded_each(rays.data(), count, window, t_max);
+            RayBits blocked = scene.occluded_each(rays.data(), count, window, t_max);
             if (context.povray_walk)
-                for (unsigned bits = blocked; bits != 0; bits &= bits - 1) {
-                    const int i = __builtin_ctz(bits);
-                    if (!scene.occluded_povray_walk(rays[i], window, t_max[i])) blocked &= ~(1u << i);
+                for (RayBits bits = blocked; bits != 0; bits &= bits - 1) {
+                    const int i = __builtin_ctzll(bits);
+                    if (!scene.occluded_povray_walk(rays[i], window, t_max[i])) blocked &= ~(RayBits(1) << i);
                 }
             return blocked;
         };
@@ -1026,24 +1027,25 @@ bool render_image(const Scene& scene, const Camera& camera, const RenderSettings
 
     // One sample per pixel at its centre through a perspective camera: the primary rays of each
     // block of kPacketWidth x kPacketHeight pixels are traced as one packet, and where the lanes
-    // shade (TraceContext::lane_shading) kShadedPackets side by side are shaded together
+    // shade (TraceContext::lane_shading) kShadedPackets of them are shaded together
     // (trace_packets; elsewhere that gains nothing, and S3 lost 2-4 %). (More samples per pixel
     // go in packets of one pixel's samples: render_pixel, stratified_pixel.)
     const bool packets = eye && n == 1 && settings.sample_pattern == SamplePattern::kGrid;
-    const int shaded_packets = context.lane_shading ? kShadedPackets : 1;
+    const int across = context.lane_shading ? kShadedAcross : 1, down = context.lane_shading ? kShadedDown : 1;
     auto render_block_packets = [&](int x0, int y0, int x1, int y1, std::vector<BundleCandidate>& scratch) {
-        for (int j0 = y0; j0 < y1; j0 += kPacketHeight)
-            for (int i0 = x0; i0 < x1; i0 += shaded_packets * kPacketWidth) {
+        for (int j0 = y0; j0 < y1; j0 += down * kPacketHeight)
+            for (int i0 = x0; i0 < x1; i0 += across * kPacketWidth) {
                 double sx[kShadedPackets * kPacketRays], sy[kShadedPackets * kPacketRays];
-                int count = 0, packet_rays[kShadedPackets];
-                for (int p = 0; p < shaded_packets; ++p) {  // blocks past the tile's edge: none
-                    const int b0 = i0 + p * kPacketWidth, before = count;
-                    for (int j = j0; j < std::min(y1, j0 + kPacketHeight); ++j)
+                int count = 0, packets = 0, packet_rays[kShadedPackets];
+                for (int p = 0; p < across * down; ++p) {  // blocks past the tile's edge: none
+                    const int b0 = i0 + (p % across) * kPacketWidth, c0 = j0 + (p / across) * kPacketHeight;
+                    const int before = count;
+                    for (int j = c0; j < std::min(y1, c0 + kPacketHeight); ++j)
                         for (int i = b0; i < std::min(x1, b0 + kPacketWidth); ++i, ++count) {
                             sx[count] = i + 0.5;
                             sy[count] = j + 0.5;
                         }
-                    packet_rays[p] = count - before;
+                    if (count > before) packet_rays[packets++] = count - before;
                 }
                 PacketColours colour;
                 trace_packets(sx, sy, count, packet_rays, colour, scratch);

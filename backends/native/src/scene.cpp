@@ -440,21 +440,21 @@ PHONG_AVX2 bool Scene::occluded_small(const Ray& ray, double t_min, double t_max
     return !planes.empty() && hit_planes(ray, t_min, t_max, t, plane);
 }
 
-PHONG_AVX2 unsigned Scene::occluded_small_each(const Ray* rays, int count, double t_min, const double* t_max) const {
+PHONG_AVX2 RayBits Scene::occluded_small_each(const Ray* rays, int count, double t_min, const double* t_max) const {
     assert(count >= 0 && count <= kMaxRaysTogether);
     alignas(32) double inv[kMaxRaysTogether][4];
     unsigned spheres_left[kMaxRaysTogether], triangles_left[kMaxRaysTogether];
     for (int i = 0; i < count; ++i) SmallScene::reciprocals(rays[i], inv[i]);
     for (int i = 0; i < count; ++i) spheres_left[i] = small_->sphere_candidates(rays[i], t_min);
     for (int i = 0; i < count; ++i) triangles_left[i] = small_->box_candidates(rays[i], inv[i], t_min);
-    unsigned blocked = 0;
+    RayBits blocked = 0;
     for (int i = 0; i < count; ++i) {  // occluded_small's tail
         bool hit = (spheres_left[i] | triangles_left[i]) != 0 &&
                    occluded_exactly(rays[i], spheres_left[i], triangles_left[i], t_min, t_max[i]);
         double t;
         int32_t plane;
         if (!hit) hit = !planes.empty() && hit_planes(rays[i], t_min, t_max[i], t, plane);
-        blocked |= unsigned(hit) << i;
+        blocked |= RayBits(hit) << i;
     }
     return blocked;
 }
@@ -527,7 +527,7 @@ bool Scene::occluded_tree(const Ray& ray, const FloatSlabOrigin& origin, double 
 
 static_assert(kMaxRaysTogether <= FloatSlabLanes::kRays && kMaxRaysTogether % 8 == 0);
 
-PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double t_min, const double* t_max) const {
+PHONG_AVX2 RayBits Scene::occluded_tree_each(const Ray* rays, int count, double t_min, const double* t_max) const {
     assert(count >= 1 && count <= kMaxRaysTogether && !bvh8_.empty());
     // Each ray's own walk state, as occluded_tree sets it up.
     Deferred<FloatSlabOrigin> origin[kMaxRaysTogether];
@@ -538,25 +538,25 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
     // The rays' float slab numbers, four at a time (FloatSlabLanes: each ray's own).
     FloatSlabLanes lanes;
     lanes.set_up(rays, count, t_min, t_max, magnitude);
-    unsigned blocked = 0, together = 0;
+    RayBits blocked = 0, together = 0;
     for (int r = 0; r < count; ++r) {
         const Ray& ray = rays[r];
         if (!(lanes.applies >> r & 1u)) {  // its double walk, alone
             origin[r].emplace(ray.origin);
-            blocked |= unsigned(occluded_tree(ray, *origin[r], t_min, t_max[r])) << r;
+            blocked |= RayBits(occluded_tree(ray, *origin[r], t_min, t_max[r])) << r;
             continue;
         }
         lanes.emplace(r, fray[r]);
         filter[r].emplace(triangles, magnitude, mixed_leaves());
         far[r] = _mm256_set1_ps(lanes.far_up[r]);
-        together |= 1u << r;
+        together |= RayBits(1) << r;
     }
     // Whether the rays walking together choose the same planes of a box (their directions' signs
     // agree, as a coherent bundle's do): then a node's planes are loaded once for them all.
-    const FloatSlabRay8* rows = together != 0 ? &*fray[__builtin_ctz(together)] : nullptr;
+    const FloatSlabRay8* rows = together != 0 ? &*fray[__builtin_ctzll(together)] : nullptr;
     bool same_rows = rows != nullptr;
     for (int k = 0; k < 3; ++k) {
-        const unsigned signs = lanes.negative[k] & together;
+        const RayBits signs = lanes.negative[k] & together;
         same_rows = same_rows && (signs == 0 || signs == together);
     }
     const bool prefilter = prefilter_applies();
@@ -585,7 +585,7 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
     // walk, in another order: an any-hit answer does not depend on it. A blocked ray drops out.
     struct Pending {
         int32_t child, count;
-        unsigned rays;
+        RayBits rays;
     };
     // As a single walk's stack: a node's children wait while the walk is below it, at most 7 a
     // level of the current path, whatever the rays.
@@ -593,7 +593,7 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
     int sp = 0;
     Pending current{0, 0, together};
     while (together & ~blocked) {
-        const unsigned walking = current.rays & ~blocked;
+        const RayBits walking = current.rays & ~blocked;
         if (walking != 0) {
             if (current.count == 0) {
                 const Bvh8Node& node = bvh8_[size_t(current.child)];
@@ -606,8 +606,8 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
                         lo[k] = _mm256_load_ps(node.boxes[rows->near_row[k]]);
                         hi[k] = _mm256_load_ps(node.boxes[rows->far_row[k]]);
                     }
-                    for (unsigned bits = walking; bits != 0; bits &= bits - 1) {
-                        const int r = __builtin_ctz(bits);
+                    for (RayBits bits = walking; bits != 0; bits &= bits - 1) {
+                        const int r = __builtin_ctzll(bits);
                         const FloatSlabRay8& f = *fray[r];
                         __m256 t0 = f.t_min, t1 = _mm256_set1_ps(INFINITY);
                         for (int k = 0; k < 3; ++k) {
@@ -619,8 +619,8 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
                                          << (8 * (r & 7));
                     }
                 } else {
-                    for (unsigned bits = walking; bits != 0; bits &= bits - 1) {
-                        const int r = __builtin_ctz(bits);
+                    for (RayBits bits = walking; bits != 0; bits &= bits - 1) {
+                        const int r = __builtin_ctzll(bits);
                         __m256 entry;
                         masks[r >> 3] |= uint64_t(fray[r]->hit(node, far[r], entry)) << (8 * (r & 7));
                     }
@@ -634,10 +634,10 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
                     // Bit 8r of `column` is ray r's. The product puts bit 8r times 2^(7j + 7) at
                     // 8r + 7j + 7: distinct for every (r, j), so nothing carries, and in the top
                     // byte only for j = 7 − r, at bit 56 + r.
-                    unsigned rays_in = 0;
+                    RayBits rays_in = 0;
                     for (int w = 0; w < kMaxRaysTogether / 8; ++w) {
                         const uint64_t column = (masks[w] >> i) & 0x0101010101010101ull;
-                        rays_in |= unsigned((column * 0x0102040810204080ull) >> 56) << (8 * w);
+                        rays_in |= ((column * 0x0102040810204080ull) >> 56) << (8 * w);
                     }
                     return rays_in;
                 };
@@ -651,9 +651,9 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
                     continue;
                 }
             } else {
-                for (unsigned bits = walking; bits != 0; bits &= bits - 1) {
-                    const int r = __builtin_ctz(bits);
-                    if (leaf_blocks(r, current.child, current.count)) blocked |= 1u << r;
+                for (RayBits bits = walking; bits != 0; bits &= bits - 1) {
+                    const int r = __builtin_ctzll(bits);
+                    if (leaf_blocks(r, current.child, current.count)) blocked |= RayBits(1) << r;
                 }
             }
         }
@@ -666,7 +666,7 @@ PHONG_AVX2 unsigned Scene::occluded_tree_each(const Ray* rays, int count, double
         int32_t plane;
         if ((!planes.empty() && hit_planes(rays[r], t_min, t_max[r], t, plane)) ||
             (!instances_empty() && instances->occluded(rays[r], t_min, t_max[r])))
-            blocked |= 1u << r;
+            blocked |= RayBits(1) << r;
     }
     return blocked;
 }

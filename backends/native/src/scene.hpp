@@ -85,8 +85,10 @@ struct BallGroup {
 // A ray's closest hit. ref >= 0: triangle index (leaf order); ref < 0: sphere ~ref when
 // ~ref < S, ball ~ref − S (Scene::balls, leaf order) when ~ref < S + B, else intrinsic part
 // ~ref − S − B (Scene::intrinsics), or an unbounded plane (Scene::plane_ref).
-// Rays Scene::occluded_each takes at once (a light's shadow rays from four packets' 32 points).
-constexpr int kMaxRaysTogether = 32;
+// Rays Scene::occluded_each takes at once (a light's shadow rays from eight packets' 64 points).
+constexpr int kMaxRaysTogether = 64;
+// A bit per ray of the rays taken together.
+using RayBits = uint64_t;
 
 struct Hit {
     double t;
@@ -130,11 +132,11 @@ class Scene {
     // Bit i set where occluded(rays[i], t_min, t_max[i]), for count <= kMaxRaysTogether rays (a light's shadow
     // rays from a packet's points, lane_shading.hpp). In a small scene their lane tests run one
     // after the other with no branch between, so the CPU overlaps their latency chains.
-    unsigned occluded_each(const Ray* rays, int count, double t_min, const double* t_max) const {
+    RayBits occluded_each(const Ray* rays, int count, double t_min, const double* t_max) const {
         if (small()) return occluded_small_each(rays, count, t_min, t_max);
         if (count >= 2 && !bvh8_.empty()) return occluded_tree_each(rays, count, t_min, t_max);
-        unsigned blocked = 0;
-        for (int i = 0; i < count; ++i) blocked |= unsigned(occluded(rays[i], t_min, t_max[i])) << i;
+        RayBits blocked = 0;
+        for (int i = 0; i < count; ++i) blocked |= RayBits(occluded(rays[i], t_min, t_max[i])) << i;
         return blocked;
     }
     // The same, for rays whose shared origin is rounded once: `origin` is FloatSlabOrigin(ray.origin).
@@ -419,9 +421,9 @@ class Scene {
     bool occluded_small(const Ray& ray, double t_min, double t_max) const;
     bool occluded_exactly(const Ray& ray, unsigned spheres_left, unsigned triangles_left, double t_min,
                           double t_max) const;
-    unsigned occluded_small_each(const Ray* rays, int count, double t_min, const double* t_max) const;
+    RayBits occluded_small_each(const Ray* rays, int count, double t_min, const double* t_max) const;
     // occluded_each on the 8-wide tree: the rays walk it together, each by its own box tests.
-    unsigned occluded_tree_each(const Ray* rays, int count, double t_min, const double* t_max) const;
+    RayBits occluded_tree_each(const Ray* rays, int count, double t_min, const double* t_max) const;
     void closest_small(const Ray& ray, ClosestSearch& search) const;  // closest_hit()'s tests there
     bool occluded_tree(const Ray& ray, const FloatSlabOrigin& origin, double t_min, double t_max) const;  // elsewhere
 };
