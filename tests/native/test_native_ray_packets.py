@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Primary rays in packets (backends/native/src/bvh8_packet.hpp, ray_packets.cpp): eight rays
+"""Primary rays in packets (backends/native/src/bvh8_packet.hpp, ray_packets.cpp): sixteen rays
 from one origin walk the 8-wide tree together and each gets, bit for bit, the hit closest_hit()
 gives it alone (t, primitive, barycentrics), on every kind of leaf (the float prefilter's
 triangle runs, spheres, intrinsic shapes), with unbounded planes and instances after the tree,
@@ -34,15 +34,15 @@ from phongscene.scene import (
 from phongscene.usd import load_usd
 from support.instanced_stages import point_instancer_stage
 
-PACKET = 8  # kPacketRays
+PACKET = 16  # kPacketRays
 # A camera's primary rays start where the near tolerance puts them (math.hpp: ray_tolerances);
 # any t_min in the float test's range works the same here.
 T_MIN = 1e-9
 
 
 def camera_block_dirs(forward, width: int, height: int, fov: float = 0.6) -> np.ndarray:
-    """Unit directions of a perspective camera looking along ``forward``, in 4 x 2 pixel blocks
-    (the order the render traces them in), ``width`` a multiple of 4 and ``height`` of 2."""
+    """Unit directions of a perspective camera looking along ``forward``, in 4 x 4 pixel blocks
+    (the order the render traces them in), ``width`` and ``height`` multiples of 4."""
     f = np.asarray(forward, float)
     f /= np.linalg.norm(f)
     right = np.cross(f, [0.0, 1.0, 0.0] if abs(f[1]) < 0.9 else [1.0, 0.0, 0.0])
@@ -51,7 +51,7 @@ def camera_block_dirs(forward, width: int, height: int, fov: float = 0.6) -> np.
     u = (np.arange(width) + 0.5) / width - 0.5
     v = 0.5 - (np.arange(height) + 0.5) / height
     d = f + fov * (u[None, :, None] * right + v[:, None, None] * up * height / width)
-    blocks = d.reshape(height // 2, 2, width // 4, 4, 3).transpose(0, 2, 1, 3, 4).reshape(-1, 3)
+    blocks = d.reshape(height // 4, 4, width // 4, 4, 3).transpose(0, 2, 1, 3, 4).reshape(-1, 3)
     return blocks / np.linalg.norm(blocks, axis=1, keepdims=True)
 
 
@@ -229,13 +229,15 @@ def test_divergent_packets_fall_back_to_single_rays():
     assert walked < 20
     assert_packets_match(built, origin, mixed)
     # A zero component (a ray along an axis) has no finite inverse: that packet walks ray by ray.
-    axis = camera_block_dirs([0.0, 0.0, -1.0], 4, 2, fov=0.1)
+    axis = camera_block_dirs([0.0, 0.0, -1.0], 4, 4, fov=0.1)
     axis[3] = [0.0, 0.0, -1.0]
     assert built.intersect_packets(origin, axis, T_MIN, True)[3] == 0
     assert_packets_match(built, origin, axis)
-    # A partial packet (fewer than eight rays) and a lone ray.
-    assert_packets_match(built, origin, camera_block_dirs([0.3, 0.3, -1.0], 4, 2, fov=0.1)[:5], walked_at_least=0.8)
-    assert built.intersect_packets(origin, camera_block_dirs([0.3, 0.3, -1.0], 4, 2, fov=0.1)[:1], T_MIN, True)[3] == 0
+    # Partial packets (fewer than sixteen rays: one AVX word, and a word and a part) and a lone ray.
+    block = camera_block_dirs([0.3, 0.3, -1.0], 4, 4, fov=0.1)
+    for count in (5, 11):
+        assert_packets_match(built, origin, block[:count], walked_at_least=0.8)
+    assert built.intersect_packets(origin, block[:1], T_MIN, True)[3] == 0
 
 
 @needs_avx2
@@ -314,7 +316,8 @@ def test_the_packet_render_is_the_single_ray_render(size):
     "pattern",
     [
         {"samples": 1, "sample_pattern": "grid"},
-        {"samples": 3, "sample_pattern": "grid"},  # nine samples a pixel: a packet of 8 and one alone
+        {"samples": 3, "sample_pattern": "grid"},  # nine samples a pixel: one partial packet
+        {"samples": 5, "sample_pattern": "grid"},  # 25: a packet of 16 and one of 9
         {"samples": 4, "sample_pattern": "stratified", "aa_threshold": 0.0},  # stages of 16
         {"samples": 8, "sample_pattern": "stratified", "aa_threshold": 0.05},  # corners, then stages
     ],

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// Packets of up to eight rays that share their origin (a perspective camera's primary rays of a
-// 4x2 block of pixels) walking the 8-wide BVH together: a node's eight children are tested once
+// Packets of up to sixteen rays that share their origin (a perspective camera's primary rays of
+// a 4x4 block of pixels) walking the 8-wide BVH together: a node's eight children are tested once
 // for the whole packet, against the interval of the rays' inverse directions; a leaf is handed to
 // each ray whose own float slab test (FloatSlabRay8's, per lane) enters its box. The walk's node
 // visits are shared by the packet; the leaves' tests stay per ray.
@@ -35,8 +35,8 @@
 
 namespace phong {
 
-// Rays per packet: one per AVX lane of the per-ray leaf test.
-constexpr int kPacketRays = 8;
+// Rays per packet: two AVX words of the per-ray leaf test, eight rays a word.
+constexpr int kPacketRays = 16, kPacketWords = kPacketRays / 8;
 
 // The largest of eight lanes, in every lane.
 PHONG_AVX2 inline __m256 lane_max(__m256 v) {
@@ -53,10 +53,10 @@ PHONG_AVX2 inline __m256 lane_min(__m256 v) {
 
 // A packet set up for the interval test of a node's eight children at once (hit) and for its
 // rays' own tests of one child, a ray per lane (rays_entering).
-struct FloatSlabPacket8 {
+struct FloatSlabPacket {
     __m256 origin_near[3], origin_far[3];
     __m256 inv_lo[3], inv_hi[3];  // the interval of the rays' float inverse directions, per axis
-    __m256 inv[3];                // ray k's in lane k (lanes past the packet's rays repeat ray 0's)
+    __m256 inv[3][kPacketWords];  // ray r's in lane r % 8 of word r / 8 (lanes past the packet's rays: ray 0's)
     __m256 t_min;
     int near_row[3], far_row[3];
 
@@ -75,26 +75,32 @@ struct FloatSlabPacket8 {
             d[1][r] = dir.y;
             d[2][r] = dir.z;
         }
+        constexpr int kQuads = kPacketRays / 4;  // rays four at a time, in double
+        constexpr unsigned kAll = (1u << kPacketRays) - 1u;
         const __m256d sign = _mm256_set1_pd(-0.0), one = _mm256_set1_pd(1.0);
         const __m256d float_max = _mm256_set1_pd(double(FLT_MAX));
         // Bit r set when |x_r| <= limit (false for NaN).
         auto abs_at_most = [&](__m256d x, __m256d limit) PHONG_AVX2 {
-            return _mm256_movemask_pd(_mm256_cmp_pd(_mm256_andnot_pd(sign, x), limit, _CMP_LE_OQ));
+            return unsigned(_mm256_movemask_pd(_mm256_cmp_pd(_mm256_andnot_pd(sign, x), limit, _CMP_LE_OQ)));
         };
-        __m256d d_max[2] = {_mm256_setzero_pd(), _mm256_setzero_pd()};
+        __m256d d_max[kQuads];
+        for (__m256d& m : d_max) m = _mm256_setzero_pd();
         bool usable = true;
         for (int k = 0; k < 3; ++k) {
-            const __m256d low = _mm256_load_pd(d[k]), high = _mm256_load_pd(d[k] + 4);
-            // One sign per axis (the sign bit, as std::signbit: −0 is negative).
-            const int signs = _mm256_movemask_pd(low) | (_mm256_movemask_pd(high) << 4);
-            usable = usable && (signs == 0 || signs == 0xFF);
-            const __m256d inv_low = _mm256_div_pd(one, low), inv_high = _mm256_div_pd(one, high);
-            // |1/d| <= FLT_MAX, false for ±inf (d = ±0) and NaN: lanes that would be inf or NaN.
-            const int finite = abs_at_most(inv_low, float_max) | abs_at_most(inv_high, float_max) << 4;
-            usable = usable && finite == 0xFF;
-            inv[k] = _mm256_set_m128(_mm256_cvtpd_ps(inv_high), _mm256_cvtpd_ps(inv_low));  // float(1/d), per lane
-            d_max[0] = _mm256_max_pd(d_max[0], _mm256_andnot_pd(sign, low));
-            d_max[1] = _mm256_max_pd(d_max[1], _mm256_andnot_pd(sign, high));
+            unsigned signs = 0, finite = 0;
+            __m128 inverse[kQuads];
+            for (int q = 0; q < kQuads; ++q) {
+                const __m256d x = _mm256_load_pd(d[k] + 4 * q);
+                // One sign per axis (the sign bit, as std::signbit: −0 is negative).
+                signs |= unsigned(_mm256_movemask_pd(x)) << (4 * q);
+                const __m256d inv_x = _mm256_div_pd(one, x);
+                // |1/d| <= FLT_MAX, false for ±inf (d = ±0) and NaN: lanes that would be inf or NaN.
+                finite |= abs_at_most(inv_x, float_max) << (4 * q);
+                inverse[q] = _mm256_cvtpd_ps(inv_x);  // float(1/d), per lane
+                d_max[q] = _mm256_max_pd(d_max[q], _mm256_andnot_pd(sign, x));
+            }
+            usable = usable && (signs == 0 || signs == kAll) && finite == kAll;
+            for (int w = 0; w < kPacketWords; ++w) inv[k][w] = _mm256_set_m128(inverse[2 * w + 1], inverse[2 * w]);
         }
         // FloatSlabRay::applies' direction range for every ray (the origin and t_min are ray 0's).
         const __m256d d_least = _mm256_set1_pd(kFloatSlabMinDirection), d_most = _mm256_set1_pd(kFloatSlabMaxDirection);
@@ -108,8 +114,13 @@ struct FloatSlabPacket8 {
             far_row[k] = negative ? k : 3 + k;
             origin_near[k] = _mm256_set1_ps(negative ? origin.down[k] : origin.up[k]);
             origin_far[k] = _mm256_set1_ps(negative ? origin.up[k] : origin.down[k]);
-            inv_lo[k] = lane_min(inv[k]);
-            inv_hi[k] = lane_max(inv[k]);
+            __m256 lo = inv[k][0], hi = inv[k][0];
+            for (int w = 1; w < kPacketWords; ++w) {
+                lo = _mm256_min_ps(lo, inv[k][w]);
+                hi = _mm256_max_ps(hi, inv[k][w]);
+            }
+            inv_lo[k] = lane_min(lo);
+            inv_hi[k] = lane_max(hi);
         }
         t_min = _mm256_set1_ps(round_down(t_min_));
         return true;
@@ -131,19 +142,25 @@ struct FloatSlabPacket8 {
     }
 
     // Bit r set when ray r enters child i of `node`: FloatSlabRay8::hit's lane i for that ray,
-    // the same operations on the same numbers. `t_max_up`: the rays' own far limits, in lanes.
-    PHONG_AVX2 int rays_entering(const Bvh8Node& node, int i, __m256 t_max_up) const {
-        __m256 t0 = t_min, t1 = _mm256_set1_ps(INFINITY);
+    // the same operations on the same numbers, eight rays per instruction. `t_max_up`: the rays'
+    // own far limits, in lanes.
+    PHONG_AVX2 unsigned rays_entering(const Bvh8Node& node, int i, const __m256* t_max_up) const {
+        __m256 near_plane[3], far_plane[3];
         for (int k = 0; k < 3; ++k) {
-            const __m256 near =
-                _mm256_mul_ps(_mm256_sub_ps(_mm256_broadcast_ss(&node.boxes[near_row[k]][i]), origin_near[k]), inv[k]);
-            const __m256 far =
-                _mm256_mul_ps(_mm256_sub_ps(_mm256_broadcast_ss(&node.boxes[far_row[k]][i]), origin_far[k]), inv[k]);
-            t0 = _mm256_max_ps(near, t0);
-            t1 = _mm256_min_ps(far, t1);
+            near_plane[k] = _mm256_sub_ps(_mm256_broadcast_ss(&node.boxes[near_row[k]][i]), origin_near[k]);
+            far_plane[k] = _mm256_sub_ps(_mm256_broadcast_ss(&node.boxes[far_row[k]][i]), origin_far[k]);
         }
-        t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(kFloatSlabWidening)), t_max_up);
-        return _mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
+        unsigned entering = 0;
+        for (int w = 0; w < kPacketWords; ++w) {
+            __m256 t0 = t_min, t1 = _mm256_set1_ps(INFINITY);
+            for (int k = 0; k < 3; ++k) {
+                t0 = _mm256_max_ps(_mm256_mul_ps(near_plane[k], inv[k][w]), t0);
+                t1 = _mm256_min_ps(_mm256_mul_ps(far_plane[k], inv[k][w]), t1);
+            }
+            t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(kFloatSlabWidening)), t_max_up[w]);
+            entering |= unsigned(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ))) << (8 * w);
+        }
+        return entering;
     }
 };
 
@@ -153,7 +170,7 @@ struct FloatSlabPacket8 {
 // and sets t_cull[r] to each one's far limit for boxes now (as a double); `rays` here has bit r
 // set for the packet's rays, t_cull[r] their limits to start with.
 template <class LeafFn>
-PHONG_AVX2 void traverse_bvh8_packet(const Bvh8Nodes& nodes, const FloatSlabPacket8& packet, unsigned rays,
+PHONG_AVX2 void traverse_bvh8_packet(const Bvh8Nodes& nodes, const FloatSlabPacket& packet, unsigned rays,
                                      const double* t_cull, LeafFn&& leaf) {
     if (nodes.empty()) return;
     struct Pending {
@@ -167,8 +184,18 @@ PHONG_AVX2 void traverse_bvh8_packet(const Bvh8Nodes& nodes, const FloatSlabPack
     alignas(32) float far[kPacketRays];
     for (int r = 0; r < kPacketRays; ++r)
         far[r] = (rays >> r) & 1 ? round_up(t_cull[r] * double(kFloatSlabWidening)) : -INFINITY;
-    __m256 far_lanes = _mm256_load_ps(far);
-    __m256 far_max = lane_max(far_lanes);
+    __m256 far_lanes[kPacketWords], far_max;
+    // The rays' far limits in lanes and their largest, from far[].
+    auto load_far = [&]() PHONG_AVX2 __attribute__((always_inline)) {
+        far_lanes[0] = _mm256_load_ps(far);
+        __m256 largest = far_lanes[0];
+        for (int w = 1; w < kPacketWords; ++w) {
+            far_lanes[w] = _mm256_load_ps(far + 8 * w);
+            largest = _mm256_max_ps(largest, far_lanes[w]);
+        }
+        far_max = lane_max(largest);
+    };
+    load_far();
     float far_max_f = _mm256_cvtss_f32(far_max);
     while (true) {
         if (current.count == 0) {
@@ -184,7 +211,7 @@ PHONG_AVX2 void traverse_bvh8_packet(const Bvh8Nodes& nodes, const FloatSlabPack
                     const int i = __builtin_ctz(unsigned(mask));
                     Pending p{node.child[i], node.count[i], entry[i], 0};
                     if (p.count > 0) {
-                        p.rays = unsigned(packet.rays_entering(node, i, far_lanes)) & rays;
+                        p.rays = packet.rays_entering(node, i, far_lanes) & rays;
                         if (p.rays == 0) continue;
                     }
                     int j = n++;
@@ -210,8 +237,7 @@ PHONG_AVX2 void traverse_bvh8_packet(const Bvh8Nodes& nodes, const FloatSlabPack
                 }
             }
             if (changed) {
-                far_lanes = _mm256_load_ps(far);
-                far_max = lane_max(far_lanes);
+                load_far();
                 far_max_f = _mm256_cvtss_f32(far_max);
             }
         }

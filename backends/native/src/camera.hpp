@@ -6,6 +6,7 @@
 
 #include <immintrin.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "math.hpp"
@@ -62,30 +63,35 @@ struct Camera {
         return {position, normalize(direction + right * u + up * v)};
     }
 
-    // generate()'s directions of `count` <= 8 perspective rays, four at a time in AVX double
+    // generate()'s directions of `count` perspective rays, four at a time in AVX double
     // lanes with its IEEE operations in its order, so each is generate()'s to the bit: dirs[k]
     // through (sx[k], sy[k]). (Its five divisions and square root a ray were ~4 % of S1's
     // render as a scalar chain.) The AVX2 path only (simd_dispatch.hpp).
     PHONG_AVX2 void perspective_directions(const double* sx, const double* sy, int count, int width, int height,
                                            Vec3* dirs) const {
-        alignas(32) double x[8] = {}, y[8] = {}, out[3][8];
-        for (int k = 0; k < count; ++k) x[k] = sx[k], y[k] = sy[k];
+        constexpr int kChunk = 8;  // rays a pass: two groups of four lanes
         const __m256d w = _mm256_set1_pd(double(width)), h = _mm256_set1_pd(double(height));
         const __m256d half = _mm256_set1_pd(0.5);
-        for (int g = 0; g < count; g += 4) {
-            const __m256d u = _mm256_sub_pd(_mm256_div_pd(_mm256_load_pd(x + g), w), half);
-            const __m256d v = _mm256_sub_pd(half, _mm256_div_pd(_mm256_load_pd(y + g), h));
-            __m256d a[3];
-            const double dxyz[3] = {direction.x, direction.y, direction.z}, rxyz[3] = {right.x, right.y, right.z},
-                         uxyz[3] = {up.x, up.y, up.z};
-            for (int c = 0; c < 3; ++c)  // direction + right·u + up·v
-                a[c] = _mm256_add_pd(_mm256_add_pd(_mm256_set1_pd(dxyz[c]), _mm256_mul_pd(_mm256_set1_pd(rxyz[c]), u)),
-                                     _mm256_mul_pd(_mm256_set1_pd(uxyz[c]), v));
-            const __m256d length = _mm256_sqrt_pd(_mm256_add_pd(
-                _mm256_add_pd(_mm256_mul_pd(a[0], a[0]), _mm256_mul_pd(a[1], a[1])), _mm256_mul_pd(a[2], a[2])));
-            for (int c = 0; c < 3; ++c) _mm256_store_pd(out[c] + g, _mm256_div_pd(a[c], length));
+        const double dxyz[3] = {direction.x, direction.y, direction.z}, rxyz[3] = {right.x, right.y, right.z},
+                     uxyz[3] = {up.x, up.y, up.z};
+        for (int at = 0; at < count; at += kChunk) {
+            const int n = std::min(kChunk, count - at);
+            alignas(32) double x[kChunk] = {}, y[kChunk] = {}, out[3][kChunk];
+            for (int k = 0; k < n; ++k) x[k] = sx[at + k], y[k] = sy[at + k];
+            for (int g = 0; g < n; g += 4) {
+                const __m256d u = _mm256_sub_pd(_mm256_div_pd(_mm256_load_pd(x + g), w), half);
+                const __m256d v = _mm256_sub_pd(half, _mm256_div_pd(_mm256_load_pd(y + g), h));
+                __m256d a[3];
+                for (int c = 0; c < 3; ++c)  // direction + right·u + up·v
+                    a[c] =
+                        _mm256_add_pd(_mm256_add_pd(_mm256_set1_pd(dxyz[c]), _mm256_mul_pd(_mm256_set1_pd(rxyz[c]), u)),
+                                      _mm256_mul_pd(_mm256_set1_pd(uxyz[c]), v));
+                const __m256d length = _mm256_sqrt_pd(_mm256_add_pd(
+                    _mm256_add_pd(_mm256_mul_pd(a[0], a[0]), _mm256_mul_pd(a[1], a[1])), _mm256_mul_pd(a[2], a[2])));
+                for (int c = 0; c < 3; ++c) _mm256_store_pd(out[c] + g, _mm256_div_pd(a[c], length));
+            }
+            for (int k = 0; k < n; ++k) dirs[at + k] = Vec3{out[0][k], out[1][k], out[2][k]};
         }
-        for (int k = 0; k < count; ++k) dirs[k] = Vec3{out[0][k], out[1][k], out[2][k]};
     }
 };
 

@@ -21,7 +21,7 @@ namespace phong {
 bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin& origin, double t_min, Hit* hits,
                                bool* found) const {
     assert(count >= 1 && count <= kPacketRays);
-    FloatSlabPacket8 packet;
+    FloatSlabPacket packet;
     // A lone ray gains nothing from the packet's walk; the 4-wide tree (no AVX2) has none.
     if (bvh8_.empty() || count < 2 || (!small() && !packet.set_up(rays, count, origin, t_min, magnitude))) {
         for (int r = 0; r < count; ++r) found[r] = closest_hit(rays[r], origin, t_min, HUGE_VAL, hits[r]);
@@ -162,7 +162,7 @@ bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin
         }
         const unsigned all = (1u << count) - 1u;
         for (size_t k = 0; k < spheres.size(); ++k)
-            if (const unsigned near = rays_near_sphere(spheres[k], rays[0].origin, dx, dy, dz, t_min) & all)
+            if (const unsigned near = rays_near_sphere(spheres[k], rays[0].origin, dx, dy, dz, count, t_min) & all)
                 test_sphere(~int32_t(k), near);
         for (size_t k = 0; k < triangles.size(); ++k) {
             if (shears_shared()) {

@@ -177,11 +177,11 @@ struct alignas(64) SmallScene {
 };
 
 // Bit j set unless ray j of a packet certainly has no root on the axis-aligned sphere s: the rays
-// share `origin`, ray j's direction is (dx[j], dy[j], dz[j]), j < 8 (arrays of eight, unused
-// entries any finite direction). Per lane sphere_candidates' test, from intersect_sphere's o
-// and c, which the rays share.
+// share `origin`, ray j's direction is (dx[j], dy[j], dz[j]), j < count (arrays of count rounded
+// up to a multiple of four, 32-byte aligned; unused entries any finite direction). Per lane sphere_candidates' test,
+// from intersect_sphere's o and c, which the rays share.
 PHONG_AVX2 inline unsigned rays_near_sphere(const SphereShape& s, const Vec3& origin, const double* dx,
-                                            const double* dy, const double* dz, double t_min) {
+                                            const double* dy, const double* dz, int count, double t_min) {
     assert(s.axis_aligned);
     const double* m = s.object_from_world.m;
     const Vec3 o = s.object_from_world.axis_aligned_point(origin);
@@ -194,7 +194,9 @@ PHONG_AVX2 inline unsigned rays_near_sphere(const SphereShape& s, const Vec3& or
                               _mm256_mul_pd(scale[2], _mm256_load_pd(dz + first))};
         return detail::kept_lanes(oo, detail::dot_lanes(o4, d), detail::dot_lanes(d, d), t_min);
     };
-    return group(0) | group(4) << 4;
+    unsigned near = 0;
+    for (int first = 0; first < count; first += 4) near |= unsigned(group(first)) << first;
+    return near;
 }
 
 }  // namespace phong
