@@ -112,6 +112,30 @@ bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin
                 search[lane_ray[__builtin_ctz(e)]]->test(ref);
         }
     };
+    // The prefilter for the packet's rays at once (triangle_prefilter.hpp: the corners' offsets
+    // from the shared origin formed once a leaf, then each ray's shear), where every ray's own
+    // prefilter would apply with the same frame's axes: each ray keeps the very triangles its
+    // own would. Set up at the first leaf that takes it.
+    enum { kPrefilterUnset, kPrefilterOn, kPrefilterOff } packet_prefilter = kPrefilterUnset;
+    TrianglePrefilter8 shared_prefilter;
+    float shear_x_f[kPacketRays], shear_y_f[kPacketRays];
+    auto packet_prefilter_on = [&]() PHONG_AVX2 {
+        if (packet_prefilter == kPrefilterUnset) {
+            packet_prefilter = kPrefilterOff;
+            if (shears_shared() && shared_prefilter.set_up(triangles, rays[0], *search[0]->wr, magnitude)) {
+                packet_prefilter = kPrefilterOn;
+                for (int r = 0; r < count; ++r) {
+                    const WatertightRay& wr = *search[r]->wr;
+                    // TrianglePrefilter8::set_up's own condition, ray by ray (false for NaN).
+                    if (!(std::fabs(wr.sx) <= 1.0 && std::fabs(wr.sy) <= 1.0)) packet_prefilter = kPrefilterOff;
+                    shear_x_f[r] = float(wr.sx);
+                    shear_y_f[r] = float(wr.sy);
+                }
+            }
+        }
+        return packet_prefilter == kPrefilterOn;
+    };
+    const bool mixed = mixed_leaves();
     // Triangles in lanes only with the watertight test (not POV-Ray's), and (below) only in
     // leaves the prefilter does not take, where each ray would test every triangle in full.
     const bool triangle_lanes = povray_triangles.empty();
@@ -135,6 +159,21 @@ bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin
             }
             for (unsigned bits = rays_in; bits != 0; bits &= bits - 1)
                 cull[__builtin_ctz(bits)] = search[__builtin_ctz(bits)]->t_cull;
+            return;
+        }
+        // A run of triangle slots (TriangleLeafFilter's layout) big enough for the prefilter.
+        const bool prefilter_run =
+            prefilter && n >= kMinPrefilterLeaf && (!mixed || (refs[0] >= 0 && refs[n - 1] - refs[0] == n - 1));
+        if (prefilter_run && shared && packet_prefilter_on()) {
+            const TrianglePrefilter8::CornerOffsets offsets = shared_prefilter.offsets(size_t(mixed ? refs[0] : first));
+            for (unsigned bits = rays_in; bits != 0; bits &= bits - 1) {
+                const int r = __builtin_ctz(bits);
+                ClosestSearch& s = *search[r];
+                for (unsigned kept = shared_prefilter.kept(offsets, shear_x_f[r], shear_y_f[r], n); kept != 0;
+                     kept &= kept - 1)
+                    s.test(leaf_ref(first + int32_t(__builtin_ctz(kept))));
+                cull[r] = s.t_cull;
+            }
             return;
         }
         for (unsigned bits = rays_in; bits != 0; bits &= bits - 1) {

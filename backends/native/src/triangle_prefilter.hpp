@@ -101,20 +101,36 @@ struct TrianglePrefilter8 {
         return true;
     }
 
-    // Bit j set where the triangle at slot + j (j < count <= 8) may pass the double test's sign
-    // rule; clear where that test certainly rejects it.
-    PHONG_AVX2 unsigned candidates(size_t slot, int count) const {
-        const __m256 sign = _mm256_set1_ps(-0.0f);
+    // The offsets V − O of the corners of the triangles at slot, slot + 1, ... slot + 7, along
+    // the frame's axes kx, ky, kz: what every ray leaving this origin with these axes shares.
+    struct CornerOffsets {
+        __m256 x[3], y[3], z[3];  // corner c's along kx, ky, kz
+    };
+    PHONG_AVX2 CornerOffsets offsets(size_t slot) const {
         const __m256 ox = _mm256_set1_ps(origin[0]), oy = _mm256_set1_ps(origin[1]), oz = _mm256_set1_ps(origin[2]);
-        const __m256 shear_x = _mm256_set1_ps(sx), shear_y = _mm256_set1_ps(sy);
-        __m256 x[3], y[3], size[3];
+        CornerOffsets a;
         const float* at = lanes + slot;
         for (int c = 0; c < 3; ++c) {
-            const __m256 ax = _mm256_sub_ps(_mm256_loadu_ps(at + offset[3 * c]), ox);
-            const __m256 ay = _mm256_sub_ps(_mm256_loadu_ps(at + offset[3 * c + 1]), oy);
-            const __m256 az = _mm256_sub_ps(_mm256_loadu_ps(at + offset[3 * c + 2]), oz);
-            x[c] = _mm256_sub_ps(ax, _mm256_mul_ps(shear_x, az));
-            y[c] = _mm256_sub_ps(ay, _mm256_mul_ps(shear_y, az));
+            a.x[c] = _mm256_sub_ps(_mm256_loadu_ps(at + offset[3 * c]), ox);
+            a.y[c] = _mm256_sub_ps(_mm256_loadu_ps(at + offset[3 * c + 1]), oy);
+            a.z[c] = _mm256_sub_ps(_mm256_loadu_ps(at + offset[3 * c + 2]), oz);
+        }
+        return a;
+    }
+
+    // Bit j set where the triangle at slot + j (j < count <= 8) may pass the double test's sign
+    // rule; clear where that test certainly rejects it.
+    PHONG_AVX2 unsigned candidates(size_t slot, int count) const { return kept(offsets(slot), sx, sy, count); }
+
+    // candidates() from the corners' offsets, for a ray of shear (shear_x, shear_y) (its own
+    // WatertightRay's, rounded to float) leaving this origin with these axes.
+    PHONG_AVX2 unsigned kept(const CornerOffsets& a, float shear_x_f, float shear_y_f, int count) const {
+        const __m256 sign = _mm256_set1_ps(-0.0f);
+        const __m256 shear_x = _mm256_set1_ps(shear_x_f), shear_y = _mm256_set1_ps(shear_y_f);
+        __m256 x[3], y[3], size[3];
+        for (int c = 0; c < 3; ++c) {
+            x[c] = _mm256_sub_ps(a.x[c], _mm256_mul_ps(shear_x, a.z[c]));
+            y[c] = _mm256_sub_ps(a.y[c], _mm256_mul_ps(shear_y, a.z[c]));
             size[c] = _mm256_add_ps(_mm256_andnot_ps(sign, x[c]), _mm256_andnot_ps(sign, y[c]));
         }
         // The edge functions as intersect_triangle forms them.
