@@ -1,15 +1,17 @@
 # SPDX-License-Identifier: Apache-2.0
 """A light's shadow rays from a packet's shaded points are asked together
-(Scene::occluded_each, backends/native/src/scene.cpp): on the 8-wide tree up to 64 rays (eight packets' points) walk it
-as one, each child taken by the rays whose own box test enters it, each leaf tested for them, so
-each ray tests its own walk's leaves in another order and its any-hit answer must be its own
-walk's. `occluded(..., together=True)` asks consecutive rays in 64s; these tests compare it with
-the rays one by one on hard rays: shadow rays from surfaces to lights (coherent groups) and to
-scattered targets (groups of mixed direction signs, which load a node's planes per ray), rays
-grazing spheres, rays along the ground's plane with a ±0 direction (1/±0 = ±inf), rays whose
-float box test does not apply (a direction component below 2^-20: the double walk, alone),
-windows ending one double past a hit; at scales 1e-6, 1 and 1e6, with an unbounded plane and with
-instances in the scene."""
+(Scene::occluded_each, backends/native/src/scene.cpp, bvh8_group.hpp): on the 8-wide tree up to
+64 rays (four packets' points) walk it in groups of one direction sign per axis, a node near the
+root tested once for the group, deeper ones by each ray, each leaf tested for the rays whose own
+box test enters it, so each ray tests its own walk's leaves (and maybe more) in another order and
+its any-hit answer must be its own walk's. `occluded(..., together=True)` asks consecutive rays
+in 64s; these tests compare it with the rays one by one on hard rays: shadow rays from surfaces
+to lights (coherent groups) and to scattered targets (groups of mixed direction signs, split by
+sign), groups spread over an octant, rays grazing spheres, rays along the ground's plane with a
+±0 direction (1/±0 = ±inf: alone), rays whose float box test does not apply (a direction
+component below 2^-20: the double walk, alone), windows ending one double past a hit; at scales
+1e-6, 1 and 1e6, with an unbounded plane and with instances in the scene. And the group's box
+tests themselves against each ray's own."""
 
 from __future__ import annotations
 
@@ -81,6 +83,74 @@ def test_windows_one_double_past_the_hit(name):
     before = np.nextafter(t, 0.0)
     alone, together = answers(built, o, d, before, 0.0)
     assert np.array_equal(alone, together)
+
+
+@pytest.mark.parametrize("name", sorted(tree_scenes()))
+def test_groups_of_one_octant_with_spread_directions(name):
+    """Rays whose directions share their signs walk as one group, tested near the root once for
+    them all against the interval of their origins and inverse directions (bvh8_group.hpp). The
+    loosest intervals: each group's directions spread over a whole octant (inverse directions
+    from about 1 to 1e3) from origins spread over the scene, ending anywhere along the way.
+    Every answer is its own walk's."""
+    scene = tree_scenes()[name]
+    built = native.build(scene)
+    rng = np.random.default_rng(17)
+    groups = 24
+    signs = np.repeat(rng.choice([-1.0, 1.0], (groups, 3)), 64, axis=0)
+    dirs = signs * rng.uniform(1e-3, 1.0, (groups * 64, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    origins = rng.uniform(-1.5, 1.5, (groups * 64, 3)) + [0.0, 0.5, 0.0]
+    t_max = rng.uniform(0.05, 4.0, groups * 64)
+    alone, together = answers(built, origins, dirs, t_max, 1e-9)
+    assert 0.1 * len(alone) < alone.sum() < 0.9 * len(alone)
+    assert np.array_equal(alone, together)
+
+
+def _group_boxes(rng, origins, dirs, t_max, nodes: int) -> np.ndarray:
+    """Boxes (lo, hi; float values) in nodes of eight around points along the rays and off them,
+    of sizes from a hair to the whole spread, with empty slots (lo = +inf, hi = -inf)."""
+    n = len(origins)
+    pick = rng.integers(0, n, nodes * 8)
+    along = origins[pick] + dirs[pick] * (t_max[pick] * rng.uniform(-0.2, 1.2, nodes * 8))[:, None]
+    extent = np.ptp(np.concatenate([origins, origins + dirs * t_max[:, None]]), axis=0).max()
+    centres = along + rng.normal(size=(nodes * 8, 3)) * extent * 10.0 ** rng.uniform(-4, -0.5, (nodes * 8, 1))
+    half = extent * 10.0 ** rng.uniform(-5, -0.3, (nodes * 8, 3))
+    boxes = np.concatenate([centres - half, centres + half], axis=1).astype(np.float32).astype(np.float64)
+    empty = rng.random(nodes * 8) < 0.1
+    boxes[empty] = [np.inf] * 3 + [-np.inf] * 3
+    return boxes
+
+
+def test_a_groups_box_test_enters_every_box_one_of_its_rays_enters():
+    """FloatSlabGroup8 (bvh8_group.hpp) on hard groups: the interval test enters every child some
+    ray's own float test (FloatSlabRay8, set up alone) enters; each ray's test inside the group,
+    and each child's set of entering rays, are bit for bit the rays' own tests. Groups of 1 to 64
+    rays of one sign per axis, directions from nearly parallel to spread over the octant, origins
+    from one point to spread out, at scales 1e-3 to 1e3 and far from the origin."""
+    rng = np.random.default_rng(29)
+    culled = entered = 0
+    for _ in range(60):
+        n = int(rng.integers(1, 65))
+        scale = 10.0 ** rng.uniform(-3, 3)
+        dirs = rng.choice([-1.0, 1.0], 3) * rng.uniform(10.0 ** rng.uniform(-3, -0.1), 1.0, (n, 3))
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        centre = rng.normal(size=3) * scale * 10.0 ** rng.integers(0, 4)
+        origins = centre + rng.normal(size=(n, 3)) * scale * 10.0 ** rng.uniform(-6, 0)
+        t_max = rng.uniform(0.1, 10.0, n) * scale
+        boxes = _group_boxes(rng, origins, dirs, t_max, 32)
+        finite = boxes[np.isfinite(boxes)]
+        magnitude = max(np.abs(finite).max(), np.abs(origins).max())
+        rows, alone = native._native.group_box_tests(origins, dirs, 1e-9 * scale, t_max, boxes, magnitude)
+        union = np.bitwise_or.reduce(alone, axis=1)
+        assert np.array_equal(rows[:, 0] & union, union)  # the group enters every box a ray enters
+        assert np.array_equal(rows[:, 1 : 1 + n], alone)  # each ray's test in the group is its own
+        for i in range(8):
+            own = ((alone >> np.uint64(i)) & np.uint64(1)).astype(bool)
+            expected = (own.astype(np.uint64) << np.arange(n, dtype=np.uint64)).sum(axis=1, dtype=np.uint64)
+            assert np.array_equal(rows[:, 1 + n + i], expected)
+        culled += int(sum(8 - bin(int(m)).count("1") for m in rows[:, 0]))
+        entered += int(sum(bin(int(m)).count("1") for m in union))
+    assert entered > 1000 and culled > 1000  # boxes both entered and culled by the groups
 
 
 def test_rays_whose_float_test_does_not_apply_walk_alone():

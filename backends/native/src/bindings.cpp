@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "build_threads.hpp"
+#include "bvh8_group.hpp"
 #include "bvh8_packet.hpp"
 #include "camera.hpp"
 #include "lane_shading.hpp"
@@ -613,6 +614,48 @@ PHONG_AVX2 void float_slab_rows(const double* origins, const double* dirs, doubl
     }
 }
 
+// Test-only (group_box_tests below): for nodes of eight boxes (lo x, y, z, hi x, y, z each),
+// out[node * (1 + n + 8) + ...]: the group's interval test (FloatSlabGroup8::hit), its per-ray
+// test of each ray (ray_enters, n masks), then for each child i the rays entering it
+// (rays_entering); and alone[node * n + r]: FloatSlabRay8::hit of ray r set up alone. Rays:
+// n <= kMaxRaysTogether, each with FloatSlabLanes' applies and bounded bits, one sign per axis.
+PHONG_AVX2 void group_box_rows(const phong::Ray* rays, int n, double t_min, const double* t_max, const double* boxes,
+                               size_t nodes, double magnitude, uint64_t* out, uint64_t* alone) {
+    phong::FloatSlabLanes lanes;
+    lanes.set_up(rays, n, t_min, t_max, magnitude);
+    const phong::RayBits all = n == 64 ? ~phong::RayBits(0) : (phong::RayBits(1) << n) - 1;
+    if ((lanes.applies & lanes.bounded) != all)
+        throw std::invalid_argument("group_box_tests: a ray the float test does not cover or bound");
+    for (int k = 0; k < 3; ++k)
+        if ((lanes.negative[k] & all) != 0 && (lanes.negative[k] & all) != all)
+            throw std::invalid_argument("group_box_tests: the rays' direction signs differ");
+    const phong::RaySetLanes set(all);
+    phong::FloatSlabGroup8 group;
+    group.set_up(lanes, all, set);
+    for (size_t b = 0; b < nodes; ++b) {
+        phong::Bvh8Node node{};
+        for (int i = 0; i < 8; ++i)
+            for (int row = 0; row < 6; ++row) node.boxes[row][i] = float(boxes[(8 * b + size_t(i)) * 6 + size_t(row)]);
+        uint64_t* row = out + b * size_t(1 + n + 8);
+        row[0] = uint64_t(group.hit(node));
+        __m256 near_planes[3], far_planes[3];
+        for (int k = 0; k < 3; ++k) {
+            near_planes[k] = _mm256_load_ps(node.boxes[group.near_row[k]]);
+            far_planes[k] = _mm256_load_ps(node.boxes[group.far_row[k]]);
+        }
+        for (int r = 0; r < n; ++r) row[1 + r] = group.ray_enters(near_planes, far_planes, r);
+        for (int i = 0; i < 8; ++i) row[1 + n + i] = group.rays_entering(node, i, all);
+        for (int r = 0; r < n; ++r) {
+            const phong::Ray& ray = rays[r];
+            const phong::Vec3 inv{1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z};
+            const phong::FloatSlabRay8 f(phong::FloatSlabOrigin(ray.origin), ray.dir, inv, t_min);
+            __m256 entry;
+            alone[b * size_t(n) + size_t(r)] =
+                uint64_t(f.hit(node, _mm256_set1_ps(_mm_cvtss_f32(phong::FloatSlabRay::far_limit(t_max[r]))), entry));
+        }
+    }
+}
+
 NB_MODULE(_native, m) {
     nb::enum_<phong::SubdivisionScheme>(m, "SubdivisionScheme")
         .value("catmull_clark", phong::SubdivisionScheme::kCatmullClark)
@@ -669,6 +712,31 @@ NB_MODULE(_native, m) {
         "origins"_a, "dirs"_a, "t_min"_a, "t_max"_a, "magnitude"_a, "lanes"_a,
         "Test-only: each ray's float slab set-up (FloatSlabRay8's numbers, applies, far limit: 15 floats a "
         "row), alone (lanes=False) or 64 at a time in lanes (FloatSlabLanes, lanes=True). AVX2 only.");
+    m.def(
+        "group_box_tests",
+        [](const Rows3& origins, const Rows3& dirs, double t_min, const Reals1& t_max,
+           const In<double, nb::shape<-1, 6>>& boxes, double magnitude) {
+            const size_t n = origins.shape(0), m = boxes.shape(0);
+            if (dirs.shape(0) != n || t_max.shape(0) != n || n < 1 || n > size_t(phong::kMaxRaysTogether))
+                throw std::invalid_argument("group_box_tests: 1 to 64 rays, origins, dirs and t_max alike");
+            if (m % 8 != 0) throw std::invalid_argument("group_box_tests: boxes in nodes of eight");
+            if (!phong::cpu_has_avx2()) throw std::runtime_error("group_box_tests: this CPU has no AVX2");
+            std::vector<phong::Ray> rays(n);
+            for (size_t i = 0; i < n; ++i)
+                rays[i] = {{origins(i, 0), origins(i, 1), origins(i, 2)}, {dirs(i, 0), dirs(i, 1), dirs(i, 2)}};
+            const size_t nodes = m / 8, width = 1 + n + 8;
+            uint64_t* out = new uint64_t[nodes * width];
+            nb::capsule out_owner(out, [](void* p) noexcept { delete[] static_cast<uint64_t*>(p); });
+            uint64_t* alone = new uint64_t[nodes * n];
+            nb::capsule alone_owner(alone, [](void* p) noexcept { delete[] static_cast<uint64_t*>(p); });
+            group_box_rows(rays.data(), int(n), t_min, t_max.data(), boxes.data(), nodes, magnitude, out, alone);
+            return nb::make_tuple(nb::ndarray<nb::numpy, uint64_t, nb::shape<-1, -1>>(out, {nodes, width}, out_owner),
+                                  nb::ndarray<nb::numpy, uint64_t, nb::shape<-1, -1>>(alone, {nodes, n}, alone_owner));
+        },
+        "origins"_a, "dirs"_a, "t_min"_a, "t_max"_a, "boxes"_a, "magnitude"_a,
+        "Test-only: a shadow-ray group's box tests (bvh8_group.hpp) of nodes of eight boxes: per node the group's "
+        "interval test, each ray's test in the group, each child's entering rays (a row of 1 + n + 8 bit masks), "
+        "and each ray's own FloatSlabRay8 test set up alone (n masks a node). AVX2 only.");
     m.def(
         "round_outward",
         [](const Rows3& rows) {

@@ -138,7 +138,8 @@ struct FloatSlabLanes {
     alignas(16) float far_up[kRays];                                // FloatSlabRay::far_limit(t_max[r])
     uint64_t negative[3];                                           // bit r: ray r's direction's sign bit on axis k
     uint64_t applies;                                               // bit r: FloatSlabRay::applies for ray r
-    float t_min_down;                                               // round_down(t_min)
+    uint64_t bounded;  // bit r: ray r's float inverse directions are finite on every axis (never ±inf nor NaN)
+    float t_min_down;  // round_down(t_min)
 
     PHONG_AVX2 void set_up(const Ray* rays, int count, double t_min, const double* t_max, double scene_magnitude) {
         assert(count >= 1 && count <= kRays);
@@ -156,6 +157,7 @@ struct FloatSlabLanes {
         const __m256d float_max = _mm256_set1_pd(double(FLT_MAX)), zero = _mm256_setzero_pd();
         const __m256d nan = _mm256_set1_pd(NAN), one = _mm256_set1_pd(1.0);
         applies = 0;
+        bounded = ~uint64_t(0);
         negative[0] = negative[1] = negative[2] = 0;
         for (int at = 0; at < lanes; at += 4) {
             __m256d within = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
@@ -172,6 +174,10 @@ struct FloatSlabLanes {
                 const __m256d finite = _mm256_or_pd(_mm256_cmp_pd(_mm256_andnot_pd(sign, r), float_max, _CMP_LE_OQ),
                                                     _mm256_cmp_pd(dk, zero, _CMP_EQ_OQ));
                 _mm_store_ps(inv[k] + at, _mm256_cvtpd_ps(_mm256_blendv_pd(nan, r, finite)));
+                // |1/d| <= FLT_MAX: float(1/d) finite (false for d = ±0 and NaN).
+                bounded &= ~(
+                    uint64_t(~_mm256_movemask_pd(_mm256_cmp_pd(_mm256_andnot_pd(sign, r), float_max, _CMP_LE_OQ)) & 0xF)
+                    << at);
                 abs_d[k] = _mm256_andnot_pd(sign, dk);
             }
             // applies' d_max: (|x| > |y| ? |x| : |y|), then against |z| alike: maxpd's rule,

@@ -4,6 +4,7 @@
 #include "scene.hpp"
 
 #include "build_threads.hpp"
+#include "bvh8_group.hpp"
 #include "closest_search.hpp"
 #include "huge_pages.hpp"
 #include "simd_dispatch.hpp"
@@ -531,34 +532,24 @@ PHONG_AVX2 RayBits Scene::occluded_tree_each(const Ray* rays, int count, double 
     assert(count >= 1 && count <= kMaxRaysTogether && !bvh8_.empty());
     // Each ray's own walk state, as occluded_tree sets it up.
     Deferred<FloatSlabOrigin> origin[kMaxRaysTogether];
-    Deferred<FloatSlabRay8> fray[kMaxRaysTogether];
     Deferred<TriangleLeafFilter> filter[kMaxRaysTogether];
     std::optional<WatertightRay> wr[kMaxRaysTogether];
-    __m256 far[kMaxRaysTogether];
     // The rays' float slab numbers, four at a time (FloatSlabLanes: each ray's own).
     FloatSlabLanes lanes;
     lanes.set_up(rays, count, t_min, t_max, magnitude);
-    RayBits blocked = 0, together = 0;
+    // Rays the interval bound covers walk in groups (bvh8_group.hpp); the others (outside the
+    // float test's range, or with a direction component so small its float inverse is not
+    // finite) walk alone, each as occluded_tree.
+    const RayBits together = lanes.applies & lanes.bounded;
+    RayBits blocked = 0;
     for (int r = 0; r < count; ++r) {
-        const Ray& ray = rays[r];
-        if (!(lanes.applies >> r & 1u)) {  // its double walk, alone
-            origin[r].emplace(ray.origin);
-            blocked |= RayBits(occluded_tree(ray, *origin[r], t_min, t_max[r])) << r;
-            continue;
+        if (!(together >> r & 1u)) {
+            origin[r].emplace(rays[r].origin);
+            blocked |= RayBits(occluded_tree(rays[r], *origin[r], t_min, t_max[r])) << r;
         }
-        lanes.emplace(r, fray[r]);
-        filter[r].emplace(triangles, magnitude, mixed_leaves());
-        far[r] = _mm256_set1_ps(lanes.far_up[r]);
-        together |= RayBits(1) << r;
     }
-    // Whether the rays walking together choose the same planes of a box (their directions' signs
-    // agree, as a coherent bundle's do): then a node's planes are loaded once for them all.
-    const FloatSlabRay8* rows = together != 0 ? &*fray[__builtin_ctzll(together)] : nullptr;
-    bool same_rows = rows != nullptr;
-    for (int k = 0; k < 3; ++k) {
-        const RayBits signs = lanes.negative[k] & together;
-        same_rows = same_rows && (signs == 0 || signs == together);
-    }
+    for (RayBits bits = together; bits != 0; bits &= bits - 1)
+        filter[__builtin_ctzll(bits)].emplace(triangles, magnitude, mixed_leaves());
     const bool prefilter = prefilter_applies();
     // The leaf of `count` refs at `first` for ray r: occluded_tree's leaf.
     auto leaf_blocks = [&](int r, int32_t first, int n) PHONG_AVX2 __attribute__((always_inline)) {
@@ -579,86 +570,27 @@ PHONG_AVX2 RayBits Scene::occluded_tree_each(const Ray* rays, int count, double 
             if (test(refs[k])) return true;
         return false;
     };
-    // The rays walk together: a node is visited once for the rays whose own walk visits it, each
-    // ray's children are those its own box test enters (FloatSlabRay8::hit, as traverse_bvh8's
-    // any-hit walk), and a leaf is tested for those rays. So each ray tests the leaves of its own
-    // walk, in another order: an any-hit answer does not depend on it. A blocked ray drops out.
-    struct Pending {
-        int32_t child, count;
-        RayBits rays;
-    };
-    // As a single walk's stack: a node's children wait while the walk is below it, at most 7 a
-    // level of the current path, whatever the rays.
-    Pending stack[kMaxBvh8Stack];
-    int sp = 0;
-    Pending current{0, 0, together};
-    while (together & ~blocked) {
-        const RayBits walking = current.rays & ~blocked;
-        if (walking != 0) {
-            if (current.count == 0) {
-                const Bvh8Node& node = bvh8_[size_t(current.child)];
-                // Ray r's children in byte r % 8 of masks[r / 8]; child i's rays are bit i of
-                // each byte.
-                uint64_t masks[kMaxRaysTogether / 8] = {};
-                if (same_rows) {  // FloatSlabRay8::hit per ray, the node's planes loaded once
-                    __m256 lo[3], hi[3];
-                    for (int k = 0; k < 3; ++k) {
-                        lo[k] = _mm256_load_ps(node.boxes[rows->near_row[k]]);
-                        hi[k] = _mm256_load_ps(node.boxes[rows->far_row[k]]);
-                    }
-                    for (RayBits bits = walking; bits != 0; bits &= bits - 1) {
-                        const int r = __builtin_ctzll(bits);
-                        const FloatSlabRay8& f = *fray[r];
-                        __m256 t0 = f.t_min, t1 = _mm256_set1_ps(INFINITY);
-                        for (int k = 0; k < 3; ++k) {
-                            t0 = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(lo[k], f.origin_near[k]), f.inv[k]), t0);
-                            t1 = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(hi[k], f.origin_far[k]), f.inv[k]), t1);
-                        }
-                        t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(kFloatSlabWidening)), far[r]);
-                        masks[r >> 3] |= uint64_t(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)))
-                                         << (8 * (r & 7));
-                    }
-                } else {
-                    for (RayBits bits = walking; bits != 0; bits &= bits - 1) {
-                        const int r = __builtin_ctzll(bits);
-                        __m256 entry;
-                        masks[r >> 3] |= uint64_t(fray[r]->hit(node, far[r], entry)) << (8 * (r & 7));
-                    }
-                }
-                uint64_t any = masks[0];
-                for (int w = 1; w < kMaxRaysTogether / 8; ++w) any |= masks[w];
-                any |= any >> 32;
-                any |= any >> 16;
-                unsigned entered = unsigned((any | any >> 8) & 0xFFu);
-                auto rays_of = [&](int i) {
-                    // Bit 8r of `column` is ray r's. The product puts bit 8r times 2^(7j + 7) at
-                    // 8r + 7j + 7: distinct for every (r, j), so nothing carries, and in the top
-                    // byte only for j = 7 − r, at bit 56 + r.
-                    RayBits rays_in = 0;
-                    for (int w = 0; w < kMaxRaysTogether / 8; ++w) {
-                        const uint64_t column = (masks[w] >> i) & 0x0101010101010101ull;
-                        rays_in |= ((column * 0x0102040810204080ull) >> 56) << (8 * w);
-                    }
-                    return rays_in;
-                };
-                if (entered != 0) {
-                    const int first = __builtin_ctz(entered);
-                    for (entered &= entered - 1; entered != 0; entered &= entered - 1) {
-                        const int i = __builtin_ctz(entered);
-                        stack[sp++] = Pending{node.child[i], node.count[i], rays_of(i)};
-                    }
-                    current = Pending{node.child[first], node.count[first], rays_of(first)};
-                    continue;
-                }
-            } else {
-                for (RayBits bits = walking; bits != 0; bits &= bits - 1) {
-                    const int r = __builtin_ctzll(bits);
-                    if (leaf_blocks(r, current.child, current.count)) blocked |= RayBits(1) << r;
-                }
-            }
+    // The rays whose directions' signs agree on every axis walk as one group (all of a coherent
+    // group's rays, most often): each ray tests every leaf its own walk would, and only leaves
+    // its own box test enters (bvh8_group.hpp), so its any-hit answer is its own walk's.
+    auto leaf = [&](RayBits testing, int32_t first, int n) PHONG_AVX2 __attribute__((always_inline)) {
+        RayBits blocks = 0;
+        for (; testing != 0; testing &= testing - 1) {
+            const int r = __builtin_ctzll(testing);
+            if (leaf_blocks(r, first, n)) blocks |= RayBits(1) << r;
         }
-        if (sp == 0) break;
-        current = stack[--sp];
+        return blocks;
+    };
+    for (RayBits rest = together; rest != 0;) {
+        const int first = __builtin_ctzll(rest);
+        RayBits same_signs = rest;
+        for (int k = 0; k < 3; ++k)
+            same_signs &= lanes.negative[k] >> first & 1u ? lanes.negative[k] : ~lanes.negative[k];
+        rest &= ~same_signs;
+        const RaySetLanes in(same_signs);
+        FloatSlabGroup8 group;
+        group.set_up(lanes, same_signs, in);
+        blocked |= traverse_bvh8_group(bvh8_, group, same_signs, leaf);
     }
     for (int r = 0; r < count; ++r) {  // occluded_tree's tail
         if ((blocked >> r & 1u) || !(together >> r & 1u)) continue;
