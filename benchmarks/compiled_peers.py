@@ -147,18 +147,18 @@ NATIVE_TRACE_T_MIN = 1e-9
 
 
 def pixel_blocks(width: int, height: int) -> np.ndarray | None:
-    """The row-order pixel indices regrouped into the 4 x 4 blocks a native render traces as
+    """The row-order pixel indices regrouped into the 8 x 4 blocks a native render traces as
     packets (render.cpp: kPacketWidth x kPacketHeight), or None when the image does not divide."""
-    if width % 4 or height % 4:
+    if width % 8 or height % 4:
         return None
-    index = np.arange(width * height).reshape(height // 4, 4, width // 4, 4)
+    index = np.arange(width * height).reshape(height // 4, 4, width // 8, 8)
     return index.transpose(0, 2, 1, 3).reshape(-1)
 
 
 def native_trace(scene, settings, native_scene, repeat: int) -> dict:
     """The native tracer on the peers' rays, one thread, tracing only (what the peers do; native's
-    render also shades): the primary rays' closest hits as a render traces them, sixteen at a
-    time in 4 x 4 pixel blocks (``Scene.intersect_packets``; ``Scene.intersect`` one by one when the
+    render also shades): the primary rays' closest hits as a render traces them, 32 at a time
+    in 8 x 4 pixel blocks (``Scene.intersect_packets``; ``Scene.intersect`` one by one when the
     image does not divide into blocks), then from each hit one shadow ray per target with the
     peers' offsets (``Scene.occluded``, the any-hit walk of shadow rays). Best of ``repeat``, also
     of the primary and the shadow rays apart ("primary", "shadow"); the

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Primary rays in packets (backends/native/src/bvh8_packet.hpp, ray_packets.cpp): sixteen rays
+"""Primary rays in packets (backends/native/src/bvh8_packet.hpp, ray_packets.cpp): 32 rays
 from one origin walk the 8-wide tree together and each gets, bit for bit, the hit closest_hit()
 gives it alone (t, primitive, barycentrics), on every kind of leaf (the float prefilter's
 triangle runs, spheres, intrinsic shapes), with unbounded planes and instances after the tree,
@@ -34,15 +34,15 @@ from phongscene.scene import (
 from phongscene.usd import load_usd
 from support.instanced_stages import point_instancer_stage
 
-PACKET = 16  # kPacketRays
+PACKET = 32  # kPacketRays
 # A camera's primary rays start where the near tolerance puts them (math.hpp: ray_tolerances);
 # any t_min in the float test's range works the same here.
 T_MIN = 1e-9
 
 
 def camera_block_dirs(forward, width: int, height: int, fov: float = 0.6) -> np.ndarray:
-    """Unit directions of a perspective camera looking along ``forward``, in 4 x 4 pixel blocks
-    (the order the render traces them in), ``width`` and ``height`` multiples of 4."""
+    """Unit directions of a perspective camera looking along ``forward``, in 8 x 4 pixel blocks
+    (the order the render traces them in), ``width`` a multiple of 8 and ``height`` of 4."""
     f = np.asarray(forward, float)
     f /= np.linalg.norm(f)
     right = np.cross(f, [0.0, 1.0, 0.0] if abs(f[1]) < 0.9 else [1.0, 0.0, 0.0])
@@ -51,7 +51,7 @@ def camera_block_dirs(forward, width: int, height: int, fov: float = 0.6) -> np.
     u = (np.arange(width) + 0.5) / width - 0.5
     v = 0.5 - (np.arange(height) + 0.5) / height
     d = f + fov * (u[None, :, None] * right + v[:, None, None] * up * height / width)
-    blocks = d.reshape(height // 4, 4, width // 4, 4, 3).transpose(0, 2, 1, 3, 4).reshape(-1, 3)
+    blocks = d.reshape(height // 4, 4, width // 8, 8, 3).transpose(0, 2, 1, 3, 4).reshape(-1, 3)
     return blocks / np.linalg.norm(blocks, axis=1, keepdims=True)
 
 
@@ -83,7 +83,7 @@ def test_a_float_mesh_through_the_prefilter(scale, offset):
     assert built.walk_width == 8 and built.single_precision_triangles
     centre = mesh.points.mean(axis=0)
     origin = centre + np.array([0.1, 0.2, 1.3]) * scale
-    dirs = camera_block_dirs(centre - origin, 48, 32, fov=1.2)
+    dirs = camera_block_dirs(centre - origin, 96, 64, fov=1.2)
     hits = assert_packets_match(built, origin, dirs, T_MIN * scale, walked_at_least=0.8)
     assert hits > 0.5 * len(dirs)
 
@@ -132,12 +132,12 @@ def test_sphere_leaves_in_lanes_on_every_sphere_path():
         ellipsoids.append(Sphere(m))
     spheres = (*ellipsoids, *(Sphere.at(tuple(rng.uniform(-3, 3, 3)), float(rng.uniform(0.2, 0.6))) for _ in range(12)))
     built = native.build(Scene(spheres=spheres))
-    dirs = camera_block_dirs([0.05, -0.1, -1.0], 64, 32, fov=1.2)
+    dirs = camera_block_dirs([0.05, -0.1, -1.0], 128, 64, fov=1.2)
     assert assert_packets_match(built, np.array([0.2, 0.4, 8.0]), dirs, walked_at_least=0.8) > 0.2 * len(dirs)
     # From the centre of a sphere (its object-space origin is 0), to its inside wall.
     inside = native.build(Scene(spheres=(Sphere.at((1.0, -2.0, 0.5), 3.0), Sphere.at((1.5, -2.0, -1.5), 0.4))))
     for forward in ([0.3, 0.2, -1.0], [-1.0, 0.6, 0.4]):  # every packet of one sign per axis
-        centre_dirs = camera_block_dirs(forward, 16, 8, fov=0.5)
+        centre_dirs = camera_block_dirs(forward, 32, 16, fov=0.5)
         assert assert_packets_match(inside, np.array([1.0, -2.0, 0.5]), centre_dirs, walked_at_least=0.8) == len(
             centre_dirs
         )
@@ -172,7 +172,7 @@ def test_triangle_leaves_in_lanes(double):
     built = native.build(Scene(meshes=(_quads(centres, 0.9, double),)))
     assert built.single_precision_triangles != double
     for origin in ([0.2, -0.3, 6.0], [0.1, 0.4, -5.0]):  # above, and below (the back faces)
-        dirs = camera_block_dirs(-np.asarray(origin), 64, 32, fov=1.6)
+        dirs = camera_block_dirs(-np.asarray(origin), 128, 64, fov=1.6)
         assert assert_packets_match(built, np.asarray(origin), dirs, walked_at_least=0.8) > 0.2 * len(dirs)
     # Through the diagonal of a quad centred below the eye: dx = dy exactly, so the sheared
     # corners on the diagonal give u, v or w = 0 in every lane.
@@ -229,13 +229,14 @@ def test_divergent_packets_fall_back_to_single_rays():
     assert walked < 20
     assert_packets_match(built, origin, mixed)
     # A zero component (a ray along an axis) has no finite inverse: that packet walks ray by ray.
-    axis = camera_block_dirs([0.0, 0.0, -1.0], 4, 4, fov=0.1)
+    axis = camera_block_dirs([0.0, 0.0, -1.0], 8, 4, fov=0.1)
     axis[3] = [0.0, 0.0, -1.0]
     assert built.intersect_packets(origin, axis, T_MIN, True)[3] == 0
     assert_packets_match(built, origin, axis)
-    # Partial packets (fewer than sixteen rays: one AVX word, and a word and a part) and a lone ray.
-    block = camera_block_dirs([0.3, 0.3, -1.0], 4, 4, fov=0.1)
-    for count in (5, 11):
+    # Partial packets (fewer than 32 rays: part of an AVX word, a word and a part, three words
+    # and a part) and a lone ray.
+    block = camera_block_dirs([0.3, 0.3, -1.0], 8, 4, fov=0.1)
+    for count in (5, 11, 27):
         assert_packets_match(built, origin, block[:count], walked_at_least=0.8)
     assert built.intersect_packets(origin, block[:1], T_MIN, True)[3] == 0
 
@@ -317,7 +318,7 @@ def test_the_packet_render_is_the_single_ray_render(size):
     [
         {"samples": 1, "sample_pattern": "grid"},
         {"samples": 3, "sample_pattern": "grid"},  # nine samples a pixel: one partial packet
-        {"samples": 5, "sample_pattern": "grid"},  # 25: a packet of 16 and one of 9
+        {"samples": 6, "sample_pattern": "grid"},  # 36: a packet of 32 and one of 4
         {"samples": 4, "sample_pattern": "stratified", "aa_threshold": 0.0},  # stages of 16
         {"samples": 8, "sample_pattern": "stratified", "aa_threshold": 0.05},  # corners, then stages
     ],

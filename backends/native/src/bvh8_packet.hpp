@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// Packets of up to sixteen rays that share their origin (a perspective camera's primary rays of
-// a 4x4 block of pixels) walking the 8-wide BVH together: a node's eight children are tested once
+// Packets of up to 32 rays that share their origin (a perspective camera's primary rays of an
+// 8x4 block of pixels) walking the 8-wide BVH together: a node's eight children are tested once
 // for the whole packet, against the interval of the rays' inverse directions; a leaf is handed to
 // each ray whose own float slab test (FloatSlabRay8's, per lane) enters its box. The walk's node
 // visits are shared by the packet; the leaves' tests stay per ray.
@@ -35,8 +35,12 @@
 
 namespace phong {
 
-// Rays per packet: two AVX words of the per-ray leaf test, eight rays a word.
-constexpr int kPacketRays = 16, kPacketWords = kPacketRays / 8;
+// Rays per packet: four AVX words of the per-ray leaf test, eight rays a word; a bit each in an
+// unsigned.
+constexpr int kPacketRays = 32, kPacketWords = kPacketRays / 8;
+static_assert(kPacketRays <= 32);
+// The bits of rays 0 .. count − 1 (count <= 32: a shift by 32 would be undefined).
+constexpr unsigned packet_bits(int count) { return count >= 32 ? ~0u : (1u << count) - 1u; }
 
 // The largest of eight lanes, in every lane.
 PHONG_AVX2 inline __m256 lane_max(__m256 v) {
@@ -76,7 +80,7 @@ struct FloatSlabPacket {
             d[2][r] = dir.z;
         }
         constexpr int kQuads = kPacketRays / 4;  // rays four at a time, in double
-        constexpr unsigned kAll = (1u << kPacketRays) - 1u;
+        constexpr unsigned kAll = packet_bits(kPacketRays);
         const __m256d sign = _mm256_set1_pd(-0.0), one = _mm256_set1_pd(1.0);
         const __m256d float_max = _mm256_set1_pd(double(FLT_MAX));
         // Bit r set when |x_r| <= limit (false for NaN).

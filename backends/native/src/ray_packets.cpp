@@ -199,7 +199,7 @@ bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin
             dy[r] = d.y;
             dz[r] = d.z;
         }
-        const unsigned all = (1u << count) - 1u;
+        const unsigned all = packet_bits(count);
         for (size_t k = 0; k < spheres.size(); ++k)
             if (const unsigned near = rays_near_sphere(spheres[k], rays[0].origin, dx, dy, dz, count, t_min) & all)
                 test_sphere(~int32_t(k), near);
@@ -214,7 +214,7 @@ bool Scene::closest_hit_packet(const Ray* rays, int count, const FloatSlabOrigin
     if (small()) {
         small_scene();
     } else {
-        traverse_bvh8_packet(bvh8_, packet, (1u << count) - 1u, t_cull, leaf);
+        traverse_bvh8_packet(bvh8_, packet, packet_bits(count), t_cull, leaf);
     }
     for (int r = 0; r < count; ++r) found[r] = search[r]->finish(HUGE_VAL);
     return true;

@@ -29,16 +29,17 @@ namespace {
 // Tiles of 16 x 16 pixels: small enough to balance 2-64 threads on a 96 x 72 test image and to
 // stop within milliseconds on Ctrl-C, large enough that the shared tile counter is cold.
 constexpr int kTileSize = 16;
-// The pixel blocks whose primary rays are traced as one packet (bvh8_packet.hpp): 4 x 4, square
-// for the narrowest interval of directions. Sixteen rays sharing each node visit against eight
-// (4 x 2): S2's render −4.9 % instructions, S1's −3.4 % (benchmarks/README.md, issue 25).
-constexpr int kPacketWidth = 4, kPacketHeight = 4;
+// The pixel blocks whose primary rays are traced as one packet (bvh8_packet.hpp): 8 x 4, as
+// square as 32 rays go, for the narrowest interval of directions. Render instructions with
+// 8 rays (4 x 2) → 16 (4 x 4) → 32 sharing each node visit: S2 −4.9 % then −2.7 %, S1 −3.4 %
+// then −2.0 % (benchmarks/README.md, issue 25).
+constexpr int kPacketWidth = 8, kPacketHeight = 4;
 static_assert(kPacketWidth * kPacketHeight == kPacketRays);
-// Packets shaded together (four blocks across: 16 x 4 pixels): a light's shadow rays from their
+// Packets shaded together (two blocks across: 16 x 4 pixels): a light's shadow rays from their
 // points walk the tree together (Scene::occluded_each), up to 64 rays sharing each node visit.
 // Measured against one packet at a time (then of eight rays): two packets, S1's render −5 % and
 // S2's −2.5 %; four, S2's −5 % more; eight, −3 % more (benchmarks/README.md, issue 25).
-constexpr int kShadedAcross = 4, kShadedDown = 1, kShadedPackets = kShadedAcross * kShadedDown;
+constexpr int kShadedAcross = 2, kShadedDown = 1, kShadedPackets = kShadedAcross * kShadedDown;
 static_assert(kShadedAcross * kPacketWidth <= kTileSize && kShadedDown * kPacketHeight <= kTileSize);
 // How often the calling thread wakes to report progress and check for Ctrl-C.
 constexpr auto kPollInterval = std::chrono::milliseconds(50);
