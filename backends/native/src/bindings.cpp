@@ -376,7 +376,7 @@ nb::ndarray<nb::numpy, bool, nb::shape<-1>> occluded(const phong::Scene& scene, 
     return nb::ndarray<nb::numpy, bool, nb::shape<-1>>(blocked, {n}, owner);
 }
 
-// Closest hits of rays leaving one origin, eight at a time through Scene::closest_hit_packet
+// Closest hits of rays leaving one origin, kPacketRays (32) at a time through Scene::closest_hit_packet
 // (`together`) or one by one through closest_hit with the same rounded origin: (t, primitive id,
 // barycentrics (n, 3), packets that walked together). Tests compare the two bit for bit.
 nb::tuple intersect_packets(const phong::Scene& scene, const In<double, nb::shape<3>>& origin, const Rows3& dirs,
@@ -1054,10 +1054,10 @@ NB_MODULE(_native, m) {
              "Closest hit per ray (tests): (t, primitive id); spheres are 0..S-1, then triangles.")
         .def("occluded", &occluded, "origins"_a, "dirs"_a, "t_max"_a, "t_min"_a = 0.0, "together"_a = false,
              "Per ray, whether anything is hit in (t_min, t_max): shadow rays' any-hit walk, one thread; "
-             "together=True: consecutive rays in 64s, walking the tree together as eight packets' shadow rays do "
+             "together=True: consecutive rays in 64s, walking the tree together as two packets' shadow rays do "
              "(tests compare the two).")
         .def("intersect_packets", &intersect_packets, "origin"_a, "dirs"_a, "t_min"_a = 0.0, "together"_a = true,
-             "Closest hits of rays from one origin, 8 at a time as primary rays are (tests): (t, primitive id, "
+             "Closest hits of rays from one origin, 32 at a time as primary rays are (tests): (t, primitive id, "
              "barycentrics, packets that walked together); together=False: one by one.")
         .def("prefilter_check", &prefilter_check, "origins"_a, "dirs"_a,
              "The float triangle prefilter against the double test, every ray against every triangle (tests): "

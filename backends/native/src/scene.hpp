@@ -85,7 +85,7 @@ struct BallGroup {
 // A ray's closest hit. ref >= 0: triangle index (leaf order); ref < 0: sphere ~ref when
 // ~ref < S, ball ~ref − S (Scene::balls, leaf order) when ~ref < S + B, else intrinsic part
 // ~ref − S − B (Scene::intrinsics), or an unbounded plane (Scene::plane_ref).
-// Rays Scene::occluded_each takes at once (a light's shadow rays from eight packets' 64 points).
+// Rays Scene::occluded_each takes at once (a light's shadow rays from two packets' 64 points).
 constexpr int kMaxRaysTogether = 64;
 // A bit per ray of the rays taken together.
 using RayBits = uint64_t;
