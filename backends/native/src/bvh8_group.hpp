@@ -43,9 +43,10 @@ namespace phong {
 
 // The levels of the tree (the root's is 0) where a group's walk tests a node once for all its
 // rays; below them each ray tests it, the interval test entering too many boxes no ray enters.
-// S2's render under callgrind with 1/2/3/4 levels: 1,352.6/1,338.3/1,333.8/1,354.7M
-// instructions (a ray test at every level: 1,388.7M); 3 against 2 also −1 % CPU time.
-constexpr int kGroupTestLevels = 3;
+// S2's render under callgrind with 1/2/3/4 levels: 1,315.8/1,305.1/1,338.1/1,690.2M
+// instructions (8831efd, which counted a node's later children a level too deep, 1,298.4M,
+// level with 2 in CPU time over 12 alternating rounds).
+constexpr int kGroupTestLevels = 2;
 
 // A set of a group's rays as AVX masks, eight rays (a byte of the set) per mask: the least and
 // the largest of a number kept per ray (FloatSlabLanes' arrays) over the set, eight rays per
@@ -197,6 +198,7 @@ PHONG_AVX2 RayBits traverse_bvh8_group(const Bvh8Nodes& nodes, const FloatSlabGr
         if (walking != 0) {
             if (current.count == 0) {
                 const Bvh8Node& node = nodes[size_t(current.child)];
+                const int level = current.level + 1;  // the children's (visit replaces current)
                 bool descended = false;
                 auto visit = [&](const Pending& p) __attribute__((always_inline)) {
                     if (descended) {
@@ -209,7 +211,7 @@ PHONG_AVX2 RayBits traverse_bvh8_group(const Bvh8Nodes& nodes, const FloatSlabGr
                 if (current.level < kGroupTestLevels) {
                     for (int mask = group.hit(node); mask != 0; mask &= mask - 1) {
                         const int i = __builtin_ctz(unsigned(mask));
-                        Pending p{node.child[i], node.count[i], walking, current.level + 1};
+                        Pending p{node.child[i], node.count[i], walking, level};
                         if (p.count > 0 && (p.rays = group.rays_entering(node, i, walking)) == 0) continue;
                         visit(p);
                     }
@@ -240,7 +242,7 @@ PHONG_AVX2 RayBits traverse_bvh8_group(const Bvh8Nodes& nodes, const FloatSlabGr
                             const uint64_t column = (masks[w] >> i) & 0x0101010101010101ull;
                             rays_in |= ((column * 0x0102040810204080ull) >> 56) << (8 * w);
                         }
-                        visit(Pending{node.child[i], node.count[i], rays_in, current.level + 1});
+                        visit(Pending{node.child[i], node.count[i], rays_in, level});
                     }
                 }
                 if (descended) continue;
